@@ -1,0 +1,16 @@
+"""imutherm: thermal FEM design studies of small MEMS IMUs, end to end to attitude error.
+
+Subpackages follow the flow of the design notes:
+``geometry`` (layouts -> parts -> conforming mesh), ``thermal`` (FEM),
+``imu`` (sensor error model, calibration, attitude filters),
+``studies`` (the chains), ``reports`` (the only place that draws), ``cli``.
+"""
+
+__version__ = "0.1.0"
+
+
+class InputError(ValueError):
+    """Bad user input: the message names the file, the part and the field.
+
+    The CLI turns it into a one-line message and a non-zero exit status.
+    """

@@ -1,0 +1,84 @@
+"""``imutherm geometry``: build one scheme's parts and mesh; write JSON, STL/GLB, VTU and a picture.
+
+Outputs in ``--out DIR``: ``geometry.json`` (mass, power, parts, mesh summary),
+``geometry.stl`` and ``geometry.glb`` (parts in mm), ``mesh.vtu`` (ParaView:
+cell data ``part`` / ``material``) and ``layout.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from imutherm.cli._common import atomic_outdir, run_guarded, write_json
+from imutherm.geometry.build import MM, build_geometry
+from imutherm.geometry.export import material_names, write_glb, write_stl, write_vtu
+from imutherm.geometry.layout import load_layout
+from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh, mesh_info
+
+
+def add_layout_arguments(parser: argparse.ArgumentParser) -> None:
+    """LAYOUT, --scheme, --mesh-size, --min-cells: shared by the commands that mesh a layout."""
+    parser.add_argument("layout", nargs="?", default=None,
+                        help="layout TOML file (default: the built-in reference unit imu_reference.toml)")
+    parser.add_argument("--scheme", default=None, help="cooling scheme: air, grease or potted (default: the layout's)")
+    parser.add_argument("--mesh-size", type=float, default=DEFAULT_MAX_CELL_MM, metavar="MM",
+                        help=f"largest cell edge [mm] (default {DEFAULT_MAX_CELL_MM})")
+    parser.add_argument("--min-cells", type=int, default=DEFAULT_MIN_CELLS,
+                        help=f"fewest cells across any part's thinnest dimension (default {DEFAULT_MIN_CELLS})")
+
+
+def geometry_summary(geometry, grid) -> dict:
+    """The content of ``geometry.json`` (SI units, named in the keys)."""
+    info = mesh_info(grid)
+    lay = geometry.layout
+    return {
+        "layout": lay.name, "layout_file": lay.path, "scheme": geometry.scheme.name,
+        "scheme_description": geometry.scheme.description,
+        "mass_g": geometry.mass_kg * 1e3, "total_power_W": geometry.total_power_W,
+        "ambient_C": lay.ambient_C,
+        "mounting": {"kind": lay.mounting.kind, "face": lay.mounting.face,
+                     "contact_conductance_W_m2K": lay.mounting.contact_conductance_W_m2K,
+                     "temperature_C": lay.mounting.temperature_C},
+        "outer_mm": [v / MM for v in geometry.outer[1]],
+        "cavity_mm": [[v / MM for v in geometry.cavity[0]], [v / MM for v in geometry.cavity[1]]],
+        "parts": [{"name": p.name, "kind": p.kind, "material": p.material, "volume_mm3": geometry.volumes[p.name] / MM**3,
+                   "mass_g": geometry.volumes[p.name] * geometry.material(p.name).density * 1e3,
+                   "power_W": p.power_W, "min_mm": [v / MM for v in p.lo], "max_mm": [v / MM for v in p.hi],
+                   "cells_across": info.cells_across[p.name]} for p in geometry.parts],
+        "sites_mm": {k: [v / MM for v in pos] for k, pos in geometry.sites.items()},
+        "mesh": {"cells": info.n_cells, "nodes": info.n_nodes, "min_cell_mm": info.min_cell_mm,
+                 "max_cell_mm": info.max_cell_mm, "shape": list(grid.shape), "part_index": list(grid.part_names),
+                 "material_index": material_names(geometry), "faces": grid.face_names},
+    }
+
+
+@run_guarded("imutherm geometry")
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="imutherm geometry", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_layout_arguments(parser)
+    parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument("--no-png", action="store_true", help="skip layout.png")
+    args = parser.parse_args(argv)
+
+    layout = load_layout(args.layout)
+    geometry = build_geometry(layout, args.scheme)
+    if not math.isfinite(args.mesh_size) or args.mesh_size <= 0:
+        parser.error(f"--mesh-size must be a finite number > 0 [mm], got {args.mesh_size}")
+    grid = build_mesh(geometry, args.mesh_size, args.min_cells)
+    summary = geometry_summary(geometry, grid)
+    with atomic_outdir(args.out) as tmp:
+        write_json(tmp / "geometry.json", summary)
+        write_stl(geometry, tmp / "geometry.stl")
+        write_glb(geometry, tmp / "geometry.glb")
+        write_vtu(grid, geometry, tmp / "mesh.vtu")
+        if not args.no_png:
+            from imutherm.reports.layout_plot import plot_layout
+            plot_layout(geometry, tmp / "layout.png")
+    m = summary["mesh"]
+    print(f"{layout.name} / {geometry.scheme.name}: mass {summary['mass_g']:.1f} g, power {summary['total_power_W']:.3f} W, "
+          f"{len(geometry.parts)} parts; mesh {m['cells']} cells, {m['nodes']} nodes, "
+          f"cell edge {m['min_cell_mm']:.3g}..{m['max_cell_mm']:.3g} mm")
+    print(f"wrote {args.out}/geometry.json geometry.stl geometry.glb mesh.vtu" + ("" if args.no_png else " layout.png"))
+    return 0

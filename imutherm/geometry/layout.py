@@ -1,0 +1,374 @@
+"""Read and check a layout file (TOML) into a frozen :class:`LayoutSpec`.
+
+Every problem found raises :class:`imutherm.InputError` with a one-line message
+naming the file, the part and the field, and what would be valid. Geometric
+checks that need the built parts (overlaps, parts outside the cavity) are in
+:mod:`imutherm.geometry.build`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+from imutherm import InputError
+from imutherm.geometry.materials import load_library
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover
+    import tomli as tomllib
+
+AXES = ("x", "y", "z")
+SCHEME_NAMES = ("air", "grease", "potted")
+
+
+def default_layout_path() -> Path:
+    """Path of the built-in reference layout ``imu_reference.toml``."""
+    return Path(str(resources.files("imutherm.layouts") / "imu_reference.toml"))
+
+
+@dataclass(frozen=True)
+class HousingSpec:
+    """Aluminium box: outer size and wall, base and lid thickness [mm]."""
+
+    outer_mm: tuple
+    wall_mm: float
+    base_mm: float
+    lid_mm: float
+    material: str
+
+
+@dataclass(frozen=True)
+class MountingSpec:
+    """How the housing is held: ``fixture`` (a face bolted to a plate) or ``free``.
+
+    contact_conductance_W_m2K : float [W/m^2 K] (fixture only)
+    temperature_C : float [degC] temperature of the fixture plate
+    """
+
+    kind: str
+    face: str
+    contact_conductance_W_m2K: float
+    temperature_C: float
+
+
+@dataclass(frozen=True)
+class BoardSpec:
+    """A PCB: global lower corner and size [mm]; ``normal`` is its thin axis."""
+
+    name: str
+    normal: str
+    min_mm: tuple
+    size_mm: tuple
+    material: str
+
+
+@dataclass(frozen=True)
+class BoxSpec:
+    """A plain box part (standoffs, brackets): global lower corner and size [mm]."""
+
+    name: str
+    min_mm: tuple
+    size_mm: tuple
+    material: str
+    power_W: float
+
+
+@dataclass(frozen=True)
+class ComponentSpec:
+    """A component on a board: package body, die and optional exposed pad.
+
+    center_mm : (u, v) board-local centre [mm]
+    size_mm : (u, v, height) footprint and height [mm]
+    die_mm : (u, v, thickness) of the die, centred, ``die_base_mm`` above the board face [mm]
+    power_W : float [W] dissipated in the die
+    """
+
+    name: str
+    board: str
+    side: str
+    center_mm: tuple
+    size_mm: tuple
+    material: str
+    die_mm: tuple | None
+    die_base_mm: float
+    exposed_pad: bool
+    power_W: float
+    axis: str | None
+
+
+@dataclass(frozen=True)
+class SiteSpec:
+    """A named temperature output: a part's centroid, or a point on a board face."""
+
+    name: str
+    part: str | None = None
+    board: str | None = None
+    side: str | None = None
+    at_mm: tuple | None = None
+
+
+@dataclass(frozen=True)
+class SchemeSpec:
+    """A cooling scheme as a variant of the layout.
+
+    fill : material of the free cavity space (air, potting compound)
+    move_to_back : components moved to the other face of their board
+    bond_material : material bridging moved components to the nearest wall (or None)
+    max_bond_gap_mm : largest gap a bond may bridge [mm]
+    """
+
+    name: str
+    description: str
+    fill: str
+    move_to_back: tuple
+    bond_material: str | None
+    max_bond_gap_mm: float
+
+
+@dataclass(frozen=True)
+class LayoutSpec:
+    """Everything a layout file says, checked; lengths in mm as in the file."""
+
+    name: str
+    path: str
+    description: str
+    default_scheme: str
+    ambient_C: float
+    housing: HousingSpec
+    mounting: MountingSpec
+    boards: tuple
+    parts: tuple
+    components: tuple
+    sites: tuple
+    schemes: dict
+
+    def scheme(self, name: str | None) -> SchemeSpec:
+        """The scheme ``name`` (default: the layout's default scheme)."""
+        name = name or self.default_scheme
+        if name not in self.schemes:
+            raise InputError(f"{self.path}: unknown scheme {name!r}; valid: {', '.join(self.schemes)}")
+        return self.schemes[name]
+
+
+# ---------------------------------------------------------------- field checks
+class _Table:
+    """Reads fields of one TOML table, with the file and the part in every message."""
+
+    def __init__(self, path: str, where: str, table, allowed: dict):
+        self.path, self.where = path, where
+        if not isinstance(table, dict):
+            self.fail(None, f"must be a table, got {type(table).__name__}")
+        unknown = sorted(set(table) - set(allowed))
+        if unknown:
+            self.fail(None, f"unknown key(s) {', '.join(map(repr, unknown))}; valid: {', '.join(allowed)}")
+        self.table, self.allowed = table, allowed
+
+    def fail(self, field, msg):
+        loc = f"{self.path}: {self.where}" + (f": field {field!r}" if field else "")
+        raise InputError(f"{loc}: {msg}")
+
+    def get(self, field, default=...):
+        if field not in self.table:
+            if default is ...:
+                self.fail(field, "is required")
+            return default
+        return self.table[field]
+
+    def number(self, field, default=..., *, positive=False, nonneg=False):
+        value = self.get(field, default)
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.fail(field, f"must be a finite number, got {value!r}")
+        if positive and value <= 0:
+            self.fail(field, f"must be > 0, got {value!r}")
+        if nonneg and value < 0:
+            self.fail(field, f"must be >= 0, got {value!r}")
+        return float(value)
+
+    def vector(self, field, n, default=..., *, positive=False):
+        value = self.get(field, default)
+        if value is None:
+            return None
+        if not isinstance(value, list) or len(value) != n:
+            self.fail(field, f"must be a list of {n} numbers, got {value!r}")
+        for v in value:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                self.fail(field, f"must hold finite numbers, got {v!r}")
+            if positive and v <= 0:
+                self.fail(field, f"sizes must be > 0, got {value!r}")
+        return tuple(float(v) for v in value)
+
+    def string(self, field, default=..., *, choices=None):
+        value = self.get(field, default)
+        if value is None:
+            return None
+        if not isinstance(value, str) or not value:
+            self.fail(field, f"must be a non-empty string, got {value!r}")
+        if choices is not None and value not in choices:
+            self.fail(field, f"unknown value {value!r}; valid: {', '.join(choices)}")
+        return value
+
+    def material(self, field, materials, default=...):
+        name = self.string(field, default)
+        if name is not None and name not in materials:
+            self.fail(field, f"unknown material {name!r}; valid: {', '.join(sorted(materials))}")
+        return name
+
+
+_TOP = {"name": "layout name", "description": "text", "default_scheme": "scheme name",
+        "environment": "table", "housing": "table", "mounting": "table", "boards": "array of tables",
+        "parts": "array of tables", "components": "array of tables", "sites": "table",
+        "schemes": "table"}
+
+
+def load_layout(path: str | Path | None = None) -> LayoutSpec:
+    """Read and check a layout TOML file (default: the built-in reference unit).
+
+    Raises InputError naming the file, the part and the field on any problem.
+    """
+    path = Path(path) if path else default_layout_path()
+    spath = str(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError(f"{spath}: layout file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{spath}: not valid TOML: {exc}") from None
+    return parse_layout(data, spath)
+
+
+def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
+    """Check a layout already read into a dict (see :func:`load_layout`)."""
+    mats = load_library()
+    top = _Table(path, "layout", data, _TOP)
+
+    env = _Table(path, "[environment]", top.get("environment"), {"ambient_C": "degC"})
+    ambient = env.number("ambient_C")
+
+    h = _Table(path, "[housing]", top.get("housing"),
+               {"outer_mm": "3 lengths", "wall_mm": "mm", "base_mm": "mm", "lid_mm": "mm", "material": "name"})
+    housing = HousingSpec(h.vector("outer_mm", 3, positive=True), h.number("wall_mm", positive=True),
+                          h.number("base_mm", positive=True), h.number("lid_mm", positive=True),
+                          h.material("material", mats))
+    ox, oy, oz = housing.outer_mm
+    if 2 * housing.wall_mm >= min(ox, oy) or housing.base_mm + housing.lid_mm >= oz:
+        h.fail("wall_mm", "walls, base and lid leave no cavity inside outer_mm")
+
+    m = _Table(path, "[mounting]", top.get("mounting"),
+               {"kind": "fixture|free", "face": "bottom|top", "contact_conductance_W_m2K": "W/m^2 K",
+                "temperature_C": "degC"})
+    kind = m.string("kind", choices=("fixture", "free"))
+    mounting = MountingSpec(kind, m.string("face", "bottom", choices=("bottom", "top")),
+                            m.number("contact_conductance_W_m2K", 0.0 if kind == "free" else ...,
+                                     positive=kind == "fixture", nonneg=True),
+                            m.number("temperature_C", ambient))
+
+    names: dict = {}
+
+    def claim(name, where):
+        if name in names:
+            raise InputError(f"{path}: {where}: duplicate name {name!r} (also used by {names[name]})")
+        names[name] = where
+
+    for reserved in ("housing", "lid", "fill"):
+        names[reserved] = "the housing (reserved name)"
+
+    boards = []
+    for i, t in enumerate(top.get("boards", [])):
+        b = _Table(path, f"boards[{i}]", t, {"name": "str", "normal": "x|y|z", "min_mm": "3 numbers",
+                                              "size_mm": "3 sizes", "material": "name"})
+        spec = BoardSpec(b.string("name"), b.string("normal", choices=AXES), b.vector("min_mm", 3),
+                         b.vector("size_mm", 3, positive=True), b.material("material", mats))
+        b.where = f"board {spec.name!r}"
+        if spec.size_mm[AXES.index(spec.normal)] != min(spec.size_mm):
+            b.fail("size_mm", f"the size along the normal {spec.normal!r} must be the board thickness (smallest size)")
+        claim(spec.name, b.where)
+        boards.append(spec)
+    board_by_name = {b.name: b for b in boards}
+
+    parts = []
+    for i, t in enumerate(top.get("parts", [])):
+        p = _Table(path, f"parts[{i}]", t, {"name": "str", "min_mm": "3 numbers", "size_mm": "3 sizes",
+                                             "material": "name", "power_W": "W"})
+        spec = BoxSpec(p.string("name"), p.vector("min_mm", 3), p.vector("size_mm", 3, positive=True),
+                       p.material("material", mats), p.number("power_W", 0.0, nonneg=True))
+        claim(spec.name, f"part {spec.name!r}")
+        parts.append(spec)
+
+    components = []
+    for i, t in enumerate(top.get("components", [])):
+        c = _Table(path, f"components[{i}]", t,
+                   {"name": "str", "board": "board name", "side": "top|bottom", "center_mm": "(u, v)",
+                    "size_mm": "(u, v, height)", "material": "name", "die_mm": "(u, v, thickness)",
+                    "die_base_mm": "mm", "exposed_pad": "bool", "power_W": "W", "axis": "x|y|z"})
+        name = c.string("name")
+        c.where = f"component {name!r}"
+        board = c.string("board")
+        if board not in board_by_name:
+            c.fail("board", f"unknown board {board!r}; valid: {', '.join(board_by_name) or '(none defined)'}")
+        size = c.vector("size_mm", 3, positive=True)
+        die = c.vector("die_mm", 3, None, positive=True)
+        die_base = c.number("die_base_mm", 0.2, nonneg=True)
+        if die is not None and (die[0] > size[0] or die[1] > size[1] or die_base + die[2] > size[2]):
+            c.fail("die_mm", f"die {die} with base {die_base} mm does not fit inside the package {size}")
+        pad = c.get("exposed_pad", False)
+        if not isinstance(pad, bool):
+            c.fail("exposed_pad", f"must be true or false, got {pad!r}")
+        if pad and (die is None or die_base <= 0):
+            c.fail("exposed_pad", "an exposed pad needs a die and die_base_mm > 0 (the pad thickness)")
+        spec = ComponentSpec(name, board, c.string("side", choices=("top", "bottom")), c.vector("center_mm", 2),
+                             size, c.material("material", mats), die, die_base, pad,
+                             c.number("power_W", nonneg=True), c.string("axis", None, choices=AXES))
+        claim(name, c.where)
+        for sub in ("_die", "_pad"):
+            claim(name + sub, c.where)
+        components.append(spec)
+    comp_by_name = {c.name: c for c in components}
+
+    sites = []
+    for name, t in top.get("sites", {}).items():
+        s = _Table(path, f"site {name!r}", t, {"part": "part name", "board": "board name",
+                                                "side": "top|bottom", "at_mm": "(u, v)"})
+        if "part" in t:
+            part = s.string("part")
+            if part not in names or part == "fill":
+                s.fail("part", f"unknown part {part!r}; valid: {', '.join(sorted(names))}")
+            sites.append(SiteSpec(name, part=part))
+        else:
+            board = s.string("board")
+            if board not in board_by_name:
+                s.fail("board", f"unknown board {board!r}; valid: {', '.join(board_by_name)}")
+            sites.append(SiteSpec(name, board=board, side=s.string("side", "top", choices=("top", "bottom")),
+                                  at_mm=s.vector("at_mm", 2)))
+
+    schemes = {}
+    for name, t in top.get("schemes", {}).items():
+        s = _Table(path, f"scheme {name!r}", t, {"description": "text", "fill": "material",
+                                                  "move_to_back": "component names",
+                                                  "bond_material": "material", "max_bond_gap_mm": "mm"})
+        if name not in SCHEME_NAMES:
+            s.fail(None, f"unknown scheme {name!r}; valid: {', '.join(SCHEME_NAMES)}")
+        moved = s.get("move_to_back", [])
+        if not isinstance(moved, list):
+            s.fail("move_to_back", f"must be a list of component names, got {moved!r}")
+        for comp in moved:
+            if comp not in comp_by_name:
+                s.fail("move_to_back", f"unknown component {comp!r}; valid: {', '.join(comp_by_name)}")
+        schemes[name] = SchemeSpec(name, s.string("description", name), s.material("fill", mats),
+                                   tuple(moved), s.material("bond_material", mats, None),
+                                   s.number("max_bond_gap_mm", 2.0, positive=True))
+    if not schemes:
+        top.fail("schemes", f"at least one scheme is required; valid names: {', '.join(SCHEME_NAMES)}")
+    default = top.string("default_scheme", next(iter(schemes)))
+    if default not in schemes:
+        top.fail("default_scheme", f"unknown scheme {default!r}; valid: {', '.join(schemes)}")
+
+    return LayoutSpec(top.string("name", Path(path).stem), path, top.string("description", ""), default,
+                      ambient, housing, mounting, tuple(boards), tuple(parts), tuple(components),
+                      tuple(sites), schemes)

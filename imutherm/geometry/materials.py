@@ -1,0 +1,98 @@
+"""The materials library: thermal properties as data, each with its source.
+
+The data live in ``materials.toml`` beside this module; select by name.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from imutherm import InputError
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover
+    import tomli as tomllib
+
+LIBRARY_PATH = Path(__file__).with_name("materials.toml")
+
+
+@dataclass(frozen=True)
+class Material:
+    """Thermal properties of one material.
+
+    Attributes
+    ----------
+    name : str
+    k_in_plane, k_through : float [W/m K]
+        Conductivity; equal for isotropic materials. For boards, ``through``
+        is along the board normal.
+    density : float [kg/m^3]
+    specific_heat : float [J/kg K]
+    emissivity : float or None [-]
+        Surface emissivity where it applies (housing finish, boards).
+    source : str
+        Where the numbers come from.
+    """
+
+    name: str
+    k_in_plane: float
+    k_through: float
+    density: float
+    specific_heat: float
+    emissivity: float | None
+    source: str
+
+    @property
+    def isotropic(self) -> bool:
+        return self.k_in_plane == self.k_through
+
+    @property
+    def rho_c(self) -> float:
+        """Volumetric heat capacity [J/m^3 K]."""
+        return self.density * self.specific_heat
+
+
+def _material_from_table(name: str, table: dict, where: str) -> Material:
+    allowed = {"k", "k_in_plane", "k_through", "density", "specific_heat", "emissivity", "source"}
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise InputError(f"{where}: material {name!r}: unknown key(s) {unknown}; valid: {sorted(allowed)}")
+    if "k" in table:
+        k_in = k_th = table["k"]
+    elif "k_in_plane" in table and "k_through" in table:
+        k_in, k_th = table["k_in_plane"], table["k_through"]
+    else:
+        raise InputError(f"{where}: material {name!r}: give 'k' or both 'k_in_plane' and 'k_through' [W/m K]")
+    values = {"k": k_in, "k_through": k_th, "density": table.get("density"),
+              "specific_heat": table.get("specific_heat")}
+    for field, value in values.items():
+        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+            raise InputError(f"{where}: material {name!r}: field {field!r} must be a finite number > 0, got {value!r}")
+    eps = table.get("emissivity")
+    if eps is not None and not (isinstance(eps, (int, float)) and 0.0 <= eps <= 1.0):
+        raise InputError(f"{where}: material {name!r}: emissivity must be in [0, 1], got {eps!r}")
+    if not table.get("source"):
+        raise InputError(f"{where}: material {name!r}: a 'source' is required (datasheet, handbook, or 'assumed: why')")
+    return Material(name, float(k_in), float(k_th), float(table["density"]), float(table["specific_heat"]),
+                    None if eps is None else float(eps), str(table["source"]))
+
+
+@lru_cache(maxsize=None)
+def load_library(path: str | None = None) -> dict:
+    """Read a materials TOML file (default: the built-in library) into ``{name: Material}``."""
+    path = Path(path) if path else LIBRARY_PATH
+    with open(path, "rb") as fh:
+        data = tomllib.load(fh)
+    return {name: _material_from_table(name, table, str(path)) for name, table in data.items()}
+
+
+def get_material(name: str) -> Material:
+    """The library material ``name``; InputError listing the valid names otherwise."""
+    lib = load_library()
+    if name not in lib:
+        raise InputError(f"unknown material {name!r}; valid: {', '.join(sorted(lib))}")
+    return lib[name]
