@@ -1,0 +1,80 @@
+"""Shared fixtures: the reference layout as a dict, and a writer for mutated copies."""
+
+import copy
+import os
+import tomllib
+
+import pytest
+
+# tests never draw to a screen
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+@pytest.fixture(scope="session")
+def reference_dict():
+    from imutherm.geometry.layout import default_layout_path
+
+    with open(default_layout_path(), "rb") as fh:
+        return tomllib.load(fh)
+
+
+def _toml_value(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, float):
+        if v != v:
+            return "nan"
+        if v in (float("inf"), float("-inf")):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(v)
+
+
+def dump_toml(data: dict) -> str:
+    """A minimal TOML writer for layout dicts (tables, arrays of tables, inline tables)."""
+    lines = []
+    for k, v in data.items():
+        if not isinstance(v, (dict, list)) or (isinstance(v, list) and v and not isinstance(v[0], dict)):
+            lines.append(f"{k} = {_toml_value(v)}")
+    for k, v in data.items():
+        if isinstance(v, dict):
+            if k == "sites":  # a table of inline tables
+                lines.append("[sites]")
+                lines += [f"{a} = {_toml_value(b)}" for a, b in v.items()]
+                continue
+            simple = {a: b for a, b in v.items() if not isinstance(b, dict)}
+            nested = {a: b for a, b in v.items() if isinstance(b, dict)}
+            if simple or not nested:
+                lines.append(f"[{k}]")
+                lines += [f"{a} = {_toml_value(b)}" for a, b in simple.items()]
+            for a, b in nested.items():
+                lines.append(f"[{k}.{a}]")
+                lines += [f"{c} = {_toml_value(d)}" for c, d in b.items()]
+        elif isinstance(v, list) and v and isinstance(v[0], dict):
+            for item in v:
+                lines.append(f"[[{k}]]")
+                lines += [f"{a} = {_toml_value(b)}" for a, b in item.items()]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.fixture
+def write_layout(tmp_path, reference_dict):
+    """write_layout(mutate) -> path of a copy of the reference layout changed by ``mutate(dict)``."""
+
+    def make(mutate=None, name="layout.toml"):
+        data = copy.deepcopy(reference_dict)
+        if mutate:
+            mutate(data)
+        path = tmp_path / name
+        path.write_text(dump_toml(data))
+        return path
+
+    return make
