@@ -1,0 +1,112 @@
+"""Run-time compensation of raw IMU samples with a :class:`~imutherm.imu.calibration.Calibration`.
+
+Methods
+-------
+``none``          raw samples returned unchanged.
+``conventional``  seed 000 eq. 1 per temperature segment: ``N = K_s E + D_s`` ->
+                  ``E = K_s^-1 (N - D_s)``. Row i of ``K_s`` and ``D_s`` (sensor i)
+                  is taken from the segment of sensor i's own reported temperature.
+``improved``      seed 000 eq. 2-3: ``N - sigma_s(N) = K_room E + D_room`` with
+                  ``sigma_s,i = a N_i^2 + b N_i + c`` per axis and segment ->
+                  ``E = K_room^-1 (N - sigma - D_room)``.
+
+Temperature lookup (``interp``): ``"segment"`` (default, as in seed 000: each
+5 °C segment has its own parameter group; the segment is found from the
+*reported* temperature) or ``"linear"`` (parameters interpolated linearly
+between the temperatures at which the segments were calibrated, extrapolated
+linearly in the half segments beyond the end nodes). Reported temperatures outside the calibrated range
+(-40..70 °C) raise :class:`imutherm.InputError`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.imu.sensor_model import SITES, ImuSamples, validate_samples
+
+if TYPE_CHECKING:  # pragma: no cover
+    from imutherm.imu.calibration import Calibration
+
+METHODS = ("none", "conventional", "improved")
+INTERPS = ("segment", "linear")
+
+
+def _params_at(params: np.ndarray, nodes: np.ndarray, edges: np.ndarray, T: np.ndarray, interp: str) -> np.ndarray:
+    """Per-sample, per-axis parameters.
+
+    params (S,3,P), nodes (S,3) [°C], edges (S+1,) [°C], T (N,3) [°C] -> (N,3,P).
+    """
+    S = params.shape[0]
+    axes = np.arange(3)[None, :]
+    if interp == "segment" or S == 1:
+        k = np.clip(np.searchsorted(edges, T, side="right") - 1, 0, S - 1)  # (N,3)
+        return params[k, axes]
+    out = np.empty(T.shape + (params.shape[2],))
+    for i in range(3):
+        n = nodes[:, i]
+        j = np.clip(np.searchsorted(n, T[:, i]), 1, S - 1)
+        w = ((T[:, i] - n[j - 1]) / (n[j] - n[j - 1]))[:, None]  # linear extrapolation beyond end nodes
+        out[:, i] = (1.0 - w) * params[j - 1, i] + w * params[j, i]
+    return out
+
+
+def _check_range(temp: np.ndarray, lo: float, hi: float) -> None:
+    bad = (temp < lo) | (temp > hi)
+    if np.any(bad):
+        n, j = np.argwhere(bad)[0]
+        raise InputError(
+            f"samples.temp_C[{n}, {j}] ({SITES[j]}): reported temperature {temp[n, j]:.2f} °C is outside the "
+            f"calibrated range; valid: {lo:g}..{hi:g} °C ({int(bad.sum())} samples out of range)")
+
+
+def compensate(samples: ImuSamples, calibration: "Calibration | None", method: str, *,
+               interp: str = "segment") -> ImuSamples:
+    """Compensate raw samples with a calibration.
+
+    Parameters
+    ----------
+    samples : ImuSamples         raw outputs: gyro [rad/s] (N,3), accel [m/s^2] (N,3), reported temp_C [°C] (N,6)
+    calibration : Calibration | None   required unless method == "none"
+    method : str                 "none" | "conventional" | "improved"
+    interp : str                 "segment" (lookup by reported temperature) | "linear"
+
+    Returns
+    -------
+    ImuSamples  compensated gyro [rad/s] and accel [m/s^2]; t and temp_C unchanged.
+
+    Raises
+    ------
+    InputError  unknown method / interp, missing calibration, bad shapes, or a reported
+                temperature outside the calibrated range.
+    """
+    if method not in METHODS:
+        raise InputError(f"compensation method: {method!r} is not valid; valid: {', '.join(METHODS)}")
+    if interp not in INTERPS:
+        raise InputError(f"compensation interp: {interp!r} is not valid; valid: {', '.join(INTERPS)}")
+    validate_samples(samples)
+    if method == "none":
+        return samples
+    if calibration is None:
+        raise InputError(f"calibration: required for method {method!r} (only 'none' works without one)")
+    temp = np.asarray(samples.temp_C, float)
+    edges = np.asarray(calibration.segment_edges_C, float)
+    _check_range(temp, edges[0], edges[-1])
+    nodes = np.asarray(calibration.segment_nodes_C, float)
+    out = {}
+    for name, cols in (("gyro", slice(0, 3)), ("accel", slice(3, 6))):
+        N = np.asarray(getattr(samples, name), float)
+        T = temp[:, cols]
+        c = getattr(calibration, name)
+        if method == "conventional":
+            KD = np.concatenate([c.K_conv, c.D_conv[:, :, None]], axis=2)  # (S,3,4): row i = [K_i, D_i]
+            p = _params_at(KD, nodes[:, cols], edges, T, interp)  # (N,3,4)
+            K, D = p[:, :, :3], p[:, :, 3]
+            out[name] = np.linalg.solve(K, (N - D)[:, :, None])[:, :, 0]
+        else:
+            p = _params_at(c.sigma, nodes[:, cols], edges, T, interp)  # (N,3,3): a, b, c
+            sig = p[:, :, 0] * N**2 + p[:, :, 1] * N + p[:, :, 2]
+            out[name] = np.linalg.solve(c.K_room, (N - sig - c.D_room).T).T
+    return ImuSamples(t=samples.t, gyro=out["gyro"], accel=out["accel"], temp_C=samples.temp_C)

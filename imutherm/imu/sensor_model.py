@@ -1,0 +1,566 @@
+"""Truth model of a six-sensor MEMS IMU (3 gyros, 3 accelerometers) with temperature effects.
+
+Pure functions of arrays plus frozen dataclasses that bundle parameters
+(pvlib style). Everything is SI inside (rad/s, m/s^2, s); temperatures are in
+°C, as at every interface of the package.
+
+Measurement model of one sensor triad (gyro shown; accelerometer alike)::
+
+    u      = M0 @ x                       true input projected on the sensitive axes
+                                           (M0 = I + misalignment, unit-specific)
+    y_i    = (1 + s0_i + s_i(T_i) + a_i sign(u_i)/2) u_i + K2_i u_i^2      (a, K2: accel only)
+             + b0_i + b_i(T_i) + p_i(T_i) + h_i dT_i/dt + (G f)_i         (G: gyro only)
+             + noise_i
+    y      = quantise(y, LSB)
+
+``x`` is the true body rate [rad/s] (gyros) or the specific force [m/s^2]
+(accelerometers); ``T_i`` the true die temperature of site i [°C].
+
+* ``s_i(T)``, ``b_i(T)``: strongly nonlinear, unit-specific smooth curves (a
+  cubic in x = (T - 25)/55 plus a smooth sine wiggle), zero at 25 °C, scaled so
+  the peak over -40..70 °C equals the grade's amplitude times a unit factor
+  drawn in 0.5..1.5 (seed 000: units of one type differ strongly).
+* ``p_i(T) = p0 + p1 x + p2 x^2``: the power-on-to-power-on component (a
+  turn-on bias plus a small random change of the curve), drawn once per
+  power-on (:class:`PowerOn`), larger for accelerometers than for gyros.
+* ``h_i dT_i/dt``: thermal-gradient / hysteresis term, per °C/min of the true
+  die temperature rate.
+* Seed 004 dynamic terms: accelerometer scale-factor asymmetry ``a_i`` and
+  quadratic coefficient ``K2_i``; gyro g-sensitivity ``G`` (3x3) [rad/s per m/s^2].
+* Noise from Allan parameters: white (ARW / VRW), bias instability as a
+  first-order Gauss-Markov process, rate random walk; then quantisation.
+
+Each site's internal temperature sensor reports the die temperature through a
+first-order lag ``tau`` (exact first-order-hold discretisation: exact for
+piecewise-linear die temperature) plus a unit-specific offset, quantised to
+the sensor LSB. Compensation uses this *reported* temperature.
+
+Earth rotation is not modelled (the rig and the vehicle truth are the same
+inertial rate); it is below the ADIS16355 noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+from scipy.signal import lfilter
+
+from imutherm import InputError
+from imutherm.imu.grades import GRADES
+
+SITES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+G0 = 9.80665  # [m/s^2] standard gravity
+T_REF_C = 25.0  # [°C] room (reference) temperature of the curves
+T_RANGE_C = (-40.0, 70.0)  # [°C] operating / calibrated range
+_X_SCALE = 55.0  # [°C] normalisation of the curve argument x = (T - 25)/55
+
+_DEG = np.pi / 180.0
+_MG = G0 * 1e-3
+
+
+# --------------------------------------------------------------------------- grades
+@dataclass(frozen=True)
+class SensorSpec:
+    """Error and noise specification of one sensor type (gyro or accelerometer), SI.
+
+    ``unit`` below is [rad/s] for gyros and [m/s^2] for accelerometers.
+
+    Attributes
+    ----------
+    noise_density : float [unit/sqrt(Hz)]  white noise (ARW / VRW); rms per sample = density*sqrt(fs)
+    bias_instability : float [unit]        1-sigma of the Gauss-Markov bias process
+    bias_corr_time_s : float [s]           Gauss-Markov correlation time
+    rate_random_walk : float [unit/sqrt(s)] bias random walk
+    lsb : float [unit]                     quantisation step (0 = none)
+    initial_bias : float [unit]            1-sigma bias at 25 °C of a unit
+    initial_sf : float [-]                 1-sigma scale-factor error at 25 °C
+    misalignment : float [rad]             1-sigma of each off-diagonal misalignment element
+    turn_on_bias : float [unit]            1-sigma power-on to power-on bias change
+    bias_temp_amplitude : float [unit]     nominal peak of the bias-vs-temperature curve over -40..70 °C
+    sf_temp_amplitude : float [-]          nominal peak of the scale-factor-vs-temperature curve
+    power_on_curve_fraction : float [-]    power-on random change of the curve, fraction of its peak
+    temp_rate_coeff : float [unit per °C/min] 1-sigma thermal-gradient (dT/dt) bias coefficient
+    g_sensitivity : float [rad/s per m/s^2] 1-sigma gyro g-sensitivity element (gyro only)
+    asymmetry : float [-]                  1-sigma scale-factor asymmetry (accel only)
+    k2 : float [1/(m/s^2)]                 1-sigma quadratic coefficient (accel only)
+    """
+
+    noise_density: float
+    bias_instability: float
+    bias_corr_time_s: float
+    rate_random_walk: float
+    lsb: float
+    initial_bias: float
+    initial_sf: float
+    misalignment: float
+    turn_on_bias: float
+    bias_temp_amplitude: float
+    sf_temp_amplitude: float
+    power_on_curve_fraction: float
+    temp_rate_coeff: float
+    g_sensitivity: float = 0.0
+    asymmetry: float = 0.0
+    k2: float = 0.0
+
+
+@dataclass(frozen=True)
+class SensorGrade:
+    """A named sensor grade (parameter set as data, see :mod:`imutherm.imu.grades`).
+
+    Attributes
+    ----------
+    name : str
+    description : str
+    sources : tuple[str, ...]           provenance of the numbers
+    sample_rate_hz : float [Hz]         nominal output rate
+    temp_sensor_tau_s : float [s]       first-order lag of the internal temperature sensors
+    temp_sensor_offset_std_C : float [°C] 1-sigma offset of each internal temperature sensor
+    temp_sensor_lsb_C : float [°C]      quantisation of the reported temperature (0 = none)
+    gyro : SensorSpec                   [rad/s units]
+    accel : SensorSpec                  [m/s^2 units]
+    """
+
+    name: str
+    description: str
+    sources: tuple
+    sample_rate_hz: float
+    temp_sensor_tau_s: float
+    temp_sensor_offset_std_C: float
+    temp_sensor_lsb_C: float
+    gyro: SensorSpec
+    accel: SensorSpec
+
+
+def _spec_from_dict(d: dict, kind: str) -> SensorSpec:
+    if kind == "gyro":
+        u = _DEG  # deg/s -> rad/s
+        rms = d["noise_rms_dps"] * u
+        return SensorSpec(
+            noise_density=rms / np.sqrt(d["noise_ref_rate_hz"]),
+            bias_instability=d["bias_instability_dps"] * u,
+            bias_corr_time_s=d["bias_corr_time_s"],
+            rate_random_walk=d["rate_random_walk_dps_per_rts"] * u,
+            lsb=d["lsb_dps"] * u,
+            initial_bias=d["initial_bias_dps"] * u,
+            initial_sf=d["initial_sf_ppm"] * 1e-6,
+            misalignment=d["misalignment_deg"] * _DEG,
+            turn_on_bias=d["turn_on_bias_dps"] * u,
+            bias_temp_amplitude=d["bias_temp_amplitude_dps"] * u,
+            sf_temp_amplitude=d["sf_temp_amplitude_ppm"] * 1e-6,
+            power_on_curve_fraction=d["power_on_curve_fraction"],
+            temp_rate_coeff=d["temp_rate_coeff_dps_per_Cmin"] * u,
+            g_sensitivity=d["g_sensitivity_dps_per_g"] * u / G0,
+        )
+    u = _MG  # mg -> m/s^2
+    rms = d["noise_rms_mg"] * u
+    return SensorSpec(
+        noise_density=rms / np.sqrt(d["noise_ref_rate_hz"]),
+        bias_instability=d["bias_instability_mg"] * u,
+        bias_corr_time_s=d["bias_corr_time_s"],
+        rate_random_walk=d["rate_random_walk_mg_per_rts"] * u,
+        lsb=d["lsb_mg"] * u,
+        initial_bias=d["initial_bias_mg"] * u,
+        initial_sf=d["initial_sf_ppm"] * 1e-6,
+        misalignment=d["misalignment_deg"] * _DEG,
+        turn_on_bias=d["turn_on_bias_mg"] * u,
+        bias_temp_amplitude=d["bias_temp_amplitude_mg"] * u,
+        sf_temp_amplitude=d["sf_temp_amplitude_ppm"] * 1e-6,
+        power_on_curve_fraction=d["power_on_curve_fraction"],
+        temp_rate_coeff=d["temp_rate_coeff_mg_per_Cmin"] * u,
+        asymmetry=d["asymmetry_ppm"] * 1e-6,
+        k2=d["k2_mg_per_g2"] * 1e-3 / G0,  # [g/g^2] -> [1/(m/s^2)]
+    )
+
+
+def load_grade(name: str) -> SensorGrade:
+    """Return the named :class:`SensorGrade` (SI units).
+
+    Parameters
+    ----------
+    name : str  one of ``imutherm.imu.grades.GRADES`` (``adis16355``, ``adis16488``, ``ideal``)
+
+    Raises
+    ------
+    InputError  for an unknown name, listing the valid ones.
+    """
+    if isinstance(name, SensorGrade):
+        return name
+    key = str(name).strip().lower()
+    if key not in GRADES:
+        raise InputError(f"sensor grade: unknown grade {name!r}; valid grades: {', '.join(sorted(GRADES))}")
+    d = GRADES[key]
+    return SensorGrade(
+        name=key,
+        description=d["description"],
+        sources=tuple(d["sources"]),
+        sample_rate_hz=float(d["sample_rate_hz"]),
+        temp_sensor_tau_s=float(d["temp_sensor_tau_s"]),
+        temp_sensor_offset_std_C=float(d["temp_sensor_offset_std_C"]),
+        temp_sensor_lsb_C=float(d["temp_sensor_lsb_C"]),
+        gyro=_spec_from_dict(d["gyro"], "gyro"),
+        accel=_spec_from_dict(d["accel"], "accel"),
+    )
+
+
+# --------------------------------------------------------------------------- unit
+@dataclass(frozen=True)
+class TriadTruth:
+    """Truth parameters of one sensor triad of one unit (``unit`` = rad/s or m/s^2).
+
+    Attributes
+    ----------
+    M0 : ndarray (3,3) [-]          I + misalignment (rows: sensors, columns: body axes)
+    sf0 : ndarray (3,) [-]          scale-factor error at 25 °C
+    bias0 : ndarray (3,) [unit]     bias at 25 °C
+    bias_curve : ndarray (3,6)      bias-vs-T curve parameters [c1, c2, c3, w, nu, phi], c and w in [unit]
+    sf_curve : ndarray (3,6)        scale-factor-vs-T curve parameters, c and w in [-]
+    temp_rate_coeff : ndarray (3,) [unit per °C/min]
+    g_sens : ndarray (3,3) [rad/s per m/s^2]   gyro g-sensitivity (zero for accels)
+    asym : ndarray (3,) [-]         scale-factor asymmetry (+ scale minus - scale; zero for gyros)
+    k2 : ndarray (3,) [1/unit]      quadratic coefficient (zero for gyros)
+    """
+
+    M0: np.ndarray
+    sf0: np.ndarray
+    bias0: np.ndarray
+    bias_curve: np.ndarray
+    sf_curve: np.ndarray
+    temp_rate_coeff: np.ndarray
+    g_sens: np.ndarray
+    asym: np.ndarray
+    k2: np.ndarray
+
+    def K0(self) -> np.ndarray:
+        """Scale-factor / misalignment matrix at 25 °C, small-signal (no asymmetry) [-]."""
+        return (1.0 + self.sf0)[:, None] * self.M0
+
+    def bias_T(self, T_C) -> np.ndarray:
+        """Bias temperature curve minus its 25 °C value [unit]; T_C (...,3) [°C]."""
+        return _curve(self.bias_curve, T_C)
+
+    def sf_T(self, T_C) -> np.ndarray:
+        """Scale-factor temperature curve minus its 25 °C value [-]; T_C (...,3) [°C]."""
+        return _curve(self.sf_curve, T_C)
+
+
+@dataclass(frozen=True)
+class ImuUnit:
+    """One unit's truth parameters (drawn by :func:`draw_unit`).
+
+    Attributes
+    ----------
+    grade : SensorGrade
+    gyro : TriadTruth               [rad/s]
+    accel : TriadTruth              [m/s^2]
+    temp_offset_C : ndarray (6,) [°C]  internal temperature sensor offsets, SITES order
+    temp_tau_s : ndarray (6,) [s]      internal temperature sensor lags, SITES order
+    """
+
+    grade: SensorGrade
+    gyro: TriadTruth
+    accel: TriadTruth
+    temp_offset_C: np.ndarray
+    temp_tau_s: np.ndarray
+
+
+@dataclass(frozen=True)
+class PowerOn:
+    """Random state of one power-on (turn-on bias and small curve change).
+
+    Attributes
+    ----------
+    gyro : ndarray (3,3)   [p0 [rad/s], p1 [rad/s], p2 [rad/s]] per axis: p0 + p1 x + p2 x^2
+    accel : ndarray (3,3)  same for accelerometers [m/s^2]
+    """
+
+    gyro: np.ndarray
+    accel: np.ndarray
+
+
+def _curve(params: np.ndarray, T_C) -> np.ndarray:
+    """Evaluate the per-axis smooth curve; params (3,6), T_C (...,3) [°C] -> (...,3), zero at 25 °C."""
+    x = (np.asarray(T_C, dtype=float) - T_REF_C) / _X_SCALE
+    c1, c2, c3, w, nu, phi = (params[:, k] for k in range(6))
+    return c1 * x + c2 * x**2 + c3 * x**3 + w * (np.sin(2 * np.pi * nu * x + phi) - np.sin(phi))
+
+
+def _draw_curves(rng: np.random.Generator, amplitude: float) -> np.ndarray:
+    """Three random unit-specific curves with peak |value| over -40..70 °C = amplitude * U(0.5, 1.5)."""
+    out = np.zeros((3, 6))
+    if amplitude == 0.0:
+        return out
+    Tg = np.linspace(*T_RANGE_C, 221)
+    for i in range(3):
+        p = np.array([rng.normal(), rng.normal(), rng.normal(), 0.35 * rng.normal(),
+                      rng.uniform(0.6, 1.4), rng.uniform(0, 2 * np.pi)])
+        peak = np.max(np.abs(_curve(p[None, :].repeat(3, 0), np.stack([Tg] * 3, -1))[:, 0]))
+        scale = amplitude * rng.uniform(0.5, 1.5) / peak
+        p[[0, 1, 2, 3]] *= scale
+        out[i] = p
+    return out
+
+
+def _draw_triad(spec: SensorSpec, rng: np.random.Generator, kind: str) -> TriadTruth:
+    mis = rng.normal(0.0, spec.misalignment, (3, 3))
+    np.fill_diagonal(mis, 0.0)
+    return TriadTruth(
+        M0=np.eye(3) + mis,
+        sf0=rng.normal(0.0, spec.initial_sf, 3),
+        bias0=rng.normal(0.0, spec.initial_bias, 3),
+        bias_curve=_draw_curves(rng, spec.bias_temp_amplitude),
+        sf_curve=_draw_curves(rng, spec.sf_temp_amplitude),
+        temp_rate_coeff=rng.normal(0.0, spec.temp_rate_coeff, 3),
+        g_sens=rng.normal(0.0, spec.g_sensitivity, (3, 3)) if kind == "gyro" else np.zeros((3, 3)),
+        asym=rng.normal(0.0, spec.asymmetry, 3) if kind == "accel" else np.zeros(3),
+        k2=rng.normal(0.0, spec.k2, 3) if kind == "accel" else np.zeros(3),
+    )
+
+
+def _ideal_triad() -> TriadTruth:
+    z3, z33 = np.zeros(3), np.zeros((3, 3))
+    return TriadTruth(M0=np.eye(3), sf0=z3, bias0=z3, bias_curve=np.zeros((3, 6)), sf_curve=np.zeros((3, 6)),
+                      temp_rate_coeff=z3, g_sens=z33, asym=z3, k2=z3)
+
+
+def draw_unit(grade: str | SensorGrade, rng: np.random.Generator, *, ideal: bool = False) -> ImuUnit:
+    """Draw one unit's truth parameters from a grade.
+
+    Parameters
+    ----------
+    grade : str | SensorGrade   grade name (see :func:`load_grade`) or grade
+    rng : numpy.random.Generator
+    ideal : bool                if True every deterministic error (bias, scale, misalignment,
+                                temperature curves, dynamic terms, temperature-sensor offset and lag)
+                                is zero; the grade's noise is still applied unless
+                                ``simulate_imu(..., noise=False)``. Grade ``ideal`` has zero noise too.
+
+    Returns
+    -------
+    ImuUnit
+    """
+    g = load_grade(grade)
+    if not isinstance(rng, np.random.Generator):
+        raise InputError(f"draw_unit: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    if ideal:
+        return ImuUnit(grade=g, gyro=_ideal_triad(), accel=_ideal_triad(),
+                       temp_offset_C=np.zeros(6), temp_tau_s=np.zeros(6))
+    gyro = _draw_triad(g.gyro, rng, "gyro")
+    accel = _draw_triad(g.accel, rng, "accel")
+    off = np.clip(rng.normal(0.0, g.temp_sensor_offset_std_C, 6), -3 * g.temp_sensor_offset_std_C,
+                  3 * g.temp_sensor_offset_std_C)
+    tau = np.full(6, g.temp_sensor_tau_s)
+    return ImuUnit(grade=g, gyro=gyro, accel=accel, temp_offset_C=off, temp_tau_s=tau)
+
+
+def draw_power_on(unit: ImuUnit, rng: np.random.Generator) -> PowerOn:
+    """Draw the random state of one power-on of ``unit`` (turn-on bias, curve change).
+
+    p0 ~ N(0, turn_on_bias); p1, p2 ~ N(0, fraction * peak / 2) with peak the unit's own curve peak [unit].
+    """
+    out = []
+    for spec, triad in ((unit.grade.gyro, unit.gyro), (unit.grade.accel, unit.accel)):
+        Tg = np.linspace(*T_RANGE_C, 111)
+        peak = np.max(np.abs(triad.bias_T(np.stack([Tg] * 3, -1))), axis=0)  # (3,)
+        p = np.empty((3, 3))
+        p[:, 0] = rng.normal(0.0, 1.0, 3) * spec.turn_on_bias
+        p[:, 1:] = rng.normal(0.0, 1.0, (3, 2)) * (spec.power_on_curve_fraction * peak / 2.0)[:, None]
+        out.append(p)
+    return PowerOn(gyro=out[0], accel=out[1])
+
+
+def zero_power_on() -> PowerOn:
+    """A power-on with no random component."""
+    return PowerOn(gyro=np.zeros((3, 3)), accel=np.zeros((3, 3)))
+
+
+# --------------------------------------------------------------------------- samples
+@dataclass(frozen=True)
+class ImuSamples:
+    """Sensor outputs of one run.
+
+    Attributes
+    ----------
+    t : ndarray (N,) [s]
+    gyro : ndarray (N,3) [rad/s]     measured body rate
+    accel : ndarray (N,3) [m/s^2]    measured specific force in body axes
+    temp_C : ndarray (N,6) [°C]      temperatures reported by each sensor's internal temperature
+                                     sensor, SITES order
+    """
+
+    t: np.ndarray
+    gyro: np.ndarray
+    accel: np.ndarray
+    temp_C: np.ndarray
+
+
+def _as_array(name: str, a, shape_tail: tuple, n: int | None) -> np.ndarray:
+    try:
+        arr = np.asarray(a, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name}: not a numeric array ({exc})") from None
+    want = ("N",) + shape_tail
+    if arr.ndim != len(want) or arr.shape[1:] != shape_tail or (n is not None and arr.shape[0] != n):
+        exp = "(" + ", ".join(str(n if (k == 0 and n is not None) else s) for k, s in enumerate(want)) + ")"
+        raise InputError(f"{name}: shape {arr.shape} is invalid; expected {exp}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{name}: contains NaN or infinite values; all values must be finite")
+    return arr
+
+
+def validate_samples(samples: ImuSamples) -> None:
+    """Raise InputError unless ``samples`` has consistent shapes (N,), (N,3), (N,3), (N,6)."""
+    t = _as_array("samples.t", samples.t, (), None)
+    n = t.shape[0]
+    _as_array("samples.gyro", samples.gyro, (3,), n)
+    _as_array("samples.accel", samples.accel, (3,), n)
+    _as_array("samples.temp_C", samples.temp_C, (6,), n)
+
+
+def temperature_sensor_lag(t, T_die_C, tau_s) -> np.ndarray:
+    """First-order lag of a die temperature as seen by an internal temperature sensor.
+
+    dy/dt = (T_die - y)/tau, y(t0) = T_die(t0) (steady start). Discretised exactly for a
+    die temperature that is linear between samples (first-order hold).
+
+    Parameters
+    ----------
+    t : ndarray (N,) [s]
+    T_die_C : ndarray (N,) or (N,k) [°C]
+    tau_s : float or ndarray (k,) [s]  (0 = no lag)
+
+    Returns
+    -------
+    ndarray like T_die_C [°C]
+    """
+    t = np.asarray(t, float)
+    u = np.asarray(T_die_C, float)
+    squeeze = u.ndim == 1
+    if squeeze:
+        u = u[:, None]
+    tau = np.broadcast_to(np.asarray(tau_s, float), (u.shape[1],))
+    y = u.copy()
+    if u.shape[0] < 2:
+        return y[:, 0] if squeeze else y
+    dt = np.diff(t)[:, None]
+    lag = tau > 0
+    if np.any(lag):
+        tl = tau[lag][None, :]
+        a = np.exp(-dt / tl)  # (N-1,k)
+        g = 1.0 - tl / dt * (1.0 - a)  # weight of the input increment (first-order hold)
+        ul = u[:, lag]
+        yl = np.empty_like(ul)
+        yl[0] = ul[0]
+        du = np.diff(ul, axis=0)
+        drive = (1.0 - a) * ul[:-1] + g * du
+        if np.allclose(dt, dt[0], rtol=1e-9, atol=0.0):  # uniform step: linear filter, vectorised
+            for j in range(ul.shape[1]):
+                aj = a[0, j]
+                yl[1:, j], _ = lfilter([1.0], [1.0, -aj], drive[:, j], zi=[aj * ul[0, j]])
+        else:
+            for k in range(ul.shape[0] - 1):  # general recursion
+                yl[k + 1] = a[k] * yl[k] + drive[k]
+        y[:, lag] = yl
+    return y[:, 0] if squeeze else y
+
+
+def _gauss_markov(rng, n, k, sigma, tau_c, dt):
+    phi = np.exp(-dt / tau_c)
+    w = rng.standard_normal((n, k)) * (sigma * np.sqrt(1.0 - phi**2))
+    w[0] = rng.standard_normal(k) * sigma  # stationary start
+    return lfilter([1.0], [1.0, -phi], w, axis=0)
+
+
+def _triad_output(triad: TriadTruth, spec: SensorSpec, x, T, dTdt_min, f_b, p_on, rng, dt, noise, kind):
+    u = x @ triad.M0.T  # (N,3) input on the sensitive axes
+    sf = 1.0 + triad.sf0 + triad.sf_T(T) + 0.5 * triad.asym * np.sign(u)
+    xx = (T - T_REF_C) / _X_SCALE
+    y = sf * u + triad.k2 * u**2 + triad.bias0 + triad.bias_T(T) + triad.temp_rate_coeff * dTdt_min
+    if kind == "gyro":
+        y = y + f_b @ triad.g_sens.T
+    y = y + p_on[:, 0] + p_on[:, 1] * xx + p_on[:, 2] * xx**2
+    if noise:
+        n = y.shape[0]
+        fs = 1.0 / dt
+        if spec.noise_density > 0:
+            y = y + rng.standard_normal((n, 3)) * (spec.noise_density * np.sqrt(fs))
+        if spec.bias_instability > 0:
+            y = y + _gauss_markov(rng, n, 3, spec.bias_instability, spec.bias_corr_time_s, dt)
+        if spec.rate_random_walk > 0:
+            y = y + np.cumsum(rng.standard_normal((n, 3)) * (spec.rate_random_walk * np.sqrt(dt)), axis=0)
+        if spec.lsb > 0:
+            y = np.round(y / spec.lsb) * spec.lsb
+    return y
+
+
+def simulate_imu(unit: ImuUnit, t, omega_b, f_b, temp_C, rng: np.random.Generator | None, *,
+                 noise: bool = True, power_on: PowerOn | None = None) -> ImuSamples:
+    """Simulate the sensor outputs of ``unit`` for a given true motion and die temperatures.
+
+    Parameters
+    ----------
+    unit : ImuUnit
+    t : ndarray (N,) [s]               strictly increasing sample times (uniform spacing assumed for noise)
+    omega_b : ndarray (N,3) [rad/s]    true body rate
+    f_b : ndarray (N,3) [m/s^2]        true specific force at the sensor, body axes
+    temp_C : ndarray (N,6) [°C]        true die temperature per site, SITES order
+    rng : numpy.random.Generator       source of all randomness (may be None when noise=False)
+    noise : bool                       False: deterministic, noise-free output (no white / Gauss-Markov /
+                                       random-walk noise, no quantisation, no power-on random draw)
+    power_on : PowerOn | None          the power-on state to use; None draws one from ``rng``
+                                       (noise=True) or uses none (noise=False). Pass the same state to
+                                       several calls to model one continuous session.
+
+    Returns
+    -------
+    ImuSamples   (temp_C = reported temperatures: lag + offset + quantisation)
+
+    Raises
+    ------
+    InputError   wrong shapes, non-finite values, non-increasing t, missing rng.
+    """
+    t = _as_array("t", t, (), None)
+    n = t.shape[0]
+    if n < 1:
+        raise InputError("t: empty; need at least one sample")
+    omega_b = _as_array("omega_b", omega_b, (3,), n)
+    f_b = _as_array("f_b", f_b, (3,), n)
+    temp_C = _as_array("temp_C", temp_C, (6,), n)
+    if n > 1 and np.any(np.diff(t) <= 0):
+        raise InputError("t: must be strictly increasing")
+    if noise and not isinstance(rng, np.random.Generator):
+        raise InputError("rng: a numpy.random.Generator is required when noise=True")
+    dt = float(np.median(np.diff(t))) if n > 1 else 1.0 / unit.grade.sample_rate_hz
+    if power_on is None:
+        power_on = draw_power_on(unit, rng) if noise else zero_power_on()
+    if n > 1:
+        dTdt_min = np.gradient(temp_C, t, axis=0) * 60.0  # [°C/min]
+    else:
+        dTdt_min = np.zeros_like(temp_C)
+    g = unit.grade
+    gyro = _triad_output(unit.gyro, g.gyro, omega_b, temp_C[:, :3], dTdt_min[:, :3], f_b, power_on.gyro,
+                         rng, dt, noise, "gyro")
+    accel = _triad_output(unit.accel, g.accel, f_b, temp_C[:, 3:], dTdt_min[:, 3:], f_b, power_on.accel,
+                          rng, dt, noise, "accel")
+    rep = temperature_sensor_lag(t, temp_C, unit.temp_tau_s) + unit.temp_offset_C
+    if noise and g.temp_sensor_lsb_C > 0:
+        rep = np.round(rep / g.temp_sensor_lsb_C) * g.temp_sensor_lsb_C
+    return ImuSamples(t=t.copy(), gyro=gyro, accel=accel, temp_C=rep)
+
+
+# --------------------------------------------------------------------------- (de)serialisation
+def unit_to_dict(unit: ImuUnit) -> dict[str, Any]:
+    """JSON-ready dict of a unit (grade by name; arrays as lists)."""
+    def triad(tr: TriadTruth):
+        return {f.name: np.asarray(getattr(tr, f.name)).tolist() for f in fields(tr)}
+    return {"grade": unit.grade.name, "gyro": triad(unit.gyro), "accel": triad(unit.accel),
+            "temp_offset_C": unit.temp_offset_C.tolist(), "temp_tau_s": unit.temp_tau_s.tolist()}
+
+
+def unit_from_dict(d: dict[str, Any]) -> ImuUnit:
+    """Inverse of :func:`unit_to_dict`."""
+    def triad(x):
+        return TriadTruth(**{k: np.asarray(v, float) for k, v in x.items()})
+    return ImuUnit(grade=load_grade(d["grade"]), gyro=triad(d["gyro"]), accel=triad(d["accel"]),
+                   temp_offset_C=np.asarray(d["temp_offset_C"], float), temp_tau_s=np.asarray(d["temp_tau_s"], float))
