@@ -1,0 +1,31 @@
+"""Attitude filters (roll / pitch): seed 000 gated strapdown, seed 003 KF, ungated baseline, peer.
+
+``FILTERS`` lists the names used in result files: ``gated``, ``kf``,
+``ungated``, ``fusion``. Each filter has a procedural step function, a thin
+class over it, and a batch runner returning an :class:`AttitudeEstimate`:
+
+=========  ==============================  ====================  ===============
+name       step                            class                 batch
+=========  ==============================  ====================  ===============
+gated      :func:`gated_step`              GatedStrapdown        run_gated
+kf         :func:`kf_step`                 GravityKF             run_kf
+ungated    gated_step (thresholds=None)    ComplementaryFilter   run_ungated
+fusion     :func:`fusion_step`             FusionPeer            run_fusion
+=========  ==============================  ====================  ===============
+"""
+
+from imutherm.imu.filters.common import AttitudeEstimate, initial_quat
+from imutherm.imu.filters.fusion_peer import FusionParams, FusionPeer, fusion_step, run_fusion
+from imutherm.imu.filters.gate import GateThresholds, gate_noise_std, gate_signals, gate_thresholds
+from imutherm.imu.filters.gated import (ComplementaryFilter, GatedParams, GatedState, GatedStrapdown,
+                                        default_thresholds, gated_step, run_gated, run_ungated)
+from imutherm.imu.filters.kf003 import GravityKF, KFParams, KFState, kf_step, run_kf
+
+FILTERS = ("gated", "kf", "ungated", "fusion")
+
+__all__ = [
+    "FILTERS", "AttitudeEstimate", "initial_quat", "GateThresholds", "gate_thresholds", "gate_signals",
+    "gate_noise_std", "GatedParams", "GatedState", "GatedStrapdown", "ComplementaryFilter", "gated_step",
+    "run_gated", "run_ungated", "default_thresholds", "KFParams", "KFState", "GravityKF", "kf_step", "run_kf",
+    "FusionParams", "FusionPeer", "fusion_step", "run_fusion",
+]

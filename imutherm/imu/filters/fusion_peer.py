@@ -1,0 +1,118 @@
+"""The peer: x-io Fusion (``imufusion``) AHRS at its documented recommended settings.
+
+Settings (Fusion README, "Algorithm settings"): gain 0.5 ("appropriate for
+most applications"), acceleration rejection 10°, recovery trigger period 5 s
+(in imufusion 1.3.3 the setting is ``rejection_timeout`` [s] with
+``sample_rate`` [Hz]), gyroscope range = the sensor's range [°/s]; no
+magnetometer → ``update_no_magnetometer``. Gyroscope in °/s and
+accelerometer in g as the library expects.
+
+Frames: the library is run in its default North-West-Up convention with the
+body axes converted FRD → FLU (``[x, -y, -z]``), so that a resting level
+sensor reads +1 g on z, the usage of the library's examples. (Its NED mode
+with our FRD specific force converged upside down in a check, so we do not
+rely on it.) The gravity direction is converted back to our FRD body axes.
+
+The README says the gyroscope offset-correction algorithm "should be used in
+conjunction with the AHRS algorithm"; :func:`run_fusion` therefore passes the
+gyros through ``imufusion.Bias`` (its defaults: 3 °/s stationary threshold,
+3 s stationary period) first, unless ``use_bias=False``.
+
+The library keeps its own state in C; the thin class :class:`FusionPeer`
+wraps one ``Ahrs`` and :func:`fusion_step` is the procedural step on it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import imufusion
+import numpy as np
+
+from imutherm.imu.attitude_math import G0, gravity_dir_body
+
+_FLU = np.array([1.0, -1.0, -1.0])  # FRD <-> FLU axis flip
+
+
+def _down_frd(q_flu) -> np.ndarray:
+    """Gravity (down) direction in FRD body axes from quaternion(s) FLU body → NWU [-]."""
+    up = gravity_dir_body(q_flu)  # NWU z (up) in FLU body axes
+    return up * np.array([-1.0, 1.0, 1.0])
+from imutherm.imu.filters.common import AttitudeEstimate, check_samples, estimate_from_gravity
+
+
+@dataclass(frozen=True)
+class FusionParams:
+    """Recommended imufusion settings.
+
+    gain [-] 0.5; acceleration_rejection [deg] 10; rejection_timeout [s] 5;
+    gyroscope_range [deg/s] (0 disables the over-range recovery);
+    use_bias : run the library's gyroscope offset correction (``imufusion.Bias``) first.
+    """
+
+    gain: float = 0.5
+    acceleration_rejection: float = 10.0
+    rejection_timeout: float = 5.0
+    gyroscope_range: float = 300.0
+    use_bias: bool = True
+
+
+def make_ahrs(dt: float, params: FusionParams) -> imufusion.Ahrs:
+    """A configured ``imufusion.Ahrs`` for sample period ``dt`` [s]."""
+    ahrs = imufusion.Ahrs()
+    ahrs.set_settings(imufusion.AhrsSettings(
+        sample_rate=1.0 / dt, convention=imufusion.CONVENTION_NWU, gain=params.gain,
+        gyroscope_range=params.gyroscope_range, acceleration_rejection=params.acceleration_rejection,
+        magnetic_rejection=10.0, rejection_timeout=params.rejection_timeout))
+    ahrs.set_sample_period(dt)
+    return ahrs
+
+
+def fusion_step(ahrs: imufusion.Ahrs, gyro, accel) -> np.ndarray:
+    """Feed one FRD sample (gyro (3,) [rad/s], accel (3,) [m/s^2]) to ``ahrs``.
+
+    Returns the gravity direction (3,) [-] in FRD body axes after the update.
+    """
+    ahrs.update_no_magnetometer(np.degrees(np.asarray(gyro, float)) * _FLU, np.asarray(accel, float) * (_FLU / G0))
+    return _down_frd(np.asarray(ahrs.get_quaternion(), float))
+
+
+class FusionPeer:
+    """Thin class over one imufusion ``Ahrs`` (dt [s], params : FusionParams)."""
+
+    name = "fusion"
+
+    def __init__(self, dt: float, params: FusionParams = FusionParams()):
+        self.ahrs = make_ahrs(dt, params)
+
+    def update(self, gyro, accel, dt: float | None = None) -> np.ndarray:
+        """Process one sample (gyro [rad/s], accel [m/s^2], FRD); returns the gravity direction (3,) [-]."""
+        return fusion_step(self.ahrs, gyro, accel)
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """(3,) [-] gravity direction in body axes."""
+        return _down_frd(np.asarray(self.ahrs.get_quaternion(), float))
+
+
+def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams()) -> AttitudeEstimate:
+    """Run the peer over a record; gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]."""
+    gyro, accel = check_samples(gyro, accel, dt)
+    t0 = time.perf_counter()
+    ahrs = make_ahrs(dt, params)
+    gd = np.ascontiguousarray(np.degrees(gyro) * _FLU)
+    ag = np.ascontiguousarray(accel * (_FLU / G0))
+    n = len(gyro)
+    q = np.empty((n, 4))
+    used = np.empty(n, bool)
+    upd, getq, st = ahrs.update_no_magnetometer, ahrs.get_quaternion, ahrs.get_internal_states
+    if params.use_bias:
+        bias = imufusion.Bias()
+        bias.set_settings(imufusion.BiasSettings(sample_rate=1.0 / dt))
+        corr = bias.update
+    for k in range(n):
+        upd(corr(gd[k]) if params.use_bias else gd[k], ag[k])
+        q[k] = getq()
+        used[k] = not st().accelerometer_ignored
+    return estimate_from_gravity("fusion", _down_frd(q), used, time.perf_counter() - t0)

@@ -1,0 +1,144 @@
+"""Seed 000 motion gate: thresholds from allowed errors, and the gate signals.
+
+The strapdown attitude is corrected toward the accelerometer attitude only when::
+
+    ||f_b| - g0| < σa,   |ω_ib| < σω,   |ω̇_ib| < σω̇
+
+PAPER.md (seed 000, §3.2) derives the theoretical thresholds from the allowed
+linear-acceleration error ξa and the allowed centripetal / tangential error ξω,
+the lever arm d = [dx, dy, dz] from the CG and the turn radius L::
+
+    δF_bx = δF_by = sqrt(((ξa + g)^2 - g^2) / 3),  δF_bz = ξa / 3,  σa = |δF|
+    σω = sqrt(ξω / L)
+    δω̇_x = ξω / sqrt(3 (dy² + dz²)),  δω̇_y = ξω / sqrt(3 (dx² + dz²)),  δω̇_z = ξω / sqrt(3 (dx² + dy²))
+    σω̇ = sqrt(3) · δω̇_y        (strict case dx >> dy, dz)
+
+and each threshold is widened by R(·), the standard deviation of the same
+gate signal measured in steady (static) conditions. The seed writes the last
+one as ``sqrt(3 δω̇_y)``; we use ``sqrt(3) · δω̇_y``, the dimensionally
+consistent reading (PAPER.md's), which has units of angular acceleration.
+
+Gate signals (:func:`gate_signals`) are computed from the raw samples after a
+first-order low-pass of time constant ``tau`` [s] (the seed's sensor noise
+would otherwise keep ``|ω|`` and the differentiated ``|ω̇|`` above any useful
+threshold); ``ω̇`` is the backward difference of the low-passed rate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import lfilter
+
+from imutherm import InputError
+from imutherm.imu.attitude_math import G0
+
+
+@dataclass(frozen=True)
+class GateThresholds:
+    """Gate thresholds of the seed-000 strapdown filter.
+
+    sigma_a : float [m/s^2]      threshold on ||f| - g0| (theory + noise widening)
+    sigma_w : float [rad/s]      threshold on |ω|
+    sigma_wdot : float [rad/s^2] threshold on |ω̇|
+    theory : (3,) tuple          the un-widened (σa [m/s^2], σω [rad/s], σω̇ [rad/s^2])
+    noise_std : (3,) tuple       the widening R(·) added ([m/s^2], [rad/s], [rad/s^2])
+    dF_b : (3,) tuple [m/s^2]    δF_bx, δF_by, δF_bz
+    dwdot : (3,) tuple [rad/s^2] per-axis angular-acceleration limits δω̇_x, δω̇_y, δω̇_z (inf if undefined)
+    """
+
+    sigma_a: float
+    sigma_w: float
+    sigma_wdot: float
+    theory: tuple
+    noise_std: tuple
+    dF_b: tuple
+    dwdot: tuple
+
+
+def gate_thresholds(xi_a: float, xi_w: float, d, L: float, noise_std=(0.0, 0.0, 0.0),
+                    g: float = G0) -> GateThresholds:
+    """Gate thresholds from PAPER.md's formulas (seed 000, §3.2).
+
+    xi_a : allowed linear-acceleration error ξa [m/s^2] (> 0)
+    xi_w : allowed centripetal / tangential acceleration error ξω [m/s^2] (> 0)
+    d : (3,) lever arm [dx, dy, dz] of the sensor from the CG [m]
+    L : turn / circling radius [m] (> 0)
+    noise_std : (R_a [m/s^2], R_w [rad/s], R_wdot [rad/s^2]) std of the gate signals
+        measured in steady conditions, added to each threshold
+    g : gravity [m/s^2]
+    """
+    for name, val in (("xi_a", xi_a), ("xi_w", xi_w), ("L", L)):
+        if not (isinstance(val, (int, float, np.floating)) and math.isfinite(val) and val > 0):
+            raise InputError(f"gate_thresholds: {name}={val!r} is invalid; valid: a positive finite number")
+    d = np.asarray(d, float)
+    if d.shape != (3,) or not np.all(np.isfinite(d)):
+        raise InputError(f"gate_thresholds: d={d!r} is invalid; valid: three finite lever-arm lengths [m]")
+    ns = tuple(float(v) for v in noise_std)
+    if len(ns) != 3 or any(not math.isfinite(v) or v < 0 for v in ns):
+        raise InputError(f"gate_thresholds: noise_std={noise_std!r} is invalid; valid: three finite values >= 0")
+    dfx = math.sqrt(((xi_a + g) ** 2 - g**2) / 3.0)
+    dfz = xi_a / 3.0
+    sa = math.sqrt(2 * dfx**2 + dfz**2)
+    sw = math.sqrt(xi_w / L)
+    dx, dy, dz = d
+
+    def lim(a, b):
+        s = a * a + b * b
+        return xi_w / math.sqrt(3.0 * s) if s > 0 else math.inf
+
+    dwd = (lim(dy, dz), lim(dx, dz), lim(dx, dy))
+    swd = math.sqrt(3.0) * dwd[1]
+    return GateThresholds(
+        sigma_a=sa + ns[0], sigma_w=sw + ns[1], sigma_wdot=swd + ns[2],
+        theory=(sa, sw, swd), noise_std=ns, dF_b=(dfx, dfx, dfz), dwdot=dwd,
+    )
+
+
+def lowpass_alpha(dt: float, tau: float) -> float:
+    """Coefficient α = dt / (τ + dt) of the first-order low-pass y_k = α x_k + (1-α) y_{k-1}."""
+    return dt / (tau + dt)
+
+
+def _lp(x, alpha):
+    """First-order low-pass along axis 0 started at x[0] (y_0 = x_0)."""
+    x = np.asarray(x, float)
+    beta = 1.0 - alpha
+    zi = beta * x[0:1]
+    y, _ = lfilter([alpha], [1.0, -beta], x, axis=0, zi=zi)
+    return y
+
+
+def gate_signals(gyro, accel, dt: float, tau: float, g: float = G0):
+    """Gate signals (e_a [m/s^2], e_w [rad/s], e_wdot [rad/s^2]), each (N,).
+
+    e_a = |LP(|f|) - g|, e_w = |LP(ω)|, e_wdot = |(LP(ω)_k - LP(ω)_{k-1}) / dt|
+    (0 at k = 0), with LP the first-order low-pass of time constant ``tau`` [s].
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s].
+    """
+    gyro = np.asarray(gyro, float)
+    accel = np.asarray(accel, float)
+    alpha = lowpass_alpha(dt, tau)
+    fn = np.sqrt(accel[:, 0] * accel[:, 0] + accel[:, 1] * accel[:, 1] + accel[:, 2] * accel[:, 2])
+    e_a = np.abs(_lp(fn, alpha) - g)
+    w = _lp(gyro, alpha)
+    e_w = np.sqrt(w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1] + w[:, 2] * w[:, 2])
+    wd = np.zeros_like(w)
+    wd[1:] = (w[1:] - w[:-1]) / dt
+    e_wd = np.sqrt(wd[:, 0] * wd[:, 0] + wd[:, 1] * wd[:, 1] + wd[:, 2] * wd[:, 2])
+    return e_a, e_w, e_wd
+
+
+def gate_noise_std(gyro, accel, dt: float, tau: float, g: float = G0, skip_s: float | None = None):
+    """R(·): standard deviations of the three gate signals over a steady window [m/s^2, rad/s, rad/s^2].
+
+    The first ``skip_s`` [s] (default 5 τ) are skipped so the low-pass start-up does not count.
+    """
+    sig = gate_signals(gyro, accel, dt, tau, g)
+    k0 = int(round((5 * tau if skip_s is None else skip_s) / dt))
+    if len(sig[0]) - k0 < 10:
+        raise InputError(f"gate: steady window of {len(sig[0])} samples is too short for tau={tau} s; "
+                         "valid: at least 5 tau + 10 samples of rest")
+    return tuple(float(np.std(s[k0:])) for s in sig)

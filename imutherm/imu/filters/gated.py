@@ -1,0 +1,308 @@
+"""Seed 000 gated strapdown attitude filter, and its ungated complementary baseline.
+
+Quaternion integration of the gyros (trapezoidal rate, exact exponential),
+corrected toward the accelerometer's gravity direction with a proportional +
+integral (gyro-bias) feedback (Mahony form) **only while the motion gate is
+open** (:mod:`imutherm.imu.filters.gate`). The ungated complementary filter is
+the same update with the gate always open: the comparison isolates the gate.
+
+The gate is debounced: it opens only after all three conditions have held
+for ``hold_s`` [s] without interruption (the end of a manoeuvre is not
+instantaneous; the ramp-down of an acceleration would otherwise leak into
+the attitude).
+
+Update for sample k (gyro ω_k [rad/s], specific force f_k [m/s^2])::
+
+    ω̄ = (ω_{k-1} + ω_k)/2 - b
+    if gate open:  e = m × r  (m = -f/|f|, r = C_bn [0,0,1] from q)
+                   ω̄ += kp e;  b -= ki e dt
+    q ← normalise(q ⊗ exp(ω̄ dt / 2))
+
+filterpy style: :func:`gated_step` is the procedural step on a frozen
+:class:`GatedState`; :class:`GatedStrapdown` and :class:`ComplementaryFilter`
+are thin classes over it; :func:`run_gated` / :func:`run_ungated` are the
+equivalent tight batch loops (plain floats and ``math``) used by the studies.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.imu.attitude_math import G0
+from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
+                                         initial_quat)
+from imutherm.imu.filters.gate import GateThresholds, gate_noise_std, gate_signals, gate_thresholds, lowpass_alpha
+
+
+@dataclass(frozen=True)
+class GatedParams:
+    """Parameters of the gated strapdown / complementary filter.
+
+    thresholds : GateThresholds | None  gate (None: gate always open = ungated)
+    kp : float [1/s]        proportional gain toward the accelerometer attitude
+    ki : float [1/s^2]      integral gain (gyro-bias estimate)
+    tau : float [s]         low-pass time constant of the gate signals
+    hold_s : float [s]      the conditions must hold this long before the gate opens
+    g : float [m/s^2]       reference gravity of the ||f| - g| gate
+    """
+
+    thresholds: GateThresholds | None
+    kp: float = 0.3
+    ki: float = 0.003
+    tau: float = 0.1
+    hold_s: float = 1.0
+    g: float = G0
+
+    def __post_init__(self):
+        for name in ("kp", "ki", "tau", "hold_s", "g"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0) or (name in ("tau", "g") and v <= 0):
+                raise InputError(f"GatedParams: {name}={v!r} is invalid; valid: a finite number >= 0 "
+                                 "(tau, g > 0)")
+
+
+@dataclass(frozen=True)
+class GatedState:
+    """State of the gated strapdown filter.
+
+    q : (4,) [-] attitude body→nav; bias : (3,) [rad/s] gyro-bias estimate;
+    prev_gyro : (3,) [rad/s] last gyro sample (None before the first);
+    lp_f : float [m/s^2] low-passed |f|; lp_w : (3,) [rad/s] low-passed ω;
+    run : int [samples] consecutive samples with all gate conditions true;
+    gate_open : bool, whether the last update used the accelerometer.
+    """
+
+    q: tuple
+    bias: tuple = (0.0, 0.0, 0.0)
+    prev_gyro: tuple | None = None
+    lp_f: float | None = None
+    lp_w: tuple | None = None
+    run: int = 0
+    gate_open: bool = False
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """(3,) [-] estimated gravity direction in body axes."""
+        w, x, y, z = self.q
+        return np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+
+
+def _hold_samples(hold_s: float, dt: float) -> int:
+    """Number of samples the gate conditions must already hold before sample k opens it."""
+    return int(round(hold_s / dt))
+
+
+def debounce(ok, n_hold: int) -> np.ndarray:
+    """(N,) bool: True where ``ok`` has been True for more than ``n_hold`` consecutive samples before."""
+    ok = np.asarray(ok, bool)
+    idx = np.arange(ok.size)
+    last_false = np.maximum.accumulate(np.where(~ok, idx, -1))
+    run = idx - last_false  # consecutive trues ending at k (0 where ok is False)
+    return run > n_hold
+
+
+def _update(q, b, wbx, wby, wbz, fx, fy, fz, is_open, kp, ki, dt):
+    """One attitude update with plain floats; returns (q, b). Shared by step and batch."""
+    w, x, y, z = q
+    bx, by, bz = b
+    wx, wy, wz = wbx - bx, wby - by, wbz - bz
+    if is_open:
+        fn = math.sqrt(fx * fx + fy * fy + fz * fz)
+        mx, my, mz = -fx / fn, -fy / fn, -fz / fn
+        rx = 2 * (x * z - w * y)
+        ry = 2 * (y * z + w * x)
+        rz = 1 - 2 * (x * x + y * y)
+        ex = my * rz - mz * ry
+        ey = mz * rx - mx * rz
+        ez = mx * ry - my * rx
+        wx += kp * ex
+        wy += kp * ey
+        wz += kp * ez
+        bx -= ki * ex * dt
+        by -= ki * ey * dt
+        bz -= ki * ez * dt
+    hx, hy, hz = 0.5 * dt * wx, 0.5 * dt * wy, 0.5 * dt * wz
+    n2 = hx * hx + hy * hy + hz * hz
+    if n2 > 1e-24:
+        nn = math.sqrt(n2)
+        s = math.sin(nn) / nn
+        c = math.cos(nn)
+    else:
+        s = 1.0 - n2 / 6.0
+        c = 1.0 - n2 / 2.0
+    dx, dy, dz = hx * s, hy * s, hz * s
+    w, x, y, z = (w * c - x * dx - y * dy - z * dz, w * dx + x * c + y * dz - z * dy,
+                  w * dy - x * dz + y * c + z * dx, w * dz + x * dy - y * dx + z * c)
+    inv = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
+    return (w * inv, x * inv, y * inv, z * inv), (bx, by, bz)
+
+
+def gated_step(state: GatedState, gyro, accel, dt: float, params: GatedParams) -> GatedState:
+    """One step of the gated strapdown filter (procedural form).
+
+    state : GatedState; gyro (3,) [rad/s]; accel (3,) [m/s^2] specific force; dt [s];
+    params : GatedParams (``thresholds=None`` → ungated). Returns the new state.
+    """
+    gx, gy, gz = (float(v) for v in gyro)
+    fx, fy, fz = (float(v) for v in accel)
+    pg = state.prev_gyro if state.prev_gyro is not None else (gx, gy, gz)
+    wbx, wby, wbz = 0.5 * (pg[0] + gx), 0.5 * (pg[1] + gy), 0.5 * (pg[2] + gz)
+    th = params.thresholds
+    run = state.run
+    if th is None:
+        is_open, lp_f, lp_w = True, state.lp_f, state.lp_w
+    else:
+        alpha = lowpass_alpha(dt, params.tau)
+        beta = 1.0 - alpha
+        fn = math.sqrt(fx * fx + fy * fy + fz * fz)
+        if state.lp_f is None:
+            lp_f, lp_w, old = fn, (gx, gy, gz), (gx, gy, gz)
+        else:
+            old = state.lp_w
+            lp_f = alpha * fn + beta * state.lp_f
+            lp_w = (alpha * gx + beta * old[0], alpha * gy + beta * old[1], alpha * gz + beta * old[2])
+        e_a = abs(lp_f - params.g)
+        e_w = math.sqrt(lp_w[0] * lp_w[0] + lp_w[1] * lp_w[1] + lp_w[2] * lp_w[2])
+        d0, d1, d2 = (lp_w[0] - old[0]) / dt, (lp_w[1] - old[1]) / dt, (lp_w[2] - old[2]) / dt
+        e_wd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        ok = e_a < th.sigma_a and e_w < th.sigma_w and e_wd < th.sigma_wdot
+        run = run + 1 if ok else 0
+        is_open = run > _hold_samples(params.hold_s, dt)
+    q, b = _update(state.q, state.bias, wbx, wby, wbz, fx, fy, fz, is_open, params.kp, params.ki, dt)
+    return replace(state, q=q, bias=b, prev_gyro=(gx, gy, gz), lp_f=lp_f, lp_w=lp_w, run=run,
+                   gate_open=is_open)
+
+
+class GatedStrapdown:
+    """Thin class over :func:`gated_step` (seed 000 gated strapdown filter).
+
+    params : GatedParams; q0 : (4,) initial quaternion body→nav [-]; bias0 : (3,) [rad/s].
+    """
+
+    name = "gated"
+
+    def __init__(self, params: GatedParams, q0, bias0=(0.0, 0.0, 0.0)):
+        self.params = params
+        self.state = GatedState(q=tuple(float(v) for v in q0), bias=tuple(float(v) for v in bias0))
+
+    def update(self, gyro, accel, dt: float) -> GatedState:
+        """Process one sample: gyro (3,) [rad/s], accel (3,) [m/s^2], dt [s]; returns the new state."""
+        self.state = gated_step(self.state, gyro, accel, dt, self.params)
+        return self.state
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """(3,) [-] current gravity direction estimate in body axes."""
+        return self.state.gravity
+
+
+class ComplementaryFilter(GatedStrapdown):
+    """Ungated complementary filter (baseline): the same update with the gate always open.
+
+    params : GatedParams (its ``thresholds`` are ignored); q0 (4,) [-]; bias0 (3,) [rad/s].
+    """
+
+    name = "ungated"
+
+    def __init__(self, params: GatedParams, q0, bias0=(0.0, 0.0, 0.0)):
+        super().__init__(replace(params, thresholds=None), q0, bias0)
+
+
+def _loop(gyro, accel, gate, dt, kp, ki, q0, b0):
+    """Tight batch loop of :func:`_update` (inlined); returns gravity (N,3)."""
+    n = len(gyro)
+    wbar = np.empty_like(gyro)
+    wbar[0] = gyro[0]
+    wbar[1:] = 0.5 * (gyro[:-1] + gyro[1:])
+    fn = np.sqrt(accel[:, 0] * accel[:, 0] + accel[:, 1] * accel[:, 1] + accel[:, 2] * accel[:, 2])
+    m = -accel / fn[:, None]
+    gxl, gyl, gzl = wbar[:, 0].tolist(), wbar[:, 1].tolist(), wbar[:, 2].tolist()
+    mxl, myl, mzl = m[:, 0].tolist(), m[:, 1].tolist(), m[:, 2].tolist()
+    gl = gate.tolist()
+    w, x, y, z = (float(v) for v in q0)
+    bx, by, bz = (float(v) for v in b0)
+    rxo, ryo, rzo = [0.0] * n, [0.0] * n, [0.0] * n
+    hdt = 0.5 * dt
+    sqrt, sin, cos = math.sqrt, math.sin, math.cos
+    for k in range(n):
+        wx, wy, wz = gxl[k] - bx, gyl[k] - by, gzl[k] - bz
+        if gl[k]:
+            mx, my, mz = mxl[k], myl[k], mzl[k]
+            rx = 2 * (x * z - w * y)
+            ry = 2 * (y * z + w * x)
+            rz = 1 - 2 * (x * x + y * y)
+            ex = my * rz - mz * ry
+            ey = mz * rx - mx * rz
+            ez = mx * ry - my * rx
+            wx += kp * ex
+            wy += kp * ey
+            wz += kp * ez
+            bx -= ki * ex * dt
+            by -= ki * ey * dt
+            bz -= ki * ez * dt
+        hx, hy, hz = hdt * wx, hdt * wy, hdt * wz
+        n2 = hx * hx + hy * hy + hz * hz
+        if n2 > 1e-24:
+            nn = sqrt(n2)
+            s = sin(nn) / nn
+            c = cos(nn)
+        else:
+            s = 1.0 - n2 / 6.0
+            c = 1.0 - n2 / 2.0
+        dx, dy, dz = hx * s, hy * s, hz * s
+        w, x, y, z = (w * c - x * dx - y * dy - z * dz, w * dx + x * c + y * dz - z * dy,
+                      w * dy - x * dz + y * c + z * dx, w * dz + x * dy - y * dx + z * c)
+        inv = 1.0 / sqrt(w * w + x * x + y * y + z * z)
+        w, x, y, z = w * inv, x * inv, y * inv, z * inv
+        rxo[k] = 2 * (x * z - w * y)
+        ryo[k] = 2 * (y * z + w * x)
+        rzo[k] = 1 - 2 * (x * x + y * y)
+    return np.column_stack([rxo, ryo, rzo])
+
+
+def default_thresholds(gyro, accel, dt: float, *, xi_a: float, xi_w: float, d, L: float, tau: float,
+                       init_s: float, g: float = G0) -> GateThresholds:
+    """Seed-000 thresholds widened by the gate-signal std over the first ``init_s`` [s] (assumed at rest).
+
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], xi_a/xi_w [m/s^2], d (3,) [m], L [m], tau [s].
+    """
+    n0 = int(round(init_s / dt))
+    noise = gate_noise_std(gyro[:n0], accel[:n0], dt, tau, g)
+    return gate_thresholds(xi_a, xi_w, d, L, noise_std=noise, g=g)
+
+
+def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, *, init_s: float = 10.0,
+              name: str = "gated") -> AttitudeEstimate:
+    """Run the gated strapdown filter over a whole record (batch, equals repeated :func:`gated_step`).
+
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], params : GatedParams
+    (``thresholds=None`` → gate always open), q0 (4,) [-] initial attitude
+    (None → leveling over the first ``init_s`` [s]), bias0 (3,) [rad/s] initial
+    gyro-bias estimate (None → mean gyro over the first ``init_s``, the unit at rest).
+    """
+    gyro, accel = check_samples(gyro, accel, dt)
+    t0 = time.perf_counter()
+    if q0 is None:
+        q0 = initial_quat(accel, dt, init_s)
+    if bias0 is None:
+        bias0 = initial_bias(gyro, dt, init_s)
+    th = params.thresholds
+    if th is None:
+        gate = np.ones(len(gyro), bool)
+    else:
+        e_a, e_w, e_wd = gate_signals(gyro, accel, dt, params.tau, params.g)
+        gate = debounce((e_a < th.sigma_a) & (e_w < th.sigma_w) & (e_wd < th.sigma_wdot),
+                        _hold_samples(params.hold_s, dt))
+    r = _loop(gyro, accel, gate, dt, params.kp, params.ki, q0, bias0)
+    return estimate_from_gravity(name, r, gate, time.perf_counter() - t0)
+
+
+def run_ungated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, *,
+                init_s: float = 10.0) -> AttitudeEstimate:
+    """Ungated complementary baseline: :func:`run_gated` with the gate always open (same gains)."""
+    return run_gated(gyro, accel, dt, replace(params, thresholds=None), q0, bias0, init_s=init_s, name="ungated")

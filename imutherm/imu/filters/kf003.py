@@ -1,0 +1,258 @@
+"""Seed 003 horizontal-attitude Kalman filter on the gravity direction.
+
+State r = third column of C_bn^T... i.e. the gravity (down) direction in body
+axes, ``r = C_bn [0, 0, 1]``, with ``dr/dt = -ω × r``. Covariance ``P = p I``
+stays isotropic (the transition is a rotation), so the filter carries a scalar
+p: ``p += q dt`` each sample, and at a measurement ``K = p / (p + R)``,
+``p ← (1 - K) p``. The measurement is the accelerometer direction
+``r_m = -f̄ / |f̄|``; the correction is projected onto the tangent plane of the
+unit sphere (``(I - r rᵀ)(r_m - r)``, seed 003 eq. 31-32) and ``|r|`` is
+renormalised to 1.
+
+Gates (seed 003 §4): gate 1, the maximum of ``||f| - g|`` over a window of n
+samples below ``a``: the measurement period becomes nT and f̄ is the window
+mean; gate 2, the innovation norm ``|r_m - r|`` below ``innov_max``. Our
+addition (not in the seed): if gate 1 passes but gate 2 keeps rejecting for
+``reject_timeout_s``, the next measurement is accepted (recovery from a
+diverged state, like the peer's acceleration recovery).
+
+Propagation uses the trapezoidal rate ``(ω_{k-1} + ω_k)/2 - b`` and the exact
+rotation (Rodrigues). Seed 003 notes that the plain KF (its eq. 32) ignores
+the equivalent gyro drift and that one must either inflate the system noise
+or augment the state with it; ``kb > 0`` does the latter in the form of the
+seed's nonlinear observer (eq. 14): at each accepted measurement
+``b ← b - kb (r_m × r) nT``. ``kb = 0`` is the plain eq. 32 filter.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.imu.attitude_math import G0
+from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
+                                         initial_quat)
+
+
+@dataclass(frozen=True)
+class KFParams:
+    """Parameters of the seed-003 filter.
+
+    n_window : int [samples]  gate-1 window and measurement period (nT)
+    a : float [m/s^2]         gate 1 threshold on max ||f| - g| in the window
+    innov_max : float [-]     gate 2 threshold on |r_m - r| (≈ angle [rad])
+    q : float [1/s]           process noise density of r (inflated for the unestimated gyro bias)
+    R : float [-]             measurement noise variance of r_m
+    p0 : float [-]            initial variance
+    reject_timeout_s : float [s]  accept after this long of gate-2 rejections (inf: never)
+    kb : float [1/s^2]        gyro-bias gain of the augmented state (0: plain eq. 32 KF)
+    g : float [m/s^2]         reference gravity
+    """
+
+    n_window: int = 10
+    a: float = 0.15
+    innov_max: float = 0.05
+    q: float = 2e-6
+    R: float = 2e-4
+    p0: float = 1e-4
+    reject_timeout_s: float = 20.0
+    kb: float = 0.002
+    g: float = G0
+
+    def __post_init__(self):
+        if not (isinstance(self.n_window, (int, np.integer)) and self.n_window >= 1):
+            raise InputError(f"KFParams: n_window={self.n_window!r} is invalid; valid: an integer >= 1")
+        for name in ("a", "innov_max", "q", "R", "p0", "reject_timeout_s", "g", "kb"):
+            v = getattr(self, name)
+            if not (v > 0 or (name == "kb" and v == 0)) or math.isnan(v):
+                raise InputError(f"KFParams: {name}={v!r} is invalid; valid: a positive number")
+
+
+@dataclass(frozen=True)
+class KFState:
+    """State of the seed-003 filter.
+
+    r : (3,) [-] gravity direction in body axes; p : float [-] variance (P = p I);
+    bias : (3,) [rad/s] gyro-bias estimate;
+    prev_gyro : (3,) [rad/s] or None; win_sum : (3,) [m/s^2] accel sum over the window;
+    win_max : float [m/s^2] max ||f| - g| in the window; win_n : int samples in the window;
+    reject_t : float [s] time since gate 2 last accepted while gate 1 passed;
+    used : bool, whether the last step applied a measurement.
+    """
+
+    r: tuple
+    p: float
+    bias: tuple = (0.0, 0.0, 0.0)
+    prev_gyro: tuple | None = None
+    win_sum: tuple = (0.0, 0.0, 0.0)
+    win_max: float = 0.0
+    win_n: int = 0
+    reject_t: float = 0.0
+    used: bool = False
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """(3,) [-] estimated gravity direction in body axes."""
+        return np.array(self.r)
+
+
+def _propagate(rx, ry, rz, wx, wy, wz, dt):
+    """r ← exp(-[ω dt]×) r (Rodrigues), plain floats."""
+    ax, ay, az = -wx * dt, -wy * dt, -wz * dt
+    th2 = ax * ax + ay * ay + az * az
+    if th2 > 1e-24:
+        th = math.sqrt(th2)
+        s = math.sin(th) / th
+        c1 = (1.0 - math.cos(th)) / th2
+    else:
+        s = 1.0 - th2 / 6.0
+        c1 = 0.5 - th2 / 24.0
+    cx, cy, cz = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx
+    dot = ax * rx + ay * ry + az * rz
+    c = 1.0 - c1 * th2
+    return (rx * c + s * cx + c1 * dot * ax, ry * c + s * cy + c1 * dot * ay, rz * c + s * cz + c1 * dot * az)
+
+
+def _measure(rx, ry, rz, p, b, sx, sy, sz, R, innov_max, reject_t, period, timeout, kb):
+    """Gate 2 and the update; returns (rx, ry, rz, p, b, reject_t, used)."""
+    fn = math.sqrt(sx * sx + sy * sy + sz * sz)
+    mx, my, mz = -sx / fn, -sy / fn, -sz / fn
+    vx, vy, vz = mx - rx, my - ry, mz - rz
+    if math.sqrt(vx * vx + vy * vy + vz * vz) >= innov_max and reject_t + period < timeout:
+        return rx, ry, rz, p, b, reject_t + period, False
+    if kb > 0.0:
+        c = kb * period
+        b = (b[0] - c * (my * rz - mz * ry), b[1] - c * (mz * rx - mx * rz), b[2] - c * (mx * ry - my * rx))
+    K = p / (p + R)
+    d = rx * vx + ry * vy + rz * vz
+    rx, ry, rz = rx + K * (vx - d * rx), ry + K * (vy - d * ry), rz + K * (vz - d * rz)
+    inv = 1.0 / math.sqrt(rx * rx + ry * ry + rz * rz)
+    return rx * inv, ry * inv, rz * inv, (1.0 - K) * p, b, 0.0, True
+
+
+def kf_step(state: KFState, gyro, accel, dt: float, params: KFParams) -> KFState:
+    """One step of the seed-003 filter (procedural form).
+
+    gyro (3,) [rad/s], accel (3,) [m/s^2] specific force, dt [s]. Returns the new state.
+    """
+    gx, gy, gz = (float(v) for v in gyro)
+    fx, fy, fz = (float(v) for v in accel)
+    pg = state.prev_gyro if state.prev_gyro is not None else (gx, gy, gz)
+    b = state.bias
+    rx, ry, rz = _propagate(*state.r, 0.5 * (pg[0] + gx) - b[0], 0.5 * (pg[1] + gy) - b[1],
+                            0.5 * (pg[2] + gz) - b[2], dt)
+    p = state.p + params.q * dt
+    ea = abs(math.sqrt(fx * fx + fy * fy + fz * fz) - params.g)
+    ws = state.win_sum
+    sx, sy, sz = ws[0] + fx, ws[1] + fy, ws[2] + fz
+    wmax = ea if state.win_n == 0 or ea > state.win_max else state.win_max
+    wn = state.win_n + 1
+    reject_t, used = state.reject_t, False
+    if wn == params.n_window:
+        if wmax < params.a:
+            rx, ry, rz, p, b, reject_t, used = _measure(rx, ry, rz, p, b, sx, sy, sz, params.R, params.innov_max,
+                                                        reject_t, params.n_window * dt, params.reject_timeout_s,
+                                                        params.kb)
+        sx = sy = sz = 0.0
+        wmax, wn = 0.0, 0
+    return replace(state, r=(rx, ry, rz), p=p, bias=b, prev_gyro=(gx, gy, gz), win_sum=(sx, sy, sz), win_max=wmax,
+                   win_n=wn, reject_t=reject_t, used=used)
+
+
+class GravityKF:
+    """Thin class over :func:`kf_step` (seed 003 Kalman filter on the gravity direction).
+
+    params : KFParams; r0 : (3,) initial gravity direction in body axes [-];
+    bias0 : (3,) [rad/s] initial gyro-bias estimate.
+    """
+
+    name = "kf"
+
+    def __init__(self, params: KFParams, r0, bias0=(0.0, 0.0, 0.0)):
+        self.params = params
+        r0 = np.asarray(r0, float)
+        r0 = r0 / np.linalg.norm(r0)
+        self.state = KFState(r=tuple(float(v) for v in r0), p=params.p0, bias=tuple(float(v) for v in bias0))
+
+    def update(self, gyro, accel, dt: float) -> KFState:
+        """Process one sample: gyro (3,) [rad/s], accel (3,) [m/s^2], dt [s]; returns the new state."""
+        self.state = kf_step(self.state, gyro, accel, dt, self.params)
+        return self.state
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """(3,) [-] current gravity direction estimate."""
+        return self.state.gravity
+
+
+def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
+           init_s: float = 10.0) -> AttitudeEstimate:
+    """Run the seed-003 filter over a record (batch loop, equals repeated :func:`kf_step`).
+
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], r0 (3,) [-] initial gravity
+    direction (None → leveling over the first ``init_s`` [s]); bias0 (3,) [rad/s]
+    initial gyro bias (None → mean gyro over the first ``init_s``, at rest).
+    """
+    gyro, accel = check_samples(gyro, accel, dt)
+    t0 = time.perf_counter()
+    if r0 is None:
+        from imutherm.imu.attitude_math import gravity_dir_body
+
+        r0 = gravity_dir_body(initial_quat(accel, dt, init_s))
+    r0 = np.asarray(r0, float)
+    r0 = r0 / np.linalg.norm(r0)
+    if bias0 is None:
+        bias0 = initial_bias(gyro, dt, init_s)
+    n = len(gyro)
+    wbar = np.empty_like(gyro)
+    wbar[0] = gyro[0]
+    wbar[1:] = 0.5 * (gyro[:-1] + gyro[1:])
+    gxl, gyl, gzl = wbar[:, 0].tolist(), wbar[:, 1].tolist(), wbar[:, 2].tolist()
+    fxl, fyl, fzl = accel[:, 0].tolist(), accel[:, 1].tolist(), accel[:, 2].tolist()
+    nw, a, g = params.n_window, params.a, params.g
+    qdt, R, imax = params.q * dt, params.R, params.innov_max
+    period, timeout, kb = nw * dt, params.reject_timeout_s, params.kb
+    b = tuple(float(v) for v in bias0)
+    rx, ry, rz = (float(v) for v in r0)
+    p = params.p0
+    sx = sy = sz = 0.0
+    wmax, wn, reject_t = 0.0, 0, 0.0
+    out_x, out_y, out_z = [0.0] * n, [0.0] * n, [0.0] * n
+    used = np.zeros(n, bool)
+    sqrt, sin, cos = math.sqrt, math.sin, math.cos
+    for k in range(n):
+        ax, ay, az = -(gxl[k] - b[0]) * dt, -(gyl[k] - b[1]) * dt, -(gzl[k] - b[2]) * dt
+        th2 = ax * ax + ay * ay + az * az
+        if th2 > 1e-24:
+            th = sqrt(th2)
+            s = sin(th) / th
+            c1 = (1.0 - cos(th)) / th2
+        else:
+            s = 1.0 - th2 / 6.0
+            c1 = 0.5 - th2 / 24.0
+        cx, cy, cz = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx
+        dot = ax * rx + ay * ry + az * rz
+        c = 1.0 - c1 * th2
+        rx, ry, rz = (rx * c + s * cx + c1 * dot * ax, ry * c + s * cy + c1 * dot * ay,
+                      rz * c + s * cz + c1 * dot * az)
+        p = p + qdt
+        fx, fy, fz = fxl[k], fyl[k], fzl[k]
+        ea = abs(sqrt(fx * fx + fy * fy + fz * fz) - g)
+        sx, sy, sz = sx + fx, sy + fy, sz + fz
+        if wn == 0 or ea > wmax:
+            wmax = ea
+        wn += 1
+        if wn == nw:
+            if wmax < a:
+                rx, ry, rz, p, b, reject_t, u = _measure(rx, ry, rz, p, b, sx, sy, sz, R, imax, reject_t, period,
+                                                         timeout, kb)
+                used[k] = u
+            sx = sy = sz = 0.0
+            wmax, wn = 0.0, 0
+        out_x[k], out_y[k], out_z[k] = rx, ry, rz
+    r = np.column_stack([out_x, out_y, out_z])
+    return estimate_from_gravity("kf", r, used, time.perf_counter() - t0)

@@ -1,0 +1,77 @@
+"""``imutherm attitude`` in-process: result keys, outputs, and bad input."""
+
+import json
+
+import numpy as np
+import pytest
+
+from imutherm import InputError
+from imutherm.cli.attitude import main
+from imutherm.imu.sensor_model import SITES
+from imutherm.studies.attitude_study import GateConfig, run_attitude_study
+
+NAMES = ("gated", "kf", "ungated", "fusion")
+SEGMENTS = ("overall", "stable", "manoeuvre")
+METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
+
+
+def test_cli_flight_writes_required_keys(tmp_path, capsys):
+    out = tmp_path / "att"
+    rc = main(["--profile", "flight", "--duration", "60", "--seeds", "2", "--compensation", "improved",
+               "--out", str(out)])
+    assert rc == 0
+    d = json.loads((out / "attitude.json").read_text())
+    assert d["profile"] == "flight" and d["grade"] == "adis16355" and d["seeds"] == [0, 1]
+    for n in NAMES:
+        for seg in SEGMENTS:
+            for m in METRICS:
+                v = d["filters"][n][seg][m]
+                assert set(v) == {"mean", "std"} and np.isfinite(v["mean"]) and v["std"] >= 0
+        assert d["filters"][n]["runtime_s"]["mean"] > 0
+    assert (out / "attitude.png").stat().st_size > 10_000
+    assert (out / "attitude_series.npz").exists()
+    assert not list(tmp_path.glob(".att.*"))  # no temporary directory left behind
+    assert "gated" in capsys.readouterr().out
+
+
+def test_temperature_csv_is_interpolated(tmp_path):
+    csv = tmp_path / "temps.csv"
+    rows = ["time_s," + ",".join(SITES), "0," + ",".join(["20"] * 6), "100," + ",".join(["30"] * 6)]
+    csv.write_text("\n".join(rows) + "\n")
+    res = run_attitude_study("static", compensation="none", temperature_csv=csv, duration=20.0,
+                             names=("gated", "kf"))
+    assert res.temperature["min_C"] == pytest.approx(20.0)
+    assert res.temperature["max_C"] == pytest.approx(21.99, abs=0.01)  # 20 s of a 0.1 °C/s ramp
+    assert res.metrics["gated"]["manoeuvre"]["roll_rms_deg"] is None  # static: no manoeuvre samples
+    assert res.metrics["gated"]["overall"]["roll_rms_deg"]["mean"] < 5.0  # uncompensated: tens of mg bias
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--profile", "loop"], "--profile: 'loop' is unknown; valid: static, swing, shake, flight"),
+    (["--profile", "static", "--grade", "adis99"], "unknown grade 'adis99'; valid grades: adis16355"),
+    (["--profile", "static", "--temperature", "95"], "95.00 °C at site gyro_x (t = 0.00 s) is outside the "
+                                                     "calibrated range; valid: -40..70 °C"),
+    (["--profile", "static", "--compensation", "magic"], "--compensation: 'magic' is unknown; valid: none, "
+                                                         "conventional, improved"),
+])
+def test_cli_bad_input(tmp_path, capsys, args, message):
+    rc = main(args + ["--duration", "20", "--out", str(tmp_path / "o")])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert message in err and err.startswith("imutherm attitude: error:")
+    assert not (tmp_path / "o").exists()
+
+
+def test_cli_csv_missing_site_column(tmp_path, capsys):
+    csv = tmp_path / "temps.csv"
+    cols = [s for s in SITES if s != "accel_y"]
+    csv.write_text("time_s," + ",".join(cols) + "\n0," + ",".join(["25"] * 5) + "\n")
+    rc = main(["--profile", "static", "--duration", "20", "--temperature-csv", str(csv), "--out", str(tmp_path / "o")])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert "temps.csv: column 'accel_y' is missing; valid header: time_s, gyro_x" in err
+
+
+def test_study_rejects_too_short_rest():
+    with pytest.raises(InputError, match="init_s=0.50 s .* is too short; valid: at least 1 s"):
+        run_attitude_study("flight", duration=60.0, compensation="none", gate=GateConfig(init_s=0.5))
