@@ -18,6 +18,7 @@ from imutherm.geometry.layout import AXES, LayoutSpec, SchemeSpec, load_layout
 from imutherm.geometry.materials import Material, get_material
 
 MM = 1e-3  # [m per mm]
+VIA_FIELD_MATERIAL = "pcb_via_field"  # board material under an exposed pad with thermal vias
 _TOL = 1e-9  # [m] geometric tolerance for touching faces
 
 
@@ -30,17 +31,19 @@ class Part:
     name : str
         Unique; the mesh subdomain and result label.
     kind : str
-        ``housing`` (box minus the cavity), ``lid``, ``board``, ``box``,
-        ``component`` (package body), ``die``, ``pad``, ``bond`` or ``fill``.
+        ``housing`` (box minus the cavity), ``lid``, ``board``, ``vias``
+        (a thermal-via field inside a board), ``box``, ``component`` (package
+        body), ``die``, ``pad``, ``bond`` or ``fill``.
     material : str
     lo, hi : tuple [m]
         Lower and upper corners of the box (for ``housing``: the outer box
         below the lid; for ``fill``: the cavity).
     power_W : float [W]
     normal : str or None
-        Board normal axis (orients the orthotropic conductivity of boards).
+        Board normal axis (orients the orthotropic conductivity of boards and via fields).
     parent : str or None
-        The package a die or pad sits in; the component a bond belongs to.
+        The package a die or pad sits in, the board a via field sits in, the
+        component a bond belongs to.
     hole : tuple or None
         (lo, hi) [m] of the box removed from a ``housing`` part (the cavity).
     """
@@ -146,7 +149,7 @@ def _component_parts(layout: LayoutSpec, comp, board, side: str) -> list:
                   f"along {AXES[ax]} leaves board {board.name!r} (0..{span:g} mm)")
     face, sign = (bmax[n], 1.0) if side == "top" else (bmin[n], -1.0)
 
-    def box(u, v, z0, z1):
+    def box(u, v, z0, z1):  # footprint u x v [mm] centred, from z0 to z1 [mm] off the board face
         lo, hi = np.zeros(3), np.zeros(3)
         lo[a0], hi[a0] = centre[a0] - u * MM / 2, centre[a0] + u * MM / 2
         lo[a1], hi[a1] = centre[a1] - v * MM / 2, centre[a1] + v * MM / 2
@@ -160,8 +163,13 @@ def _component_parts(layout: LayoutSpec, comp, board, side: str) -> list:
     if comp.die_mm:
         du, dv, dt = comp.die_mm
         if comp.exposed_pad:
-            out.append(Part(comp.name + "_pad", "pad", "copper", *box(du, dv, 0.0, comp.die_base_mm),
+            pu, pv = comp.pad_mm
+            out.append(Part(comp.name + "_pad", "pad", "copper", *box(pu, pv, 0.0, comp.die_base_mm),
                             parent=comp.name))
+            if comp.vias:
+                thick = board.size_mm[n]
+                out.append(Part(comp.name + "_vias", "vias", VIA_FIELD_MATERIAL, *box(pu, pv, -thick, 0.0),
+                                normal=board.normal, parent=board.name))
         out.append(Part(comp.name + "_die", "die", "silicon",
                         *box(du, dv, comp.die_base_mm, comp.die_base_mm + dt), power_W=comp.power_W,
                         parent=comp.name))
@@ -247,8 +255,8 @@ def build_geometry(layout: LayoutSpec | str | None = None, scheme: str | None = 
     _check(layout, sch, parts, cavity)
 
     volumes = {p.name: p.box_volume for p in parts}
-    for p in parts:  # dies and pads are carved out of their package
-        if p.parent and p.kind in ("die", "pad"):
+    for p in parts:  # dies and pads are carved out of their package, via fields out of their board
+        if p.parent and p.kind in ("die", "pad", "vias"):
             volumes[p.parent] -= volumes[p.name]
     inner = sum(volumes[p.name] for p in parts if p.kind not in ("housing", "lid"))
     fill = Part("fill", "fill", sch.fill, *cavity)

@@ -16,7 +16,7 @@ from imutherm.geometry.build import MM, Geometry
 from imutherm.geometry.grid import TensorGrid
 
 #: RGBA colours by part kind, for the GLB scene
-KIND_COLOURS = {"housing": (170, 175, 185, 60), "lid": (170, 175, 185, 40), "board": (30, 120, 60, 255),
+KIND_COLOURS = {"housing": (170, 175, 185, 60), "lid": (170, 175, 185, 40), "board": (30, 120, 60, 255), "vias": (140, 190, 140, 255),
                 "box": (230, 230, 220, 255), "component": (40, 40, 40, 255), "die": (200, 60, 40, 255),
                 "pad": (200, 130, 50, 255), "bond": (120, 170, 230, 255)}
 

@@ -84,6 +84,9 @@ class ComponentSpec:
     center_mm : (u, v) board-local centre [mm]
     size_mm : (u, v, height) footprint and height [mm]
     die_mm : (u, v, thickness) of the die, centred, ``die_base_mm`` above the board face [mm]
+    exposed_pad : the die sits on a copper pad / tab soldered to the board
+    pad_mm : (u, v) footprint of that pad [mm] (default: the die's)
+    vias : a thermal-via field through the board under the pad
     power_W : float [W] dissipated in the die
     """
 
@@ -96,6 +99,8 @@ class ComponentSpec:
     die_mm: tuple | None
     die_base_mm: float
     exposed_pad: bool
+    pad_mm: tuple | None
+    vias: bool
     power_W: float
     axis: str | None
 
@@ -306,7 +311,8 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         c = _Table(path, f"components[{i}]", t,
                    {"name": "str", "board": "board name", "side": "top|bottom", "center_mm": "(u, v)",
                     "size_mm": "(u, v, height)", "material": "name", "die_mm": "(u, v, thickness)",
-                    "die_base_mm": "mm", "exposed_pad": "bool", "power_W": "W", "axis": "x|y|z"})
+                    "die_base_mm": "mm", "exposed_pad": "bool", "pad_mm": "(u, v)", "vias": "bool",
+                    "power_W": "W", "axis": "x|y|z"})
         name = c.string("name")
         c.where = f"component {name!r}"
         board = c.string("board")
@@ -322,11 +328,22 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
             c.fail("exposed_pad", f"must be true or false, got {pad!r}")
         if pad and (die is None or die_base <= 0):
             c.fail("exposed_pad", "an exposed pad needs a die and die_base_mm > 0 (the pad thickness)")
+        pad_mm = c.vector("pad_mm", 2, None, positive=True)
+        if pad_mm is not None and not pad:
+            c.fail("pad_mm", "needs exposed_pad = true")
+        if pad_mm is not None and (pad_mm[0] < die[0] or pad_mm[1] < die[1] or pad_mm[0] > size[0] or pad_mm[1] > size[1]):
+            c.fail("pad_mm", f"pad {pad_mm} must hold the die {die[:2]} and fit the footprint {size[:2]}")
+        vias = c.get("vias", False)
+        if not isinstance(vias, bool):
+            c.fail("vias", f"must be true or false, got {vias!r}")
+        if vias and not pad:
+            c.fail("vias", "a via field sits under an exposed pad: set exposed_pad = true")
         spec = ComponentSpec(name, board, c.string("side", choices=("top", "bottom")), c.vector("center_mm", 2),
                              size, c.material("material", mats), die, die_base, pad,
+                             (pad_mm or (die[:2] if pad else None)), vias,
                              c.number("power_W", nonneg=True), c.string("axis", None, choices=AXES))
         claim(name, c.where)
-        for sub in ("_die", "_pad"):
+        for sub in ("_die", "_pad", "_vias"):
             claim(name + sub, c.where)
         components.append(spec)
     comp_by_name = {c.name: c for c in components}

@@ -12,10 +12,10 @@ from matplotlib.patches import Rectangle  # noqa: E402
 
 from imutherm.geometry.build import MM, Geometry  # noqa: E402
 
-COLOURS = {"housing": "#b0b4bc", "lid": "#d0d4dc", "board": "#2e8b57", "box": "#e8e4d0", "component": "#333333",
+COLOURS = {"housing": "#b0b4bc", "lid": "#d0d4dc", "board": "#2e8b57", "vias": "#8fbc8f", "box": "#e8e4d0", "component": "#333333",
            "die": "#c8402a", "pad": "#c88232", "bond": "#6fa8e6"}
 VIEWS = (("top view (x, y)", 0, 1, 2), ("front view (x, z)", 0, 2, 1), ("side view (y, z)", 1, 2, 0))
-_ORDER = ("housing", "lid", "box", "board", "bond", "component", "pad", "die")
+_ORDER = ("housing", "lid", "box", "board", "vias", "bond", "component", "pad", "die")
 
 
 def plot_layout(geometry: Geometry, path: str | os.PathLike) -> None:
@@ -50,7 +50,7 @@ def plot_layout(geometry: Geometry, path: str | os.PathLike) -> None:
         ax.set_xlabel(f"{'xyz'[a]} [mm]")
         ax.set_ylabel(f"{'xyz'[b]} [mm]")
     handles = [Rectangle((0, 0), 1, 1, fc=COLOURS[k], ec="k", lw=0.4) for k in _ORDER if k != "lid"]
-    fig.legend(handles, [k for k in _ORDER if k != "lid"], loc="lower center", ncol=7, fontsize=8, frameon=False)
+    fig.legend(handles, [k for k in _ORDER if k != "lid"], loc="lower center", ncol=8, fontsize=8, frameon=False)
     lay = geometry.layout
     fig.suptitle(f"{lay.name}, scheme {geometry.scheme.name!r}: {geometry.scheme.description}\n"
                  f"mass {geometry.mass_kg * 1e3:.1f} g, power {geometry.total_power_W:.3f} W; "

@@ -1,0 +1,101 @@
+"""``imutherm solve``: steady or power-on transient thermal solve of one cooling scheme.
+
+Writes in ``--out DIR``: ``result.json`` (rises, hot spot, per-site rise and
+t63/t95, energy balance, unknowns, timings), ``probes.csv`` (``time_s`` then
+one column per site, degC; a steady run has one row at time ``inf``) and the
+field for ParaView: ``field.vtu`` (steady) or ``field.pvd`` + ``field_*.vtu``
+(transient, at ``--save-every`` intervals and the end).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.cli._common import atomic_outdir, run_guarded, write_json
+from imutherm.cli.geometry import add_layout_arguments
+from imutherm.studies.thermal_study import check_time_arguments, probe_table, result_summary, run_scheme
+from imutherm.thermal.model import ModelOptions
+from imutherm.thermal.output import write_result
+
+
+def add_model_arguments(parser: argparse.ArgumentParser) -> None:
+    """Switches of the physical model (see ``imutherm.thermal.model.ModelOptions``)."""
+    g = parser.add_argument_group("model")
+    g.add_argument("--exterior", choices=("natural", "fixed", "none"), default="natural",
+                   help="exterior convection: face-orientation natural convection (default), fixed h, or none")
+    g.add_argument("--h", type=float, default=10.0, metavar="W/m2K", help="h of --exterior fixed [W/m^2 K]")
+    g.add_argument("--no-radiation", action="store_true", help="switch off exterior radiation")
+    g.add_argument("--emissivity", type=float, default=None, help="housing emissivity [-] (default: its material's)")
+    g.add_argument("--mount-conductance", type=float, default=None, metavar="W/m2K",
+                   help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
+    g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
+
+
+def model_options(args) -> ModelOptions:
+    return ModelOptions(exterior=args.exterior, h_fixed_W_m2K=args.h, radiation=not args.no_radiation,
+                        emissivity=args.emissivity, mounting_conductance_W_m2K=args.mount_conductance,
+                        cavity_radiation=not args.no_cavity_radiation)
+
+
+def write_probes_csv(path, header, rows) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for row in rows:
+            w.writerow([f"{v:.6g}" if i == 0 else f"{v:.6f}" for i, v in enumerate(row)])
+
+
+@run_guarded("imutherm solve")
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="imutherm solve", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_layout_arguments(parser)
+    parser.add_argument("--transient", action="store_true", help="power-on transient from ambient")
+    parser.add_argument("--t-end", type=float, default=1200.0, metavar="SECONDS", help="transient end time [s]")
+    parser.add_argument("--dt", type=float, default=10.0, metavar="SECONDS", help="transient time step [s]")
+    parser.add_argument("--theta", type=float, default=1.0, help="1 backward Euler (default), 0.5 Crank-Nicolson")
+    parser.add_argument("--save-every", type=float, default=None, metavar="SECONDS",
+                        help="keep the whole field every SECONDS for the PVD series (default: t_end/10)")
+    parser.add_argument("--site", action="append", default=None, metavar="NAME",
+                        help="report only these sites (repeatable; default all)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_model_arguments(parser)
+    parser.add_argument("--out", required=True, help="output directory")
+    args = parser.parse_args(argv)
+
+    save_times = None
+    if args.transient:
+        check_time_arguments(args.t_end, args.dt)
+        every = args.save_every or args.t_end / 10
+        if not every > 0:
+            raise InputError(f"--save-every must be > 0 [s], got {every}")
+        save_times = np.unique(np.append(np.arange(0.0, args.t_end, every), args.t_end))
+    res = run_scheme(args.layout, args.scheme, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
+                     options=model_options(args), transient=args.transient, t_end=args.t_end, dt=args.dt,
+                     theta=args.theta, save_times=save_times, progress=args.transient and not args.no_progress)
+    summary = result_summary(res)
+    header, rows = probe_table(res)
+    if args.site:
+        unknown = [s for s in args.site if s not in summary["sites"]]
+        if unknown:
+            raise InputError(f"unknown site(s) {unknown}; valid: {', '.join(summary['sites'])}")
+        keep = [0] + [header.index(s) for s in args.site]
+        header, rows = [header[i] for i in keep], rows[:, keep]
+        summary["sites"] = {s: summary["sites"][s] for s in args.site}
+    with atomic_outdir(args.out) as tmp:
+        write_json(tmp / "result.json", summary)
+        write_probes_csv(tmp / "probes.csv", header, rows)
+        write_result(tmp / "field", res.transient if res.transient is not None else res.steady)
+    print(f"{summary['layout']} / {summary['scheme']} ({summary['mode']}): max rise {summary['max_rise_K']:.2f} K "
+          f"({summary['max_temperature_C']:.2f} C) in {summary['hottest_part']}; "
+          f"energy balance {summary['energy_balance_rel_error']:.1e}; {summary['unknowns']} unknowns; "
+          f"{summary['timings_s']['wall']:.1f} s")
+    for name, s in summary["sites"].items():
+        extra = f", t63 {s['t63_s']:.0f} s, t95 {s['t95_s']:.0f} s" if s.get("t95_s") is not None else ""
+        print(f"  {name:<8} rise {s['rise_K']:6.2f} K{extra}")
+    print(f"wrote {args.out}/result.json probes.csv field.{'pvd' if args.transient else 'vtu'}")
+    return 0

@@ -1,0 +1,79 @@
+"""The main job: the three cooling schemes of the paper side by side (steady + power-on transient).
+
+``compare_schemes`` runs :func:`imutherm.studies.thermal_study.run_scheme` for
+each scheme and collects what the comparison report needs: the summary of each
+run, the site curves, and a temperature map in the main board's mid-plane.
+``write_comparison`` writes the result files the report is drawn from.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.cli._common import write_json
+from imutherm.geometry.build import MM
+from imutherm.geometry.layout import AXES, load_layout
+from imutherm.studies.thermal_study import SchemeResult, probe_table, result_summary, run_scheme
+
+#: the paper's numbers (seed 000), from shared/reference/paper_targets.toml
+PAPER = {"simulated_max_rise_K": {"air": 16.0, "grease": 8.0, "potted": 4.0},
+         "measured": {"air": {"rise_K_at_least": 20.0, "near_steady_s": 800.0},
+                      "grease": {"rise_K_at_most": 8.0, "steady_s": 300.0}}}
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The three schemes' results: ``runs`` scheme -> SchemeResult, ``summaries`` scheme -> result dict."""
+
+    runs: dict
+    summaries: dict
+
+
+def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progress: bool = False,
+                    **run_kwargs) -> Comparison:
+    """Run every scheme (steady + transient by default) with the same mesh and model options."""
+    layout = load_layout(layout) if not hasattr(layout, "schemes") else layout
+    unknown = [s for s in schemes if s not in layout.schemes]
+    if unknown:
+        raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
+    run_kwargs.setdefault("transient", True)
+    runs = {}
+    for s in schemes:
+        if progress:
+            print(f"scheme {s}: solving ...", flush=True)
+        runs[s] = run_scheme(layout, s, progress=progress, **run_kwargs)
+    return Comparison(runs, {s: result_summary(r) for s, r in runs.items()})
+
+
+def board_plane_map(res: SchemeResult, board: str = "main") -> dict:
+    """Steady temperature [degC] on the grid plane nearest a board's mid-plane, with its axes [mm]."""
+    part = res.geometry.part(board)
+    n = AXES.index(part.normal)
+    g = res.grid
+    lines = (g.xs, g.ys, g.zs)
+    mid = 0.5 * (part.lo[n] + part.hi[n])
+    k = int(np.argmin(np.abs(lines[n] - mid)))
+    T = np.asarray(res.steady.T_C).reshape(len(g.xs), len(g.ys), len(g.zs))
+    plane = np.take(T, k, axis=n)
+    a0, a1 = (a for a in range(3) if a != n)
+    return {"T_C": plane, "u_mm": lines[a0] / MM, "v_mm": lines[a1] / MM, "axes": "xyz"[a0] + "xyz"[a1],
+            "at_mm": lines[n][k] / MM}
+
+
+def write_comparison(comp: Comparison, out: str | os.PathLike) -> None:
+    """``compare.json``, ``probes_<scheme>.csv`` and ``map_<scheme>.npz`` in ``out``."""
+    out = Path(out)
+    write_json(out / "compare.json", {"paper": PAPER, "schemes": comp.summaries})
+    for s, res in comp.runs.items():
+        header, rows = probe_table(res)
+        with open(out / f"probes_{s}.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(header)
+            w.writerows([[f"{v:.6g}"] + [f"{x:.5f}" for x in row[1:]] for v, row in zip(rows[:, 0], rows)])
+        np.savez_compressed(out / f"map_{s}.npz", **board_plane_map(res))

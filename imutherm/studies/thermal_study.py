@@ -1,0 +1,165 @@
+"""The thermal chain for one scheme: layout -> geometry -> mesh -> problem -> solve -> metrics.
+
+``run_scheme`` is what ``imutherm solve`` and the three-scheme comparison call;
+``result_summary`` turns its result into the ``result.json`` content.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.geometry.build import MM, Geometry, build_geometry
+from imutherm.geometry.grid import TensorGrid
+from imutherm.geometry.layout import LayoutSpec, load_layout
+from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
+from imutherm.thermal.metrics import ThermalMetrics, thermal_metrics
+from imutherm.thermal.model import ModelOptions, build_problem
+from imutherm.thermal.solve import solve_steady, solve_transient
+
+GYRO_SITES = ("gyro_x", "gyro_y", "gyro_z")
+ACCEL_SITES = ("accel_x", "accel_y", "accel_z")
+
+
+@dataclass(frozen=True)
+class SchemeResult:
+    """Everything one scheme's thermal run produced.
+
+    geometry, grid : the unit and its mesh
+    steady : SteadyResult (the final state; always computed)
+    transient : TransientResult or None (power-on from ambient)
+    metrics : ThermalMetrics of the transient (t63/t95 against the steady rises) or of the steady result
+    options : ModelOptions used
+    wall_s : float [s] wall time of the whole run
+    """
+
+    geometry: Geometry
+    grid: TensorGrid
+    steady: object
+    transient: object | None
+    metrics: ThermalMetrics
+    options: ModelOptions
+    wall_s: float
+
+
+def check_time_arguments(t_end: float, dt: float) -> None:
+    """InputError unless 0 < dt <= t_end are finite [s]."""
+    for name, v in (("t_end", t_end), ("dt", dt)):
+        if v is None or not math.isfinite(v) or v <= 0:
+            raise InputError(f"{name} must be a finite number > 0 [s], got {v!r}")
+    if dt > t_end:
+        raise InputError(f"dt = {dt} s must not exceed t_end = {t_end} s")
+
+
+def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None, *,
+               mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
+               options: ModelOptions | None = None, transient: bool = False, t_end: float = 1200.0,
+               dt: float = 10.0, theta: float = 1.0, save_times=None, progress: bool = False) -> SchemeResult:
+    """Solve one cooling scheme of a layout.
+
+    Parameters
+    ----------
+    layout : LayoutSpec, path or None (the reference unit)
+    scheme : str (air, grease, potted; default: the layout's)
+    mesh_size_mm : float [mm] largest cell edge
+    transient : bool, also run the power-on transient from ambient
+    t_end, dt : float [s] transient end time and step
+    theta : float, 1 backward Euler, 0.5 Crank-Nicolson
+    save_times : sequence [s], times at which the transient keeps the whole field
+    """
+    start = time.perf_counter()
+    if transient:
+        check_time_arguments(t_end, dt)
+    if not isinstance(layout, LayoutSpec):
+        layout = load_layout(layout)
+    options = options or ModelOptions()
+    geometry = build_geometry(layout, scheme)
+    grid = build_mesh(geometry, mesh_size_mm, min_cells)
+    problem = build_problem(geometry, grid, options)
+    probes = dict(geometry.sites)
+    steady = solve_steady(problem, probes=probes)
+    tr = None
+    if transient:
+        tr = solve_transient(problem, t_end, dt, theta=theta, save_times=save_times, probes=probes, progress=progress)
+        final = {n: float(v) - problem.ambient_C for n, v in zip(steady.probe_names, steady.probe_C)}
+        metrics = thermal_metrics(tr, final_rise_K=final)
+    else:
+        metrics = thermal_metrics(steady)
+    return SchemeResult(geometry, grid, steady, tr, metrics, options, time.perf_counter() - start)
+
+
+def _spread(rises: dict, names) -> float:
+    vals = [rises[n] for n in names if n in rises]
+    return float(max(vals) - min(vals)) if vals else float("nan")
+
+
+def _num(v):
+    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else float(v)
+
+
+def result_summary(res: SchemeResult) -> dict:
+    """The ``result.json`` content of a scheme run (SI units named in the keys; NaN -> null)."""
+    g, st, tr = res.geometry, res.steady, res.transient
+    steady_m = thermal_metrics(st)
+    last = tr if tr is not None else st
+    final_m = res.metrics
+    sites = {}
+    for name in st.probe_names:
+        entry = {"rise_K": final_m.probe_rise_K[name], "temperature_C": final_m.probe_rise_K[name] + g.layout.ambient_C,
+                 "steady_rise_K": steady_m.probe_rise_K[name]}
+        if tr is not None:
+            entry["t63_s"] = _num(final_m.t63_s[name])
+            entry["t95_s"] = _num(final_m.t95_s[name])
+        sites[name] = entry
+    out = {
+        "layout": g.layout.name, "scheme": g.scheme.name, "scheme_description": g.scheme.description,
+        "mode": "transient" if tr is not None else "steady", "ambient_C": g.layout.ambient_C,
+        "power_W": g.total_power_W,
+        "max_rise_K": final_m.max_rise_K, "max_temperature_C": final_m.max_C, "hottest_part": final_m.max_part,
+        "max_at_mm": [v / MM for v in final_m.max_at_m],
+        "steady_max_rise_K": steady_m.max_rise_K,
+        "sites": sites,
+        "gyro_spread_K": _spread(final_m.probe_rise_K, GYRO_SITES),
+        "accel_spread_K": _spread(final_m.probe_rise_K, ACCEL_SITES),
+        "part_max_rise_K": final_m.part_max_rise_K,
+        "energy_balance_rel_error": last.energy_balance_rel_error,
+        "steady_energy_balance_rel_error": st.energy_balance_rel_error,
+        "heat_out_W": {k: float(v) for k, v in st.heat_out_W.items()},
+        "unknowns": st.unknowns,
+        "steady_iterations": st.iterations, "steady_residual": st.residual,
+        "solver": st.solver,
+        "timings_s": {"steady_assembly": st.assembly_s, "steady_solve": st.solve_s, "wall": res.wall_s},
+        "mesh": {"cells": res.grid.n_cells, "nodes": res.grid.n_nodes},
+        "model_options": _options_dict(res.options),
+    }
+    if tr is not None:
+        out.update({"t_end_s": float(tr.times[-1]), "steps": tr.steps, "theta": tr.theta,
+                    "transient_iterations": tr.iterations})
+        out["timings_s"].update({"transient_assembly": tr.assembly_s, "transient_solve": tr.solve_s})
+    return out
+
+
+def _options_dict(options: ModelOptions) -> dict:
+    d = asdict(options)
+    d["interfaces"] = [dict(i) for i in d["interfaces"]]
+    return d
+
+
+def probe_table(res: SchemeResult) -> tuple:
+    """(header, rows) of ``probes.csv``: time [s] then one column per site [degC].
+
+    A steady run gives one row at time ``inf``.
+    """
+    if res.transient is not None:
+        t = np.asarray(res.transient.times)
+        data = np.asarray(res.transient.probe_C)
+        names = res.transient.probe_names
+    else:
+        t = np.array([np.inf])
+        data = np.asarray(res.steady.probe_C)[None, :]
+        names = res.steady.probe_names
+    return ["time_s"] + list(names), np.column_stack([t, data])

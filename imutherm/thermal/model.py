@@ -1,0 +1,205 @@
+"""From a layout's geometry and mesh to a :class:`ThermalProblem`: the unit's physics, switchable.
+
+``build_problem(geometry, grid, options)`` sets, per cell, the conductivity
+(boards orthotropic along their normal), the volumetric heat capacity and the
+die powers, and, per outer face, the boundary laws: natural convection and
+radiation to the ambient, or contact with the mounting fixture. Every law is a
+named, parameterised switch in :class:`ModelOptions`, so a correlation
+workflow can add or refit an effect by name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.geometry.build import Geometry
+from imutherm.geometry.grid import FACE_NAMES, TensorGrid
+from imutherm.geometry.layout import AXES
+from imutherm.geometry.materials import get_material
+from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Contact, Convection, NaturalConvection, Radiation,
+                                      ThermalProblem)
+
+#: Al/Al interface with air, 10 um roughness, 1e5 N/m^2: R'' = 2.75e-4 m^2 K/W
+#: (Incropera & DeWitt, 6th ed., Table 3.1b) -> h = 3636 W/m^2 K. Used for the lid joint.
+AL_AL_AIR_JOINT_W_M2K = 1.0 / 2.75e-4
+
+_FACE_ORIENTATION = {"xmin": "vertical", "xmax": "vertical", "ymin": "vertical", "ymax": "vertical",
+                     "zmin": "down", "zmax": "up"}
+_MOUNT_FACE = {"bottom": "zmin", "top": "zmax"}
+
+
+@dataclass(frozen=True)
+class Interface:
+    """A contact conductance between two touching parts [W/m^2 K].
+
+    Applied to the cell layer of ``part_b`` that touches ``part_a``: along the
+    normal of the shared face its conductivity becomes ``w / (w/k + 1/h)``
+    (w: cell width), the exact series value for heat crossing the interface.
+    """
+
+    part_a: str
+    part_b: str
+    conductance_W_m2K: float
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class ModelOptions:
+    """The physical laws of the unit model, each switchable and parameterised.
+
+    exterior : ``natural`` (face-orientation correlations, h depends on the
+        surface rise), ``fixed`` (h = ``h_fixed_W_m2K`` on every free face) or ``none``
+    h_fixed_W_m2K : float [W/m^2 K]
+    radiation : bool, exterior radiation eps sigma (T^4 - T_amb^4)
+    emissivity : float or None [-], override of the housing material's emissivity
+    mounting_conductance_W_m2K : float or None [W/m^2 K], override of the layout's
+    cavity_radiation : bool, radiation across the air gaps of the cavity as an
+        effective conductivity (see :func:`cavity_radiation_conductivity`)
+    cavity_emissivity : float [-], effective pair emissivity of facing surfaces
+    interfaces : tuple of Interface, contact conductances between parts
+    """
+
+    exterior: str = "natural"
+    h_fixed_W_m2K: float = 10.0
+    radiation: bool = True
+    emissivity: float | None = None
+    mounting_conductance_W_m2K: float | None = None
+    cavity_radiation: bool = True
+    # boards and packages ~0.9, anodised housing 0.84: 1/(1/0.9 + 1/0.84 - 1) = 0.77
+    cavity_emissivity: float = 0.77
+    interfaces: tuple = field(default_factory=lambda: (
+        Interface("housing", "lid", AL_AL_AIR_JOINT_W_M2K, "screwed lid, Al/Al with air: Incropera Table 3.1b"),))
+
+    def __post_init__(self):
+        if self.exterior not in ("natural", "fixed", "none"):
+            raise InputError(f"model option 'exterior': unknown value {self.exterior!r}; valid: natural, fixed, none")
+        for name in ("h_fixed_W_m2K", "mounting_conductance_W_m2K"):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v >= 0):
+                raise InputError(f"model option {name!r} must be a finite number >= 0, got {v!r}")
+        for name in ("emissivity", "cavity_emissivity"):
+            v = getattr(self, name)
+            if v is not None and not (0.0 <= v <= 1.0):
+                raise InputError(f"model option {name!r}: emissivity must be in [0, 1], got {v!r}")
+
+    def with_(self, **changes) -> "ModelOptions":
+        """A copy with some options changed."""
+        return replace(self, **changes)
+
+
+def cavity_radiation_conductivity(run_length, mean_T_C: float, emissivity: float):
+    """Effective conductivity of radiation across an enclosed gap [W/m K].
+
+    Two facing grey plates a distance ``run_length`` [m] apart exchange
+    q = sigma (T1^4 - T2^4) / (1/e1 + 1/e2 - 1) (Incropera, eq. 13.24);
+    linearised about ``mean_T_C`` this is h_r dT with h_r = 4 sigma e T^3, i.e.
+    a conductivity h_r * run_length across the gap. Side walls' view factors
+    are neglected (exact for wide gaps between parallel plates).
+    """
+    T = mean_T_C + ZERO_C_K
+    return 4.0 * SIGMA * emissivity * T**3 * np.asarray(run_length, float)
+
+
+def _run_lengths(mask: np.ndarray, widths: np.ndarray, axis: int) -> np.ndarray:
+    """For each True cell, the length [m] of the contiguous True run through it along ``axis``."""
+    m = np.moveaxis(mask, axis, -1)
+    w = np.broadcast_to(widths, m.shape)
+    out = np.zeros(m.shape)
+    n = m.shape[-1]
+    run_id = np.cumsum(np.concatenate([m[..., :1], m[..., 1:] & ~m[..., :-1]], axis=-1), axis=-1) * m
+    flat_rows = run_id.reshape(-1, n)
+    wflat = w.reshape(-1, n)
+    keys = (np.arange(flat_rows.shape[0])[:, None] * (n + 1) + flat_rows)[flat_rows > 0]
+    sums = np.bincount(keys, weights=wflat[flat_rows > 0])
+    res = out.reshape(-1, n)
+    res[flat_rows > 0] = sums[keys]
+    return np.moveaxis(res.reshape(m.shape), -1, axis)
+
+
+def _apply_interface(k: np.ndarray, grid: TensorGrid, itf: Interface) -> None:
+    names = grid.part_names
+    for p in (itf.part_a, itf.part_b):
+        if p not in names:
+            raise InputError(f"interface {itf.part_a!r}/{itf.part_b!r}: unknown part {p!r}; valid: {', '.join(names)}")
+    if not itf.conductance_W_m2K > 0:
+        raise InputError(f"interface {itf.part_a!r}/{itf.part_b!r}: conductance must be > 0 [W/m^2 K]")
+    a, b = names.index(itf.part_a), names.index(itf.part_b)
+    cp = grid.cell_part
+    widths = grid.cell_sizes()
+    touched = 0
+    for axis in range(3):
+        for shift in (1, -1):
+            nb = np.roll(cp, shift, axis=axis)
+            edge = [slice(None)] * 3
+            edge[axis] = 0 if shift == 1 else -1
+            nb[tuple(edge)] = -1  # no wrap-around
+            cells = (cp == b) & (nb == a)
+            if not cells.any():
+                continue
+            touched += int(cells.sum())
+            w = np.broadcast_to(np.expand_dims(widths[axis], [i for i in range(3) if i != axis]), cp.shape)[cells]
+            kk = k[..., axis][cells]
+            k[..., axis][cells] = w / (w / kk + 1.0 / itf.conductance_W_m2K)
+    if not touched:
+        raise InputError(f"interface {itf.part_a!r}/{itf.part_b!r}: the parts do not touch")
+
+
+def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | None = None) -> ThermalProblem:
+    """The thermal problem of one scheme of the unit on ``grid``, with the laws of ``options``."""
+    options = options or ModelOptions()
+    parts = geometry.parts
+    if tuple(p.name for p in parts) != tuple(grid.part_names):
+        raise InputError("build_problem: the grid was not meshed from this geometry")
+    lay = geometry.layout
+    ambient = lay.ambient_C
+    nparts = len(parts)
+    k_part = np.zeros((nparts, 3))
+    rc_part = np.zeros(nparts)
+    for i, p in enumerate(parts):
+        m = get_material(p.material)
+        k_part[i] = m.k_in_plane
+        if p.normal:
+            k_part[i, AXES.index(p.normal)] = m.k_through
+        rc_part[i] = m.rho_c
+    vol = geometry.volumes
+    q_part = np.array([p.power_W / vol[p.name] if p.power_W else 0.0 for p in parts])
+    cp = grid.cell_part
+    k = k_part[cp]  # (nx, ny, nz, 3)
+
+    fill = grid.part_names.index("fill")
+    if options.cavity_radiation and get_material(parts[fill].material).name == "air":
+        air = cp == fill
+        mean_T = ambient + 10.0  # linearisation point [degC]: hot parts run ~0-30 K above ambient
+        for axis, w in enumerate(grid.cell_sizes()):
+            runs = _run_lengths(air, w, axis)
+            k[..., axis][air] += cavity_radiation_conductivity(runs[air], mean_T, options.cavity_emissivity)
+    for itf in options.interfaces:
+        _apply_interface(k, grid, itf)
+
+    housing = get_material(parts[grid.part_names.index("housing")].material)
+    eps = options.emissivity if options.emissivity is not None else (housing.emissivity or 0.0)
+    (x0, y0, z0), (x1, y1, z1) = geometry.outer
+    lengths = {"vertical": z1 - z0, "up": (x1 - x0) * (y1 - y0) / (2 * ((x1 - x0) + (y1 - y0)))}
+    lengths["down"] = lengths["up"]
+    mount = lay.mounting
+    mount_face = _MOUNT_FACE[mount.face] if mount.kind == "fixture" else None
+    h_mount = options.mounting_conductance_W_m2K
+    h_mount = mount.contact_conductance_W_m2K if h_mount is None else h_mount
+    boundary = {}
+    for face in FACE_NAMES:
+        if face == mount_face:
+            boundary[face] = (Contact(h_mount, mount.temperature_C),) if h_mount > 0 else ()
+            continue
+        laws = []
+        if options.exterior == "natural":
+            orient = _FACE_ORIENTATION[face]
+            laws.append(NaturalConvection(orient, lengths[orient], ambient))
+        elif options.exterior == "fixed":
+            laws.append(Convection(options.h_fixed_W_m2K, ambient))
+        if options.radiation and eps > 0:
+            laws.append(Radiation(eps, ambient))
+        boundary[face] = tuple(laws)
+    return ThermalProblem(grid, k.reshape(-1, 3), rc_part[cp].ravel(), q_part[cp].ravel(), ambient, boundary)
