@@ -136,7 +136,8 @@ def write_compare_report(folder: str | os.PathLike, path: str | os.PathLike) -> 
     with PdfPages(path) as pdf:
         _table_page(pdf, data)
         _rise_page(pdf, data)
-        _transient_page(pdf, folder, data)
+        if any(r["mode"] == "transient" for r in data["schemes"].values()):
+            _transient_page(pdf, folder, data)
         _map_page(pdf, folder, data)
         if (folder / "layout.png").exists():
             fig = plt.figure(figsize=(11.7, 4.6))
