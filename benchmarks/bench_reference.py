@@ -1,0 +1,110 @@
+"""Benchmark of the reference unit: each scheme at the default mesh, and the same mesh in CalculiX.
+
+Reports, per scheme: unknowns, assembly [s], steady solve [s], a 1200 s power-on
+transient (dt 10 s, backward Euler) [s], the peak resident memory of the process
+[MB], and the max rise; then CalculiX 2.20 on the same mesh with the linear
+version of the boundary conditions (fixed h instead of natural convection and
+radiation), its wall time and the largest nodal difference. Each scheme runs in
+its own process so that the memory figure is its own.
+
+    python benchmarks/bench_reference.py                 # all schemes + CalculiX
+    python benchmarks/bench_reference.py --no-ccx        # imutherm only
+    python benchmarks/bench_reference.py --convergence   # also the mesh-convergence check
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+
+
+def one_scheme(scheme: str, mesh_mm: float, min_cells: int, transient: bool, ccx: bool) -> dict:
+    import numpy as np
+
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.mesh import build_mesh
+    from imutherm.thermal.assembly import assemble
+    from imutherm.thermal.metrics import thermal_metrics
+    from imutherm.thermal.model import ModelOptions, build_problem
+    from imutherm.thermal.solve import solve_steady, solve_transient
+
+    g = build_geometry(None, scheme)
+    t0 = time.perf_counter()
+    grid = build_mesh(g, mesh_mm, min_cells)
+    problem = build_problem(g, grid)
+    t_model = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    asm = assemble(problem)
+    t_asm = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    st = solve_steady(problem, probes=g.sites, assembly=asm)
+    t_steady = time.perf_counter() - t0
+    m = thermal_metrics(st)
+    out = {"scheme": scheme, "mesh_mm": mesh_mm, "min_cells": min_cells, "unknowns": st.unknowns,
+           "mesh_and_model_s": t_model, "assembly_s": t_asm, "steady_s": t_steady, "newton_iterations": st.iterations,
+           "max_rise_K": m.max_rise_K, "hottest_part": m.max_part,
+           "steady_energy_balance": st.energy_balance_rel_error}
+    if transient:
+        t0 = time.perf_counter()
+        tr = solve_transient(problem, 1200.0, 10.0, probes=g.sites, assembly=asm)
+        out.update({"transient_1200s_s": time.perf_counter() - t0, "transient_steps": tr.steps,
+                    "transient_energy_balance": tr.energy_balance_rel_error})
+    out["peak_rss_MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    if ccx:
+        from imutherm.thermal.calculix import run_ccx
+
+        lin = build_problem(g, grid, ModelOptions(exterior="fixed", h_fixed_W_m2K=10.0, radiation=False))
+        ours = solve_steady(lin, tol=1e-12)
+        t0 = time.perf_counter()
+        T_ccx = run_ccx(lin, timeout=3600)
+        out.update({"ccx_s": time.perf_counter() - t0, "linear_steady_s": ours.solve_s + ours.assembly_s,
+                    "ccx_max_abs_diff_K": float(np.max(np.abs(T_ccx - ours.T_C)))})
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scheme", help=argparse.SUPPRESS)  # worker mode
+    ap.add_argument("--schemes", default="air,grease,potted")
+    ap.add_argument("--mesh-size", type=float, default=2.0)
+    ap.add_argument("--min-cells", type=int, default=2)
+    ap.add_argument("--no-transient", action="store_true")
+    ap.add_argument("--no-ccx", action="store_true")
+    ap.add_argument("--convergence", action="store_true",
+                    help="also solve each scheme with half the cell size and twice the cells across thin parts")
+    args = ap.parse_args(argv)
+    if args.scheme:  # worker
+        print(json.dumps(one_scheme(args.scheme, args.mesh_size, args.min_cells, not args.no_transient,
+                                    not args.no_ccx)))
+        return 0
+    rows = []
+    for s in args.schemes.split(","):
+        cmd = [sys.executable, __file__, "--scheme", s, "--mesh-size", str(args.mesh_size),
+               "--min-cells", str(args.min_cells)] + (["--no-transient"] if args.no_transient else []) \
+              + (["--no-ccx"] if args.no_ccx else [])
+        rows.append(json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout))
+        r = rows[-1]
+        print(f"{s:<7} {r['unknowns']:>7} unknowns  assembly {r['assembly_s']:5.2f} s  steady {r['steady_s']:5.2f} s"
+              + (f"  transient 1200 s {r['transient_1200s_s']:6.1f} s" if "transient_1200s_s" in r else "")
+              + f"  peak {r['peak_rss_MB']:6.0f} MB  max rise {r['max_rise_K']:.2f} K ({r['hottest_part']})"
+              + (f"  | CalculiX {r['ccx_s']:6.1f} s vs ours {r['linear_steady_s']:.2f} s "
+                 f"({r['ccx_s'] / r['linear_steady_s']:.0f}x), max |dT| {r['ccx_max_abs_diff_K']:.1e} K"
+                 if "ccx_s" in r else ""), flush=True)
+        if args.convergence:
+            cmd = [sys.executable, __file__, "--scheme", s, "--mesh-size", str(args.mesh_size / 2),
+                   "--min-cells", str(2 * args.min_cells), "--no-transient", "--no-ccx"]
+            f = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+            r["fine"] = f
+            print(f"        fine mesh {f['unknowns']} unknowns: max rise {f['max_rise_K']:.3f} K vs "
+                  f"{r['max_rise_K']:.3f} K ({100 * (r['max_rise_K'] / f['max_rise_K'] - 1):+.2f} %), "
+                  f"steady {f['steady_s']:.1f} s, peak {f['peak_rss_MB']:.0f} MB", flush=True)
+    print(json.dumps(rows, indent=1), file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

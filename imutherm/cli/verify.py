@@ -1,0 +1,59 @@
+"""``imutherm verify``: run the thermal verification suite (analytic solutions, NAFEMS T3/T4).
+
+Prints one line per case (computed, reference, error, tolerance, PASS/FAIL)
+and, with ``--out DIR``, writes ``DIR/verify.json``: a list of records with
+the keys case, quantity, computed, exact, error, tolerance, pass, note,
+seconds. Exit status 0 only if every case passes, 1 otherwise (2 for bad input).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from imutherm import InputError
+from imutherm.cli._common import atomic_outdir, run_guarded, write_json
+
+
+def _clean(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+@run_guarded("imutherm verify")
+def main(argv=None) -> int:
+    from imutherm.thermal.verification import CASES, run_all
+
+    parser = argparse.ArgumentParser(prog="imutherm verify", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default=None, help="output directory for verify.json")
+    parser.add_argument("--case", action="append", default=None, metavar="NAME",
+                        help=f"run only this case (repeatable); one of: {', '.join(CASES)}")
+    parser.add_argument("--list", action="store_true", help="list the cases and exit")
+    args = parser.parse_args(argv)
+    if args.list:
+        for name, func in CASES.items():
+            print(f"{name:<20} {(func.__doc__ or '').strip().splitlines()[0]}")
+        return 0
+    if args.case:
+        unknown = [c for c in args.case if c not in CASES]
+        if unknown:
+            raise InputError(f"--case: unknown case(s) {', '.join(unknown)}; valid: {', '.join(CASES)}")
+    records = run_all(args.case)
+    header = f"{'case':<20} {'computed':>13} {'reference':>13} {'error':>10} {'tolerance':>10}  result"
+    print(header)
+    print("-" * len(header))
+    for r in records:
+        print(f"{r.case:<20} {r.computed:>13.6g} {r.exact:>13.6g} {r.error:>10.2e} {r.tolerance:>10.1e}  "
+              f"{'PASS' if r.passed else 'FAIL'}")
+    failed = [r for r in records if not r.passed]
+    for r in failed:
+        print(f"  {r.case}: {r.note}")
+    print(f"{len(records) - len(failed)}/{len(records)} cases passed")
+    if args.out is not None:
+        data = [{k: _clean(v) for k, v in r.as_dict().items()} for r in records]
+        with atomic_outdir(args.out) as tmp:
+            write_json(tmp / "verify.json", data)
+        print(f"wrote {args.out}/verify.json")
+    return 0 if not failed else 1

@@ -1,0 +1,408 @@
+"""Fast trilinear (Q1 hexahedron) assembly on a tensor grid.
+
+Every cell is a box, so its element matrices are exact closed forms
+(no quadrature, no Jacobians)::
+
+    K_e = kx hy hz / hx * KX_REF + ky hx hz / hy * KY_REF + kz hx hy / hz * KZ_REF
+    M_e = rho_c hx hy hz * M_REF
+
+with ``KX_REF = k1 ⊗ m1 ⊗ m1`` etc. built from the 1-D unit-length stiffness
+``k1 = [[1, -1], [-1, 1]]`` and mass ``m1 = [[1/3, 1/6], [1/6, 1/3]]``; the
+local node ``l = 4a + 2b + c`` sits at corner (a, b, c) of the cell. Boundary
+faces use the 4x4 face mass ``h hu hv m1 ⊗ m1``; volumetric power gives
+``q V / 8`` per cell node.
+
+Instead of a COO list with 64 entries per cell (and a sort), the matrices are
+accumulated into a 27-point nodal stencil array (shape ``(27, Nx, Ny, Nz)``)
+by 64 strided numpy additions, and the CSR arrays are then written directly:
+on a C-ordered structured grid the 27 neighbour offsets in lexicographic order
+are the column indices in increasing order, so no sort is needed. All
+matrices share one sparsity pattern (:class:`Pattern`), so linear
+combinations such as ``M/dt + theta*K`` are plain operations on ``.data``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from imutherm import InputError
+from imutherm.geometry.grid import FACE_NAMES, TensorGrid
+from imutherm.thermal.problem import (LINEAR_LAWS, NONLINEAR_LAWS, FixedTemperature, HeatFlux,
+                                      ThermalProblem)
+
+_K1 = np.array([[1.0, -1.0], [-1.0, 1.0]])
+_M1 = np.array([[1.0 / 3.0, 1.0 / 6.0], [1.0 / 6.0, 1.0 / 3.0]])
+#: 8x8 reference matrices on the unit cube, local node l = 4a + 2b + c.
+KX_REF = np.kron(_K1, np.kron(_M1, _M1))
+KY_REF = np.kron(_M1, np.kron(_K1, _M1))
+KZ_REF = np.kron(_M1, np.kron(_M1, _K1))
+M_REF = np.kron(_M1, np.kron(_M1, _M1))
+#: 4x4 reference face mass on the unit square, local node 2a + b.
+FACE_M_REF = np.kron(_M1, _M1)
+
+_LOCAL3 = [(a, b, c) for a in (0, 1) for b in (0, 1) for c in (0, 1)]
+_LOCAL2 = [(a, b) for a in (0, 1) for b in (0, 1)]
+_CENTRE = 13
+
+
+def _offset_index(da: int, db: int, dc: int) -> int:
+    return (da + 1) * 9 + (db + 1) * 3 + (dc + 1)
+
+
+class Pattern:
+    """The 27-point sparsity pattern of a structured node grid (CSR, sorted columns)."""
+
+    def __init__(self, node_shape: tuple):
+        Nx, Ny, Nz = node_shape
+        self.node_shape = (Nx, Ny, Nz)
+        n = Nx * Ny * Nz
+        self.n = n
+        i = np.arange(Nx)[:, None, None]
+        j = np.arange(Ny)[None, :, None]
+        k = np.arange(Nz)[None, None, :]
+        valid = np.empty((n, 27), dtype=bool)
+        flat = np.empty(27, dtype=np.int64)
+        for da in (-1, 0, 1):
+            for db in (-1, 0, 1):
+                for dc in (-1, 0, 1):
+                    o = _offset_index(da, db, dc)
+                    ok = ((i + da >= 0) & (i + da < Nx)) & ((j + db >= 0) & (j + db < Ny)) \
+                        & ((k + dc >= 0) & (k + dc < Nz))
+                    valid[:, o] = np.broadcast_to(ok, (Nx, Ny, Nz)).reshape(-1)
+                    flat[o] = (da * Ny + db) * Nz + dc
+        counts = valid.sum(axis=1)
+        self.valid = valid
+        self.indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(counts, out=self.indptr[1:])
+        itype = np.int32 if n * 27 < 2 ** 31 - 1 else np.int64
+        rows = np.arange(n, dtype=np.int64)
+        cols = rows[:, None] + flat[None, :]
+        self.indices = cols[valid].astype(itype)
+        self.indptr = self.indptr.astype(itype)
+        self.rows = np.repeat(np.arange(n, dtype=itype), counts)
+        self.diag_pos = (self.indptr[:-1] + np.cumsum(valid, axis=1)[:, _CENTRE] - 1).astype(np.int64)
+        self.nnz = int(self.indptr[-1])
+
+    def data(self, stencil: np.ndarray) -> np.ndarray:
+        """CSR data array from a stencil array of shape (27, Nx, Ny, Nz)."""
+        return stencil.reshape(27, self.n).T[self.valid]
+
+    def csr(self, data: np.ndarray) -> sp.csr_matrix:
+        """A CSR matrix with this pattern and the given data (no copy of the pattern)."""
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+
+def _volume_stencil(grid: TensorGrid, coefs: list, refs: list) -> np.ndarray:
+    """Accumulate sum_r coefs[r] (cell arrays) * refs[r] (8x8) into a nodal stencil."""
+    nx, ny, nz = grid.shape
+    S = np.zeros((27, nx + 1, ny + 1, nz + 1))
+    for l1, (a1, b1, c1) in enumerate(_LOCAL3):
+        dst = (slice(a1, a1 + nx), slice(b1, b1 + ny), slice(c1, c1 + nz))
+        for l2, (a2, b2, c2) in enumerate(_LOCAL3):
+            o = _offset_index(a2 - a1, b2 - b1, c2 - c1)
+            terms = [(c, r[l1, l2]) for c, r in zip(coefs, refs) if r[l1, l2] != 0.0]
+            if not terms:
+                continue
+            val = terms[0][0] * terms[0][1]
+            for c, r in terms[1:]:
+                val += c * r
+            S[o][dst] += val
+    return S
+
+
+def _cell_sizes3(grid):
+    hx, hy, hz = grid.cell_sizes()
+    return hx[:, None, None], hy[None, :, None], hz[None, None, :]
+
+
+def stiffness_stencil(problem: ThermalProblem) -> np.ndarray:
+    """Conduction stiffness as a stencil array (27, Nx, Ny, Nz) [W/K]."""
+    g = problem.grid
+    hx, hy, hz = _cell_sizes3(g)
+    k = problem.k.reshape(g.shape + (3,))
+    cx = k[..., 0] * (hy * hz / hx)
+    cy = k[..., 1] * (hx * hz / hy)
+    cz = k[..., 2] * (hx * hy / hz)
+    return _volume_stencil(g, [cx, cy, cz], [KX_REF, KY_REF, KZ_REF])
+
+
+def mass_stencil(problem: ThermalProblem, lumped: bool = False) -> np.ndarray:
+    """Heat-capacity (mass) matrix as a stencil array [J/K]; ``lumped`` = row sums on the diagonal."""
+    g = problem.grid
+    cm = problem.rho_c.reshape(g.shape) * g.cell_volumes()
+    if lumped:
+        nx, ny, nz = g.shape
+        S = np.zeros((27, nx + 1, ny + 1, nz + 1))
+        for a, b, c in _LOCAL3:
+            S[_CENTRE, a:a + nx, b:b + ny, c:c + nz] += cm / 8.0
+        return S
+    return _volume_stencil(g, [cm], [M_REF])
+
+
+def node_ids(grid: TensorGrid) -> np.ndarray:
+    """Node index array of shape (Nx, Ny, Nz) (C order)."""
+    return np.arange(grid.n_nodes).reshape(tuple(s + 1 for s in grid.shape))
+
+
+def volume_load(problem: ThermalProblem) -> np.ndarray:
+    """Nodal load of the volumetric power, q V / 8 per cell node [W], shape (n_nodes,)."""
+    g = problem.grid
+    nx, ny, nz = g.shape
+    qv = problem.q.reshape(g.shape) * g.cell_volumes() / 8.0
+    F = np.zeros((nx + 1, ny + 1, nz + 1))
+    for a, b, c in _LOCAL3:
+        F[a:a + nx, b:b + ny, c:c + nz] += qv
+    return F.reshape(-1)
+
+
+@dataclass
+class Face:
+    """Geometry of one outer face: plane nodes, face cells and their areas."""
+
+    name: str
+    axis: int                      # normal axis 0/1/2
+    side: int                      # 0 = min, 1 = max
+    other: tuple                   # the two tangential axes (u, v)
+    plane_index: tuple             # index tuple selecting the face plane in node arrays
+    nodes: np.ndarray              # (Nu, Nv) node ids
+    area: np.ndarray               # (nu, nv) face-cell areas [m^2]
+    centres: tuple                 # (uc (nu,), vc (nv,)) face-cell centre coordinates [m]
+
+    def mask(self, region) -> np.ndarray:
+        """Face cells (nu, nv) selected by a law's region (all when None)."""
+        if region is None:
+            return np.ones(self.area.shape, dtype=bool)
+        (u0, u1), (v0, v1) = region
+        uc, vc = self.centres
+        m = ((uc >= u0) & (uc <= u1))[:, None] & ((vc >= v0) & (vc <= v1))[None, :]
+        if not m.any():
+            raise InputError(f"boundary face {self.name!r}: region {region} selects no face cell "
+                             f"(put grid lines on the region's edges)")
+        return m
+
+    def corner_nodes(self, mask) -> np.ndarray:
+        """Corner node ids (m, 4) of the selected face cells, local order 2a + b."""
+        nu, nv = self.area.shape
+        cols = [self.nodes[a:a + nu, b:b + nv][mask] for a, b in _LOCAL2]
+        return np.column_stack(cols)
+
+    def nodal_weights(self, coef) -> np.ndarray:
+        """Lumped nodal integral of a face-cell field: sum over adjacent cells of coef*area/4, (Nu, Nv)."""
+        nu, nv = self.area.shape
+        w = np.zeros((nu + 1, nv + 1))
+        ca = coef * self.area / 4.0
+        for a, b in _LOCAL2:
+            w[a:a + nu, b:b + nv] += ca
+        return w
+
+
+def faces(grid: TensorGrid) -> dict:
+    """The six outer faces of the grid as :class:`Face` objects, keyed by name."""
+    axes = (grid.xs, grid.ys, grid.zs)
+    nid = node_ids(grid)
+    out = {}
+    for f, name in enumerate(FACE_NAMES):
+        d, side = divmod(f, 2)
+        u, v = [a for a in range(3) if a != d]
+        p = 0 if side == 0 else nid.shape[d] - 1
+        idx = [slice(None)] * 3
+        idx[d] = p
+        hu, hv = np.diff(axes[u]), np.diff(axes[v])
+        out[name] = Face(name=name, axis=d, side=side, other=(u, v), plane_index=tuple(idx),
+                         nodes=nid[tuple(idx)], area=hu[:, None] * hv[None, :],
+                         centres=(0.5 * (axes[u][1:] + axes[u][:-1]), 0.5 * (axes[v][1:] + axes[v][:-1])))
+    return out
+
+
+def _face_stencil_add(S: np.ndarray, face: Face, coef: np.ndarray) -> None:
+    """Add the consistent face mass of a face-cell coefficient (nu, nv) [W/m^2 K] into S."""
+    nu, nv = face.area.shape
+    c = coef * face.area
+    d = face.axis
+    u, v = face.other
+    for l1, (a1, b1) in enumerate(_LOCAL2):
+        for l2, (a2, b2) in enumerate(_LOCAL2):
+            off = [0, 0, 0]
+            off[u], off[v] = a2 - a1, b2 - b1
+            o = _offset_index(*off)
+            idx = list(face.plane_index)
+            idx[u] = slice(a1, a1 + nu)
+            idx[v] = slice(b1, b1 + nv)
+            S[o][tuple(idx)] += FACE_M_REF[l1, l2] * c
+
+
+@dataclass
+class LinearBC:
+    face: str
+    law: object
+    T_ref: float                   # [°C]
+    corners: np.ndarray            # (m, 4) node ids
+    hA: np.ndarray                 # (m,) h * area [W/K]
+
+
+@dataclass
+class NodalBC:
+    face: str
+    law: object
+    T_ref: float | None            # [°C] (None for HeatFlux)
+    nodes: np.ndarray              # (m,) node ids
+    weights: np.ndarray            # (m,) lumped nodal areas [m^2]
+
+
+@dataclass
+class DirichletBC:
+    face: str
+    law: FixedTemperature
+    nodes: np.ndarray
+
+
+@dataclass
+class Assembly:
+    """Matrices and loads of a :class:`ThermalProblem`, assembled once and reused.
+
+    All matrices share ``pattern``; ``*_data`` are CSR data arrays.
+
+    Attributes
+    ----------
+    K_data : conduction stiffness [W/K]
+    H_data : linear boundary laws (Convection, Contact), consistent face mass [W/K]
+    M_data : heat capacity [J/K] (consistent or lumped)
+    F_q : nodal load of the volumetric power [W]
+    F_bc : nodal load of the linear laws (h T_ref) and of HeatFlux [W]
+    """
+
+    problem: ThermalProblem
+    pattern: Pattern
+    K_data: np.ndarray
+    H_data: np.ndarray
+    M_data: np.ndarray
+    F_q: np.ndarray
+    F_bc: np.ndarray
+    linear: list = field(default_factory=list)
+    nonlinear: list = field(default_factory=list)
+    fluxes: list = field(default_factory=list)
+    dirichlet: list = field(default_factory=list)
+    lumped_mass: bool = False
+
+    @property
+    def n(self) -> int:
+        return self.pattern.n
+
+    @property
+    def K(self) -> sp.csr_matrix:
+        """Conduction stiffness matrix [W/K]."""
+        return self.pattern.csr(self.K_data)
+
+    @property
+    def H(self) -> sp.csr_matrix:
+        """Linear boundary-law matrix [W/K]."""
+        return self.pattern.csr(self.H_data)
+
+    @property
+    def M(self) -> sp.csr_matrix:
+        """Heat-capacity matrix [J/K]."""
+        return self.pattern.csr(self.M_data)
+
+    def dirichlet_nodes(self) -> np.ndarray:
+        """Sorted unique node ids with a prescribed temperature."""
+        if not self.dirichlet:
+            return np.zeros(0, dtype=np.int64)
+        return np.unique(np.concatenate([d.nodes for d in self.dirichlet]))
+
+    def dirichlet_values(self, t: float | None) -> tuple:
+        """(nodes, values [°C]) at time ``t`` [s] (``None`` for steady); later laws win on shared nodes."""
+        if not self.dirichlet:
+            return np.zeros(0, dtype=np.int64), np.zeros(0)
+        nodes = np.concatenate([d.nodes for d in self.dirichlet])[::-1]
+        vals = np.concatenate([np.full(len(d.nodes), d.law.value(t)) for d in self.dirichlet])[::-1]
+        uniq, first = np.unique(nodes, return_index=True)
+        return uniq, vals[first]
+
+    def nonlinear_flux(self, T: np.ndarray):
+        """Lumped nodal heat leaving through the nonlinear laws [W] and its diagonal Jacobian [W/K]."""
+        N = np.zeros(self.n)
+        D = np.zeros(self.n)
+        for bc in self.nonlinear:
+            qv, dq = bc.law.flux_out(T[bc.nodes], bc.T_ref)
+            np.add.at(N, bc.nodes, bc.weights * qv)
+            np.add.at(D, bc.nodes, bc.weights * dq)
+        return N, D
+
+    def face_heat_out(self, T: np.ndarray) -> dict:
+        """Heat leaving per face through Convection, Contact, the nonlinear laws, minus HeatFlux [W]."""
+        out = {}
+        for bc in self.linear:
+            out[bc.face] = out.get(bc.face, 0.0) + float(np.dot(bc.hA, T[bc.corners].mean(axis=1) - bc.T_ref))
+        for bc in self.nonlinear:
+            qv, _ = bc.law.flux_out(T[bc.nodes], bc.T_ref)
+            out[bc.face] = out.get(bc.face, 0.0) + float(np.dot(bc.weights, qv))
+        for bc in self.fluxes:
+            out[bc.face] = out.get(bc.face, 0.0) - float(bc.law.q * bc.weights.sum())
+        return out
+
+    @property
+    def flux_in_W(self) -> float:
+        """Heat entering through HeatFlux laws [W]."""
+        return float(sum(bc.law.q * bc.weights.sum() for bc in self.fluxes))
+
+
+def assemble(problem: ThermalProblem, *, lumped_mass: bool = False) -> Assembly:
+    """Assemble stiffness, heat capacity, boundary matrices and loads of ``problem``.
+
+    Parameters
+    ----------
+    problem : ThermalProblem
+    lumped_mass : bool
+        Row-sum lumped heat capacity instead of the consistent one.
+
+    Returns
+    -------
+    Assembly
+        Reusable across steady and transient solves of the same problem.
+    """
+    g = problem.grid
+    pattern = Pattern(tuple(s + 1 for s in g.shape))
+    K_data = pattern.data(stiffness_stencil(problem))
+    M_data = pattern.data(mass_stencil(problem, lumped=lumped_mass))
+    F_q = volume_load(problem)
+    Hs = None
+    F_bc = np.zeros(g.n_nodes)
+    linear, nonlinear, fluxes, dirichlet = [], [], [], []
+    fcs = faces(g)
+    for name in FACE_NAMES:
+        for law in problem.boundary.get(name, ()):
+            face = fcs[name]
+            mask = face.mask(law.region)
+            if isinstance(law, FixedTemperature):
+                nodes = np.unique(face.corner_nodes(mask))
+                dirichlet.append(DirichletBC(name, law, nodes))
+            elif isinstance(law, LINEAR_LAWS):
+                h = law.coefficient
+                coef = np.where(mask, h, 0.0)
+                if Hs is None:
+                    Hs = np.zeros((27,) + pattern.node_shape)
+                _face_stencil_add(Hs, face, coef)
+                T_ref = problem.law_T_C(law)
+                w = face.nodal_weights(coef)
+                F_bc[face.nodes.reshape(-1)] += (w * T_ref).reshape(-1)
+                linear.append(LinearBC(name, law, T_ref, face.corner_nodes(mask), h * face.area[mask]))
+            elif isinstance(law, (HeatFlux,) + NONLINEAR_LAWS):
+                w = face.nodal_weights(mask.astype(float)).reshape(-1)
+                nodes = face.nodes.reshape(-1)
+                keep = w > 0
+                bc = NodalBC(name, law, None if isinstance(law, HeatFlux) else problem.law_T_C(law),
+                             nodes[keep], w[keep])
+                if isinstance(law, HeatFlux):
+                    F_bc[bc.nodes] += law.q * bc.weights
+                    fluxes.append(bc)
+                else:
+                    nonlinear.append(bc)
+            else:  # pragma: no cover - ThermalProblem validates the laws
+                raise InputError(f"face {name!r}: unsupported law {law!r}")
+    H_data = pattern.data(Hs) if Hs is not None else np.zeros(pattern.nnz)
+    return Assembly(problem=problem, pattern=pattern, K_data=K_data, H_data=H_data, M_data=M_data,
+                    F_q=F_q, F_bc=F_bc, linear=linear, nonlinear=nonlinear, fluxes=fluxes,
+                    dirichlet=dirichlet, lumped_mass=lumped_mass)

@@ -1,0 +1,240 @@
+"""Steady and transient solver behaviour: energy balance, convergence errors, bad input, metrics, output."""
+
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from imutherm import InputError
+from imutherm.thermal import (Contact, Convection, ConvergenceError, FixedTemperature, HeatFlux, NaturalConvection,
+                              Radiation, ThermalProblem, assemble, settle_time, solve_steady, solve_transient,
+                              thermal_metrics, time_steps, write_pvd, write_result, write_vtu)
+from imutherm.thermal.verification import box_grid
+
+#: the acceptance limit of the brief; the tests show how far below it the balances close
+EBAL_LIMIT = 1e-3
+
+
+def _box(parts=True):
+    """A small heterogeneous unit: aluminium plate (part 0), an orthotropic board (1) and a chip (2)."""
+    xs = np.linspace(0, 0.03, 7)
+    ys = np.linspace(0, 0.02, 5)
+    zs = np.array([0, 0.002, 0.0035, 0.005, 0.007])
+    cp = np.zeros((6, 4, 4), dtype=int)
+    cp[:, :, 1:3] = 1
+    cp[2:4, 1:3, 3] = 2
+    g = box_grid(xs, ys, zs, parts=cp, names=("plate", "board", "chip"))
+    k = np.array([[167, 167, 167], [30, 30, 0.4], [20, 20, 20]], float)[cp.ravel()]
+    rc = np.array([2.4e6, 2e6, 1.7e6])[cp.ravel()]
+    vol = g.cell_volumes().ravel()
+    q = np.where(cp.ravel() == 2, 0.5 / vol[cp.ravel() == 2].sum(), 0.0)
+    return g, k, rc, q
+
+
+def _nonlinear_problem(**kw):
+    g, k, rc, q = _box()
+    bnd = {"zmax": (NaturalConvection("up", 0.02), Radiation(0.85)),
+           "xmin": (NaturalConvection("vertical", 0.007), Radiation(0.85)),
+           "zmin": Contact(500.0, 30.0, region=((0.01, 0.02), (0.005, 0.015))),   # a mounting foot
+           "ymax": HeatFlux(50.0)}
+    bnd.update(kw)
+    return ThermalProblem(g, k, rc, q, 25.0, bnd)
+
+
+# --------------------------------------------------------------------------- steady
+
+def test_steady_energy_balance_linear_with_fixed_temperature():
+    g, k, rc, q = _box()
+    pr = ThermalProblem(g, k, rc, q, 25.0, {"zmin": FixedTemperature(30.0, region=((0.0, 0.01), (0.0, 0.02))),
+                                            "zmax": Convection(12.0), "ymax": HeatFlux(100.0)})
+    r = solve_steady(pr)
+    assert r.power_in_W == pytest.approx(0.5 + 100.0 * 0.03 * 0.007)
+    assert sum(r.heat_out_W.values()) + 100.0 * 0.03 * 0.007 == pytest.approx(r.power_in_W, rel=1e-9)
+    assert r.energy_balance_rel_error < 1e-10          # >= 7 orders below the 1e-3 limit
+    assert r.iterations == 1 and r.residual < 1e-10
+
+
+def test_steady_nonlinear_converges_with_small_balance_error():
+    r = solve_steady(_nonlinear_problem(), probes={"chip": (0.015, 0.01, 0.006)})
+    assert 2 <= r.iterations <= 10
+    assert r.energy_balance_rel_error < 1e-9           # >= 6 orders below 1e-3
+    assert r.residual < 1e-9
+    assert r.probe_names == ("chip",) and r.probe_C[0] > r.ambient_C
+
+
+def test_amg_and_direct_agree():
+    pr = _nonlinear_problem()
+    a = solve_steady(pr, solver="direct")
+    b = solve_steady(pr, solver="amg")
+    assert b.solver == "amg" and a.solver == "direct"
+    assert np.abs(a.T_C - b.T_C).max() < 1e-6
+    assert b.energy_balance_rel_error < 1e-8
+
+
+def test_nonconvergence_raises():
+    with pytest.raises(ConvergenceError, match="did not converge in 1 iterations"):
+        solve_steady(_nonlinear_problem(), max_iter=1)
+    assert issubclass(ConvergenceError, InputError)
+
+
+def test_steady_without_heat_exit_is_rejected():
+    g, k, rc, q = _box()
+    with pytest.raises(InputError, match="no boundary law removes heat"):
+        solve_steady(ThermalProblem(g, k, rc, q, 25.0, {"ymax": HeatFlux(10.0)}))
+
+
+def test_time_dependent_fixed_temperature_needs_transient():
+    g, k, rc, q = _box()
+    pr = ThermalProblem(g, k, rc, q, 25.0, {"zmin": FixedTemperature(lambda t: 30.0 + t)})
+    with pytest.raises(InputError, match="needs solve_transient"):
+        solve_steady(pr)
+
+
+def test_region_selecting_nothing_is_rejected():
+    g, k, rc, q = _box()
+    pr = ThermalProblem(g, k, rc, q, 25.0, {"zmin": Contact(500.0, region=((0.5, 0.6), (0.5, 0.6)))})
+    with pytest.raises(InputError, match="selects no face cell"):
+        solve_steady(pr)
+
+
+def test_mounting_foot_region_carries_the_heat():
+    """A contact law limited to a foot removes heat only through the foot's face cells."""
+    g, k, rc, q = _box()
+    foot = ((0.01, 0.02), (0.005, 0.015))
+    pr = ThermalProblem(g, k, rc, q, 25.0, {"zmin": Contact(1000.0, 30.0, region=foot)})
+    asm = assemble(pr)
+    assert asm.H.sum() == pytest.approx(1000.0 * 0.01 * 0.01)
+    r = solve_steady(pr, assembly=asm)
+    assert r.heat_out_W["zmin"] == pytest.approx(0.5, rel=1e-9)
+
+
+# --------------------------------------------------------------------------- transient
+
+@pytest.mark.parametrize("theta", [1.0, 0.5])
+def test_transient_energy_balance_nonlinear_lagged(theta):
+    pr = _nonlinear_problem()
+    r = solve_transient(pr, 600.0, 20.0, theta=theta, probes={"chip": (0.015, 0.01, 0.006)})
+    assert r.lagged_nonlinear and r.steps == 30 and r.times[-1] == 600.0
+    assert r.energy_in_J == pytest.approx(600.0 * (0.5 + 50.0 * 0.03 * 0.007))
+    # the θ-consistent bookkeeping closes to solver precision: >= 6 orders below the limit
+    assert r.energy_balance_rel_error < 1e-3 * EBAL_LIMIT
+    assert r.energy_balance_rel_error < 1e-9
+
+
+def test_transient_energy_balance_amg_and_time_dependent_fixed_temperature():
+    g, k, rc, q = _box()
+    pr = ThermalProblem(g, k, rc, q, 25.0, {"zmin": FixedTemperature(lambda t: 25.0 + 5 * math.sin(t / 50)),
+                                            "zmax": Convection(10.0), "xmax": Radiation(0.9)})
+    r = solve_transient(pr, 300.0, 10.0, theta=0.5, solver="amg")
+    assert r.solver == "amg"
+    assert r.energy_balance_rel_error < 1e-7            # CG rtol 1e-8 per step: >= 4 orders below 1e-3
+    d = solve_transient(pr, 300.0, 10.0, theta=0.5, solver="direct")
+    assert np.abs(d.T_C - r.T_C).max() < 1e-5
+    assert d.energy_balance_rel_error < 1e-10
+
+
+def test_transient_approaches_steady_state():
+    pr = _nonlinear_problem()
+    s = solve_steady(pr)
+    t = solve_transient(pr, 2e5, time_steps(2e5, 1.0, 5000.0, 1.5))
+    assert np.abs(t.T_C - s.T_C).max() < 1e-4
+
+
+def test_saved_fields_and_probes_and_initial_field():
+    pr = _nonlinear_problem()
+    r = solve_transient(pr, 100.0, 10.0, save_times=[0.0, 15.0, 100.0], probes={"p": (0.0, 0.0, 0.0)},
+                        lumped_mass=True)
+    assert r.saved_C.shape == (3, pr.grid.n_nodes)
+    assert np.all(r.saved_C[0] == 25.0)                # uniform ambient start (power-on)
+    # 15 s lies halfway between the steps at 10 and 20 s
+    r2 = solve_transient(pr, 20.0, 10.0, save_times=[10.0, 20.0], lumped_mass=True)
+    assert np.allclose(r.saved_C[1], 0.5 * (r2.saved_C[0] + r2.saved_C[1]))
+    assert np.allclose(r.saved_C[2], r.T_C) and r.probe_C.shape == (11, 1)
+    assert r.probe_C[-1, 0] == pytest.approx(r.T_C[0])   # probe at node 0
+    warm = solve_transient(pr, 10.0, 10.0, initial_C=40.0)
+    assert warm.T0_C[0] == 40.0
+
+
+def test_power_scale_switches_power_off():
+    g, k, rc, q = _box()
+    pr = ThermalProblem(g, k, rc, q, 25.0, {"zmax": (Convection(10.0), Radiation(0.8))})
+    on = solve_transient(pr, 100.0, 10.0)
+    off = solve_transient(pr, 100.0, 10.0, power_scale=lambda t: 0.0)
+    assert on.T_C.max() > 25.1 and abs(off.T_C.max() - 25.0) < 1e-9
+    assert off.energy_in_J == 0.0
+
+
+@pytest.mark.parametrize("args, kwargs, match", [
+    ((100.0, 0.0), {}, r"dt must be > 0"),
+    ((100.0, -1.0), {}, r"dt must be > 0"),
+    ((0.0, 1.0), {}, r"t_end must be > 0"),
+    ((-5.0, 1.0), {}, r"t_end must be > 0"),
+    ((10.0, 20.0), {}, r"longer than t_end"),
+    ((10.0, [4.0, 4.0]), {}, r"sum to 8.0 s, not t_end"),
+    ((10.0, 1.0), {"theta": 0.3}, r"theta must be in \[0.5, 1\]"),
+    ((10.0, 1.0), {"save_times": [11.0]}, r"save_times must lie in"),
+    ((10.0, 1.0), {"probes": {"out": (1.0, 0.0, 0.0)}}, r"outside the grid"),
+    ((10.0, 1.0), {"solver": "magic"}, r"solver must be"),
+    ((10.0, 1.0), {"initial_C": np.zeros(3)}, r"initial_C must be"),
+    ((10.0, 1.0), {"rtol": 0.5}, r"rtol must be in"),
+])
+def test_bad_transient_input_raises_input_error(args, kwargs, match):
+    with pytest.raises(InputError, match=match):
+        solve_transient(_nonlinear_problem(), *args, **kwargs)
+
+
+def test_time_steps():
+    s = time_steps(100.0, 1.0, 10.0, 1.5)
+    assert s.sum() == pytest.approx(100.0) and s[0] == 1.0 and s.max() <= 10.0
+    with pytest.raises(InputError):
+        time_steps(100.0, 0.0, 10.0)
+
+
+# --------------------------------------------------------------------------- metrics and output
+
+def test_settle_time_interpolates():
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    v = np.array([10.0, 12.0, 14.0, 15.0])        # final rise 5 -> 63.2 % = 3.16 reached between 1 and 2
+    assert settle_time(t, v, 1 - math.exp(-1)) == pytest.approx(1 + (5 * (1 - math.exp(-1)) - 2) / 2)
+    assert settle_time(t, v, 0.95) == pytest.approx(2 + (4.75 - 4) / 1)
+    assert math.isnan(settle_time(t, np.full(4, 3.0), 0.5))
+
+
+def test_metrics_steady_and_transient():
+    pr = _nonlinear_problem()
+    s = solve_steady(pr, probes={"chip": (0.015, 0.01, 0.006)})
+    m = thermal_metrics(s)
+    assert m.max_part == "chip"
+    assert m.max_rise_K == pytest.approx(s.T_C.max() - 25.0)
+    assert set(m.part_max_C) == {"plate", "board", "chip"}
+    assert m.part_max_C["chip"] == pytest.approx(s.T_C.max())
+    assert m.part_max_rise_K["plate"] < m.part_max_rise_K["chip"]
+    assert m.t63_s is None and m.probe_rise_K["chip"] == pytest.approx(s.probe_C[0] - 25.0)
+    t = solve_transient(pr, 3000.0, 30.0, probes={"chip": (0.015, 0.01, 0.006)})
+    mt = thermal_metrics(t)
+    assert 0 < mt.t63_s["chip"] < mt.t95_s["chip"] < 3000.0
+    rise = s.probe_C[0] - 25.0
+    mt2 = thermal_metrics(t, final_rise_K={"chip": rise})
+    assert mt2.t63_s["chip"] >= mt.t63_s["chip"]
+    with pytest.raises(InputError, match="unknown probes"):
+        thermal_metrics(t, final_rise_K={"cpu": 1.0})
+
+
+def test_write_vtu_and_pvd(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    pr = _nonlinear_problem()
+    s = solve_steady(pr)
+    path = write_vtu(tmp_path / "steady.vtu", pr.grid, s.T_C)
+    mesh = meshio.read(path)
+    assert np.allclose(mesh.point_data["temperature_C"], s.T_C)
+    assert np.array_equal(mesh.cell_data["part"][0], np.asarray(pr.grid.cell_part).ravel())
+    t = solve_transient(pr, 20.0, 10.0, save_times=[10.0, 20.0])
+    pvd = write_result(tmp_path / "series", t)
+    root = ET.parse(pvd).getroot()
+    files = [d.get("file") for d in root.iter("DataSet")]
+    assert [float(d.get("timestep")) for d in root.iter("DataSet")] == [10.0, 20.0]
+    assert all((tmp_path / f).exists() for f in files)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]     # no temporary leftovers
+    with pytest.raises(InputError, match="fields must have shape"):
+        write_pvd(tmp_path / "bad.pvd", pr.grid, [1.0], np.zeros((2, 3)))

@@ -1,0 +1,84 @@
+"""The verification suite, one test per case, and the ``imutherm verify`` command in-process."""
+
+import json
+
+import pytest
+
+from imutherm.cli import verify as verify_cli
+from imutherm.thermal import verification as V
+
+#: case -> tolerance the suite must state (a change of tolerance is a visible change of this file)
+TOLERANCES = {
+    "slab_generation": 1e-8,          # nodally exact: round-off [K]
+    "composite_wall": 1e-9,           # nodally exact: round-off [-]
+    "transient_slab": 5e-4,           # fraction of the driving difference
+    "semi_infinite": 5e-4,            # fraction of the driving difference
+    "lumped_capacitance": 1e-3,       # relative (rise and t63)
+    "nafems_t3": 0.02,                # K against the exact series (36.603 °C)
+    "nafems_t4": 0.05,                # K against the NAFEMS 18.25 °C
+    "radiation_1d": 1e-6,             # K against the brentq root (926.967 K)
+    "mms_convergence": 0.1,           # |observed L2 rate − 2|
+    "orthotropic_plate": 1e-3,        # relative, centre rise
+}
+
+
+def test_every_case_has_a_test():
+    assert set(TOLERANCES) == set(V.CASES)
+
+
+@pytest.mark.parametrize("name", list(TOLERANCES))
+def test_case(name):
+    rec = V.run_case(name)
+    assert rec.tolerance == TOLERANCES[name]
+    assert rec.note and rec.quantity
+    assert rec.passed, f"{name}: error {rec.error:.3g} > tolerance {rec.tolerance:.3g}: {rec.note}"
+
+
+def test_nafems_references():
+    """The published targets themselves, besides the exact values the cases compare with."""
+    assert V.nafems_t3_series(0.08, 32.0) == pytest.approx(36.60, abs=0.005)
+    assert V.case_radiation_1d().computed == pytest.approx(927.0, abs=0.5)
+
+
+def test_failing_case_is_recorded_not_raised(monkeypatch):
+    def boom():
+        raise RuntimeError("solver exploded")
+
+    monkeypatch.setitem(V.CASES, "slab_generation", boom)
+    rec = V.run_case("slab_generation")
+    assert not rec.passed and "solver exploded" in rec.note
+
+
+def test_cli_verify_writes_json_and_exits_zero(tmp_path, capsys):
+    out = tmp_path / "v"
+    rc = verify_cli.main(["--out", str(out), "--case", "radiation_1d", "--case", "composite_wall"])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "radiation_1d" in text and "PASS" in text and "2/2 cases passed" in text
+    records = json.loads((out / "verify.json").read_text())
+    assert [r["case"] for r in records] == ["radiation_1d", "composite_wall"]
+    assert set(records[0]) >= {"case", "computed", "exact", "error", "tolerance", "pass", "note"}
+    assert all(r["pass"] is True for r in records)
+
+
+def test_cli_verify_exits_nonzero_on_failure(tmp_path, monkeypatch, capsys):
+    def bad():
+        return V._record("slab_generation", "x", 1.0, 2.0, 1.0, 0.1, "forced failure", 0.0)
+
+    monkeypatch.setitem(V.CASES, "slab_generation", bad)
+    rc = verify_cli.main(["--out", str(tmp_path / "v"), "--case", "slab_generation"])
+    assert rc == 1
+    assert "FAIL" in capsys.readouterr().out
+    assert json.loads((tmp_path / "v" / "verify.json").read_text())[0]["pass"] is False
+
+
+def test_cli_verify_bad_case_is_input_error(capsys):
+    assert verify_cli.main(["--case", "nope"]) == 2
+    assert "unknown case" in capsys.readouterr().err
+
+
+def test_cli_dispatcher_knows_verify(capsys):
+    from imutherm.cli import main
+
+    assert main(["verify", "--list"]) == 0
+    assert "nafems_t4" in capsys.readouterr().out
