@@ -66,6 +66,7 @@ def test_steady_result_matches_energy_and_sites(tmp_path):
     (["--transient", "--dt", "0"], "dt must be a finite number > 0"),
     (["--transient", "--dt", "-5"], "dt must be a finite number > 0"),
     (["--transient", "--t-end", "0"], "t_end must be a finite number > 0"),
+    (["--transient", "--dt", "30", "--dt-max", "10"], "dt_max = 10.0 s must not be smaller than dt = 30.0 s"),
     (["--scheme", "foam"], "unknown scheme 'foam'"),
     (["--emissivity", "1.5"], "emissivity must be in [0, 1]"),
     (["--mount-conductance", "-3"], "must be a finite number >= 0"),

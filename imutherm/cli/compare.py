@@ -26,7 +26,9 @@ def main(argv=None) -> int:
     parser.add_argument("--schemes", default="air,grease,potted", help="comma-separated schemes (default all three)")
     parser.add_argument("--t-end", type=float, default=2400.0, metavar="SECONDS",
                         help="power-on transient length [s] (default 2400: the paper's air scheme settles in ~800 s)")
-    parser.add_argument("--dt", type=float, default=10.0, metavar="SECONDS", help="time step [s]")
+    parser.add_argument("--dt", type=float, default=2.0, metavar="SECONDS",
+                        help="first time step [s]; steps grow by 1.2 up to --dt-max (default 2)")
+    parser.add_argument("--dt-max", type=float, default=60.0, metavar="SECONDS", help="largest time step [s] (default 60)")
     parser.add_argument("--steady-only", action="store_true", help="skip the transients")
     parser.add_argument("--no-progress", action="store_true")
     add_model_arguments(parser)
@@ -35,10 +37,10 @@ def main(argv=None) -> int:
     if args.scheme:
         parser.error("use --schemes with compare")
     if not args.steady_only:
-        check_time_arguments(args.t_end, args.dt)
+        check_time_arguments(args.t_end, args.dt, args.dt_max)
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
     comp = compare_schemes(args.layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
-                           t_end=args.t_end, dt=args.dt, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
+                           t_end=args.t_end, dt=args.dt, dt_max=args.dt_max, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                            options=model_options(args))
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout

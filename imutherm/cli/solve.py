@@ -56,7 +56,10 @@ def main(argv=None) -> int:
     add_layout_arguments(parser)
     parser.add_argument("--transient", action="store_true", help="power-on transient from ambient")
     parser.add_argument("--t-end", type=float, default=1200.0, metavar="SECONDS", help="transient end time [s]")
-    parser.add_argument("--dt", type=float, default=10.0, metavar="SECONDS", help="transient time step [s]")
+    parser.add_argument("--dt", type=float, default=2.0, metavar="SECONDS",
+                        help="first transient step [s]; steps grow by 1.2 up to --dt-max (default 2)")
+    parser.add_argument("--dt-max", type=float, default=60.0, metavar="SECONDS",
+                        help="largest transient step [s] (default 60; equal to --dt for constant steps)")
     parser.add_argument("--theta", type=float, default=1.0, help="1 backward Euler (default), 0.5 Crank-Nicolson")
     parser.add_argument("--save-every", type=float, default=None, metavar="SECONDS",
                         help="keep the whole field every SECONDS for the PVD series (default: t_end/10)")
@@ -69,14 +72,14 @@ def main(argv=None) -> int:
 
     save_times = None
     if args.transient:
-        check_time_arguments(args.t_end, args.dt)
+        check_time_arguments(args.t_end, args.dt, args.dt_max)
         every = args.save_every or args.t_end / 10
         if not every > 0:
             raise InputError(f"--save-every must be > 0 [s], got {every}")
         save_times = np.unique(np.append(np.arange(0.0, args.t_end, every), args.t_end))
     res = run_scheme(args.layout, args.scheme, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                      options=model_options(args), transient=args.transient, t_end=args.t_end, dt=args.dt,
-                     theta=args.theta, save_times=save_times, progress=args.transient and not args.no_progress)
+                     dt_max=args.dt_max, theta=args.theta, save_times=save_times, progress=args.transient and not args.no_progress)
     summary = result_summary(res)
     header, rows = probe_table(res)
     if args.site:

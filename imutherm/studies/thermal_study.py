@@ -19,7 +19,8 @@ from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
 from imutherm.thermal.metrics import ThermalMetrics, thermal_metrics
 from imutherm.thermal.model import ModelOptions, build_problem
-from imutherm.thermal.solve import solve_steady, solve_transient
+from imutherm.thermal.assembly import assemble
+from imutherm.thermal.solve import solve_steady, solve_transient, time_steps
 
 GYRO_SITES = ("gyro_x", "gyro_y", "gyro_z")
 ACCEL_SITES = ("accel_x", "accel_y", "accel_z")
@@ -46,19 +47,32 @@ class SchemeResult:
     wall_s: float
 
 
-def check_time_arguments(t_end: float, dt: float) -> None:
-    """InputError unless 0 < dt <= t_end are finite [s]."""
-    for name, v in (("t_end", t_end), ("dt", dt)):
+#: growth factor of the transient step from ``dt`` to ``dt_max`` (first steps resolve the power-on jump)
+DT_GROWTH = 1.2
+
+
+def check_time_arguments(t_end: float, dt: float, dt_max: float | None = None) -> None:
+    """InputError unless 0 < dt <= dt_max and dt <= t_end are finite [s]."""
+    for name, v in (("t_end", t_end), ("dt", dt)) + ((("dt_max", dt_max),) if dt_max is not None else ()):
         if v is None or not math.isfinite(v) or v <= 0:
             raise InputError(f"{name} must be a finite number > 0 [s], got {v!r}")
     if dt > t_end:
         raise InputError(f"dt = {dt} s must not exceed t_end = {t_end} s")
+    if dt_max is not None and dt_max < dt:
+        raise InputError(f"dt_max = {dt_max} s must not be smaller than dt = {dt} s")
+
+
+def step_sizes(t_end: float, dt: float, dt_max: float | None) -> np.ndarray | float:
+    """Steps [s]: constant ``dt`` if ``dt_max`` is None, else growing by 1.2 from ``dt`` up to ``dt_max``."""
+    check_time_arguments(t_end, dt, dt_max)
+    return dt if dt_max is None or dt_max == dt else time_steps(t_end, dt, dt_max, DT_GROWTH)
 
 
 def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None, *,
                mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
                options: ModelOptions | None = None, transient: bool = False, t_end: float = 1200.0,
-               dt: float = 10.0, theta: float = 1.0, save_times=None, progress: bool = False) -> SchemeResult:
+               dt: float = 2.0, dt_max: float | None = 60.0, theta: float = 1.0, save_times=None,
+               progress: bool = False) -> SchemeResult:
     """Solve one cooling scheme of a layout.
 
     Parameters
@@ -67,13 +81,14 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     scheme : str (air, grease, potted; default: the layout's)
     mesh_size_mm : float [mm] largest cell edge
     transient : bool, also run the power-on transient from ambient
-    t_end, dt : float [s] transient end time and step
+    t_end : float [s] transient end time
+    dt, dt_max : float [s] first step and largest step (steps grow by 1.2; ``dt_max=None``: constant ``dt``)
     theta : float, 1 backward Euler, 0.5 Crank-Nicolson
     save_times : sequence [s], times at which the transient keeps the whole field
     """
     start = time.perf_counter()
     if transient:
-        check_time_arguments(t_end, dt)
+        steps = step_sizes(t_end, dt, dt_max)
     if not isinstance(layout, LayoutSpec):
         layout = load_layout(layout)
     options = options or ModelOptions()
@@ -81,10 +96,12 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     grid = build_mesh(geometry, mesh_size_mm, min_cells)
     problem = build_problem(geometry, grid, options)
     probes = dict(geometry.sites)
-    steady = solve_steady(problem, probes=probes)
+    asm = assemble(problem)  # shared by the steady and the transient solve
+    steady = solve_steady(problem, probes=probes, assembly=asm)
     tr = None
     if transient:
-        tr = solve_transient(problem, t_end, dt, theta=theta, save_times=save_times, probes=probes, progress=progress)
+        tr = solve_transient(problem, t_end, steps, theta=theta, save_times=save_times, probes=probes,
+                             progress=progress, assembly=asm)
         final = {n: float(v) - problem.ambient_C for n, v in zip(steady.probe_names, steady.probe_C)}
         metrics = thermal_metrics(tr, final_rise_K=final)
     else:
