@@ -32,8 +32,8 @@ def _table_page(pdf, data: dict) -> None:
     fig.text(0.05, 0.90, f"layout {any_s['layout']}, ambient {any_s['ambient_C']:.0f} C, power {any_s['power_W']:.3f} W, "
              f"mesh {any_s['mesh']['nodes']} nodes; rises in K over ambient; paper = seed 000", fontsize=10)
     paper = data["paper"]
-    cols = ["scheme", "max rise [K]", "paper sim. [K]", "hottest part", "tp1 [K]", "tp2 [K]", "tp3 [K]",
-            "gyro spread [K]", "accel spread [K]", "t95 tp1 [s]", "paper meas. settle [s]", "energy bal."]
+    cols = ["scheme", "max rise\n[K]", "paper sim.\n[K]", "hottest part", "tp1\n[K]", "tp2\n[K]", "tp3\n[K]",
+            "gyro\nspread [K]", "accel\nspread [K]", "t95 tp1\n[s]", "paper meas.\nsettle [s]", "energy\nbalance"]
     rows = []
     for s, r in data["schemes"].items():
         meas = paper["measured"].get(s, {})
@@ -50,12 +50,13 @@ def _table_page(pdf, data: dict) -> None:
     tab = ax.table(cellText=rows, colLabels=cols, loc="center", cellLoc="center")
     tab.auto_set_font_size(False)
     tab.set_fontsize(8.5)
-    tab.scale(1, 1.6)
+    tab.scale(1, 2.2)
     lines = ["Sensor-site rises [K] (final state of the power-on transient):"]
     for s, r in data["schemes"].items():
         lines.append(f"  {s:<7} " + "  ".join(f"{n} {v['rise_K']:.2f}" for n, v in r["sites"].items()
                                                if not n.startswith("tp")))
-    lines += ["", "Model: " + ", ".join(f"{k}={v}" for k, v in any_s["model_options"].items() if k != "interfaces"),
+    opts = [f"{k}={v}" for k, v in any_s["model_options"].items() if k != "interfaces"]
+    lines += ["", "Model: " + ", ".join(opts[:4]), "       " + ", ".join(opts[4:]),
               "Interfaces: " + "; ".join(f"{i['part_a']}/{i['part_b']} {i['conductance_W_m2K']:.0f} W/m^2K"
                                          for i in any_s["model_options"]["interfaces"])]
     fig.text(0.05, 0.47, "\n".join(lines), fontsize=9, family="monospace", va="top")
@@ -120,7 +121,7 @@ def _map_page(pdf, folder: Path, data: dict) -> None:
         m = np.load(folder / f"map_{s}.npz")
         im = ax.pcolormesh(m["u_mm"], m["v_mm"], m["T_C"].T, shading="gouraud", cmap="inferno")
         ax.set_aspect("equal")
-        ax.set_title(f"{s}: main-board plane {str(m['axes'])[1]} = {float(m['at_mm']):.2f} mm (steady)", fontsize=9)
+        ax.set_title(f"{s}: main-board plane {m['normal']} = {float(m['at_mm']):.2f} mm (steady)", fontsize=9)
         ax.set_xlabel(f"{str(m['axes'])[0]} [mm]")
         ax.set_ylabel(f"{str(m['axes'])[1]} [mm]")
         fig.colorbar(im, ax=ax, label="T [C]", shrink=0.8)

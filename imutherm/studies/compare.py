@@ -63,7 +63,7 @@ def board_plane_map(res: SchemeResult, board: str = "main") -> dict:
     plane = np.take(T, k, axis=n)
     a0, a1 = (a for a in range(3) if a != n)
     return {"T_C": plane, "u_mm": lines[a0] / MM, "v_mm": lines[a1] / MM, "axes": "xyz"[a0] + "xyz"[a1],
-            "at_mm": lines[n][k] / MM}
+            "normal": "xyz"[n], "at_mm": lines[n][k] / MM}
 
 
 def write_comparison(comp: Comparison, out: str | os.PathLike) -> None:
