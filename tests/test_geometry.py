@@ -5,7 +5,7 @@ import pytest
 
 from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.layout import load_layout
-from imutherm.geometry.mesh import build_mesh, mesh_info, to_skfem
+from imutherm.geometry.mesh import BOARD_CELLS_FACTOR, build_mesh, mesh_info, to_skfem
 
 SCHEMES = ("air", "grease", "potted")
 
@@ -108,6 +108,10 @@ def test_max_cell_size_and_thin_layers(geometries):
         bond = g.part("processor_bond")
         k0, k1 = np.searchsorted(m.zs, [bond.lo[2] - 1e-12, bond.hi[2] - 1e-12])
         assert k1 - k0 >= n
+        # boards get BOARD_CELLS_FACTOR x n cells through their thickness (main board: z)
+        board = g.part("main")
+        k0, k1 = np.searchsorted(m.zs, [board.lo[2] - 1e-12, board.hi[2] - 1e-12])
+        assert k1 - k0 == BOARD_CELLS_FACTOR * n
 
 
 def test_a_thin_bond_line_is_resolved_without_refining_everything(write_layout):
