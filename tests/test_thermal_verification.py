@@ -15,10 +15,12 @@ TOLERANCES = {
     "semi_infinite": 5e-4,            # fraction of the driving difference
     "lumped_capacitance": 1e-3,       # relative (rise and t63)
     "nafems_t3": 0.02,                # K against the exact series (36.603 °C)
-    "nafems_t4": 0.05,                # K against the NAFEMS 18.25 °C
+    "nafems_t4": 0.02,                # K against the NAFEMS 18.25 °C (60x100 mesh error ~0.007 K)
     "radiation_1d": 1e-6,             # K against the brentq root (926.967 K)
     "mms_convergence": 0.1,           # |observed L2 rate − 2|
     "orthotropic_plate": 1e-3,        # relative, centre rise
+    "lumped_backward_euler": 3e-3,    # fraction of ΔT∞ at dt = τ/80 (first-order estimate 2.3e-3)
+    "natural_convection_1d": 1e-6,    # K against the brentq roots (Newton tolerance)
 }
 
 
@@ -38,6 +40,38 @@ def test_nafems_references():
     """The published targets themselves, besides the exact values the cases compare with."""
     assert V.nafems_t3_series(0.08, 32.0) == pytest.approx(36.60, abs=0.005)
     assert V.case_radiation_1d().computed == pytest.approx(927.0, abs=0.5)
+
+
+def test_backward_euler_is_first_order():
+    """θ = 1 must show order ≈ 1 (CN would give 2): computed is the finest-pair order, both pairs in the note."""
+    rec = V.case_lumped_backward_euler()
+    assert 0.9 <= rec.computed <= 1.1
+    assert "orders" in rec.note and "ORDER CHECK FAILED" not in rec.note
+    assert rec.passed
+
+
+def test_backward_euler_order_check_can_fail(monkeypatch):
+    """A first-order error that does not halve with dt (order ~0) fails even if it is below the tolerance."""
+    real = V.solve_transient
+
+    def stuck(pr, t_end, dt, **kw):
+        return real(pr, t_end, t_end / 240, **kw)     # t_end = 3τ: always dt = τ/80, whatever is asked
+
+    monkeypatch.setattr(V, "solve_transient", stuck)
+    rec = V.case_lumped_backward_euler(divisions=(20, 40, 80))
+    assert rec.error <= rec.tolerance
+    assert not rec.passed and "ORDER CHECK FAILED" in rec.note
+
+
+def test_natural_convection_reference():
+    """The exact end temperature satisfies the scalar balance with Holman's C = 1.32 (heated face up) and ε = 0.85."""
+    k, L, T0, Ta = 0.5, 0.01, 80.0, 20.0
+    rec = V.case_natural_convection_1d()
+    Ts = rec.exact
+    dT = Ts - Ta
+    q = 1.32 * (dT / 0.05) ** 0.25 * dT + 0.85 * V.SIGMA * ((Ts + 273.15) ** 4 - (Ta + 273.15) ** 4)
+    assert k * (T0 - Ts) / L == pytest.approx(q, rel=1e-10)
+    assert 20.0 < rec.computed < 80.0
 
 
 def test_failing_case_is_recorded_not_raised(monkeypatch):

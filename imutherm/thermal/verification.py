@@ -19,13 +19,15 @@ Cases (``CASES``):
 8. ``radiation_1d``         1-D conduction with radiating end (927 K)
 9. ``mms_convergence``      manufactured solution, non-uniform 3-D grid, L2 rate ≈ 2
 10. ``orthotropic_plate``   orthotropic rectangle with generation, series solution
+11. ``lumped_backward_euler`` case 5 with backward Euler (θ = 1): observed temporal order ≈ 1
+12. ``natural_convection_1d`` 1-D wall, nonlinear natural convection (+ radiation) end, brentq
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 from scipy.optimize import brentq
@@ -33,8 +35,8 @@ from scipy.special import erfc, erfcx
 
 from imutherm.geometry.grid import TensorGrid
 from imutherm.thermal.metrics import T63_FRACTION, settle_time
-from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Convection, FixedTemperature, Radiation, ThermalProblem,
-                                      contact_layer_conductivity)
+from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Convection, FixedTemperature, NaturalConvection, Radiation,
+                                      ThermalProblem, contact_layer_conductivity, natural_convection_h)
 from imutherm.thermal.solve import solve_steady, solve_transient
 
 
@@ -248,22 +250,30 @@ def case_semi_infinite() -> VerificationRecord:
 # --------------------------------------------------------------------------- 5
 
 
-def case_lumped_capacitance() -> VerificationRecord:
-    """High-conductivity block with internal power and convection on all faces (Bi ~ 1e-5).
+def _lumped_block():
+    """The lumped-capacitance block: 20 x 20 x 10 mm, k = 1e4 W/m K, ρc = 2.4e6 J/m^3 K, P = 1 W,
+    h = 10 W/m^2 K on all faces to T∞ = 25 °C (Bi = 1e-5).
 
-    T − T∞ = P/(hA) (1 − exp(−t/τ)), τ = ρcV/(hA). Also checks ``settle_time``:
-    t63 of the rise reached at t_end = 5τ.
+    Returns (problem, τ [s], ΔT∞ = P/(hA) [K], T∞ [°C], centre (x, y, z) [m], Bi [-]).
     """
-    t0 = time.perf_counter()
     a, b, c = 0.02, 0.02, 0.01
     k, rc, h, P, Tinf = 1e4, 2.4e6, 10.0, 1.0, 25.0
     g = box_grid(np.linspace(0, a, 5), np.linspace(0, b, 5), np.linspace(0, c, 3))
     V, A = a * b * c, 2 * (a * b + a * c + b * c)
     faces = {f: Convection(h) for f in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")}
     pr = ThermalProblem(g, k, rc, P / V, Tinf, faces)
-    tau = rc * V / (h * A)
-    r = solve_transient(pr, 5 * tau, tau / 200, theta=0.5, probes={"centre": (a / 2, b / 2, c / 2)})
-    rise_inf = P / (h * A)
+    return pr, rc * V / (h * A), P / (h * A), Tinf, (a / 2, b / 2, c / 2), h * c / k
+
+
+def case_lumped_capacitance() -> VerificationRecord:
+    """High-conductivity block with internal power and convection on all faces (Bi ~ 1e-5).
+
+    T − T∞ = P/(hA) (1 − exp(−t/τ)) [K], τ = ρcV/(hA) [s]. Also checks ``settle_time``:
+    t63 of the rise reached at t_end = 5τ.
+    """
+    t0 = time.perf_counter()
+    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
+    r = solve_transient(pr, 5 * tau, tau / 200, theta=0.5, probes={"centre": centre})
     exact = rise_inf * (1 - np.exp(-r.times / tau))
     err_T = np.abs(r.probe_C[:, 0] - Tinf - exact).max() / rise_inf
     t63 = settle_time(r.times, r.probe_C[:, 0], T63_FRACTION)
@@ -271,7 +281,7 @@ def case_lumped_capacitance() -> VerificationRecord:
     err = max(err_T, abs(t63 - t63_exact) / t63_exact)
     return _record("lumped_capacitance", "max |ΔT|/ΔT∞ over time and t63 rel. error [-]; computed/exact = t63 [s]",
                    t63, t63_exact, err, 1e-3,
-                   f"Bi = hL/k = {h * c / k:.0e} (lumped model exact to O(Bi)); CN with dt = τ/200 gives "
+                   f"Bi = hL/k = {Bi:.0e} (lumped model exact to O(Bi)); CN with dt = τ/200 gives "
                    "O((dt/τ)^2) ~ 3e-5; t63 interpolated linearly between steps (error ~ (dt/τ)^2). "
                    f"Energy balance {r.energy_balance_rel_error:.1e}.", t0)
 
@@ -332,10 +342,12 @@ def case_nafems_t4() -> VerificationRecord:
                                                  "ymax": Convection(750.0, 0.0)})
     r = solve_steady(pr, probes={"E": (0.6, 0.2, 0.0)})
     T = r.probe_C[0]
-    return _record("nafems_t4", "T at E (0.6, 0.2) m [°C]", T, 18.25, abs(T - 18.25), 0.05,
-                   "Reference 18.25 °C (4 digits). Q1 sequence 24x40, 48x80, 96x160 gives 18.214, 18.244, "
-                   "18.251 (O(h^2), Richardson limit 18.254); on 60x100 the discretisation error is ~0.006 K. "
-                   "0.05 K covers the reference's rounding and the corner singularity at B.", t0)
+    return _record("nafems_t4", "T at E (0.6, 0.2) m [°C]", T, 18.25, abs(T - 18.25), 0.02,
+                   "Reference 18.25 °C (4 digits, rounding ±0.005 K). Q1 sequence 24x40, 48x80, 96x160 gives "
+                   "18.214, 18.244, 18.251 (O(h^2) despite the corner singularity at B, Richardson limit "
+                   f"18.254); on 60x100 the discretisation error is ~0.007 K (computed {T:.4f}). Worst case "
+                   "|T − 18.25| <= 0.007 + 0.005 (rounding) + 0.004 (limit vs 18.25) = 0.016 K, hence 0.02 K; "
+                   "the 24x40 mesh (0.036 K off) would fail it.", t0)
 
 
 # --------------------------------------------------------------------------- 8
@@ -457,6 +469,90 @@ def case_orthotropic_plate() -> VerificationRecord:
                    f"k = {kx:g} answer would be {iso:.3g} K, so the test is sensitive to kz.", t0)
 
 
+# --------------------------------------------------------------------------- 11
+
+
+def case_lumped_backward_euler(divisions=(20, 40, 80)) -> VerificationRecord:
+    """Lumped-capacitance block of case 5 with backward Euler (θ = 1, the production default): order 1 in time.
+
+    Rise ΔT(t) = P/(hA) (1 − exp(−t/τ)) [K], τ = ρcV/(hA) = 600 s. Run to 3τ
+    with dt = τ/20, τ/40, τ/80 [s]; error e(dt) = max over the steps of
+    |ΔT − ΔT_exact|/ΔT∞ [-]. Backward Euler gives 1 − y_n = (1 + dt/τ)^(−n),
+    whose leading error is (dt/2τ)(t/τ) exp(−t/τ), largest dt/(2eτ) at t = τ.
+    The observed order p = log2(e(dt)/e(dt/2)) of both pairs must lie in [0.9, 1.1].
+    """
+    t0 = time.perf_counter()
+    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
+    errs = []
+    for m in divisions:
+        r = solve_transient(pr, 3 * tau, tau / m, theta=1.0, probes={"centre": centre})
+        exact = rise_inf * (1 - np.exp(-r.times / tau))
+        errs.append(float(np.abs(r.probe_C[:, 0] - Tinf - exact).max() / rise_inf))
+    orders = [math.log(errs[i] / errs[i + 1]) / math.log(divisions[i + 1] / divisions[i])
+              for i in range(len(errs) - 1)]
+    lo, hi = 0.9, 1.1
+    order_ok = all(lo <= p <= hi for p in orders)
+    estimate = 1 / (2 * math.e * divisions[-1])
+    rec = _record("lumped_backward_euler", "max |ΔT|/ΔT∞ over 0..3τ at the finest dt [-]; computed/exact = "
+                  "observed temporal order of backward Euler (finest pair) [-]", orders[-1], 1.0, errs[-1], 3e-3,
+                  f"θ = 1, dt = τ/{', τ/'.join(str(m) for m in divisions)}: errors "
+                  f"{', '.join(f'{e:.3e}' for e in errs)}, observed orders {', '.join(f'{p:.3f}' for p in orders)} "
+                  f"(each must lie in [{lo}, {hi}]{'' if order_ok else ': ORDER CHECK FAILED'}). Tolerance from "
+                  f"the first-order estimate max_t (dt/2τ)(t/τ)e^(−t/τ) = dt/(2eτ) = {estimate:.2e} at dt = "
+                  f"τ/{divisions[-1]}: 3e-3 leaves ~30 % for the O(dt^2) term and the O(Bi = {Bi:.0e}) spatial "
+                  "error; an O(1) defect or a θ other than 1 (CN would give order 2) fails.", t0)
+    return replace(rec, passed=rec.passed and order_ok)
+
+
+# --------------------------------------------------------------------------- 12
+
+
+def case_natural_convection_1d() -> VerificationRecord:
+    """1-D wall (k = 0.5 W/m K, L = 10 mm) at T0 [°C] on x = 0, nonlinear exterior laws on x = L; air 20 °C.
+
+    (a) T0 = 80 °C, NaturalConvection('vertical', 0.05 m); (b) T0 = 80 °C,
+    NaturalConvection('up', 0.05 m) + Radiation(ε = 0.85); (c) T0 = 0 °C (cooled
+    face looking up, so the 'down' coefficient applies), NaturalConvection('up', 0.05 m).
+    Exact end temperature Ts [°C] from k (T0 − Ts)/L = h(Ts − T∞)(Ts − T∞)
+    [+ ε σ (Ts^4 − T∞^4), kelvin] by brentq, with h = C (|ΔT|/L_c)^(1/4) from
+    :func:`natural_convection_h` (Holman, Heat Transfer, Table 7-2). The field is
+    linear, so Q1 is exact and only the Newton tolerance remains.
+    """
+    t0 = time.perf_counter()
+    k, L, Lc, eps, Tair = 0.5, 0.01, 0.05, 0.85, 20.0
+    configs = {"a": (80.0, "vertical", None), "b": (80.0, "up", eps), "c": (0.0, "up", None)}
+    g = box_grid(np.linspace(0, L, 11))
+    area = 0.01 * 0.01
+    err, flux_err, iters, Ts_b = 0.0, 0.0, [], (float("nan"), float("nan"))
+    for name, (T0, orient, e) in configs.items():
+        laws = [NaturalConvection(orient, Lc, Tair)] + ([Radiation(e, Tair)] if e is not None else [])
+        pr = ThermalProblem(g, k, 1e6, 0.0, Tair, {"xmin": FixedTemperature(T0), "xmax": tuple(laws)})
+        r = solve_steady(pr, probes={"end": (L, 0.005, 0.005)})
+        Ts = float(r.probe_C[0])
+
+        def q_out(T, orient=orient, e=e):
+            dT = T - Tair
+            q = float(natural_convection_h(dT, Lc, orient)) * dT
+            if e is not None:
+                q += e * SIGMA * ((T + ZERO_C_K) ** 4 - (Tair + ZERO_C_K) ** 4)
+            return q
+
+        exact = brentq(lambda T, T0=T0, q_out=q_out: k * (T0 - T) / L - q_out(T), min(T0, Tair), max(T0, Tair),
+                       xtol=1e-13)
+        err = max(err, abs(Ts - exact))
+        flux_err = max(flux_err, abs(r.heat_out_W["xmax"] / area - q_out(exact)) / abs(q_out(exact)))
+        iters.append(r.iterations)
+        if name == "b":
+            Ts_b = (Ts, exact)
+    return _record("natural_convection_1d", "end temperature Ts of (b) [°C]; error = max over (a), (b), (c) of "
+                   "|Ts − Ts_exact| [K]", Ts_b[0], Ts_b[1], err, 1e-6,
+                   "Linear exact field: Q1 exact (uniform face temperature, so the face quadrature of the "
+                   "nonlinear flux is exact too); Newton stops at max|ΔT| <= 1e-8 x 60 K = 6e-7 K and "
+                   f"converges quadratically (exact slope 1.25 h), so 1e-6 K ({iters} iterations). h from "
+                   "natural_convection_h (C = 1.42 vertical, 1.32 heated-up, 0.59 cooled-up; Holman Table 7-2); "
+                   f"face heat vs exact flux rel. error {flux_err:.1e}.", t0)
+
+
 CASES = {
     "slab_generation": case_slab_generation,
     "composite_wall": case_composite_wall,
@@ -468,6 +564,8 @@ CASES = {
     "radiation_1d": case_radiation_1d,
     "mms_convergence": case_mms_convergence,
     "orthotropic_plate": case_orthotropic_plate,
+    "lumped_backward_euler": case_lumped_backward_euler,
+    "natural_convection_1d": case_natural_convection_1d,
 }
 
 
