@@ -9,8 +9,8 @@ from imutherm.geometry.grid import TensorGrid
 from imutherm.geometry.layout import AXES
 from imutherm.geometry.materials import get_material
 from imutherm.geometry.mesh import build_mesh
-from imutherm.thermal.model import (Interface, ModelOptions, _apply_interface, _run_lengths, build_problem,
-                                    cavity_radiation_conductivity)
+from imutherm.thermal.model import (GREASE_WETTED_JOINT_W_M2K, Interface, ModelOptions, _apply_interface, _run_lengths,
+                                    build_problem, cavity_radiation_conductivity, unit_interfaces)
 from imutherm.thermal.problem import (SIGMA, Contact, FixedTemperature, NaturalConvection, Radiation,
                                       ThermalProblem)
 from imutherm.thermal.solve import solve_steady
@@ -117,3 +117,31 @@ def test_lid_joint_lowers_conductivity_of_the_touching_lid_layer(unit):
     assert changed.any() and np.all(lid[changed])
     # only the z-conductivity of the bottom lid layer above the housing rim
     assert np.array_equal(with_joint.k[:, :2], without.k[:, :2])
+
+
+def test_bond_lines_and_standoffs_get_their_contact_conductances(unit):
+    g, m = unit
+    pairs = {(i.part_a, i.part_b): i.conductance_W_m2K for i in unit_interfaces(g, ModelOptions())}
+    for chip in ("processor", "reg_5v", "reg_3v3", "reg_1v8"):   # both faces of every grease bond line
+        assert pairs[(chip, chip + "_bond")] == pytest.approx(GREASE_WETTED_JOINT_W_M2K)
+        assert pairs[("housing", chip + "_bond")] == pytest.approx(GREASE_WETTED_JOINT_W_M2K)
+    for i in range(1, 5):                                        # standoffs: base and main board
+        assert ("housing", f"standoff_{i}") in pairs and ("main", f"standoff_{i}") in pairs
+    assert len(pairs) == 1 + 8 + 8                                # nothing else touches by accident
+    # the processor bond's z-conductivity drops to the exact series value in the layer at each face
+    on = build_problem(g, m, ModelOptions(cavity_radiation=False))
+    off = build_problem(g, m, ModelOptions(cavity_radiation=False, bond_contact_W_m2K=None))
+    bond = (m.cell_part == m.part_names.index("processor_bond")).ravel()
+    changed = on.k[bond, 2] != off.k[bond, 2]
+    w = np.broadcast_to(m.cell_sizes()[2], m.shape).ravel()[bond]
+    series = w / (w / off.k[bond, 2] + 1.0 / GREASE_WETTED_JOINT_W_M2K)
+    assert np.allclose(on.k[bond, 2][changed], series[changed], rtol=1e-12)
+    footprint = (m.cell_part == m.part_names.index("processor_bond")).any(axis=2).sum()
+    assert changed.sum() == 2 * footprint
+    assert np.array_equal(on.k[:, :2], off.k[:, :2])              # only across the bond line
+    for air_only in ("air", "potted"):
+        names = {b for _, b in ((i.part_a, i.part_b) for i in unit_interfaces(build_geometry(None, air_only),
+                                                                          ModelOptions()))}
+        assert not any(n.endswith("_bond") for n in names)
+    with pytest.raises(InputError, match="bond_contact_W_m2K"):
+        ModelOptions(bond_contact_W_m2K=0.0)

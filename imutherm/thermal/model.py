@@ -25,6 +25,10 @@ from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Contact, Convection, Natu
 #: Al/Al interface with air, 10 um roughness, 1e5 N/m^2: R'' = 2.75e-4 m^2 K/W
 #: (Incropera & DeWitt, 6th ed., Table 3.1b) -> h = 3636 W/m^2 K. Used for the lid joint.
 AL_AL_AIR_JOINT_W_M2K = 1.0 / 2.75e-4
+#: Al/Al interface filled with silicone oil, same roughness and pressure: R'' = 0.525e-4 m^2 K/W
+#: (Incropera & DeWitt, 6th ed., Table 3.1b) -> h = 19 048 W/m^2 K. Used on each face of a grease
+#: bond line (the grease wets the surface like the oil; its bulk is the bond part itself).
+GREASE_WETTED_JOINT_W_M2K = 1.0 / 0.525e-4
 
 _FACE_ORIENTATION = {"xmin": "vertical", "xmax": "vertical", "ymin": "vertical", "ymax": "vertical",
                      "zmin": "down", "zmax": "up"}
@@ -59,7 +63,11 @@ class ModelOptions:
     cavity_radiation : bool, radiation across the air gaps of the cavity as an
         effective conductivity (see :func:`cavity_radiation_conductivity`)
     cavity_emissivity : float [-], effective pair emissivity of facing surfaces
-    interfaces : tuple of Interface, contact conductances between parts
+    interfaces : tuple of Interface, contact conductances between named parts
+    bond_contact_W_m2K : float or None [W/m^2 K], contact conductance on both faces
+        of every grease bond line (package/bond and bond/wall); None: none
+    standoff_contact_W_m2K : float or None [W/m^2 K], contact conductance where a
+        plain part (standoff, bracket) touches the housing, the lid or a board; None: none
     """
 
     exterior: str = "natural"
@@ -72,6 +80,10 @@ class ModelOptions:
     cavity_emissivity: float = 0.77
     interfaces: tuple = field(default_factory=lambda: (
         Interface("housing", "lid", AL_AL_AIR_JOINT_W_M2K, "screwed lid, Al/Al with air: Incropera Table 3.1b"),))
+    bond_contact_W_m2K: float | None = GREASE_WETTED_JOINT_W_M2K
+    # assumed: a dry screwed joint like the lid's; the nylon's own resistance (2.7 mm / 0.25 W/m K)
+    # is ~40x larger, so this value hardly matters
+    standoff_contact_W_m2K: float | None = AL_AL_AIR_JOINT_W_M2K
 
     def __post_init__(self):
         if self.exterior not in ("natural", "fixed", "none"):
@@ -80,6 +92,10 @@ class ModelOptions:
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):
                 raise InputError(f"model option {name!r} must be a finite number >= 0, got {v!r}")
+        for name in ("bond_contact_W_m2K", "standoff_contact_W_m2K"):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise InputError(f"model option {name!r} must be a finite number > 0 or None (off), got {v!r}")
         for name in ("emissivity", "cavity_emissivity"):
             v = getattr(self, name)
             if v is not None and not (0.0 <= v <= 1.0):
@@ -117,6 +133,43 @@ def _run_lengths(mask: np.ndarray, widths: np.ndarray, axis: int) -> np.ndarray:
     res = out.reshape(-1, n)
     res[flat_rows > 0] = sums[keys]
     return np.moveaxis(res.reshape(m.shape), -1, axis)
+
+
+def _touch(a, b, tol: float = 1e-9) -> bool:
+    """True if part ``a`` and part ``b`` share a face patch of non-zero area.
+
+    ``b`` may be the housing, a box with a hole (the cavity): then ``a``, inside
+    the hole, touches it where one of its faces lies on the hole's boundary.
+    """
+    if b.hole is not None:
+        lo, hi = b.hole
+        return any(abs(a.lo[i] - lo[i]) <= tol or abs(a.hi[i] - hi[i]) <= tol for i in range(3))
+    gaps = [max(a.lo[i], b.lo[i]) - min(a.hi[i], b.hi[i]) for i in range(3)]  # > 0 apart, < 0 overlapping
+    return sum(abs(g) <= tol for g in gaps) == 1 and all(g <= tol for g in gaps)
+
+
+def unit_interfaces(geometry: Geometry, options: ModelOptions) -> tuple:
+    """Every contact conductance of the unit: ``options.interfaces`` plus those derived from the parts.
+
+    Each grease bond line gets ``bond_contact_W_m2K`` towards its package and towards
+    the wall it bridges to; each plain part (standoff) gets ``standoff_contact_W_m2K``
+    towards the housing, the lid and the boards it touches.
+    """
+    out = list(options.interfaces)
+    walls = [p for p in geometry.parts if p.kind in ("housing", "lid")]
+    boards = [p for p in geometry.parts if p.kind == "board"]
+    for p in geometry.parts:
+        if p.kind == "bond" and options.bond_contact_W_m2K:
+            for other in [geometry.part(p.parent)] + walls:
+                if _touch(p, other):
+                    out.append(Interface(other.name, p.name, options.bond_contact_W_m2K,
+                                         "grease-wetted Al joint: Incropera Table 3.1b"))
+        elif p.kind == "box" and options.standoff_contact_W_m2K:
+            for other in walls + boards:
+                if _touch(p, other):
+                    out.append(Interface(other.name, p.name, options.standoff_contact_W_m2K,
+                                         "dry screwed joint (assumed, as the lid's)"))
+    return tuple(out)
 
 
 def _apply_interface(k: np.ndarray, grid: TensorGrid, itf: Interface) -> None:
@@ -176,7 +229,7 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
         for axis, w in enumerate(grid.cell_sizes()):
             runs = _run_lengths(air, w, axis)
             k[..., axis][air] += cavity_radiation_conductivity(runs[air], mean_T, options.cavity_emissivity)
-    for itf in options.interfaces:
+    for itf in unit_interfaces(geometry, options):
         _apply_interface(k, grid, itf)
 
     housing = get_material(parts[grid.part_names.index("housing")].material)
