@@ -6,12 +6,14 @@ cell is longer than ``max_cell_mm`` and every part (or housing wall) is at
 least ``min_cells`` cells thick along each axis. A 0.1 mm bond line is thus
 resolved by its own cells without refining the rest of the unit.
 
-Boards and their via fields get ``BOARD_CELLS_FACTOR * min_cells`` cells
-through their thickness: they spread the hottest die's heat, and the
-mesh-convergence study (``benchmarks/bench_reference.py --convergence``)
-found the maximum rise most sensitive to their through-thickness resolution
-(grease scheme: 4 instead of 2 cells moves it by 1.2 %, every other part kind
-by <= 0.6 %). Tied to ``min_cells``, halving the mesh refines them too.
+Boards, their via fields and the plain parts that carry them (standoffs) get
+``BOARD_CELLS_FACTOR * min_cells`` cells across: they carry the hottest die's
+heat to the housing, and the mesh-convergence study
+(``benchmarks/bench_reference.py --convergence``) found the maximum rise most
+sensitive to them (grease scheme: 4 instead of 2 cells through the boards
+moves it by 1.2 %; air scheme: 4 instead of 2 across the standoffs by 0.9 %;
+every other part kind by <= 0.6 %). Tied to ``min_cells``, halving the mesh
+refines them too.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 
 DEFAULT_MAX_CELL_MM = 2.0  # [mm] default largest cell edge; see the convergence study in the README
 DEFAULT_MIN_CELLS = 2      # cells across the thinnest dimension of every part
-BOARD_CELLS_FACTOR = 2     # boards and via fields: this many times min_cells through the thickness
+BOARD_CELLS_FACTOR = 2     # boards, via fields, standoffs: this many times min_cells across
+_FACTOR_KINDS = ("board", "vias", "box")
 
 #: names of the outer faces of the housing, by grid face
 HOUSING_FACE_NAMES = {"xmin": "side_xmin", "xmax": "side_xmax", "ymin": "side_ymin", "ymax": "side_ymax",
@@ -71,7 +74,7 @@ def _axis_lines(geometry: Geometry, axis: int, max_cell: float, min_cells: int) 
     widths = np.diff(lines)
     n = np.maximum(np.ceil(widths / max_cell - 1e-9), 1).astype(int)
     for p in geometry.parts:
-        cells = min_cells * (BOARD_CELLS_FACTOR if p.kind in ("board", "vias") else 1)
+        cells = min_cells * (BOARD_CELLS_FACTOR if p.kind in _FACTOR_KINDS else 1)
         for lo, hi in _spans(p, geometry, axis):
             i0, i1 = np.searchsorted(lines, [lo - 1e-12, hi - 1e-12])
             need = np.ceil(cells * widths[i0:i1] / (hi - lo) - 1e-9).astype(int)
@@ -87,8 +90,8 @@ def build_mesh(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
     Parameters
     ----------
     max_cell_mm : float [mm] largest cell edge
-    min_cells : int, fewest cells across every part along each axis (boards and via fields:
-        ``BOARD_CELLS_FACTOR`` times as many)
+    min_cells : int, fewest cells across every part along each axis (boards, via fields and
+        standoffs: ``BOARD_CELLS_FACTOR`` times as many)
     """
     if not np.isfinite(max_cell_mm) or max_cell_mm <= 0:
         raise InputError(f"mesh size must be a finite number > 0 mm, got {max_cell_mm!r}")
