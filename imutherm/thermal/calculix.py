@@ -22,9 +22,11 @@ F5 = 3-7-8-4 (ymax), F6 = 4-8-5-1 (xmin). Temperatures are written in °C
 from __future__ import annotations
 
 import os
+import resource
 import shutil
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -160,7 +162,8 @@ def ccx_executable() -> str | None:
     return exe
 
 
-def run_ccx(problem: ThermalProblem, *, workdir=None, timeout: float = 600.0) -> np.ndarray:
+def run_ccx(problem: ThermalProblem, *, workdir=None, timeout: float = 600.0, threads: int = 1,
+            info: dict | None = None) -> np.ndarray:
     """Solve ``problem`` with CalculiX and return its nodal temperatures [°C] (grid node order).
 
     Parameters
@@ -170,7 +173,15 @@ def run_ccx(problem: ThermalProblem, *, workdir=None, timeout: float = 600.0) ->
     workdir : str or Path, optional
         Keep the deck and results there (default: a temporary directory, removed).
     timeout : float [s]
+    threads : int, OpenMP threads and equation-solver processes given to ccx
+    info : dict, optional
+        Filled with ``ccx_s`` [s], the wall time of the ccx process alone (no deck
+        writing or result parsing), and ``ccx_peak_MB`` [MB], the peak resident
+        memory of the largest child process of this process so far (ccx's own when
+        it is the only one, as in ``benchmarks/bench_reference.py``).
     """
+    if int(threads) != threads or threads < 1:
+        raise InputError(f"threads must be a whole number >= 1, got {threads!r}")
     exe = ccx_executable()
     if exe is None:
         raise InputError("CalculiX 'ccx' not found on PATH (or set IMUTHERM_CCX)")
@@ -182,9 +193,13 @@ def run_ccx(problem: ThermalProblem, *, workdir=None, timeout: float = 600.0) ->
     workdir.mkdir(parents=True, exist_ok=True)
     try:
         write_ccx_deck(problem, workdir / "job.inp")
-        env = dict(os.environ, OMP_NUM_THREADS="1", CCX_NPROC_EQUATION_SOLVER="1")
+        env = dict(os.environ, OMP_NUM_THREADS=str(threads), CCX_NPROC_EQUATION_SOLVER=str(threads))
+        t0 = time.perf_counter()
         proc = subprocess.run([exe, "-i", "job"], cwd=workdir, capture_output=True, text=True,
                               timeout=timeout, env=env)
+        if info is not None:
+            info["ccx_s"] = time.perf_counter() - t0
+            info["ccx_peak_MB"] = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
         log = proc.stdout + proc.stderr
         if proc.returncode != 0 or "*ERROR" in log:
             errs = [ln for ln in log.splitlines() if "ERROR" in ln][:5]
