@@ -82,3 +82,31 @@ def test_unknown_scheme_and_command(tmp_path, capsys):
     assert "unknown scheme 'foam'" in capsys.readouterr().err
     assert main(["nonsense"]) == 2
     assert main([]) == 0
+
+
+@pytest.mark.parametrize("scheme", ["air", "grease"])
+def test_layout_figure_names_every_board_component_and_site(scheme):
+    import matplotlib.pyplot as plt
+
+    from imutherm.geometry.build import build_geometry
+    from imutherm.reports.layout_plot import ALPHA, layout_figure
+
+    g = build_geometry(None, scheme)
+    fig = layout_figure(g)
+    try:
+        texts = {t.get_text() for ax in fig.axes for t in ax.texts}
+        lay = g.layout
+        for name in [b.name for b in lay.boards] + [c.name for c in lay.components] + [s.name for s in lay.sites]:
+            assert name in texts, (name, sorted(texts))
+        # every board is named in each of the three views
+        for ax in fig.axes:
+            assert {b.name for b in lay.boards} <= {t.get_text() for t in ax.texts}, ax.get_title()
+        # legend swatches are drawn with the patches' alpha
+        legend = fig.legends[0]
+        swatch = dict(zip([t.get_text() for t in legend.get_texts()], legend.legend_handles))
+        assert swatch["board"].get_alpha() == pytest.approx(ALPHA["board"])
+        drawn = {p.get_alpha() for ax in fig.axes for p in ax.patches
+                 if p.get_facecolor()[:3] == swatch["board"].get_facecolor()[:3]}
+        assert drawn == {swatch["board"].get_alpha()}
+    finally:
+        plt.close(fig)

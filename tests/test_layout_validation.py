@@ -54,8 +54,29 @@ CASES = {
                     None, ["component 'gyro_z'", "'die_mm'", "does not fit"]),
     "bad_site_part": (lambda d: d["sites"].__setitem__("gyro_q", {"part": "gyro_q_die"}),
                       None, ["site 'gyro_q'", "'part'", "unknown part 'gyro_q_die'"]),
-    "emissivity_type": (lambda d: d["mounting"].__setitem__("kind", "bolted"),
-                        None, ["[mounting]", "'kind'", "valid: fixture, free"]),
+    "unknown_mounting_kind": (lambda d: d["mounting"].__setitem__("kind", "bolted"),
+                              None, ["[mounting]", "'kind'", "unknown value 'bolted'", "valid: fixture, free"]),
+    # containers of the wrong TOML type: a clear message, not AttributeError / TypeError
+    "sites_not_a_table": (lambda d: d.__setitem__("sites", 3),
+                          None, ["layout", "field 'sites'", "must be a table of named sites", "got int 3"]),
+    "schemes_not_a_table": (lambda d: d.__setitem__("schemes", [1]),
+                            None, ["layout", "field 'schemes'", "must be a table of named schemes", "got list [1]"]),
+    "move_to_back_not_names": (lambda d: d["schemes"]["grease"].__setitem__("move_to_back", [[1]]),
+                               "grease", ["scheme 'grease'", "field 'move_to_back'", "component names", "[1]"]),
+    "boards_not_a_list": (lambda d: d.__setitem__("boards", 3),
+                          None, ["layout", "field 'boards'", "must be an array of tables", "got int 3"]),
+    "parts_not_a_list": (lambda d: d.__setitem__("parts", "standoff_1"),
+                         None, ["layout", "field 'parts'", "must be an array of tables", "got str 'standoff_1'"]),
+    "components_not_a_list": (lambda d: d.__setitem__("components", {"name": "adc"}),
+                              None, ["layout", "field 'components'", "must be an array of tables", "got dict"]),
+    "site_part_and_board": (lambda d: d["sites"].__setitem__("gyro_x", {"part": "gyro_x_die", "board": "main"}),
+                            None, ["site 'gyro_x'", "field 'board'", "not both"]),
+    "site_neither_part_nor_board": (lambda d: d["sites"].__setitem__("tp9", {"at_mm": [1.0, 1.0]}),
+                                    None, ["site 'tp9'", "needs 'part'", "'board'"]),
+    # two thermal-via fields in the same board (adc moved under the processor's pad) clash
+    "via_fields_overlap": (lambda d: comp(d, "adc").update(side="bottom", center_mm=[13.5, 11.5], exposed_pad=True,
+                                                           vias=True, pad_mm=[3.0, 2.0]),
+                           "air", ["scheme 'air'", "'processor_vias'", "overlaps", "'adc_vias'"]),
 }
 
 

@@ -231,6 +231,22 @@ _TOP = {"name": "layout name", "description": "text", "default_scheme": "scheme 
         "schemes": "table"}
 
 
+def _table_array(top: _Table, key: str) -> list:
+    """The ``[[key]]`` entries of the layout (none if absent); anything but an array is an error."""
+    value = top.get(key, [])
+    if not isinstance(value, list):
+        top.fail(key, f"must be an array of tables ([[{key}]] entries), got {type(value).__name__} {value!r}")
+    return value
+
+
+def _named_tables(top: _Table, key: str, form: str) -> dict:
+    """The ``[key]`` table of named entries (empty if absent); anything but a table is an error."""
+    value = top.get(key, {})
+    if not isinstance(value, dict):
+        top.fail(key, f"must be a table of named {key} ({form}), got {type(value).__name__} {value!r}")
+    return value
+
+
 def load_layout(path: str | Path | None = None) -> LayoutSpec:
     """Read and check a layout TOML file (default: the built-in reference unit).
 
@@ -285,7 +301,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         names[reserved] = "the housing (reserved name)"
 
     boards = []
-    for i, t in enumerate(top.get("boards", [])):
+    for i, t in enumerate(_table_array(top, "boards")):
         b = _Table(path, f"boards[{i}]", t, {"name": "str", "normal": "x|y|z", "min_mm": "3 numbers",
                                               "size_mm": "3 sizes", "material": "name"})
         spec = BoardSpec(b.string("name"), b.string("normal", choices=AXES), b.vector("min_mm", 3),
@@ -298,7 +314,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     board_by_name = {b.name: b for b in boards}
 
     parts = []
-    for i, t in enumerate(top.get("parts", [])):
+    for i, t in enumerate(_table_array(top, "parts")):
         p = _Table(path, f"parts[{i}]", t, {"name": "str", "min_mm": "3 numbers", "size_mm": "3 sizes",
                                              "material": "name", "power_W": "W"})
         spec = BoxSpec(p.string("name"), p.vector("min_mm", 3), p.vector("size_mm", 3, positive=True),
@@ -307,7 +323,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         parts.append(spec)
 
     components = []
-    for i, t in enumerate(top.get("components", [])):
+    for i, t in enumerate(_table_array(top, "components")):
         c = _Table(path, f"components[{i}]", t,
                    {"name": "str", "board": "board name", "side": "top|bottom", "center_mm": "(u, v)",
                     "size_mm": "(u, v, height)", "material": "name", "die_mm": "(u, v, thickness)",
@@ -349,15 +365,21 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     comp_by_name = {c.name: c for c in components}
 
     sites = []
-    for name, t in top.get("sites", {}).items():
+    for name, t in _named_tables(top, "sites", "[sites] with name = { ... } lines").items():
         s = _Table(path, f"site {name!r}", t, {"part": "part name", "board": "board name",
                                                 "side": "top|bottom", "at_mm": "(u, v)"})
         if "part" in t:
+            extra = [k for k in ("board", "side", "at_mm") if k in t]
+            if extra:
+                s.fail(extra[0], "a site is either a part's centroid (part) or a point on a board face "
+                                 f"(board, side, at_mm), not both: remove {' and '.join(map(repr, extra))} or 'part'")
             part = s.string("part")
             if part not in names or part == "fill":
                 s.fail("part", f"unknown part {part!r}; valid: {', '.join(sorted(names))}")
             sites.append(SiteSpec(name, part=part))
         else:
+            if "board" not in t:
+                s.fail(None, "needs 'part' (a part's centroid) or 'board' with 'at_mm' (a point on a board face)")
             board = s.string("board")
             if board not in board_by_name:
                 s.fail("board", f"unknown board {board!r}; valid: {', '.join(board_by_name)}")
@@ -365,7 +387,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
                                   at_mm=s.vector("at_mm", 2)))
 
     schemes = {}
-    for name, t in top.get("schemes", {}).items():
+    for name, t in _named_tables(top, "schemes", "[schemes.<name>] tables").items():
         s = _Table(path, f"scheme {name!r}", t, {"description": "text", "fill": "material",
                                                   "move_to_back": "component names",
                                                   "bond_material": "material", "max_bond_gap_mm": "mm"})
@@ -375,6 +397,8 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         if not isinstance(moved, list):
             s.fail("move_to_back", f"must be a list of component names, got {moved!r}")
         for comp in moved:
+            if not isinstance(comp, str):
+                s.fail("move_to_back", f"must be a list of component names (strings), got {comp!r} in {moved!r}")
             if comp not in comp_by_name:
                 s.fail("move_to_back", f"unknown component {comp!r}; valid: {', '.join(comp_by_name)}")
         schemes[name] = SchemeSpec(name, s.string("description", name), s.material("fill", mats),
