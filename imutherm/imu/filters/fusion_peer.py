@@ -14,12 +14,14 @@ with our FRD specific force converged upside down in a check, so we do not
 rely on it.) The gravity direction is converted back to our FRD body axes.
 
 The README says the gyroscope offset-correction algorithm "should be used in
-conjunction with the AHRS algorithm"; :func:`run_fusion` therefore passes the
-gyros through ``imufusion.Bias`` (its defaults: 3 °/s stationary threshold,
-3 s stationary period) first, unless ``use_bias=False``.
+conjunction with the AHRS algorithm"; every entry point (:func:`run_fusion`,
+:class:`FusionPeer`, :func:`fusion_step`) therefore passes the gyros through
+``imufusion.Bias`` (its defaults: 3 °/s stationary threshold, 3 s stationary
+period) first, unless ``FusionParams.use_bias=False``.
 
 The library keeps its own state in C; the thin class :class:`FusionPeer`
-wraps one ``Ahrs`` and :func:`fusion_step` is the procedural step on it.
+wraps one ``Ahrs`` (and one ``Bias`` when ``use_bias``) and
+:func:`fusion_step` is the procedural step on them.
 """
 
 from __future__ import annotations
@@ -69,26 +71,43 @@ def make_ahrs(dt: float, params: FusionParams) -> imufusion.Ahrs:
     return ahrs
 
 
-def fusion_step(ahrs: imufusion.Ahrs, gyro, accel) -> np.ndarray:
+def make_bias(dt: float, params: FusionParams) -> imufusion.Bias | None:
+    """The gyroscope offset correction (``imufusion.Bias``, its default thresholds) for sample period
+    ``dt`` [s], or None when ``params.use_bias`` is False."""
+    if not params.use_bias:
+        return None
+    bias = imufusion.Bias()
+    bias.set_settings(imufusion.BiasSettings(sample_rate=1.0 / dt))
+    return bias
+
+
+def fusion_step(ahrs: imufusion.Ahrs, gyro, accel, bias: imufusion.Bias | None = None) -> np.ndarray:
     """Feed one FRD sample (gyro (3,) [rad/s], accel (3,) [m/s^2]) to ``ahrs``.
 
+    ``bias`` : the ``imufusion.Bias`` of :func:`make_bias` (None: no offset correction); when given, the
+    gyro sample [°/s, FLU] passes through it first, as in :func:`run_fusion`.
     Returns the gravity direction (3,) [-] in FRD body axes after the update.
     """
-    ahrs.update_no_magnetometer(np.degrees(np.asarray(gyro, float)) * _FLU, np.asarray(accel, float) * (_FLU / G0))
+    gd = np.degrees(np.asarray(gyro, float)) * _FLU
+    if bias is not None:
+        gd = bias.update(gd)
+    ahrs.update_no_magnetometer(gd, np.asarray(accel, float) * (_FLU / G0))
     return _down_frd(np.asarray(ahrs.get_quaternion(), float))
 
 
 class FusionPeer:
-    """Thin class over one imufusion ``Ahrs`` (dt [s], params : FusionParams)."""
+    """Thin class over one imufusion ``Ahrs`` and, if ``params.use_bias``, one ``Bias`` (dt [s],
+    params : FusionParams); same result as :func:`run_fusion` with the same params."""
 
     name = "fusion"
 
     def __init__(self, dt: float, params: FusionParams = FusionParams()):
         self.ahrs = make_ahrs(dt, params)
+        self.bias = make_bias(dt, params)
 
     def update(self, gyro, accel, dt: float | None = None) -> np.ndarray:
         """Process one sample (gyro [rad/s], accel [m/s^2], FRD); returns the gravity direction (3,) [-]."""
-        return fusion_step(self.ahrs, gyro, accel)
+        return fusion_step(self.ahrs, gyro, accel, self.bias)
 
     @property
     def gravity(self) -> np.ndarray:
@@ -107,12 +126,9 @@ def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams()) ->
     q = np.empty((n, 4))
     used = np.empty(n, bool)
     upd, getq, st = ahrs.update_no_magnetometer, ahrs.get_quaternion, ahrs.get_internal_states
-    if params.use_bias:
-        bias = imufusion.Bias()
-        bias.set_settings(imufusion.BiasSettings(sample_rate=1.0 / dt))
-        corr = bias.update
+    bias = make_bias(dt, params)
     for k in range(n):
-        upd(corr(gd[k]) if params.use_bias else gd[k], ag[k])
+        upd(gd[k] if bias is None else bias.update(gd[k]), ag[k])
         q[k] = getq()
         used[k] = not st().accelerometer_ignored
     return estimate_from_gravity("fusion", _down_frd(q), used, time.perf_counter() - t0)
