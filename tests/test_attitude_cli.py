@@ -46,6 +46,35 @@ def test_temperature_csv_is_interpolated(tmp_path):
     assert res.metrics["gated"]["overall"]["roll_rms_deg"]["mean"] < 5.0  # uncompensated: tens of mg bias
 
 
+@pytest.mark.parametrize("time_value", ["inf", "0", "1200"])
+def test_single_row_temperature_csv_is_constant(tmp_path, time_value):
+    """A steady-run probes.csv of ``imutherm solve`` has one row at time_s = inf: a constant temperature."""
+    from imutherm.studies.attitude_study import read_temperature_csv, temperature_on
+
+    csv = tmp_path / "probes.csv"
+    temps = ["31.5", "32", "33.25", "34", "35", "36.5"]
+    csv.write_text("time_s," + ",".join(SITES) + "\n" + time_value + "," + ",".join(temps) + "\n")
+    tc, T = read_temperature_csv(csv)
+    assert tc.shape == (1,) and T.shape == (1, 6)
+    temp, desc = temperature_on(np.arange(5) * 0.01, temperature_csv=csv)
+    np.testing.assert_array_equal(temp, np.tile(np.array(temps, float), (5, 1)))
+    assert desc["min_C"] == 31.5 and desc["max_C"] == 36.5
+    res = run_attitude_study("static", compensation="none", temperature_csv=csv, duration=20.0, names=("gated",))
+    assert res.temperature["max_C"] == 36.5
+
+
+def test_temperature_csv_nonfinite_rejected_unless_single_row(tmp_path):
+    from imutherm.studies.attitude_study import read_temperature_csv
+
+    csv = tmp_path / "t.csv"
+    csv.write_text("time_s," + ",".join(SITES) + "\n0," + ",".join(["25"] * 6) + "\ninf," + ",".join(["26"] * 6) + "\n")
+    with pytest.raises(InputError, match="t.csv: column 'time_s' contains NaN or inf"):
+        read_temperature_csv(csv)
+    csv.write_text("time_s," + ",".join(SITES) + "\ninf," + ",".join(["25"] * 5 + ["inf"]) + "\n")
+    with pytest.raises(InputError, match="t.csv: temperature CSV contains NaN or inf temperatures"):
+        read_temperature_csv(csv)
+
+
 @pytest.mark.parametrize("args, message", [
     (["--profile", "loop"], "--profile: 'loop' is unknown; valid: static, swing, shake, flight"),
     (["--profile", "static", "--grade", "adis99"], "unknown grade 'adis99'; valid grades: adis16355"),
@@ -70,6 +99,22 @@ def test_cli_csv_missing_site_column(tmp_path, capsys):
     assert rc == 2
     err = capsys.readouterr().err
     assert "temps.csv: column 'accel_y' is missing; valid header: time_s, gyro_x" in err
+
+
+@pytest.mark.slow
+def test_flight_accuracy_targets():
+    """The targets of benchmarks/bench_attitude.py (flight, adis16355, improved, 25 °C, seeds 0..5, the same study
+    call): gated roll / pitch RMS <= 1.0° overall and <= 0.5° in stable flight (mean over seeds), and better than
+    the ungated baseline and the imufusion peer overall. Accuracy only, no timing."""
+    res = run_attitude_study("flight", grade="adis16355", temperature_C=25.0, compensation="improved", seeds=6)
+    assert res.seeds == tuple(range(6))
+    m = {n: {seg: {k: res.metrics[n][seg][k]["mean"] for k in ("roll_rms_deg", "pitch_rms_deg")}
+             for seg in ("overall", "stable")} for n in ("gated", "ungated", "fusion")}
+    for k in ("roll_rms_deg", "pitch_rms_deg"):
+        assert m["gated"]["overall"][k] <= 1.0, m["gated"]
+        assert m["gated"]["stable"][k] <= 0.5, m["gated"]
+        assert m["gated"]["overall"][k] < m["ungated"]["overall"][k], (m["gated"], m["ungated"])
+        assert m["gated"]["overall"][k] < m["fusion"]["overall"][k], (m["gated"], m["fusion"])
 
 
 def test_study_rejects_too_short_rest():

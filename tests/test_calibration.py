@@ -89,6 +89,56 @@ def test_noise_free_conventional_absorbs_oven_mounting_improved_cancels_it():
     assert 0.2 * G0 * np.radians(1.0) < err_conv < 1.2 * G0 * np.radians(1.0)
 
 
+def _room_only(s, cal):
+    """Compensation with the room-temperature calibration alone (sigma = 0): E = K_room^-1 (N - D_room)."""
+    return (np.linalg.solve(cal.gyro.K_room, (s.gyro - cal.gyro.D_room).T).T,
+            np.linalg.solve(cal.accel.K_room, (s.accel - cal.accel.D_room).T).T)
+
+
+def test_improved_sigma_is_zero_at_room_temperature_and_continuous_across_it():
+    """Seed 000 eq. 2-3: sigma is relative to the 25 °C calibration, so at 25 °C the improved model is the room
+    fit. 25 °C is a segment edge (fitted nodes 22.5 / 27.5 °C): without the sigma = 0 room node the segment lookup
+    applied the 27.5 °C sigma there (~1-3 mg on a noise-free unit)."""
+    unit = _linear_unit(seed=7, quiet=False)  # exactly N = K(T) E + D(T): the room fit is exact
+    unit = dc.replace(unit, temp_offset_C=np.zeros(6))  # reported temperature = die temperature
+    cal = calibrate_unit(unit, np.random.default_rng(8), noise=False, dwell_s=0.2, settle_s=0.0)
+    np.testing.assert_allclose(cal.room_temp_C, 25.0, rtol=0, atol=1e-9)  # mean of equal readings
+    f = G0 * np.array([[0.6, 0.0, 0.8], [0.0, -1.0, 0.0], [0.48, 0.6, -0.64], [0.0, 0.0, 1.0]])
+    w = np.radians([[10.0, 0.0, 0.0], [0.0, -50.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 200.0]])
+    n = len(f)
+
+    def residual_mg(T, interp):
+        s = simulate_imu(unit, np.arange(n) / 100.0, w, f, np.full((n, 6), T), None, noise=False)
+        c = compensate(s, cal, "improved", interp=interp)
+        return s, c, (c.accel - f) / G0 * 1e3
+
+    # the old lookup at 25 °C: the segment [25, 30) sigma, fitted at 27.5 °C, is far from zero there
+    k = int(np.searchsorted(cal.segment_edges_C, 25.0, side="right") - 1)
+    s25 = simulate_imu(unit, np.arange(n) / 100.0, w, f, np.full((n, 6), 25.0), None, noise=False)
+    a, b, c0 = (cal.accel.sigma[k, :, j] for j in range(3))
+    assert np.abs(a * s25.accel**2 + b * s25.accel + c0).max() / G0 * 1e3 > 0.5
+    for interp in ("segment", "linear"):
+        s, c, r = residual_mg(25.0, interp)
+        g_room, a_room = _room_only(s, cal)
+        np.testing.assert_allclose(c.accel, a_room, rtol=0, atol=1e-12)  # = the room fit's compensation
+        np.testing.assert_allclose(c.gyro, g_room, rtol=0, atol=1e-12)
+        assert np.abs(r).max() < 1e-6  # and the room fit's residual is ~0 on this unit [mg]
+    # linear mode interpolates through the sigma = 0 node: continuous across 25 °C
+    Ts = 25.0 + np.array([-0.5, -0.1, -0.01, -0.001, 0.0, 0.001, 0.01, 0.1, 0.5])
+    res = np.array([residual_mg(T, "linear")[2] for T in Ts])  # (9, n, 3) [mg]
+    jump = np.abs(np.diff(res, axis=0)).max(axis=(1, 2))
+    assert np.all(jump <= 2.0 * np.abs(np.diff(Ts)) + 1e-9)  # Lipschitz, < 2 mg/°C: no step at 25 °C
+    assert np.abs(res).max() < 1.0  # sigma interpolated between 0 at 25 °C and the fitted 22.5 / 27.5 °C nodes
+    # with the unit's own temperature-sensor offsets the node sits at each site's reported room temperature
+    unit_off = _linear_unit(seed=7, quiet=False)
+    cal_off = calibrate_unit(unit_off, np.random.default_rng(8), noise=False, dwell_s=0.2, settle_s=0.0)
+    np.testing.assert_allclose(cal_off.room_temp_C, 25.0 + unit_off.temp_offset_C, atol=1e-12)
+    s = simulate_imu(unit_off, np.arange(n) / 100.0, w, f, np.full((n, 6), 25.0), None, noise=False)
+    for interp in ("segment", "linear"):
+        c = compensate(s, cal_off, "improved", interp=interp)
+        np.testing.assert_allclose(c.accel, _room_only(s, cal_off)[1], rtol=0, atol=1e-12)
+
+
 def test_ideal_unit_calibration_is_identity_and_compensation_exact(ideal_cal):
     unit, cal = ideal_cal
     for c in (cal.accel, cal.gyro):

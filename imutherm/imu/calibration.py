@@ -32,7 +32,12 @@ Fits
   oven position / rate (seed 000: "the difference between the output at the
   segment temperature and at room temperature"). The mounting rotation is
   the same in both terms of the difference, so it cancels; the oven session's
-  turn-on bias cancels too. sigma is zero at 25 °C by construction.
+  turn-on bias cancels too. The fitted *data* N(T) - N(25 °C) is zero at 25 °C,
+  but each segment's fitted sigma is not: the segments next to 25 °C are fitted
+  at 22.5 and 27.5 °C and 25 °C is their common edge, so evaluating either of
+  them at 25 °C leaves a few mg. Compensation therefore treats the
+  room-temperature reference (``Calibration.room_temp_C``, per site) as a
+  sigma = 0 node (see :mod:`imutherm.imu.compensation`).
 
 Both fits are keyed by the *reported* temperature (internal temperature
 sensors); segment edges are -40, -35, ..., 70 °C of reported temperature.
@@ -87,7 +92,11 @@ class RigConfig:
     segment_width_C: float = 5.0
     range_C: tuple = T_RANGE_C
     table_mount_deg: float = 0.05
-    oven_mount_deg: float = 1.0
+    # calibrated, not measured: the rig's unknown oven-mounting rotation is set so the
+    # conventional accelerometer residual lands on seed 000's 30 mg (it grows ~g * theta,
+    # 17.5 mg per degree, on a ~6 mg floor: see benchmarks/bench_calibration.py --sweep);
+    # the improved model's residual does not depend on it and is not tuned
+    oven_mount_deg: float = 1.4
     room_rates_dps: tuple = tuple(float(r) for r in range(10, 301, 10))
     oven_rates_dps: tuple = (10.0, 50.0, 100.0, 150.0, 200.0, 250.0, 300.0)
 

@@ -16,6 +16,19 @@ Temperature lookup (``interp``): ``"segment"`` (default, as in seed 000: each
 between the temperatures at which the segments were calibrated, extrapolated
 linearly in the half segments beyond the end nodes). Reported temperatures outside the calibrated range
 (-40..70 °C) raise :class:`imutherm.InputError`.
+
+Room-temperature node of the improved model: sigma is defined relative to the
+room-temperature (25 °C) calibration, so it is zero there (seed 000: "the
+coefficients are zero at room temperature"). The fitted segments do not
+contain that point (their nodes are the segment centres, 22.5 and 27.5 °C
+next to it, and the room temperature is a segment *edge*), so the improved
+lookup adds the room-temperature reference, at each site's reported
+temperature ``Calibration.room_temp_C`` (25 °C plus that sensor's offset), as
+a node with sigma = 0: in ``"segment"`` mode a reported temperature equal to
+it (within ``ROOM_NODE_TOL_C``) gets sigma = 0, i.e. exactly the room-temperature
+calibration; in ``"linear"`` mode sigma is interpolated through it. The
+conventional model has no such node (its K_s, D_s are absolute, not relative
+to 25 °C).
 """
 
 from __future__ import annotations
@@ -32,24 +45,42 @@ if TYPE_CHECKING:  # pragma: no cover
 
 METHODS = ("none", "conventional", "improved")
 INTERPS = ("segment", "linear")
+#: [°C] a reported temperature this close to the room-temperature reference is "at" it (segment mode):
+#: the same reading of the internal sensor, up to floating-point rounding of the calibration's mean
+ROOM_NODE_TOL_C = 1e-6
 
 
-def _params_at(params: np.ndarray, nodes: np.ndarray, edges: np.ndarray, T: np.ndarray, interp: str) -> np.ndarray:
+def _params_at(params: np.ndarray, nodes: np.ndarray, edges: np.ndarray, T: np.ndarray, interp: str,
+               zero_at: np.ndarray | None = None) -> np.ndarray:
     """Per-sample, per-axis parameters.
 
     params (S,3,P), nodes (S,3) [°C], edges (S+1,) [°C], T (N,3) [°C] -> (N,3,P).
+    zero_at (3,) [°C] | None: an extra node per axis at which the parameters are zero (the improved model's
+    room-temperature reference): "segment" gives zero there (|T - zero_at| <= ROOM_NODE_TOL_C), "linear"
+    interpolates through it.
     """
     S = params.shape[0]
     axes = np.arange(3)[None, :]
-    if interp == "segment" or S == 1:
+    if interp == "segment" or (S == 1 and zero_at is None):
         k = np.clip(np.searchsorted(edges, T, side="right") - 1, 0, S - 1)  # (N,3)
-        return params[k, axes]
+        out = params[k, axes]
+        if zero_at is not None:
+            out = np.where((np.abs(T - np.asarray(zero_at, float)[None, :]) <= ROOM_NODE_TOL_C)[:, :, None],
+                           0.0, out)
+        return out
     out = np.empty(T.shape + (params.shape[2],))
     for i in range(3):
-        n = nodes[:, i]
-        j = np.clip(np.searchsorted(n, T[:, i]), 1, S - 1)
+        n, p = nodes[:, i], params[:, i]
+        if zero_at is not None:
+            z = float(zero_at[i])
+            keep = np.abs(n - z) > ROOM_NODE_TOL_C  # a fitted node on the room node would duplicate it
+            n, p = n[keep], p[keep]
+            j0 = np.searchsorted(n, z)
+            n = np.insert(n, j0, z)
+            p = np.insert(p, j0, np.zeros(p.shape[1]), axis=0)
+        j = np.clip(np.searchsorted(n, T[:, i]), 1, n.size - 1)
         w = ((T[:, i] - n[j - 1]) / (n[j] - n[j - 1]))[:, None]  # linear extrapolation beyond end nodes
-        out[:, i] = (1.0 - w) * params[j - 1, i] + w * params[j, i]
+        out[:, i] = (1.0 - w) * p[j - 1] + w * p[j]
     return out
 
 
@@ -106,7 +137,8 @@ def compensate(samples: ImuSamples, calibration: "Calibration | None", method: s
             K, D = p[:, :, :3], p[:, :, 3]
             out[name] = np.linalg.solve(K, (N - D)[:, :, None])[:, :, 0]
         else:
-            p = _params_at(c.sigma, nodes[:, cols], edges, T, interp)  # (N,3,3): a, b, c
+            room = np.asarray(calibration.room_temp_C, float)[cols]  # sigma = 0 node (module docstring)
+            p = _params_at(c.sigma, nodes[:, cols], edges, T, interp, zero_at=room)  # (N,3,3): a, b, c
             sig = p[:, :, 0] * N**2 + p[:, :, 1] * N + p[:, :, 2]
             out[name] = np.linalg.solve(c.K_room, (N - sig - c.D_room).T).T
     return ImuSamples(t=samples.t, gyro=out["gyro"], accel=out["accel"], temp_C=samples.temp_C)

@@ -13,7 +13,10 @@ Provenance of every number is given in the comment next to it:
   during this work; treat them as typical-datasheet magnitudes, not quotes).
 * **[000]**   seed 000 qualitative statements (units of one type differ
   strongly, accelerometers repeat worse than gyros over temperature, error vs
-  temperature strongly nonlinear).
+  temperature strongly nonlinear). Seed 000 gives no numbers for these, so a
+  value that only follows such a statement is tagged **[ASSUMED]** with
+  "ordering per 000" (e.g. the power-on repeatability: accelerometers worse
+  than gyros relative to their temperature curve).
 * **[ASSUMED]** chosen by us, with the reason in the comment.
 
 The temperature-curve amplitudes (``*_temp_amplitude_*``) are the *peak*
@@ -54,10 +57,10 @@ GRADES: dict[str, dict] = {
             "initial_bias_dps": 0.5,            # [ASSUMED] residual bias after factory cal (1 sigma)
             "initial_sf_ppm": 3000.0,           # [ASSUMED] scale-factor error at 25 degC (1 sigma)
             "misalignment_deg": 0.2,            # [DS] axis-to-axis misalignment +-0.2 deg (recalled), per element 1 sigma
-            "turn_on_bias_dps": 0.02,           # [ASSUMED] power-on to power-on bias repeatability (1 sigma)
+            "turn_on_bias_dps": 0.02,           # [ASSUMED] power-on to power-on bias repeatability (1 sigma): 3.3 % of the 0.6 deg/s curve
             "bias_temp_amplitude_dps": 0.6,     # [DS] bias tempco ~0.01 deg/s/degC x ~60 degC swing (recalled)
             "sf_temp_amplitude_ppm": 4000.0,    # [ASSUMED] ~70 ppm/degC x 60 degC
-            "power_on_curve_fraction": 0.02,    # [000] gyros repeat well over temperature: 2 % of the curve
+            "power_on_curve_fraction": 0.02,    # [ASSUMED] ordering per 000 (gyros repeat better than accels): 2 % of the curve
             "temp_rate_coeff_dps_per_Cmin": 0.01,  # [ASSUMED] thermal-gradient bias per degC/min (1 sigma)
             "g_sensitivity_dps_per_g": 0.05,    # [DS] linear acceleration effect 0.05 deg/s/g (recalled)
         },
@@ -71,10 +74,10 @@ GRADES: dict[str, dict] = {
             "initial_bias_mg": 10.0,            # [ASSUMED] residual bias after factory cal (1 sigma)
             "initial_sf_ppm": 3000.0,           # [ASSUMED]
             "misalignment_deg": 0.2,            # [DS] recalled, per element 1 sigma
-            "turn_on_bias_mg": 0.5,             # [ASSUMED] power-on repeatability (worse than gyro relative to curve)
+            "turn_on_bias_mg": 0.5,             # [ASSUMED] power-on bias repeatability (1 sigma); the ordering of 000 (accels repeat worse) is carried by power_on_curve_fraction
             "bias_temp_amplitude_mg": 30.0,     # [ASSUMED]/[000] tens of mg uncompensated (see module doc)
             "sf_temp_amplitude_ppm": 3000.0,    # [ASSUMED]
-            "power_on_curve_fraction": 0.05,    # [000] accelerometers repeat worse than gyros: 5 % of the curve
+            "power_on_curve_fraction": 0.05,    # [ASSUMED] ordering per 000 (accels repeat worse than gyros): 5 % of the curve
             "temp_rate_coeff_mg_per_Cmin": 0.3,  # [ASSUMED] thermal-gradient bias per degC/min (1 sigma)
             "asymmetry_ppm": 500.0,             # [ASSUMED] scale-factor asymmetry (seed 004 term), 1 sigma
             "k2_mg_per_g2": 0.3,                # [ASSUMED] quadratic term K2 (seed 004), 1 sigma
@@ -93,7 +96,7 @@ GRADES: dict[str, dict] = {
         "temp_sensor_lsb_C": 0.00565,           # [DS] TEMP_OUT 0.00565 degC/LSB (recalled)
         "gyro": {
             "noise_rms_dps": 0.26 / 60.0 * 10.0,  # [DS] ARW 0.26 deg/sqrt(h) = 0.00433 deg/sqrt(s) -> rms at 100 Hz
-            "noise_ref_rate_hz": 100.0,
+            "noise_ref_rate_hz": 100.0,         # [DS] the 100 Hz used above to express the ARW as an rms; rms/sqrt(rate) gives the ARW back
             "bias_instability_dps": 5.1 / 3600.0,  # [DS] 5.1 deg/h
             "bias_corr_time_s": 100.0,          # [ASSUMED]
             "rate_random_walk_dps_per_rts": 2.0e-5,  # [ASSUMED]
@@ -101,16 +104,16 @@ GRADES: dict[str, dict] = {
             "initial_bias_dps": 0.05,           # [ASSUMED]
             "initial_sf_ppm": 1000.0,           # [ASSUMED]
             "misalignment_deg": 0.05,           # [DS] axis-to-axis +-0.05 deg (recalled)
-            "turn_on_bias_dps": 0.002,          # [ASSUMED]
+            "turn_on_bias_dps": 0.002,          # [ASSUMED] 1.3 % of the 0.15 deg/s curve
             "bias_temp_amplitude_dps": 0.15,    # [ASSUMED] ~0.0025 deg/s/degC x 60 degC
             "sf_temp_amplitude_ppm": 1500.0,    # [ASSUMED] ~25 ppm/degC x 60 degC
-            "power_on_curve_fraction": 0.02,    # [000]
+            "power_on_curve_fraction": 0.02,    # [ASSUMED] ordering per 000 (gyros repeat better than accels)
             "temp_rate_coeff_dps_per_Cmin": 0.002,  # [ASSUMED]
             "g_sensitivity_dps_per_g": 0.009,   # [DS] linear-g 0.009 deg/s/g (recalled)
         },
         "accel": {
             "noise_rms_mg": 0.029 / 60.0 / 9.80665 * 1000.0 * 10.0,  # [DS] VRW 0.029 m/s/sqrt(h) -> rms at 100 Hz
-            "noise_ref_rate_hz": 100.0,
+            "noise_ref_rate_hz": 100.0,         # [DS] the 100 Hz used above to express the VRW as an rms; rms/sqrt(rate) gives the VRW back
             "bias_instability_mg": 0.1,         # [DS] in-run bias 0.1 mg
             "bias_corr_time_s": 100.0,          # [ASSUMED]
             "rate_random_walk_mg_per_rts": 2.0e-4,  # [ASSUMED]
@@ -118,10 +121,10 @@ GRADES: dict[str, dict] = {
             "initial_bias_mg": 2.0,             # [ASSUMED]
             "initial_sf_ppm": 1000.0,           # [ASSUMED]
             "misalignment_deg": 0.035,          # [DS] axis-to-axis (recalled)
-            "turn_on_bias_mg": 0.1,             # [ASSUMED]
+            "turn_on_bias_mg": 0.1,             # [ASSUMED] accels repeat worse than gyros (paper 000): 2 % of the 5 mg curve
             "bias_temp_amplitude_mg": 5.0,      # [ASSUMED] ~0.08 mg/degC x 60 degC
             "sf_temp_amplitude_ppm": 1000.0,    # [ASSUMED]
-            "power_on_curve_fraction": 0.05,    # [000]
+            "power_on_curve_fraction": 0.05,    # [ASSUMED] ordering per 000 (accels repeat worse than gyros)
             "temp_rate_coeff_mg_per_Cmin": 0.05,  # [ASSUMED]
             "asymmetry_ppm": 100.0,             # [ASSUMED]
             "k2_mg_per_g2": 0.05,               # [ASSUMED]

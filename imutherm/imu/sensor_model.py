@@ -29,6 +29,11 @@ Measurement model of one sensor triad (gyro shown; accelerometer alike)::
   quadratic coefficient ``K2_i``; gyro g-sensitivity ``G`` (3x3) [rad/s per m/s^2].
 * Noise from Allan parameters: white (ARW / VRW), bias instability as a
   first-order Gauss-Markov process, rate random walk; then quantisation.
+  The grade's bias instability B is the datasheet figure, i.e. the floor of
+  the Allan deviation. The Allan deviation of a first-order Gauss-Markov
+  process of standard deviation sigma and correlation time Tc peaks at
+  ``GM_ADEV_PEAK`` = 0.6174 sigma (at tau = 1.89 Tc), so the process is run
+  with ``sigma = B / GM_ADEV_PEAK`` (~1.62 B) and its Allan floor equals B.
 
 Each site's internal temperature sensor reports the die temperature through a
 first-order lag ``tau`` (exact first-order-hold discretisation: exact for
@@ -55,6 +60,12 @@ G0 = 9.80665  # [m/s^2] standard gravity
 T_REF_C = 25.0  # [°C] room (reference) temperature of the curves
 T_RANGE_C = (-40.0, 70.0)  # [°C] operating / calibrated range
 _X_SCALE = 55.0  # [°C] normalisation of the curve argument x = (T - 25)/55
+#: [-] peak Allan deviation of a first-order Gauss-Markov process divided by its standard deviation sigma.
+#: Allan variance of exponentially correlated (Markov) noise, q = 2 sigma^2 / Tc (IEEE Std 952-1997 Annex C;
+#: El-Sheimy, Hou, Niu, "Analysis and modeling of inertial sensors using Allan variance", IEEE Trans.
+#: Instrum. Meas. 57(1), 2008): AVAR(T) = (q Tc^2 / T) [1 - Tc/(2T) (3 - 4 e^(-T/Tc) + e^(-2T/Tc))];
+#: its maximum over T (at T = 1.893 Tc) is (0.6174 sigma)^2. Checked numerically in tests/test_imu_sensor.py.
+GM_ADEV_PEAK = 0.6174
 
 _DEG = np.pi / 180.0
 _MG = G0 * 1e-3
@@ -70,7 +81,8 @@ class SensorSpec:
     Attributes
     ----------
     noise_density : float [unit/sqrt(Hz)]  white noise (ARW / VRW); rms per sample = density*sqrt(fs)
-    bias_instability : float [unit]        1-sigma of the Gauss-Markov bias process
+    bias_instability : float [unit]        bias instability B = Allan-deviation floor (datasheet in-run bias
+                                           stability); the Gauss-Markov process has sigma = B / GM_ADEV_PEAK
     bias_corr_time_s : float [s]           Gauss-Markov correlation time
     rate_random_walk : float [unit/sqrt(s)] bias random walk
     lsb : float [unit]                     quantisation step (0 = none)
@@ -485,8 +497,8 @@ def _triad_output(triad: TriadTruth, spec: SensorSpec, x, T, dTdt_min, f_b, p_on
         fs = 1.0 / dt
         if spec.noise_density > 0:
             y = y + rng.standard_normal((n, 3)) * (spec.noise_density * np.sqrt(fs))
-        if spec.bias_instability > 0:
-            y = y + _gauss_markov(rng, n, 3, spec.bias_instability, spec.bias_corr_time_s, dt)
+        if spec.bias_instability > 0:  # Allan floor of the GM process = the grade's bias instability
+            y = y + _gauss_markov(rng, n, 3, spec.bias_instability / GM_ADEV_PEAK, spec.bias_corr_time_s, dt)
         if spec.rate_random_walk > 0:
             y = y + np.cumsum(rng.standard_normal((n, 3)) * (spec.rate_random_walk * np.sqrt(dt)), axis=0)
         if spec.lsb > 0:

@@ -107,8 +107,11 @@ class AttitudeStudyResult:
 def read_temperature_csv(path) -> tuple[np.ndarray, np.ndarray]:
     """Read a temperature CSV: ``time_s`` and one column per site (SITES) [°C].
 
-    Returns (time [s] (M,), temperatures [°C] (M, 6)). Raises InputError naming
-    the file and the missing / bad column.
+    Returns (time [s] (M,), temperatures [°C] (M, 6)). Several rows: ``time_s``
+    finite and strictly increasing. A single row is a constant temperature and
+    its ``time_s`` may be any number, ``inf`` included (a steady run of
+    ``imutherm solve`` writes one row at time ``inf``). Temperatures must be
+    finite. Raises InputError naming the file and the missing / bad column.
     """
     from imutherm.imu.sensor_model import SITES
 
@@ -131,8 +134,11 @@ def read_temperature_csv(path) -> tuple[np.ndarray, np.ndarray]:
         data = np.array([[float(r[i]) for i in idx] for r in rows[1:]], float)
     except (ValueError, IndexError) as exc:
         raise InputError(f"{path}: non-numeric or short row in temperature CSV ({exc})") from None
-    if not np.all(np.isfinite(data)):
-        raise InputError(f"{path}: temperature CSV contains NaN or inf")
+    if not np.all(np.isfinite(data[:, 1:])):
+        raise InputError(f"{path}: temperature CSV contains NaN or inf temperatures")
+    if len(data) > 1 and not np.all(np.isfinite(data[:, 0])):
+        raise InputError(f"{path}: column 'time_s' contains NaN or inf; only a single-row (constant, e.g. "
+                         "steady-state) file may have a non-finite time")
     t = data[:, 0]
     if len(t) > 1 and np.any(np.diff(t) <= 0):
         raise InputError(f"{path}: column 'time_s' must be strictly increasing")
@@ -143,8 +149,8 @@ def temperature_on(t, temperature_C=None, temperature_csv=None) -> tuple[np.ndar
     """True die temperatures (N, 6) [°C] on sample times ``t`` [s] and a description dict.
 
     Either a constant ``temperature_C`` [°C] (default 25) or a CSV interpolated
-    linearly (held constant beyond its ends). Raises InputError outside the
-    calibrated range -40..70 °C.
+    linearly (held constant beyond its ends; a single-row CSV is a constant,
+    whatever its time). Raises InputError outside the calibrated range -40..70 °C.
     """
     from imutherm.imu.sensor_model import SITES, T_RANGE_C
 
@@ -152,7 +158,10 @@ def temperature_on(t, temperature_C=None, temperature_csv=None) -> tuple[np.ndar
         raise InputError("temperature: give either --temperature or --temperature-csv, not both")
     if temperature_csv is not None:
         tc, T = read_temperature_csv(temperature_csv)
-        temp = np.column_stack([np.interp(t, tc, T[:, j]) for j in range(6)])
+        if len(tc) == 1:  # steady state: one row, its time (possibly inf) is irrelevant
+            temp = np.tile(T[0], (len(t), 1))
+        else:
+            temp = np.column_stack([np.interp(t, tc, T[:, j]) for j in range(6)])
         desc = {"source": str(temperature_csv), "min_C": float(temp.min()), "max_C": float(temp.max())}
     else:
         T0 = 25.0 if temperature_C is None else float(temperature_C)
