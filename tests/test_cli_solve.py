@@ -7,10 +7,15 @@ import meshio
 import numpy as np
 import pytest
 
-from imutherm.cli import main
+from imutherm.cli import _common, main
+from imutherm.cli import solve as solve_cli
 
 COARSE = ["--mesh-size", "6", "--min-cells", "1"]
 SITES = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z", "tp1", "tp2", "tp3"]
+
+
+def _no_solve(*args, **kwargs):
+    raise AssertionError("the solve must not start")
 
 
 @pytest.fixture(scope="module")
@@ -30,9 +35,12 @@ def test_transient_result_json(transient):
     assert set(r["sites"]) == set(SITES)
     for s in r["sites"].values():
         assert 0 < s["rise_K"] <= s["steady_rise_K"] + 1e-9  # heating up from ambient towards steady state
-        assert 0 < s["t63_s"] < s["t95_s"] or s["t95_s"] is None
-    assert r["energy_balance_rel_error"] < 1e-3
-    assert r["steady_energy_balance_rel_error"] < 1e-6
+        assert s["t95_s"] is None or 0 < s["t63_s"] < s["t95_s"]
+    # The acceptance limit is 1e-3; the AMG solves close far tighter (measured on this mesh: transient
+    # 1.8e-10, steady 2.5e-12), so check 4 (transient) and 6 (steady) orders of magnitude below that limit.
+    assert r["energy_balance_rel_error"] < 1e-7
+    assert r["steady_energy_balance_rel_error"] < 1e-9
+    assert 0 <= r["transient_residual"] < 1e-6  # largest relative linear residual of any step
 
 
 def test_probes_csv_and_pvd(transient):
@@ -56,6 +64,8 @@ def test_steady_result_matches_energy_and_sites(tmp_path):
     r = json.loads((out / "result.json").read_text())
     assert list(r["sites"]) == ["tp1", "gyro_z"]
     assert sum(r["heat_out_W"].values()) == pytest.approx(r["power_W"], rel=1e-6)
+    assert r["energy_balance_rel_error"] < 1e-9  # measured 7.7e-13: 6 orders below the 1e-3 acceptance limit
+    assert "transient_residual" not in r
     with open(out / "probes.csv") as fh:
         rows = list(csv.reader(fh))
     assert rows[0] == ["time_s", "tp1", "gyro_z"] and rows[1][0] == "inf"
@@ -70,14 +80,99 @@ def test_steady_result_matches_energy_and_sites(tmp_path):
     (["--scheme", "foam"], "unknown scheme 'foam'"),
     (["--emissivity", "1.5"], "emissivity must be in [0, 1]"),
     (["--mount-conductance", "-3"], "must be a finite number >= 0"),
-    (["--site", "gyro_w"], "unknown site(s) ['gyro_w']"),
+    (["--site", "gyro_w"], "--site: unknown site(s) gyro_w; valid: gyro_x, gyro_y"),
+    (["--site", "tp1", "--site", "tp9"], "--site: unknown site(s) tp9; valid:"),
+    (["--transient", "--theta", "0.3"], "--theta must be in [0.5, 1]"),
+    (["--transient", "--theta", "1.5"], "--theta must be in [0.5, 1]"),
+    (["--transient", "--theta", "nan"], "--theta must be in [0.5, 1]"),
+    (["--theta", "0.5"], "--theta needs --transient"),
+    (["--transient", "--save-every", "0"], "--save-every must be a finite number > 0 [s]"),
+    (["--transient", "--save-every", "-5"], "--save-every must be a finite number > 0 [s]"),
 ])
-def test_bad_input_one_line_no_files(tmp_path, capsys, args, message):
+def test_bad_input_one_line_no_files(tmp_path, capsys, monkeypatch, args, message):
+    monkeypatch.setattr(solve_cli, "run_scheme", _no_solve)  # bad input is rejected before any solve
     out = tmp_path / "never"
     assert main(["solve", "--out", str(out)] + COARSE + args) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and err.strip().count("\n") == 0
     assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def _one_line_error(capsys, *words):
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.strip().count("\n") == 0, err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+@pytest.mark.parametrize("command", [
+    ["solve"],
+    ["geometry", "--no-png"],
+    ["compare", "--steady-only", "--no-progress"],
+])
+def test_out_is_an_existing_file(tmp_path, capsys, monkeypatch, command):
+    monkeypatch.setattr(solve_cli, "run_scheme", _no_solve)
+    out = tmp_path / "result.txt"
+    out.write_text("keep me")
+    assert main(command + ["--out", str(out)] + COARSE) == 2
+    _one_line_error(capsys, "--out", str(out), "not a directory")
+    assert out.read_text() == "keep me" and [p.name for p in tmp_path.iterdir()] == ["result.txt"]
+
+
+def test_out_below_an_existing_file(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(solve_cli, "run_scheme", _no_solve)
+    (tmp_path / "file").write_text("")
+    assert main(["solve", "--out", str(tmp_path / "file" / "sub")] + COARSE) == 2
+    _one_line_error(capsys, "--out", "not a directory")
+
+
+def test_os_error_is_one_line(tmp_path, capsys, monkeypatch):
+    def disk_full(*args, **kwargs):
+        raise OSError(28, "No space left on device", str(tmp_path / "x"))
+
+    monkeypatch.setattr(solve_cli, "run_scheme", disk_full)
+    assert main(["solve", "--out", str(tmp_path / "O")] + COARSE) == 2
+    _one_line_error(capsys, "imutherm solve: error:", "No space left on device")
+    assert not (tmp_path / "O").exists()
+
+
+def test_keyboard_interrupt_is_a_clean_exit(tmp_path, capsys, monkeypatch):
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(solve_cli, "run_scheme", interrupt)
+    assert main(["solve", "--out", str(tmp_path / "O")] + COARSE) == 130
+    _one_line_error(capsys, "imutherm solve: interrupted")
+    assert not list(tmp_path.iterdir())
+
+
+def test_rerun_into_out_removes_stale_field_files(tmp_path):
+    out = tmp_path / "R"
+    out.mkdir()
+    stale = ["field.vtu", "field.pvd", "field_0000.vtu", "field_0012.vtu", "field_12345.vtu"]
+    keep = ["notes.txt", "field_notes.vtu", "mesh.vtu"]
+    for name in stale + keep:
+        (out / name).write_text("old")
+    short = ["--t-end", "40", "--dt", "20", "--dt-max", "20", "--save-every", "20", "--no-progress"]
+    assert main(["solve", "--scheme", "grease", "--transient", "--out", str(out)] + short + COARSE) == 0
+    new = ["field.pvd", "field_0000.vtu", "field_0001.vtu", "field_0002.vtu"]
+    assert sorted(p.name for p in out.iterdir()) == sorted(keep + new + ["probes.csv", "result.json"])
+    assert all((out / n).read_text() == "old" for n in keep)
+    # a steady run next: the transient's series goes, field.vtu comes
+    assert main(["solve", "--scheme", "grease", "--out", str(out)] + COARSE) == 0
+    assert sorted(p.name for p in out.iterdir()) == sorted(keep + ["field.vtu", "probes.csv", "result.json"])
+
+
+def test_atomic_outdir_keeps_everything_on_failure(tmp_path):
+    out = tmp_path / "A"
+    out.mkdir()
+    (out / "field.vtu").write_text("old")
+    with pytest.raises(RuntimeError):
+        with _common.atomic_outdir(out, stale=_common.FIELD_FILES) as tmp:
+            (tmp / "field.pvd").write_text("new")
+            raise RuntimeError("failed")
+    assert [p.name for p in out.iterdir()] == ["field.vtu"] and not list(tmp_path.glob(".A.*"))
 
 
 def test_compare_writes_the_report(tmp_path):

@@ -1,8 +1,8 @@
 """The ``imutherm`` command: one module per subcommand, each with ``main(argv=None)``.
 
 ``imutherm SUBCOMMAND ...`` dispatches to ``imutherm.cli.<subcommand>.main``.
-Every subcommand turns :class:`imutherm.InputError` into a one-line message on
-stderr and exit status 2; no traceback for bad input.
+Every subcommand turns :class:`imutherm.InputError` and OSError into a one-line message on
+stderr and exit status 2 (Ctrl-C: one line, status 130); no traceback for bad input.
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ import argparse
 
 import numpy as np
 
-from imutherm.cli._common import atomic_outdir, run_guarded, write_json
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
 from imutherm.imu.motion import PROFILES
 
 
@@ -45,6 +45,7 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Entry point; returns the exit status (2 on bad input)."""
     args = _parser().parse_args(argv)
+    check_outdir(args.out)
     from imutherm.studies.attitude_study import run_attitude_study
 
     res = run_attitude_study(args.profile, grade=args.grade, temperature_C=args.temperature,

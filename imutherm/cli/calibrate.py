@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, run_guarded, write_json
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
 from imutherm.imu.calibration import RigConfig, calibrate_unit, evaluate_calibration
 from imutherm.imu.compensation import INTERPS
 from imutherm.imu.grades import GRADES
@@ -108,6 +108,7 @@ def main(argv=None) -> int:
                         help="temperature lookup at compensation (default segment)")
     parser.add_argument("--out", required=True, help="output directory")
     args = parser.parse_args(argv)
+    check_outdir(args.out)
     result = run_calibration(args.grade, args.seed, oven_mount_deg=args.oven_mount_deg, interp=args.interp)
     from imutherm.reports.calibration_plots import plot_calibration_residuals
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from imutherm.cli._common import atomic_outdir, run_guarded
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
 from imutherm.cli.geometry import add_layout_arguments
 from imutherm.cli.solve import add_model_arguments, model_options
 from imutherm.studies.compare import compare_schemes, write_comparison
@@ -34,6 +34,7 @@ def main(argv=None) -> int:
     add_model_arguments(parser)
     parser.add_argument("--out", required=True, help="output directory")
     args = parser.parse_args(argv)
+    check_outdir(args.out)
     if args.scheme:
         parser.error("use --schemes with compare")
     if not args.steady_only:
@@ -50,11 +51,16 @@ def main(argv=None) -> int:
         plot_layout(next(iter(comp.runs.values())).geometry if "grease" not in comp.runs
                     else comp.runs["grease"].geometry, tmp / "layout.png")
         write_compare_report(tmp, tmp / "report.pdf")
-    print(f"{'scheme':<8} {'max rise [K]':>12} {'paper [K]':>9} {'hottest part':<16} {'t95 tp1 [s]':>11}")
     from imutherm.studies.compare import PAPER
+    print(f"{'scheme':<8} {'steady max rise [K]':>19} {'paper sim. [K]':>14} {'hottest part':<14} "
+          f"{'tp1 rise [K]':>12} {'t95 tp1 [s]':>11} {'paper settle [s]':>16}")
     for s, r in comp.summaries.items():
-        t95 = r["sites"].get("tp1", {}).get("t95_s")
-        print(f"{s:<8} {r['max_rise_K']:12.2f} {PAPER['simulated_max_rise_K'].get(s, float('nan')):9.1f} "
-              f"{r['hottest_part']:<16} {'-' if t95 is None else f'{t95:.0f}':>11}")
+        tp1 = r["sites"].get("tp1", {})
+        t95 = tp1.get("t95_s")
+        meas = PAPER["measured"].get(s, {})
+        settle = meas.get("near_steady_s", meas.get("steady_s"))
+        print(f"{s:<8} {r['steady_max_rise_K']:19.2f} {PAPER['simulated_max_rise_K'].get(s, float('nan')):14.1f} "
+              f"{r['hottest_part']:<14} {tp1.get('rise_K', float('nan')):12.2f} "
+              f"{'-' if t95 is None else f'{t95:.0f}':>11} {'-' if settle is None else f'{settle:.0f}':>16}")
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png")
     return 0

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from imutherm.cli._common import atomic_outdir, run_guarded, write_json
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
 from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.export import material_names, write_glb, write_stl, write_vtu
 from imutherm.geometry.layout import load_layout
@@ -61,6 +61,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument("--no-png", action="store_true", help="skip layout.png")
     args = parser.parse_args(argv)
+    check_outdir(args.out)
 
     layout = load_layout(args.layout)
     geometry = build_geometry(layout, args.scheme)

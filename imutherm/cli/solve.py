@@ -4,19 +4,23 @@ Writes in ``--out DIR``: ``result.json`` (rises, hot spot, per-site rise and
 t63/t95, energy balance, unknowns, timings), ``probes.csv`` (``time_s`` then
 one column per site, degC; a steady run has one row at time ``inf``) and the
 field for ParaView: ``field.vtu`` (steady) or ``field.pvd`` + ``field_*.vtu``
-(transient, at ``--save-every`` intervals and the end).
+(transient, at ``--save-every`` intervals and the end). Field files of an
+earlier run in DIR are removed, so DIR holds only this run's field.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import math
 
 import numpy as np
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, run_guarded, write_json
+from imutherm.cli._common import FIELD_FILES, atomic_outdir, check_outdir, run_guarded, write_json
 from imutherm.cli.geometry import add_layout_arguments
+from imutherm.geometry.build import build_geometry
+from imutherm.geometry.layout import load_layout
 from imutherm.studies.thermal_study import check_time_arguments, probe_table, result_summary, run_scheme
 from imutherm.thermal.model import ModelOptions
 from imutherm.thermal.output import write_result
@@ -60,7 +64,9 @@ def main(argv=None) -> int:
                         help="first transient step [s]; steps grow by 1.2 up to --dt-max (default 2)")
     parser.add_argument("--dt-max", type=float, default=60.0, metavar="SECONDS",
                         help="largest transient step [s] (default 60; equal to --dt for constant steps)")
-    parser.add_argument("--theta", type=float, default=1.0, help="1 backward Euler (default), 0.5 Crank-Nicolson")
+    parser.add_argument("--theta", type=float, default=None,
+                        help="time-stepping weight in [0.5, 1]: 1 backward Euler (default), 0.5 Crank-Nicolson; "
+                             "needs --transient")
     parser.add_argument("--save-every", type=float, default=None, metavar="SECONDS",
                         help="keep the whole field every SECONDS for the PVD series (default: t_end/10)")
     parser.add_argument("--site", action="append", default=None, metavar="NAME",
@@ -70,26 +76,38 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True, help="output directory")
     args = parser.parse_args(argv)
 
+    # everything that can be checked is checked before meshing and solving
+    check_outdir(args.out)
     save_times = None
     if args.transient:
         check_time_arguments(args.t_end, args.dt, args.dt_max)
-        every = args.save_every or args.t_end / 10
-        if not every > 0:
-            raise InputError(f"--save-every must be > 0 [s], got {every}")
+        if args.theta is not None and not 0.5 <= args.theta <= 1.0:
+            raise InputError(f"--theta must be in [0.5, 1] (1 backward Euler, 0.5 Crank-Nicolson), got {args.theta}")
+        if args.save_every is not None and not (math.isfinite(args.save_every) and args.save_every > 0):
+            raise InputError(f"--save-every must be a finite number > 0 [s], got {args.save_every}")
+        every = args.save_every if args.save_every is not None else args.t_end / 10
         save_times = np.unique(np.append(np.arange(0.0, args.t_end, every), args.t_end))
-    res = run_scheme(args.layout, args.scheme, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                     options=model_options(args), transient=args.transient, t_end=args.t_end, dt=args.dt,
-                     dt_max=args.dt_max, theta=args.theta, save_times=save_times, progress=args.transient and not args.no_progress)
+    elif args.theta is not None:
+        raise InputError("--theta needs --transient (a steady solve has no time stepping)")
+    options = model_options(args)
+    layout = load_layout(args.layout)
+    sites = list(build_geometry(layout, args.scheme).sites)
+    if args.site:
+        unknown = [s for s in args.site if s not in sites]
+        if unknown:
+            raise InputError(f"--site: unknown site(s) {', '.join(unknown)}; valid: {', '.join(sites)}")
+
+    res = run_scheme(layout, args.scheme, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
+                     options=options, transient=args.transient, t_end=args.t_end, dt=args.dt, dt_max=args.dt_max,
+                     theta=1.0 if args.theta is None else args.theta, save_times=save_times,
+                     progress=args.transient and not args.no_progress)
     summary = result_summary(res)
     header, rows = probe_table(res)
     if args.site:
-        unknown = [s for s in args.site if s not in summary["sites"]]
-        if unknown:
-            raise InputError(f"unknown site(s) {unknown}; valid: {', '.join(summary['sites'])}")
         keep = [0] + [header.index(s) for s in args.site]
         header, rows = [header[i] for i in keep], rows[:, keep]
         summary["sites"] = {s: summary["sites"][s] for s in args.site}
-    with atomic_outdir(args.out) as tmp:
+    with atomic_outdir(args.out, stale=FIELD_FILES) as tmp:
         write_json(tmp / "result.json", summary)
         write_probes_csv(tmp / "probes.csv", header, rows)
         write_result(tmp / "field", res.transient if res.transient is not None else res.steady)

@@ -12,7 +12,7 @@ import argparse
 import math
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, run_guarded, write_json
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
 
 
 def _clean(value):
@@ -32,6 +32,8 @@ def main(argv=None) -> int:
                         help=f"run only this case (repeatable); one of: {', '.join(CASES)}")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
     args = parser.parse_args(argv)
+    if args.out is not None:
+        check_outdir(args.out)
     if args.list:
         for name, func in CASES.items():
             print(f"{name:<20} {(func.__doc__ or '').strip().splitlines()[0]}")

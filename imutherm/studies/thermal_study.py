@@ -154,8 +154,9 @@ def result_summary(res: SchemeResult) -> dict:
         "model_options": _options_dict(res.options),
     }
     if tr is not None:
+        # transient_residual [-]: largest relative linear residual of any step (TransientResult.residual)
         out.update({"t_end_s": float(tr.times[-1]), "steps": tr.steps, "theta": tr.theta,
-                    "transient_iterations": tr.iterations})
+                    "transient_iterations": tr.iterations, "transient_residual": tr.residual})
         out["timings_s"].update({"transient_assembly": tr.assembly_s, "transient_solve": tr.solve_s})
     return out
 
