@@ -35,6 +35,8 @@ from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
 from imutherm.imu.filters import (FILTERS, FusionParams, GatedParams, KFParams, default_thresholds, run_fusion,
                                   run_gated, run_kf, run_ungated)
+from imutherm.imu.filters.gate import rest_reference
+from imutherm.imu.filters.kf003 import kf_params_from_rest
 
 SEGMENTS = ("overall", "stable", "manoeuvre")
 METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
@@ -50,7 +52,8 @@ class GateConfig:
     """Design parameters of the seed-000 gated filter (see the module docstring).
 
     xi_a [m/s^2], xi_w [m/s^2], L [m], kp [1/s], ki [1/s^2], tau [s], hold_s [s],
-    init_s [s] steady initial window used for leveling and the R(·) widening.
+    init_s [s] steady initial window used for leveling, the bias, the |f| reference and the R(·) widening,
+    recover_s [s] the gate's recovery time (see :mod:`imutherm.imu.filters.gated`).
     """
 
     xi_a: float = 3.7e-4
@@ -61,6 +64,7 @@ class GateConfig:
     tau: float = 0.1
     hold_s: float = 0.0
     init_s: float = 8.0
+    recover_s: float = 30.0
 
 
 @dataclass(frozen=True)
@@ -206,15 +210,21 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
                 fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=FILTERS):
     """Run the named filters on one record; returns ({name: AttitudeEstimate}, thresholds).
 
-    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m].
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
+    must be at rest: the gyro bias, the |f| reference of the gates (the accelerometer's own rest reading,
+    not nominal g) and the gates' noise widening are measured there (:func:`rest_reference`,
+    :func:`kf_params_from_rest`). ``fusion.gyroscope_range=None`` takes the range from the data.
     """
     init_s = gate.init_s
+    g_ref, bias0 = rest_reference(gyro, accel, dt, init_s)
     th = default_thresholds(gyro, accel, dt, xi_a=gate.xi_a, xi_w=gate.xi_w, d=lever_arm, L=gate.L,
-                            tau=gate.tau, init_s=init_s)
-    gp = GatedParams(th, kp=gate.kp, ki=gate.ki, tau=gate.tau, hold_s=gate.hold_s)
+                            tau=gate.tau, init_s=init_s, g=g_ref, bias=bias0)
+    gp = GatedParams(th, kp=gate.kp, ki=gate.ki, tau=gate.tau, hold_s=gate.hold_s, g=g_ref,
+                     recover_s=gate.recover_s)
+    kf_run = kf_params_from_rest(gyro, accel, dt, init_s, kf)
     runners = {
         "gated": lambda: run_gated(gyro, accel, dt, gp, init_s=init_s),
-        "kf": lambda: run_kf(gyro, accel, dt, kf, init_s=init_s),
+        "kf": lambda: run_kf(gyro, accel, dt, kf_run, init_s=init_s),
         "ungated": lambda: run_ungated(gyro, accel, dt, gp, init_s=init_s),
         "fusion": lambda: run_fusion(gyro, accel, dt, fusion),
     }
