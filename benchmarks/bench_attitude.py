@@ -9,8 +9,8 @@ Usage::
    the held-out set (flight, swing, shake; seeds 0-5): see
    :mod:`imutherm.studies.filter_benchmark`.
 2. Tuning (skipped with ``--tuned FILE`` from an earlier run): each filter's
-   1-3 parameters by the common procedure (Sobol 16 + Nelder-Mead 24 in log10
-   space, ±1.5 decades around the defaults) on the training records; written
+   1-3 parameters by the common procedure (Sobol 32, then Nelder-Mead <= 24 from each of the best 3, in log10
+   space, ±2.5 decades around the defaults) on the training records; written
    to ``DIR/tuned.json``.
 3. Table: filter × profile × {defaults, tuned}: roll / pitch RMS and max over
    the whole record [deg], mean ± std over the six held-out seeds; written to
