@@ -316,6 +316,6 @@ def run_vqf(gyro, accel, dt: float, params: VQFParams = VQFParams(), *, init_s: 
     out = f.updateBatch(np.ascontiguousarray(g), np.ascontiguousarray(a))
     from imutherm.imu.attitude_math import gravity_dir_body
 
-    rest = np.asarray(out["restDetected"], bool)
-    return estimate_from_gravity("vqf", gravity_dir_body(out["quat6D"]), np.ones(len(g), bool) | rest,
+    # VQF always applies its low-passed accelerometer correction (no gate): accel_used is all True
+    return estimate_from_gravity("vqf", gravity_dir_body(out["quat6D"]), np.ones(len(g), bool),
                                  time.perf_counter() - t0)
