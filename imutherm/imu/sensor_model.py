@@ -377,8 +377,13 @@ def draw_unit(grade: str | SensorGrade, rng: np.random.Generator, *, ideal: bool
                        temp_offset_C=np.zeros(6), temp_tau_s=np.zeros(6))
     gyro = _draw_triad(g.gyro, rng, "gyro")
     accel = _draw_triad(g.accel, rng, "accel")
-    # thermal misalignment from a child generator: the main stream (and every other draw) is unchanged
-    trng = rng.spawn(1)[0]
+    # thermal misalignment from a generator keyed by this generator's seed sequence (not by its state, and
+    # without rng.spawn, which counts its calls): the main stream and every other draw are unchanged, and
+    # two generators made from the same seed sequence draw the same unit (common random numbers)
+    ss = getattr(rng.bit_generator, "seed_seq", None)
+    if ss is None:
+        raise InputError("draw_unit: rng must come from a SeedSequence (e.g. numpy.random.default_rng(seed))")
+    trng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (0x7E3C,)))
     gyro = replace(gyro, dM_dT=_offdiag(trng, g.gyro.misalignment_tempco))
     accel = replace(accel, dM_dT=_offdiag(trng, g.accel.misalignment_tempco))
     off = np.clip(rng.normal(0.0, g.temp_sensor_offset_std_C, 6), -3 * g.temp_sensor_offset_std_C,
