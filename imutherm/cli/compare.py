@@ -5,6 +5,9 @@ Writes in ``--out DIR``: ``report.pdf`` (summary table against the paper, rises,
 power-on curves, board temperature maps, the layout), ``compare.json``
 (each scheme's ``result.json`` content), ``probes_<scheme>.csv`` and
 ``map_<scheme>.npz`` (the files the report is drawn from) and ``layout.png``.
+
+Transients: adaptive TR-BDF2 (``--time-tol``, default 0.01 K at the sites), each
+ending once every site has settled (``--full-length``: run to ``--t-end``).
 """
 
 from __future__ import annotations
@@ -13,9 +16,8 @@ import argparse
 
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
 from imutherm.cli.geometry import add_layout_arguments
-from imutherm.cli.solve import add_model_arguments, model_options
+from imutherm.cli.solve import add_model_arguments, add_time_arguments, model_options, time_kwargs
 from imutherm.studies.compare import compare_schemes, write_comparison
-from imutherm.studies.thermal_study import check_time_arguments
 
 
 @run_guarded("imutherm compare")
@@ -24,11 +26,7 @@ def main(argv=None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     add_layout_arguments(parser)
     parser.add_argument("--schemes", default="air,grease,potted", help="comma-separated schemes (default all three)")
-    parser.add_argument("--t-end", type=float, default=2400.0, metavar="SECONDS",
-                        help="power-on transient length [s] (default 2400: the paper's air scheme settles in ~800 s)")
-    parser.add_argument("--dt", type=float, default=2.0, metavar="SECONDS",
-                        help="first time step [s]; steps grow by 1.2 up to --dt-max (default 2)")
-    parser.add_argument("--dt-max", type=float, default=60.0, metavar="SECONDS", help="largest time step [s] (default 60)")
+    add_time_arguments(parser, t_end=2400.0, settle_stop=True)
     parser.add_argument("--steady-only", action="store_true", help="skip the transients")
     parser.add_argument("--no-progress", action="store_true")
     add_model_arguments(parser)
@@ -37,12 +35,10 @@ def main(argv=None) -> int:
     check_outdir(args.out)
     if args.scheme:
         parser.error("use --schemes with compare")
-    if not args.steady_only:
-        check_time_arguments(args.t_end, args.dt, args.dt_max)
+    tkw = {} if args.steady_only else time_kwargs(args)
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
     comp = compare_schemes(args.layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
-                           t_end=args.t_end, dt=args.dt, dt_max=args.dt_max, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                           options=model_options(args))
+                           mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=model_options(args), **tkw)
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout
 
