@@ -46,6 +46,9 @@ class Part:
         component a bond belongs to.
     hole : tuple or None
         (lo, hi) [m] of the box removed from a ``housing`` part (the cavity).
+    board_contact_W_m2K : float or None [W/m^2 K]
+        For a ``box``: its contact conductance to the boards it touches (None:
+        the model's default, ``ModelOptions.standoff_contact_W_m2K``).
     """
 
     name: str
@@ -57,6 +60,7 @@ class Part:
     normal: str | None = None
     parent: str | None = None
     hole: tuple | None = None
+    board_contact_W_m2K: float | None = None
 
     @property
     def size(self) -> np.ndarray:
@@ -243,7 +247,7 @@ def build_geometry(layout: LayoutSpec | str | None = None, scheme: str | None = 
     for p in layout.parts:
         lo = np.asarray(p.min_mm) * MM
         parts.append(Part(p.name, "box", p.material, tuple(lo), tuple(lo + np.asarray(p.size_mm) * MM),
-                          power_W=p.power_W))
+                          power_W=p.power_W, board_contact_W_m2K=p.board_contact_W_m2K))
     for c in layout.components:
         side = c.side
         if c.name in sch.move_to_back:
