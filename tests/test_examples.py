@@ -44,6 +44,22 @@ def test_script_writes_its_outputs_and_the_schemes_order(runs, name, layout):
     assert rise["air"] > rise["grease"] > rise["potted"] > 0
     for r in data.values():
         assert r["energy_balance_rel_error"] < 1e-8
+        assert sum(r["heat_out_W"].values()) == pytest.approx(r["power_W"], rel=1e-8)
+        assert r["hottest_part"] == "reg_5v_die"
+
+
+@pytest.mark.slow
+def test_metal_guides_couple_the_boards_better_than_nylon_standoffs(runs):
+    """Same housing, chips and power (coarse mesh): the card-guide unit runs cooler in every scheme,
+    its sensors at well under the reference unit's rises; nearly all heat leaves through the fixture."""
+    ref, card = ({s: r for s, r in json.loads((runs[n][0] / "compare.json").read_text())["schemes"].items()}
+                 for n in ("study_reference", "study_cardguide"))
+    assert card["air"]["max_rise_K"] < 0.8 * ref["air"]["max_rise_K"]
+    for scheme in ("air", "grease", "potted"):
+        assert card[scheme]["max_rise_K"] < ref[scheme]["max_rise_K"], scheme
+        assert card[scheme]["heat_out_W"]["zmin"] > 0.9 * card[scheme]["power_W"]
+    for site in ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"):
+        assert card["air"]["sites"][site]["rise_K"] < 0.6 * ref["air"]["sites"][site]["rise_K"], site
 
 
 @pytest.mark.slow

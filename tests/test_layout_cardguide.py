@@ -1,4 +1,4 @@
-"""The second built-in layout (imu_cardguide): name lookup, build, mesh, contacts, a coarse solve."""
+"""The second built-in layout (imu_cardguide): name lookup, build, mesh, contacts."""
 
 import numpy as np
 import pytest
@@ -10,7 +10,6 @@ from imutherm.geometry.layout import builtin_layouts, default_layout_path, load_
 from imutherm.geometry.materials import get_material
 from imutherm.geometry.mesh import build_mesh, mesh_info
 from imutherm.thermal.model import AL_AL_AIR_JOINT_W_M2K, ModelOptions, build_problem, unit_interfaces
-from imutherm.studies.thermal_study import result_summary, run_scheme
 
 GUIDES = [f"guide_{s}_{p}" for s in "sn" for p in ("lower", "slot", "upper")]
 STANDOFFS = ["xstandoff_1", "xstandoff_2", "ystandoff_1", "ystandoff_2"]
@@ -149,26 +148,5 @@ def test_bad_board_contact_is_rejected(tmp_path, value, fragment):
     for frag in (str(path), "parts[2]", "'board_contact_W_m2K'", fragment):
         assert frag in msg, (frag, msg)
 
-
-# ------------------------------------------------------------------ thermal
-@pytest.fixture(scope="module")
-def coarse_air(layout):
-    return (result_summary(run_scheme(layout, "air", mesh_size_mm=6.0, min_cells=1)),
-            result_summary(run_scheme(None, "air", mesh_size_mm=6.0, min_cells=1)))
-
-
-def test_coarse_solve_closes_its_energy_balance(coarse_air):
-    card, _ = coarse_air
-    assert card["energy_balance_rel_error"] < 1e-8
-    assert sum(card["heat_out_W"].values()) == pytest.approx(card["power_W"], rel=1e-8)
-    assert card["hottest_part"] == "reg_5v_die"
-    # the fixture takes nearly all the heat: the guides carry it into the base
-    assert card["heat_out_W"]["zmin"] > 0.9 * card["power_W"]
-
-
-def test_metal_guides_couple_the_boards_better_than_nylon_standoffs(coarse_air):
-    """Same housing, chips and power: the card-guide unit runs cooler everywhere that matters."""
-    card, ref = coarse_air
-    assert card["max_rise_K"] < 0.8 * ref["max_rise_K"]
-    for site in ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"):
-        assert card["sites"][site]["rise_K"] < 0.6 * ref["sites"][site]["rise_K"], site
+# The coarse thermal solves of both layouts (energy balance, scheme ordering, card guide vs reference)
+# are in tests/test_examples.py, which runs the study scripts once.
