@@ -148,5 +148,22 @@ def test_bad_board_contact_is_rejected(tmp_path, value, fragment):
     for frag in (str(path), "parts[2]", "'board_contact_W_m2K'", fragment):
         assert frag in msg, (frag, msg)
 
+def test_board_contact_on_a_part_touching_no_board_is_rejected(tmp_path):
+    from conftest import dump_toml, tomllib
+
+    with open(resolve_layout("imu_cardguide"), "rb") as fh:
+        data = tomllib.load(fh)
+    data["parts"][6]["board_contact_W_m2K"] = 2000.0          # xstandoff_1: fine, it touches the x-board
+    data["parts"][6]["min_mm"] = [63.7, 10.0, 13.9]             # moved 0.1 mm off the board
+    data["parts"][6]["size_mm"] = [3.8, 3.5, 3.5]
+    path = tmp_path / "loose.toml"
+    path.write_text(dump_toml(data))
+    with pytest.raises(InputError) as info:
+        build_geometry(load_layout(path), "air")
+    msg = str(info.value)
+    for frag in (str(path), "part 'xstandoff_1'", "'board_contact_W_m2K'", "touches no board", "xboard"):
+        assert frag in msg, (frag, msg)
+
+
 # The coarse thermal solves of both layouts (energy balance, scheme ordering, card guide vs reference)
 # are in tests/test_examples.py, which runs the study scripts once.

@@ -200,6 +200,12 @@ def _boxes_overlap(a: Part, b: Part) -> bool:
     return all(min(a.hi[i], b.hi[i]) - max(a.lo[i], b.lo[i]) > _TOL for i in range(3))
 
 
+def _faces_touch(a: Part, b: Part) -> bool:
+    """True if two boxes share a face patch of non-zero area."""
+    gaps = [max(a.lo[i], b.lo[i]) - min(a.hi[i], b.hi[i]) for i in range(3)]  # > 0 apart, < 0 overlapping
+    return sum(abs(g) <= _TOL for g in gaps) == 1 and all(g <= _TOL for g in gaps)
+
+
 def _check(layout: LayoutSpec, scheme: SchemeSpec, parts: list, cavity) -> None:
     inner = [p for p in parts if p.kind not in ("housing", "lid", "fill")]
     for p in inner:
@@ -217,6 +223,11 @@ def _check(layout: LayoutSpec, scheme: SchemeSpec, parts: list, cavity) -> None:
         if a.name == b.parent or b.name == a.parent:   # a die or pad in its package, a via field in its board
             continue
         _fail(layout, f"scheme {scheme.name!r}: part {a.name!r}", f"overlaps part {b.name!r}")
+    boards = [p for p in parts if p.kind == "board"]
+    for p in parts:
+        if p.board_contact_W_m2K is not None and not any(_faces_touch(p, b) for b in boards):
+            _fail(layout, f"part {p.name!r}", "field 'board_contact_W_m2K' is set but the part touches no board "
+                  f"(boards: {', '.join(b.name for b in boards)}); move it against a board or remove the field")
 
 
 def build_geometry(layout: LayoutSpec | str | None = None, scheme: str | None = None) -> Geometry:
