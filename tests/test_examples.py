@@ -51,7 +51,7 @@ def test_script_writes_its_outputs_and_the_schemes_order(runs, name, layout):
         assert th["steady_energy_balance_rel_error"] < 1e-8
         assert sum(th["heat_out_W"].values()) == pytest.approx(th["power_W"], rel=1e-8)
         assert th["hottest_part"] == "reg_5v_die"
-        assert data[s]["t95_s"] is None or 0 < data[s]["t95_s"] <= 600   # None: not settled in 600 s
+        assert data[s]["t95_s"] is None or 0 < data[s]["t95_s"] <= 600   # None: not settled by 600 s
         att = data[s]["attitude"]["warmup"]["improved"]["gated"]["flight"]["roll_rms_deg"]["mean"]
         assert 0 < att < 5
 
