@@ -13,14 +13,15 @@ import math
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
 from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.export import material_names, write_glb, write_stl, write_vtu
-from imutherm.geometry.layout import load_layout
+from imutherm.geometry.layout import builtin_layouts, load_layout
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh, mesh_info
 
 
 def add_layout_arguments(parser: argparse.ArgumentParser) -> None:
     """LAYOUT, --scheme, --mesh-size, --min-cells: shared by the commands that mesh a layout."""
     parser.add_argument("layout", nargs="?", default=None,
-                        help="layout TOML file (default: the built-in reference unit imu_reference.toml)")
+                        help="layout: a TOML file or a built-in layout name "
+                             f"({', '.join(builtin_layouts())}; default: imu_reference, the paper's unit)")
     parser.add_argument("--scheme", default=None, help="cooling scheme: air, grease or potted (default: the layout's)")
     parser.add_argument("--mesh-size", type=float, default=DEFAULT_MAX_CELL_MM, metavar="MM",
                         help=f"largest cell edge [mm] (default {DEFAULT_MAX_CELL_MM})")

@@ -46,6 +46,9 @@ class Part:
         component a bond belongs to.
     hole : tuple or None
         (lo, hi) [m] of the box removed from a ``housing`` part (the cavity).
+    board_contact_W_m2K : float or None [W/m^2 K]
+        For a ``box``: its contact conductance to the boards it touches (None:
+        the model's default, ``ModelOptions.standoff_contact_W_m2K``).
     """
 
     name: str
@@ -57,6 +60,7 @@ class Part:
     normal: str | None = None
     parent: str | None = None
     hole: tuple | None = None
+    board_contact_W_m2K: float | None = None
 
     @property
     def size(self) -> np.ndarray:
@@ -196,6 +200,12 @@ def _boxes_overlap(a: Part, b: Part) -> bool:
     return all(min(a.hi[i], b.hi[i]) - max(a.lo[i], b.lo[i]) > _TOL for i in range(3))
 
 
+def _faces_touch(a: Part, b: Part) -> bool:
+    """True if two boxes share a face patch of non-zero area."""
+    gaps = [max(a.lo[i], b.lo[i]) - min(a.hi[i], b.hi[i]) for i in range(3)]  # > 0 apart, < 0 overlapping
+    return sum(abs(g) <= _TOL for g in gaps) == 1 and all(g <= _TOL for g in gaps)
+
+
 def _check(layout: LayoutSpec, scheme: SchemeSpec, parts: list, cavity) -> None:
     inner = [p for p in parts if p.kind not in ("housing", "lid", "fill")]
     for p in inner:
@@ -213,6 +223,11 @@ def _check(layout: LayoutSpec, scheme: SchemeSpec, parts: list, cavity) -> None:
         if a.name == b.parent or b.name == a.parent:   # a die or pad in its package, a via field in its board
             continue
         _fail(layout, f"scheme {scheme.name!r}: part {a.name!r}", f"overlaps part {b.name!r}")
+    boards = [p for p in parts if p.kind == "board"]
+    for p in parts:
+        if p.board_contact_W_m2K is not None and not any(_faces_touch(p, b) for b in boards):
+            _fail(layout, f"part {p.name!r}", "field 'board_contact_W_m2K' is set but the part touches no board "
+                  f"(boards: {', '.join(b.name for b in boards)}); move it against a board or remove the field")
 
 
 def build_geometry(layout: LayoutSpec | str | None = None, scheme: str | None = None) -> Geometry:
@@ -243,7 +258,7 @@ def build_geometry(layout: LayoutSpec | str | None = None, scheme: str | None = 
     for p in layout.parts:
         lo = np.asarray(p.min_mm) * MM
         parts.append(Part(p.name, "box", p.material, tuple(lo), tuple(lo + np.asarray(p.size_mm) * MM),
-                          power_W=p.power_W))
+                          power_W=p.power_W, board_contact_W_m2K=p.board_contact_W_m2K))
     for c in layout.components:
         side = c.side
         if c.name in sch.move_to_back:

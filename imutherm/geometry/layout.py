@@ -30,6 +30,31 @@ def default_layout_path() -> Path:
     return Path(str(resources.files("imutherm.layouts") / "imu_reference.toml"))
 
 
+def builtin_layouts() -> tuple:
+    """Names of the layouts shipped in ``imutherm/layouts/`` (``imu_reference``, ``imu_cardguide``, ...)."""
+    folder = resources.files("imutherm.layouts")
+    return tuple(sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml")))
+
+
+def resolve_layout(layout: str | Path | None) -> Path:
+    """The layout file meant by ``layout``: a path, or the name of a built-in layout.
+
+    None gives the reference unit. A string that is not an existing file and
+    names no file (no ``.toml`` suffix, no directory part) is looked up among
+    :func:`builtin_layouts`; an unknown name raises InputError listing them.
+    """
+    if layout is None or layout == "":
+        return default_layout_path()
+    path = Path(layout)
+    if path.exists() or path.suffix or len(path.parts) > 1:
+        return path
+    name = str(layout)
+    if name not in builtin_layouts():
+        raise InputError(f"{name}: no such layout file, nor a built-in layout name; "
+                         f"built-in layouts: {', '.join(builtin_layouts())} (or give a path to a .toml file)")
+    return Path(str(resources.files("imutherm.layouts") / f"{name}.toml"))
+
+
 @dataclass(frozen=True)
 class HousingSpec:
     """Aluminium box: outer size and wall, base and lid thickness [mm]."""
@@ -68,13 +93,19 @@ class BoardSpec:
 
 @dataclass(frozen=True)
 class BoxSpec:
-    """A plain box part (standoffs, brackets): global lower corner and size [mm]."""
+    """A plain box part (standoffs, brackets, card guides): global lower corner and size [mm].
+
+    power_W : float [W]
+    board_contact_W_m2K : float or None [W/m^2 K], contact conductance where this part
+        touches a board (None: the model's ``standoff_contact_W_m2K``)
+    """
 
     name: str
     min_mm: tuple
     size_mm: tuple
     material: str
     power_W: float
+    board_contact_W_m2K: float | None = None
 
 
 @dataclass(frozen=True)
@@ -250,15 +281,17 @@ def _named_tables(top: _Table, key: str, form: str) -> dict:
 def load_layout(path: str | Path | None = None) -> LayoutSpec:
     """Read and check a layout TOML file (default: the built-in reference unit).
 
-    Raises InputError naming the file, the part and the field on any problem.
+    ``path`` is a file, or the name of a built-in layout (``imu_cardguide``; see
+    :func:`builtin_layouts`). Raises InputError naming the file, the part and the
+    field on any problem.
     """
-    path = Path(path) if path else default_layout_path()
+    path = resolve_layout(path)
     spath = str(path)
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
     except FileNotFoundError:
-        raise InputError(f"{spath}: layout file not found") from None
+        raise InputError(f"{spath}: layout file not found; built-in layouts: {', '.join(builtin_layouts())}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{spath}: not valid TOML: {exc}") from None
     return parse_layout(data, spath)
@@ -316,9 +349,10 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     parts = []
     for i, t in enumerate(_table_array(top, "parts")):
         p = _Table(path, f"parts[{i}]", t, {"name": "str", "min_mm": "3 numbers", "size_mm": "3 sizes",
-                                             "material": "name", "power_W": "W"})
+                                             "material": "name", "power_W": "W", "board_contact_W_m2K": "W/m^2 K"})
         spec = BoxSpec(p.string("name"), p.vector("min_mm", 3), p.vector("size_mm", 3, positive=True),
-                       p.material("material", mats), p.number("power_W", 0.0, nonneg=True))
+                       p.material("material", mats), p.number("power_W", 0.0, nonneg=True),
+                       p.number("board_contact_W_m2K", None, positive=True))
         claim(spec.name, f"part {spec.name!r}")
         parts.append(spec)
 

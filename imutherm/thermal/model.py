@@ -68,6 +68,7 @@ class ModelOptions:
         of every grease bond line (package/bond and bond/wall); None: none
     standoff_contact_W_m2K : float or None [W/m^2 K], contact conductance where a
         plain part (standoff, bracket) touches the housing, the lid or a board; None: none
+        (a part's own ``board_contact_W_m2K`` in the layout overrides it towards boards)
     """
 
     exterior: str = "natural"
@@ -152,8 +153,10 @@ def unit_interfaces(geometry: Geometry, options: ModelOptions) -> tuple:
     """Every contact conductance of the unit: ``options.interfaces`` plus those derived from the parts.
 
     Each grease bond line gets ``bond_contact_W_m2K`` towards its package and towards
-    the wall it bridges to; each plain part (standoff) gets ``standoff_contact_W_m2K``
-    towards the housing, the lid and the boards it touches.
+    the wall it bridges to; each plain part (standoff, card guide) gets ``standoff_contact_W_m2K``
+    towards the housing, the lid and the boards it touches, except that a part whose
+    layout entry sets ``board_contact_W_m2K`` gets that value towards the boards (a
+    board edge in a card-guide slot is not a screwed joint).
     """
     out = list(options.interfaces)
     walls = [p for p in geometry.parts if p.kind in ("housing", "lid")]
@@ -164,11 +167,13 @@ def unit_interfaces(geometry: Geometry, options: ModelOptions) -> tuple:
                 if _touch(p, other):
                     out.append(Interface(other.name, p.name, options.bond_contact_W_m2K,
                                          "grease-wetted Al joint: Incropera Table 3.1b"))
-        elif p.kind == "box" and options.standoff_contact_W_m2K:
+        elif p.kind == "box":
             for other in walls + boards:
-                if _touch(p, other):
-                    out.append(Interface(other.name, p.name, options.standoff_contact_W_m2K,
-                                         "dry screwed joint (assumed, as the lid's)"))
+                own = other.kind == "board" and p.board_contact_W_m2K is not None
+                h = p.board_contact_W_m2K if own else options.standoff_contact_W_m2K
+                if h and _touch(p, other):
+                    out.append(Interface(other.name, p.name, h, "layout: the part's board_contact_W_m2K" if own
+                                         else "dry screwed joint (assumed, as the lid's)"))
     return tuple(out)
 
 
