@@ -1,7 +1,7 @@
 """Benchmark of the reference unit: each scheme at the default mesh, and the same mesh in CalculiX.
 
 Reports, per scheme: unknowns, assembly [s], steady solve [s], a 1200 s power-on
-transient (backward Euler, steps growing from 2 s to 60 s by 1.2, as `imutherm solve`) [s], the peak resident memory of the process
+transient (backward Euler, steps growing from 2 s to 60 s by 1.2, the former default of `imutherm solve`; the adaptive TR-BDF2 default is measured by bench_transient_accuracy.py) [s], the peak resident memory of the process
 [MB], and the max rise; then CalculiX 2.20 on the same mesh with the linear
 version of the boundary conditions (fixed h instead of natural convection and
 radiation), its wall time and the largest nodal difference. Each scheme runs in
