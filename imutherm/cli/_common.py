@@ -18,8 +18,15 @@ from imutherm import InputError
 FIELD_FILES = r"field(\.vtu|\.pvd|_\d{4,}\.vtu)"
 
 
+#: longest error line printed [characters]; the rest is cut (a value quoted in full could be megabytes)
+MAX_MESSAGE_CHARS = 1000
+
+
 def _one_line(text) -> str:
-    return " ".join(str(text).split())
+    line = " ".join(str(text).split())
+    if len(line) > MAX_MESSAGE_CHARS:
+        line = f"{line[:MAX_MESSAGE_CHARS]}... ({len(line) - MAX_MESSAGE_CHARS} more characters)"
+    return line
 
 
 def run_guarded(prog: str):
