@@ -109,6 +109,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True, help="output directory")
     args = parser.parse_args(argv)
     check_outdir(args.out)
+    if args.seed < 0:
+        raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")
     result = run_calibration(args.grade, args.seed, oven_mount_deg=args.oven_mount_deg, interp=args.interp)
     from imutherm.reports.calibration_plots import plot_calibration_residuals
 

@@ -12,7 +12,11 @@ from __future__ import annotations
 import argparse
 
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
-from imutherm.cli.geometry import add_layout_arguments
+from imutherm import InputError
+from imutherm.budget import count_time_steps
+from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
+from imutherm.geometry.build import build_geometry
+from imutherm.geometry.layout import load_layout
 from imutherm.cli.solve import add_model_arguments, model_options
 from imutherm.studies.compare import compare_schemes, write_comparison
 from imutherm.studies.thermal_study import check_time_arguments
@@ -40,7 +44,13 @@ def main(argv=None) -> int:
     if not args.steady_only:
         check_time_arguments(args.t_end, args.dt, args.dt_max)
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
-    comp = compare_schemes(args.layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
+    if not schemes:
+        raise InputError(f"--schemes {args.schemes!r} names no scheme; valid: comma-separated air, grease, potted")
+    layout = load_layout(args.layout)
+    steps = 0 if args.steady_only else count_time_steps(args.t_end, args.dt, args.dt_max)
+    for s in schemes:  # every scheme's mesh and memory estimated before the first is solved
+        check_thermal_cost(build_geometry(layout, s), args, steps=steps)
+    comp = compare_schemes(layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
                            t_end=args.t_end, dt=args.dt, dt_max=args.dt_max, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                            options=model_options(args))
     from imutherm.reports.compare_report import write_compare_report
