@@ -49,6 +49,8 @@ def main(argv=None) -> int:
     """Entry point; returns the exit status (2 on bad input)."""
     args = _parser().parse_args(argv)
     check_outdir(args.out)
+    if args.profile not in PROFILES:
+        raise InputError(f"--profile: {args.profile!r} is unknown; valid: {', '.join(PROFILES)}")
     if args.seeds < 1:
         raise InputError(f"--seeds must be an integer >= 1, got {args.seeds}")
     if args.seed0 < 0:

@@ -350,6 +350,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     for i, t in enumerate(_table_array(top, "boards")):
         b = _Table(path, f"boards[{i}]", t, {"name": "str", "normal": "x|y|z", "min_mm": "3 numbers",
                                               "size_mm": "3 sizes", "material": "name"})
+        b.where = f"board {quote(b.string('name'), 60)}"
         spec = BoardSpec(b.string("name"), b.string("normal", choices=AXES), b.vector("min_mm", 3),
                          b.vector("size_mm", 3, positive=True), b.material("material", mats))
         b.where = f"board {quote(spec.name, 60)}"
@@ -363,6 +364,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     for i, t in enumerate(_table_array(top, "parts")):
         p = _Table(path, f"parts[{i}]", t, {"name": "str", "min_mm": "3 numbers", "size_mm": "3 sizes",
                                              "material": "name", "power_W": "W"})
+        p.where = f"part {quote(p.string('name'), 60)}"
         spec = BoxSpec(p.string("name"), p.vector("min_mm", 3), p.vector("size_mm", 3, positive=True),
                        p.material("material", mats), p.number("power_W", 0.0, nonneg=True, bounds=POWER_BOUNDS))
         claim(spec.name, f"part {quote(spec.name, 60)}")
