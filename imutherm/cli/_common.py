@@ -8,7 +8,6 @@ import errno
 import fcntl
 import functools
 import hashlib
-import json
 import os
 import re
 import shutil
@@ -18,6 +17,7 @@ import time
 from pathlib import Path
 
 from imutherm import InputError
+from imutherm.io import write_json  # noqa: F401  (re-exported for the subcommands)
 
 #: the field files ``imutherm solve`` writes: ``field.vtu``, ``field.pvd`` and the series ``field_0000.vtu`` ...
 FIELD_FILES = r"field(\.vtu|\.pvd|_\d{4,}\.vtu)"
@@ -325,17 +325,3 @@ def _move_in(tmp: Path, real: Path, stale: str | None) -> None:
         for old in real.iterdir():
             if old.name not in new and re.fullmatch(stale, old.name) and (old.is_file() or old.is_symlink()):
                 old.unlink()
-
-
-def write_json(path: str | os.PathLike, data) -> None:
-    """Write ``data`` as indented JSON (numpy scalars and arrays converted)."""
-    import numpy as np
-
-    def default(obj):
-        if isinstance(obj, np.generic):
-            return obj.item()
-        if isinstance(obj, np.ndarray):
-            return obj.tolist()
-        raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
-
-    Path(path).write_text(json.dumps(data, indent=2, default=default) + "\n")
