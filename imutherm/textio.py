@@ -42,7 +42,7 @@ def read_text(path: str | os.PathLike, what: str, max_bytes: int = MAX_TEXT_BYTE
             size = os.fstat(fh.fileno()).st_size
             if size > max_bytes:
                 raise InputError(f"{p}: {what} is {size} bytes, larger than the limit of {max_bytes} bytes "
-                                 f"({max_bytes // 2**20} MiB)")
+                                 f"({max_bytes / 2**20:g} MiB)")
             data = fh.read(max_bytes + 1)
     except FileNotFoundError:
         raise InputError(f"{p}: {what} not found") from None
@@ -51,7 +51,7 @@ def read_text(path: str | os.PathLike, what: str, max_bytes: int = MAX_TEXT_BYTE
     except OSError as exc:
         raise InputError(f"{p}: cannot read {what} ({exc.strerror or exc})") from None
     if len(data) > max_bytes:  # a pipe or a file that grew while read
-        raise InputError(f"{p}: {what} is larger than the limit of {max_bytes} bytes ({max_bytes // 2**20} MiB)")
+        raise InputError(f"{p}: {what} is larger than the limit of {max_bytes} bytes ({max_bytes / 2**20:g} MiB)")
     for bom, name in ((codecs.BOM_UTF32_LE, "UTF-32"), (codecs.BOM_UTF32_BE, "UTF-32"),
                       (codecs.BOM_UTF16_LE, "UTF-16"), (codecs.BOM_UTF16_BE, "UTF-16")):
         if data.startswith(bom):

@@ -40,6 +40,9 @@ MAX_LENGTH_MM = 1000.0
 MIN_SIZE_MM = 1e-3
 #: largest contact conductance [W/m^2 K]: soldered and brazed joints reach ~1e5 (Incropera Table 3.2)
 MAX_CONDUCTANCE_W_M2K = 1e6
+#: largest layout file read [bytes]: 1 MiB, ~80 times the 12 kB reference layout; parsing that much TOML
+#: takes ~1 s here, so no layout, however hostile, keeps a run busy before it is refused
+MAX_LAYOUT_BYTES = 2**20
 #: unknown keys quoted in one message at most
 MAX_LISTED = 10
 
@@ -298,7 +301,7 @@ def load_layout(path: str | Path | None = None) -> LayoutSpec:
     """
     path = Path(path) if path else default_layout_path()
     spath = str(path)
-    text = read_text(path, "layout file")
+    text = read_text(path, "layout file", MAX_LAYOUT_BYTES)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
