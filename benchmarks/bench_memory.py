@@ -11,26 +11,15 @@ figure is ``imutherm.budget.BYTES_PER_UNKNOWN``.
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
-import time
-
-
-def run(cmd):
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    t = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "imutherm.cli"] + cmd, check=True, capture_output=True)
-    rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
-    return rss, time.perf_counter() - t, before
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", type=float, nargs="+", default=[3.0, 2.0, 1.5])
     args = ap.parse_args()
-    base = None
     with tempfile.TemporaryDirectory() as d:
         # the interpreter and imports alone: a refused run
         p = subprocess.run([sys.executable, "-c", "import resource, imutherm.cli.solve, skfem, pyamg, meshio;"
@@ -42,7 +31,6 @@ def main():
             for h in args.sizes:
                 out = os.path.join(d, f"{cmd}{h}")
                 argv = [cmd, "--mesh-size", str(h), "--out", out, "--max-memory", "1e12"]
-                # ru_maxrss of RUSAGE_CHILDREN is the largest child so far: run the sizes from small to large
                 p = subprocess.run(["/usr/bin/env", "python", "-c",
                                     "import resource, sys, runpy; sys.argv=['imutherm']+sys.argv[1:];"
                                     "from imutherm.cli import main; rc = main(sys.argv[1:]);"
