@@ -31,7 +31,7 @@ def main():
             for h in args.sizes:
                 out = os.path.join(d, f"{cmd}{h}")
                 argv = [cmd, "--mesh-size", str(h), "--out", out, "--max-memory", "1e12"]
-                p = subprocess.run(["/usr/bin/env", "python", "-c",
+                p = subprocess.run([sys.executable, "-c",
                                     "import resource, sys, runpy; sys.argv=['imutherm']+sys.argv[1:];"
                                     "from imutherm.cli import main; rc = main(sys.argv[1:]);"
                                     "print('RSS', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024); sys.exit(rc)"]
