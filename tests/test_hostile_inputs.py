@@ -81,6 +81,12 @@ def no_work(monkeypatch):
     monkeypatch.setattr(ts, "build_mesh", _fail)
     monkeypatch.setattr(att, "run_attitude_study", _fail)
     monkeypatch.setattr(cal, "run_calibration", _fail)
+    try:
+        import imutherm.studies.end_to_end as e2e
+
+        monkeypatch.setattr(e2e, "run_study", _fail)
+    except ImportError:  # pragma: no cover
+        pass
 
 
 def _run(argv, capsys) -> tuple[int, str]:
@@ -243,6 +249,8 @@ OPTIONS = {
     "compare_t_end_1e13": (["compare", "--t-end", "1e13", "--dt", "1"], ["time steps"]),
     "compare_mesh_0.2": (["compare", "--mesh-size", "0.2"], ["estimated", "cells"]),
     "compare_memory": (["compare", "--max-memory", "100M"], ["estimated", "--max-memory"]),
+    "compare_seed_negative": (["compare", "--seed", "-1"], "--seed"),
+    "compare_seeds_0": (["compare", "--seeds", "0"], "--seeds"),
     "attitude_duration_1e9": (["attitude", "--profile", "flight", "--duration", "1e9"], ["--duration", "samples"]),
     "attitude_seeds_1e9": (["attitude", "--profile", "flight", "--seeds", "1000000000"], ["--seeds", "samples"]),
     "attitude_seeds_0": (["attitude", "--profile", "flight", "--seeds", "0"], "--seeds"),
