@@ -364,7 +364,9 @@ def test_two_runs_into_one_out_refuse(out, capsys, no_work):
 def test_lock_is_released_after_a_run(out, capsys):
     code, _ = _run(["geometry", "--no-png", "--out", str(out)] + COARSE, capsys)
     assert code == 0 and not _common._LOCKS
-    with open(_common._lock_path(Path(os.path.realpath(out))), "a+") as fh:
+    path = _common._lock_path(Path(os.path.realpath(out)))
+    assert not path.exists()  # removed at the end, so lock files do not pile up
+    with open(path, "a+") as fh:
         fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)  # free again
 
 

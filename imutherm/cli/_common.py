@@ -70,7 +70,8 @@ _LOCKS: dict = {}
 
 def _lock_path(real: Path) -> Path:
     """The lock file of a resolved ``--out``: in a per-user folder of the system temp dir, named by a hash of
-    the path (so it exists before ``--out`` or its parents do, and nothing is left beside the results)."""
+    the path (so it exists before ``--out`` or its parents do, and nothing is left beside the results).
+    Removed when the run ends; a killed run leaves its few bytes, and its lock is gone with the process."""
     folder = Path(tempfile.gettempdir()) / f"imutherm-locks-{os.getuid() if hasattr(os, 'getuid') else 0}"
     folder.mkdir(mode=0o700, exist_ok=True)
     return folder / (hashlib.sha1(os.fsencode(str(real))).hexdigest()[:20] + ".lock")
@@ -81,15 +82,23 @@ def _acquire(real: Path, out, option: str) -> None:
     if key in _LOCKS:
         return
     path = _lock_path(real)
-    fh = open(path, "a+")
-    try:
-        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        fh.seek(0)
-        holder = fh.read().strip() or "unknown"
+    while True:
+        fh = open(path, "a+")
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "unknown"
+            fh.close()
+            raise InputError(f"{option} {out} is being written by another imutherm run (pid {holder}, lock {path}); "
+                             f"wait for it to finish or give another {option}") from None
+        try:  # the holder before us may have removed the file between our open and our flock: lock it anew
+            same = os.stat(path).st_ino == os.fstat(fh.fileno()).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
         fh.close()
-        raise InputError(f"{option} {out} is being written by another imutherm run (pid {holder}, lock {path}); "
-                         f"wait for it to finish or give another {option}") from None
     fh.seek(0)
     fh.truncate()
     fh.write(f"{os.getpid()}\n")
@@ -100,6 +109,8 @@ def _acquire(real: Path, out, option: str) -> None:
 def _release(key: str) -> None:
     fh = _LOCKS.pop(key, None)
     if fh is not None:
+        with contextlib.suppress(OSError):  # removed while still held, so no lock files pile up
+            os.unlink(fh.name)
         fh.close()  # closing the file drops the flock (the kernel drops it too if the process is killed)
 
 
