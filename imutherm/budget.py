@@ -104,6 +104,21 @@ def count_time_steps(t_end: float, dt: float, dt_max: float | None = None, growt
     return int(k + math.ceil((t_end - ramp) / dt_max - 1e-9))
 
 
+def transient_steps(time_kwargs: dict) -> int:
+    """Time steps [-] of a transient given ``run_scheme``'s time arguments (``t_end``, ``time_scheme``,
+    ``dt``, ``dt_max``): given steps are counted; for the error-controlled TR-BDF2 steps the count is
+    its lower bound ``t_end / dt_max`` (steps never exceed ``dt_max``, default 300 s)."""
+    from imutherm.studies.thermal_study import THETA_DT, THETA_DT_MAX
+    from imutherm.thermal.solve import DEFAULT_DT_MAX
+
+    t_end, dt, dt_max = time_kwargs["t_end"], time_kwargs.get("dt"), time_kwargs.get("dt_max")
+    if time_kwargs.get("time_scheme") == "theta" and dt is None:
+        dt, dt_max = THETA_DT, THETA_DT_MAX if dt_max is None else dt_max
+    if dt is not None:
+        return count_time_steps(t_end, dt, dt_max)
+    return int(math.ceil(t_end / (dt_max or DEFAULT_DT_MAX) - 1e-9))
+
+
 @dataclass(frozen=True)
 class Cost:
     """Estimated cost of one run.
