@@ -232,6 +232,7 @@ OPTIONS = {
     "max_memory_garbage": (["solve", "--max-memory", "lots"], "--max-memory"),
     "max_memory_zero": (["geometry", "--max-memory", "0"], "--max-memory"),
     "t_end_1e13": (["solve", "--transient", "--t-end", "1e13", "--dt", "1"], ["time steps", "--t-end"]),
+    "t_end_1e13_adaptive": (["solve", "--transient", "--t-end", "1e13"], ["time steps", "--t-end"]),
     "t_end_1e9_dt_1e-3": (["solve", "--transient", "--t-end", "1e9", "--dt", "1e-3"], ["time steps"]),
     "constant_tiny_steps": (["solve", "--transient", "--dt", "1e-4", "--dt-max", "1e-4"], ["time steps"]),
     "save_every_1e-9": (["solve", "--transient", "--save-every", "1e-9"], "--save-every"),
