@@ -62,10 +62,13 @@ def main(argv=None) -> int:
     if not schemes:
         parser.error(f"--schemes {args.schemes!r}: give at least one scheme, e.g. air,grease,potted")
     if args.seeds < 1:
-        raise InputError(f"--seeds must be an integer >= 1, got {args.seeds}")
+        raise InputError(f"--seeds: {args.seeds} is invalid; valid: an integer >= 1")
     if args.seed < 0:
         raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")
     layout = load_layout(args.layout)
+    unknown = [s for s in schemes if s not in layout.schemes]
+    if unknown:
+        raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
     steps = transient_steps(args.time_kwargs) if args.time_kwargs else 0
     for s in schemes:  # every scheme's mesh and memory estimated before the first is solved
         check_thermal_cost(build_geometry(layout, s), args, steps=steps)
