@@ -1,83 +1,106 @@
-"""Benchmark of the attitude filters (not a test): accuracy targets and the 1-hour runtime target.
+"""Benchmark of the attitude filters (not a test): held-out accuracy of every filter, defaults and tuned.
 
 Usage::
 
-    python benchmarks/bench_attitude.py [--seeds 6] [--skip-accuracy] [--skip-speed] [--profiles flight,...]
+    python benchmarks/bench_attitude.py [--tuned FILE] [--out DIR] [--skip-speed]
 
-1. Accuracy: ``flight`` profile, adis16355 grade, improved compensation, constant
-   25 °C, seeds 0..N-1 (the same chain as ``imutherm attitude``): roll / pitch RMS
-   overall, stable, manoeuvre per filter, mean ± std over seeds, and the max
-   over seeds. Targets: gated ≤ 1.0° overall and ≤ 0.5° stable, better than
-   ``ungated`` and ``fusion``.
-2. Speed: a 3600 s flight at 100 Hz (360 000 samples) through every filter;
-   target ≤ 10 s for all filters together (the peer's time reported beside).
+1. Records: adis16355 units (one per seed, two-step calibration, ``improved``
+   compensation, 25 °C) on the training set (flight + shake, seeds 100-101) and
+   the held-out set (flight, swing, shake; seeds 0-5): see
+   :mod:`imutherm.studies.filter_benchmark`.
+2. Tuning (skipped with ``--tuned FILE`` from an earlier run): each filter's
+   1-3 parameters by the common procedure (Sobol 32, then Nelder-Mead <= 24 from each of the best 3, in log10
+   space, ±2.5 decades around the defaults) on the training records; written
+   to ``DIR/tuned.json``.
+3. Table: filter × profile × {defaults, tuned}: roll / pitch RMS and max over
+   the whole record [deg], mean ± std over the six held-out seeds; written to
+   ``DIR/table.json``. Target: the table (steps 1 and 3) in <= 2 min.
+4. Speed: a 3600 s flight at 100 Hz (360 000 samples) through every filter.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
+from pathlib import Path
 
 import numpy as np
 
 
-def accuracy(profile: str, seeds: int) -> None:
-    from imutherm.studies.attitude_study import run_attitude_study
+def main() -> None:
+    from imutherm.imu.filters import ALL_FILTERS
+    from imutherm.studies import filter_benchmark as fb
 
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--tuned", help="tuned.json of an earlier run (skips the tuning)")
+    ap.add_argument("--out", default="out/bench_attitude")
+    ap.add_argument("--filters", default=",".join(ALL_FILTERS))
+    ap.add_argument("--skip-speed", action="store_true")
+    a = ap.parse_args()
+    names = a.filters.split(",")
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    fb.check_split()
+    t_all = time.perf_counter()
+    if a.tuned:
+        tuned = json.loads(Path(a.tuned).read_text())["values"]
+        print(f"tuned settings from {a.tuned}")
+    else:
+        t0 = time.perf_counter()
+        train = fb.make_records(fb.TRAIN)
+        print(f"== tuning on {[(p, list(s)) for p, s in fb.TRAIN]} ({time.perf_counter() - t0:.1f} s to build)")
+        tuned, info = {}, {}
+        for n in names:
+            r = fb.tune(n, train)
+            tuned[n] = r.values
+            info[n] = {"objective_deg": r.objective, "default_objective_deg": r.default_objective,
+                       "n_eval": r.n_eval, "runtime_s": r.runtime_s}
+            vals = ", ".join(f"{k}={v:.4g}" for k, v in r.values.items())
+            print(f"{n:9s} {vals:60s} train {r.default_objective:6.3f} -> {r.objective:6.3f} deg "
+                  f"({r.n_eval} evals, {r.runtime_s:5.1f} s)")
+        (out / "tuned.json").write_text(json.dumps({"values": tuned, "info": info, "train": fb.TRAIN}, indent=1))
+        t_all = time.perf_counter()
     t0 = time.perf_counter()
-    res = run_attitude_study(profile, grade="adis16355", temperature_C=25.0, compensation="improved", seeds=seeds)
-    print(f"\n== accuracy: profile={profile}, adis16355, improved, 25 °C, seeds 0..{seeds - 1} "
-          f"({res.duration_s:.0f} s each; {time.perf_counter() - t0:.1f} s wall)")
-    print(f"{'filter':8s} {'segment':10s} {'roll rms':>16s} {'pitch rms':>16s} {'roll max':>9s} {'pitch max':>9s}")
-    for name, m in res.metrics.items():
-        for seg in ("overall", "stable", "manoeuvre"):
-            v = m[seg]
-            if v["roll_rms_deg"] is None:
-                continue
-            print(f"{name:8s} {seg:10s} {v['roll_rms_deg']['mean']:7.3f} ±{v['roll_rms_deg']['std']:6.3f}  "
-                  f"{v['pitch_rms_deg']['mean']:7.3f} ±{v['pitch_rms_deg']['std']:6.3f}  "
-                  f"{v['roll_max_deg']['mean']:8.2f} {v['pitch_max_deg']['mean']:8.2f}")
+    recs = fb.make_records(fb.HELD_OUT)
+    t_rec = time.perf_counter() - t0
+    tab = fb.table(names, recs, tuned)
+    t_tab = time.perf_counter() - t0
+    (out / "table.json").write_text(json.dumps({"held_out": fb.HELD_OUT, "tuned": tuned, "table": tab}, indent=1))
+    print(f"\n== held-out table: {[(p, list(s)) for p, s in fb.HELD_OUT]}, adis16355, improved, 25 °C "
+          f"(records {t_rec:.1f} s, table {t_tab:.1f} s wall)")
+    print("whole-record error [deg], mean ± std over seeds")
+    print(f"{'filter':9s} {'profile':7s} {'setting':8s} {'roll rms':>14s} {'pitch rms':>14s} {'roll max':>14s} "
+          f"{'pitch max':>14s}")
+    for n in names:
+        for prof in ("flight", "swing", "shake"):
+            for setting, m in tab[n].get(prof, {}).items():
+                row = " ".join(f"{m[k]['mean']:6.2f} ±{m[k]['std']:5.2f}" for k in
+                               ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg"))
+                print(f"{n:9s} {prof:7s} {setting:8s} {row}")
+    print(f"table wall time (records + filters): {time.perf_counter() - t_all:.1f} s (target <= 120 s)")
+    if not a.skip_speed:
+        speed(names)
 
 
-def speed(duration: float = 3600.0) -> None:
+def speed(names, duration: float = 3600.0) -> None:
     from imutherm.imu import motion
     from imutherm.imu.calibration import calibrate_unit
     from imutherm.imu.compensation import compensate
     from imutherm.imu.sensor_model import draw_unit, simulate_imu
     from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, run_filters
 
-    t0 = time.perf_counter()
     d = DEFAULT_LEVER_ARM["flight"]
     tr = motion.flight_profile(duration, 100.0, lever_arm=d)
-    t_traj = time.perf_counter() - t0
     rng = np.random.default_rng(0)
     unit = draw_unit("adis16355", rng)
     cal = calibrate_unit(unit, rng)
     s = compensate(simulate_imu(unit, tr.t, tr.omega_b, tr.f_b, np.full((tr.t.size, 6), 25.0), rng), cal, "improved")
-    est, _ = run_filters(s.gyro, s.accel, 0.01, d)
-    print(f"\n== speed: {duration:.0f} s flight at 100 Hz = {tr.t.size} samples "
-          f"(trajectory built in {t_traj:.2f} s)")
-    own = 0.0
+    est, _ = run_filters(s.gyro, s.accel, 0.01, d, names=names)
+    print(f"\n== speed: {duration:.0f} s flight at 100 Hz = {tr.t.size} samples")
     for name, e in est.items():
-        err_r = np.degrees(np.sqrt(np.mean((e.roll - tr.roll) ** 2)))
-        err_p = np.degrees(np.sqrt(np.mean((e.pitch - tr.pitch) ** 2)))
-        print(f"{name:8s} {e.runtime_s:6.2f} s   (roll rms {err_r:.2f}°, pitch rms {err_p:.2f}°)")
-        own += e.runtime_s
-    print(f"all four filters: {own:.2f} s (target <= 10 s)")
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seeds", type=int, default=6)
-    ap.add_argument("--profiles", default="flight")
-    ap.add_argument("--skip-accuracy", action="store_true")
-    ap.add_argument("--skip-speed", action="store_true")
-    a = ap.parse_args()
-    if not a.skip_accuracy:
-        for p in a.profiles.split(","):
-            accuracy(p, a.seeds)
-    if not a.skip_speed:
-        speed()
+        print(f"{name:9s} {e.runtime_s:6.2f} s")
+    print(f"all: {sum(e.runtime_s for e in est.values()):.2f} s")
 
 
 if __name__ == "__main__":

@@ -103,18 +103,20 @@ def test_cli_csv_missing_site_column(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_flight_accuracy_targets():
-    """The targets of benchmarks/bench_attitude.py (flight, adis16355, improved, 25 °C, seeds 0..5, the same study
-    call): gated roll / pitch RMS <= 1.0° overall and <= 0.5° in stable flight (mean over seeds), and better than
-    the ungated baseline and the imufusion peer overall. Accuracy only, no timing."""
+    """Flight, adis16355, improved, 25 °C, seeds 0..5 (none of them used to tune anything: the gate design is
+    physical, GateConfig defaults): gated roll / pitch RMS <= 1.0° overall and <= 0.5° in stable flight (mean
+    over seeds), and the gate is worth more than the seed-to-seed spread: gated beats the same update without
+    gate by more than 3 std of either. (The old claim gated < fusion compared against the peer at its defaults;
+    the fair comparison, every filter tuned by one procedure on other seeds, is benchmarks/bench_attitude.py.)"""
     res = run_attitude_study("flight", grade="adis16355", temperature_C=25.0, compensation="improved", seeds=6)
     assert res.seeds == tuple(range(6))
-    m = {n: {seg: {k: res.metrics[n][seg][k]["mean"] for k in ("roll_rms_deg", "pitch_rms_deg")}
-             for seg in ("overall", "stable")} for n in ("gated", "ungated", "fusion")}
+    m = {n: {seg: {k: res.metrics[n][seg][k] for k in ("roll_rms_deg", "pitch_rms_deg")}
+             for seg in ("overall", "stable")} for n in ("gated", "ungated")}
     for k in ("roll_rms_deg", "pitch_rms_deg"):
-        assert m["gated"]["overall"][k] <= 1.0, m["gated"]
-        assert m["gated"]["stable"][k] <= 0.5, m["gated"]
-        assert m["gated"]["overall"][k] < m["ungated"]["overall"][k], (m["gated"], m["ungated"])
-        assert m["gated"]["overall"][k] < m["fusion"]["overall"][k], (m["gated"], m["fusion"])
+        g, u = m["gated"]["overall"][k], m["ungated"]["overall"][k]
+        assert g["mean"] <= 1.0, m["gated"]
+        assert m["gated"]["stable"][k]["mean"] <= 0.5, m["gated"]
+        assert g["mean"] + 3 * max(g["std"], u["std"]) < u["mean"], (g, u)
 
 
 def test_study_rejects_too_short_rest():

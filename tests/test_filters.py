@@ -111,7 +111,7 @@ def test_kf_class_step_and_batch_agree(short_flight):
 
 def test_fusion_class_and_batch_agree(short_flight):
     g, a = _noisy(short_flight, seed=4)
-    p = FusionParams(use_bias=False)
+    p = FusionParams(use_bias=False, gyroscope_range=300.0)
     batch = run_fusion(g[:2000], a[:2000], DT, p)
     f = FusionPeer(DT, p)
     r = np.array([f.update(g[k], a[k]) for k in range(2000)])
@@ -127,7 +127,7 @@ def test_fusion_class_step_and_batch_agree_with_default_bias_stage(short_flight)
 
     g, a = _noisy(short_flight, seed=5, bias=(0.02, -0.015, 0.01))  # ~1 deg/s offsets for Bias to remove
     n = 2000
-    p = FusionParams()
+    p = FusionParams(gyroscope_range=300.0)
     assert p.use_bias
     batch = run_fusion(g[:n], a[:n], DT, p)
     f = FusionPeer(DT, p)

@@ -46,7 +46,7 @@ inertial rate); it is below the ADIS16355 noise.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -99,6 +99,7 @@ class SensorSpec:
     power_on_curve_fraction : float [-]    power-on random change of the curve, fraction of its peak
     temp_rate_coeff : float [unit per °C/min] 1-sigma thermal-gradient (dT/dt) bias coefficient
     g_sensitivity : float [rad/s per m/s^2] 1-sigma gyro g-sensitivity element (gyro only)
+    misalignment_tempco : float [rad/K]    1-sigma of each off-diagonal misalignment temperature coefficient
     asymmetry : float [-]                  1-sigma scale-factor asymmetry (accel only)
     k2 : float [1/(m/s^2)]                 1-sigma quadratic coefficient (accel only)
     """
@@ -117,6 +118,7 @@ class SensorSpec:
     power_on_curve_fraction: float
     temp_rate_coeff: float
     g_sensitivity: float = 0.0
+    misalignment_tempco: float = 0.0
     asymmetry: float = 0.0
     k2: float = 0.0
 
@@ -168,6 +170,7 @@ def _spec_from_dict(d: dict, kind: str) -> SensorSpec:
             power_on_curve_fraction=d["power_on_curve_fraction"],
             temp_rate_coeff=d["temp_rate_coeff_dps_per_Cmin"] * u,
             g_sensitivity=d["g_sensitivity_dps_per_g"] * u / G0,
+            misalignment_tempco=d.get("misalignment_tempco_deg_per_K", 0.0) * _DEG,
         )
     u = _MG  # mg -> m/s^2
     rms = d["noise_rms_mg"] * u
@@ -187,6 +190,7 @@ def _spec_from_dict(d: dict, kind: str) -> SensorSpec:
         temp_rate_coeff=d["temp_rate_coeff_mg_per_Cmin"] * u,
         asymmetry=d["asymmetry_ppm"] * 1e-6,
         k2=d["k2_mg_per_g2"] * 1e-3 / G0,  # [g/g^2] -> [1/(m/s^2)]
+        misalignment_tempco=d.get("misalignment_tempco_deg_per_K", 0.0) * _DEG,
     )
 
 
@@ -236,6 +240,8 @@ class TriadTruth:
     g_sens : ndarray (3,3) [rad/s per m/s^2]   gyro g-sensitivity (zero for accels)
     asym : ndarray (3,) [-]         scale-factor asymmetry (+ scale minus - scale; zero for gyros)
     k2 : ndarray (3,) [1/unit]      quadratic coefficient (zero for gyros)
+    dM_dT : ndarray (3,3) [1/K]     temperature coefficient of the misalignment (off-diagonal; board /
+                                    housing thermal strain): M(T) = M0 + dM_dT (T - 25 °C), row i at sensor i's T
     """
 
     M0: np.ndarray
@@ -247,6 +253,7 @@ class TriadTruth:
     g_sens: np.ndarray
     asym: np.ndarray
     k2: np.ndarray
+    dM_dT: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
 
     def K0(self) -> np.ndarray:
         """Scale-factor / misalignment matrix at 25 °C, small-signal (no asymmetry) [-]."""
@@ -334,6 +341,12 @@ def _draw_triad(spec: SensorSpec, rng: np.random.Generator, kind: str) -> TriadT
     )
 
 
+def _offdiag(rng, sigma: float) -> np.ndarray:
+    m = rng.normal(0.0, sigma, (3, 3)) if sigma > 0 else np.zeros((3, 3))
+    np.fill_diagonal(m, 0.0)
+    return m
+
+
 def _ideal_triad() -> TriadTruth:
     z3, z33 = np.zeros(3), np.zeros((3, 3))
     return TriadTruth(M0=np.eye(3), sf0=z3, bias0=z3, bias_curve=np.zeros((3, 6)), sf_curve=np.zeros((3, 6)),
@@ -364,6 +377,15 @@ def draw_unit(grade: str | SensorGrade, rng: np.random.Generator, *, ideal: bool
                        temp_offset_C=np.zeros(6), temp_tau_s=np.zeros(6))
     gyro = _draw_triad(g.gyro, rng, "gyro")
     accel = _draw_triad(g.accel, rng, "accel")
+    # thermal misalignment from a generator keyed by this generator's seed sequence (not by its state, and
+    # without rng.spawn, which counts its calls): the main stream and every other draw are unchanged, and
+    # two generators made from the same seed sequence draw the same unit (common random numbers)
+    ss = getattr(rng.bit_generator, "seed_seq", None)
+    if ss is None:
+        raise InputError("draw_unit: rng must come from a SeedSequence (e.g. numpy.random.default_rng(seed))")
+    trng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (0x7E3C,)))
+    gyro = replace(gyro, dM_dT=_offdiag(trng, g.gyro.misalignment_tempco))
+    accel = replace(accel, dM_dT=_offdiag(trng, g.accel.misalignment_tempco))
     off = np.clip(rng.normal(0.0, g.temp_sensor_offset_std_C, 6), -3 * g.temp_sensor_offset_std_C,
                   3 * g.temp_sensor_offset_std_C)
     tau = np.full(6, g.temp_sensor_tau_s)
@@ -490,6 +512,8 @@ def _gauss_markov(rng, n, k, sigma, tau_c, dt):
 
 def _triad_output(triad: TriadTruth, spec: SensorSpec, x, T, dTdt_min, f_b, p_on, rng, dt, noise, kind):
     u = x @ triad.M0.T  # (N,3) input on the sensitive axes
+    if np.any(triad.dM_dT):  # thermal misalignment, row i at sensor i's temperature
+        u = u + (T - T_REF_C) * (x @ triad.dM_dT.T)
     sf = 1.0 + triad.sf0 + triad.sf_T(T) + 0.5 * triad.asym * np.sign(u)
     xx = (T - T_REF_C) / _X_SCALE
     y = sf * u + triad.k2 * u**2 + triad.bias0 + triad.bias_T(T) + triad.temp_rate_coeff * dTdt_min

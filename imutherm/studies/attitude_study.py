@@ -34,8 +34,11 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import (FILTERS, FusionParams, GatedParams, KFParams, default_thresholds, run_fusion,
-                                  run_gated, run_kf, run_ungated)
+from imutherm.imu.filters import (ALL_FILTERS, FILTERS, EKFParams, FusionParams, GatedParams, KFParams,
+                                  MadgwickParams, MahonyParams, VQFParams, default_thresholds, run_ekf, run_fusion,
+                                  run_gated, run_kf, run_madgwick, run_mahony, run_ungated, run_vqf)
+from imutherm.imu.filters.gate import rest_reference
+from imutherm.imu.filters.kf003 import kf_params_from_rest
 
 SEGMENTS = ("overall", "stable", "manoeuvre")
 METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
@@ -51,7 +54,8 @@ class GateConfig:
     """Design parameters of the seed-000 gated filter (see the module docstring).
 
     xi_a [m/s^2], xi_w [m/s^2], L [m], kp [1/s], ki [1/s^2], tau [s], hold_s [s],
-    init_s [s] steady initial window used for leveling and the R(·) widening.
+    init_s [s] steady initial window used for leveling, the bias, the |f| reference and the R(·) widening,
+    recover_s [s] the gate's recovery time (see :mod:`imutherm.imu.filters.gated`).
     """
 
     xi_a: float = 3.7e-4
@@ -62,6 +66,7 @@ class GateConfig:
     tau: float = 0.1
     hold_s: float = 0.0
     init_s: float = 8.0
+    recover_s: float = 30.0
 
 
 @dataclass(frozen=True)
@@ -224,20 +229,33 @@ def _spread(values):
 
 
 def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig(),
-                fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=FILTERS):
+                fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=FILTERS, params=None):
     """Run the named filters on one record; returns ({name: AttitudeEstimate}, thresholds).
 
-    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m].
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
+    must be at rest: the gyro bias, the |f| reference of the gates (the accelerometer's own rest reading,
+    not nominal g) and the gates' noise widening are measured there (:func:`rest_reference`,
+    :func:`kf_params_from_rest`). ``fusion.gyroscope_range=None`` takes the range from the data.
+    ``names`` may include the PEERS (vqf, madgwick, mahony, ekf); ``params`` {name: their params object}
+    (VQFParams, MadgwickParams, MahonyParams, EKFParams; default: published defaults).
     """
+    params = {} if params is None else dict(params)
     init_s = gate.init_s
+    g_ref, bias0 = rest_reference(gyro, accel, dt, init_s)
     th = default_thresholds(gyro, accel, dt, xi_a=gate.xi_a, xi_w=gate.xi_w, d=lever_arm, L=gate.L,
-                            tau=gate.tau, init_s=init_s)
-    gp = GatedParams(th, kp=gate.kp, ki=gate.ki, tau=gate.tau, hold_s=gate.hold_s)
+                            tau=gate.tau, init_s=init_s, g=g_ref, bias=bias0)
+    gp = GatedParams(th, kp=gate.kp, ki=gate.ki, tau=gate.tau, hold_s=gate.hold_s, g=g_ref,
+                     recover_s=gate.recover_s)
+    kf_run = kf_params_from_rest(gyro, accel, dt, init_s, kf)
     runners = {
         "gated": lambda: run_gated(gyro, accel, dt, gp, init_s=init_s),
-        "kf": lambda: run_kf(gyro, accel, dt, kf, init_s=init_s),
+        "kf": lambda: run_kf(gyro, accel, dt, kf_run, init_s=init_s),
         "ungated": lambda: run_ungated(gyro, accel, dt, gp, init_s=init_s),
         "fusion": lambda: run_fusion(gyro, accel, dt, fusion),
+        "vqf": lambda: run_vqf(gyro, accel, dt, params.get("vqf", VQFParams()), init_s=init_s),
+        "madgwick": lambda: run_madgwick(gyro, accel, dt, params.get("madgwick", MadgwickParams()), init_s=init_s),
+        "mahony": lambda: run_mahony(gyro, accel, dt, params.get("mahony", MahonyParams()), init_s=init_s),
+        "ekf": lambda: run_ekf(gyro, accel, dt, params.get("ekf", EKFParams()), init_s=init_s),
     }
     return {n: runners[n]() for n in names}, th
 
@@ -267,9 +285,9 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         raise InputError(f"--compensation: {compensation!r} is unknown; valid: {', '.join(COMPENSATIONS)}")
     if not (isinstance(seeds, (int, np.integer)) and seeds >= 1):
         raise InputError(f"--seeds: {seeds!r} is invalid; valid: an integer >= 1")
-    unknown = [n for n in names if n not in FILTERS]
+    unknown = [n for n in names if n not in ALL_FILTERS]
     if unknown:
-        raise InputError(f"filters: {unknown} unknown; valid: {', '.join(FILTERS)}")
+        raise InputError(f"filters: {unknown} unknown; valid: {', '.join(ALL_FILTERS)}")
     d = tuple(float(v) for v in (DEFAULT_LEVER_ARM[profile] if lever_arm is None else lever_arm))
     rate = g.sample_rate_hz
     traj = motion.make_profile(profile, duration, rate, lever_arm=d)

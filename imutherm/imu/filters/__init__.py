@@ -12,6 +12,9 @@ kf         :func:`kf_step`                 GravityKF             run_kf
 ungated    gated_step (thresholds=None)    ComplementaryFilter   run_ungated
 fusion     :func:`fusion_step`             FusionPeer            run_fusion
 =========  ==============================  ====================  ===============
+
+``PEERS`` (``vqf``, ``madgwick``, ``mahony``, ``ekf``): batch runners only
+(:mod:`imutherm.imu.filters.peers`); ``ALL_FILTERS`` = FILTERS + PEERS.
 """
 
 from imutherm.imu.filters.common import AttitudeEstimate, initial_quat
@@ -21,11 +24,18 @@ from imutherm.imu.filters.gated import (ComplementaryFilter, GatedParams, GatedS
                                         default_thresholds, gated_step, run_gated, run_ungated)
 from imutherm.imu.filters.kf003 import GravityKF, KFParams, KFState, kf_step, run_kf
 
+from imutherm.imu.filters.peers import (EKFParams, MadgwickParams, MahonyParams, VQFParams, run_ekf, run_ekf_many,
+                                        run_madgwick, run_mahony, run_vqf)
+
 FILTERS = ("gated", "kf", "ungated", "fusion")
+#: further 6D peers (VQF, ahrs Madgwick / Mahony / EKF), see :mod:`imutherm.imu.filters.peers`
+PEERS = ("vqf", "madgwick", "mahony", "ekf")
+ALL_FILTERS = FILTERS + PEERS
 
 __all__ = [
     "FILTERS", "AttitudeEstimate", "initial_quat", "GateThresholds", "gate_thresholds", "gate_signals",
     "gate_noise_std", "GatedParams", "GatedState", "GatedStrapdown", "ComplementaryFilter", "gated_step",
     "run_gated", "run_ungated", "default_thresholds", "KFParams", "KFState", "GravityKF", "kf_step", "run_kf",
-    "FusionParams", "FusionPeer", "fusion_step", "run_fusion",
+    "FusionParams", "FusionPeer", "fusion_step", "run_fusion", "PEERS", "ALL_FILTERS", "EKFParams", "MadgwickParams",
+    "MahonyParams", "VQFParams", "run_ekf", "run_ekf_many", "run_madgwick", "run_mahony", "run_vqf",
 ]

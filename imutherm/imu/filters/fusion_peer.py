@@ -3,8 +3,9 @@
 Settings (Fusion README, "Algorithm settings"): gain 0.5 ("appropriate for
 most applications"), acceleration rejection 10°, recovery trigger period 5 s
 (in imufusion 1.3.3 the setting is ``rejection_timeout`` [s] with
-``sample_rate`` [Hz]), gyroscope range = the sensor's range [°/s]; no
-magnetometer → ``update_no_magnetometer``. Gyroscope in °/s and
+``sample_rate`` [Hz]), gyroscope range = the sensor's range [°/s] (None: from
+the data, :func:`gyro_range_from_data`; a fixed 300 °/s made the library
+re-initialise on any faster motion); no magnetometer → ``update_no_magnetometer``. Gyroscope in °/s and
 accelerometer in g as the library expects.
 
 Frames: the library is run in its default North-West-Up convention with the
@@ -27,7 +28,7 @@ wraps one ``Ahrs`` (and one ``Bias`` when ``use_bias``) and
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import imufusion
 import numpy as np
@@ -49,19 +50,39 @@ class FusionParams:
     """Recommended imufusion settings.
 
     gain [-] 0.5; acceleration_rejection [deg] 10; rejection_timeout [s] 5;
-    gyroscope_range [deg/s] (0 disables the over-range recovery);
+    gyroscope_range [deg/s] the sensor's full scale (0 disables the over-range recovery; None: from the
+    data in :func:`run_fusion`, required by :class:`FusionPeer`);
     use_bias : run the library's gyroscope offset correction (``imufusion.Bias``) first.
     """
 
     gain: float = 0.5
     acceleration_rejection: float = 10.0
     rejection_timeout: float = 5.0
-    gyroscope_range: float = 300.0
+    gyroscope_range: float | None = None
     use_bias: bool = True
+
+
+#: common MEMS gyro full scales [deg/s] (ADXRS/ADIS 300, BMI/ICM/LSM 125-2000, ADIS16488 450)
+GYRO_FULL_SCALES_DPS = (125.0, 250.0, 300.0, 450.0, 500.0, 1000.0, 2000.0, 4000.0)
+
+
+def gyro_range_from_data(gyro) -> float:
+    """Gyro range [deg/s] for a record (N,3) [rad/s]: the smallest common full scale
+    (:data:`GYRO_FULL_SCALES_DPS`) that holds the largest |rate| sample. A saturated record reads its
+    full scale, so this returns the sensor's range; an unsaturated one, a range it did not reach."""
+    m = float(np.degrees(np.max(np.abs(np.asarray(gyro, float)))))
+    for fs in GYRO_FULL_SCALES_DPS:
+        if m <= fs:
+            return fs
+    return m
 
 
 def make_ahrs(dt: float, params: FusionParams) -> imufusion.Ahrs:
     """A configured ``imufusion.Ahrs`` for sample period ``dt`` [s]."""
+    if params.gyroscope_range is None:
+        from imutherm import InputError
+        raise InputError("FusionParams.gyroscope_range is None; valid: the sensor's full scale [deg/s] "
+                         "(run_fusion derives it from the data)")
     ahrs = imufusion.Ahrs()
     ahrs.set_settings(imufusion.AhrsSettings(
         sample_rate=1.0 / dt, convention=imufusion.CONVENTION_NWU, gain=params.gain,
@@ -119,6 +140,8 @@ def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams()) ->
     """Run the peer over a record; gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]."""
     gyro, accel = check_samples(gyro, accel, dt)
     t0 = time.perf_counter()
+    if params.gyroscope_range is None:
+        params = replace(params, gyroscope_range=gyro_range_from_data(gyro))
     ahrs = make_ahrs(dt, params)
     gd = np.ascontiguousarray(np.degrees(gyro) * _FLU)
     ag = np.ascontiguousarray(accel * (_FLU / G0))

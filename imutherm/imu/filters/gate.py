@@ -18,10 +18,21 @@ gate signal measured in steady (static) conditions. The seed writes the last
 one as ``sqrt(3 δω̇_y)``; we use ``sqrt(3) · δω̇_y``, the dimensionally
 consistent reading (PAPER.md's), which has units of angular acceleration.
 
-Gate signals (:func:`gate_signals`) are computed from the raw samples after a
+Gate signals (:func:`gate_signals`) are computed from the samples after a
 first-order low-pass of time constant ``tau`` [s] (the seed's sensor noise
 would otherwise keep ``|ω|`` and the differentiated ``|ω̇|`` above any useful
 threshold); ``ω̇`` is the backward difference of the low-passed rate.
+
+Real sensors (issue 12): the rate signal is the **bias-corrected** rate
+``|LP(ω) - b|`` (a 0.58 °/s gyro bias would otherwise exceed a 0.55 °/s
+threshold forever), and the specific-force signal compares ``|f|`` with the
+magnitude the accelerometer itself reads at rest, ``g_ref`` (a real part reads
+9.89-9.91 m/s² at rest, 0.1 m/s² above nominal g, which exceeds a 0.08 m/s²
+threshold). The widening R(·) is the level the gate signal at rest does not
+exceed, ``mean + k std`` over the rest window (:func:`gate_noise_level`, k = 4),
+measured at the record's own sample rate: the std alone (the seed's reading)
+lies *below* the mean of a positive signal such as ``|LP(ω)|``, so a gate
+widened by it alone can stay shut at rest.
 """
 
 from __future__ import annotations
@@ -111,12 +122,13 @@ def _lp(x, alpha):
     return y
 
 
-def gate_signals(gyro, accel, dt: float, tau: float, g: float = G0):
+def gate_signals(gyro, accel, dt: float, tau: float, g: float = G0, bias=(0.0, 0.0, 0.0)):
     """Gate signals (e_a [m/s^2], e_w [rad/s], e_wdot [rad/s^2]), each (N,).
 
-    e_a = |LP(|f|) - g|, e_w = |LP(ω)|, e_wdot = |(LP(ω)_k - LP(ω)_{k-1}) / dt|
+    e_a = |LP(|f|) - g|, e_w = |LP(ω) - b|, e_wdot = |(LP(ω)_k - LP(ω)_{k-1}) / dt|
     (0 at k = 0), with LP the first-order low-pass of time constant ``tau`` [s].
-    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s].
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], g [m/s^2] the |f| reference
+    (the rest reading of this accelerometer), bias (3,) [rad/s] the gyro-bias estimate.
     """
     gyro = np.asarray(gyro, float)
     accel = np.asarray(accel, float)
@@ -124,21 +136,50 @@ def gate_signals(gyro, accel, dt: float, tau: float, g: float = G0):
     fn = np.sqrt(accel[:, 0] * accel[:, 0] + accel[:, 1] * accel[:, 1] + accel[:, 2] * accel[:, 2])
     e_a = np.abs(_lp(fn, alpha) - g)
     w = _lp(gyro, alpha)
-    e_w = np.sqrt(w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1] + w[:, 2] * w[:, 2])
+    wc = w - np.asarray(bias, float)
+    e_w = np.sqrt(wc[:, 0] * wc[:, 0] + wc[:, 1] * wc[:, 1] + wc[:, 2] * wc[:, 2])
     wd = np.zeros_like(w)
     wd[1:] = (w[1:] - w[:-1]) / dt
     e_wd = np.sqrt(wd[:, 0] * wd[:, 0] + wd[:, 1] * wd[:, 1] + wd[:, 2] * wd[:, 2])
     return e_a, e_w, e_wd
 
 
-def gate_noise_std(gyro, accel, dt: float, tau: float, g: float = G0, skip_s: float | None = None):
-    """R(·): standard deviations of the three gate signals over a steady window [m/s^2, rad/s, rad/s^2].
-
-    The first ``skip_s`` [s] (default 5 τ) are skipped so the low-pass start-up does not count.
-    """
-    sig = gate_signals(gyro, accel, dt, tau, g)
+def _rest_signals(gyro, accel, dt, tau, g, bias, skip_s):
+    sig = gate_signals(gyro, accel, dt, tau, g, bias)
     k0 = int(round((5 * tau if skip_s is None else skip_s) / dt))
     if len(sig[0]) - k0 < 10:
         raise InputError(f"gate: steady window of {len(sig[0])} samples is too short for tau={tau} s; "
                          "valid: at least 5 tau + 10 samples of rest")
-    return tuple(float(np.std(s[k0:])) for s in sig)
+    return [s[k0:] for s in sig]
+
+
+def gate_noise_std(gyro, accel, dt: float, tau: float, g: float = G0, skip_s: float | None = None,
+                   bias=(0.0, 0.0, 0.0)):
+    """Standard deviations of the three gate signals over a steady window [m/s^2, rad/s, rad/s^2].
+
+    The first ``skip_s`` [s] (default 5 τ) are skipped so the low-pass start-up does not count.
+    """
+    return tuple(float(np.std(s)) for s in _rest_signals(gyro, accel, dt, tau, g, bias, skip_s))
+
+
+#: widening factor k of :func:`gate_noise_level` (a half-normal signal exceeds mean + 4 std on ~0.1 % of samples)
+NOISE_K = 4.0
+
+
+def gate_noise_level(gyro, accel, dt: float, tau: float, g: float = G0, bias=(0.0, 0.0, 0.0),
+                     k: float = NOISE_K, skip_s: float | None = None):
+    """R(·) used to widen the thresholds: ``mean + k std`` of each gate signal over a window at rest.
+
+    gyro (M,3) [rad/s], accel (M,3) [m/s^2] of the rest window at the record's sample period dt [s];
+    g [m/s^2] the |f| reference and bias (3,) [rad/s] estimated from the same window.
+    Returns (R_a [m/s^2], R_w [rad/s], R_wdot [rad/s^2]): the level the signals at rest stay below.
+    """
+    return tuple(float(np.mean(s) + k * np.std(s)) for s in _rest_signals(gyro, accel, dt, tau, g, bias, skip_s))
+
+
+def rest_reference(gyro, accel, dt: float, init_s: float):
+    """(g_ref [m/s^2], bias (3,) [rad/s]) from the first ``init_s`` [s] (the unit at rest):
+    the mean |f| this accelerometer reads at rest and the mean gyro rate."""
+    n0 = max(1, int(round(init_s / dt)))
+    a = np.asarray(accel, float)[:n0]
+    return float(np.mean(np.linalg.norm(a, axis=1))), np.mean(np.asarray(gyro, float)[:n0], axis=0)

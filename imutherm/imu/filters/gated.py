@@ -11,6 +11,23 @@ for ``hold_s`` [s] without interruption (the end of a manoeuvre is not
 instantaneous; the ramp-down of an acceleration would otherwise leak into
 the attitude).
 
+Real sensors (issue 12): the rate condition tests the **bias-corrected** rate
+``|LP(ω) - b|`` with the filter's current bias estimate b, the specific-force
+condition compares with ``g`` = the |f| this accelerometer reads at rest (see
+:func:`imutherm.imu.filters.gate.rest_reference`). Recovery path: if the
+specific-force and angular-acceleration conditions have held for
+``recover_s`` [s] without interruption while the rate condition still fails
+(e.g. the bias changed during a long manoeuvre, so the corrected rate at rest
+exceeds σω and the bias loop, which runs only while the gate is open, can
+never correct it), the gate opens anyway. Justification: with ``|f| = g`` and
+a steady rate the specific force has no linear-acceleration part beyond the
+small centripetal ``ω × (ω × d)``; a coordinated turn, the case the rate
+condition is for, fails the ``|f|`` condition (load factor 1/cos φ) unless
+the bank is below ~8° (|f| - g < σa ≈ 0.09 m/s²), so ``recover_s`` must be
+longer than such a shallow turn: 30 s. Measured on ``flight`` (2 seeds):
+recover_s = 5 s let shallow turns in (roll / pitch RMS 0.64 / 0.90° instead
+of 0.44 / 0.64°); 30 s gives the same figures as no recovery.
+
 Update for sample k (gyro ω_k [rad/s], specific force f_k [m/s^2])::
 
     ω̄ = (ω_{k-1} + ω_k)/2 - b
@@ -36,7 +53,8 @@ from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
                                          initial_quat)
-from imutherm.imu.filters.gate import GateThresholds, gate_noise_std, gate_signals, gate_thresholds, lowpass_alpha
+from imutherm.imu.filters.gate import (GateThresholds, _lp, gate_noise_level, gate_signals, gate_thresholds,
+                                      lowpass_alpha, rest_reference)
 
 
 @dataclass(frozen=True)
@@ -48,7 +66,9 @@ class GatedParams:
     ki : float [1/s^2]      integral gain (gyro-bias estimate)
     tau : float [s]         low-pass time constant of the gate signals
     hold_s : float [s]      the conditions must hold this long before the gate opens
-    g : float [m/s^2]       reference gravity of the ||f| - g| gate
+    g : float [m/s^2]       |f| reference of the ||f| - g| gate (the accelerometer's reading at rest)
+    recover_s : float [s]   recovery: open after |f| and ω̇ conditions held this long even if the
+                            rate condition fails (inf: never)
     """
 
     thresholds: GateThresholds | None
@@ -57,6 +77,7 @@ class GatedParams:
     tau: float = 0.1
     hold_s: float = 1.0
     g: float = G0
+    recover_s: float = 30.0
 
     def __post_init__(self):
         for name in ("kp", "ki", "tau", "hold_s", "g"):
@@ -64,6 +85,9 @@ class GatedParams:
             if not (math.isfinite(v) and v >= 0) or (name in ("tau", "g") and v <= 0):
                 raise InputError(f"GatedParams: {name}={v!r} is invalid; valid: a finite number >= 0 "
                                  "(tau, g > 0)")
+        if not (self.recover_s > 0):
+            raise InputError(f"GatedParams: recover_s={self.recover_s!r} is invalid; valid: a number > 0 [s] "
+                             "(inf: no recovery)")
 
 
 @dataclass(frozen=True)
@@ -74,6 +98,7 @@ class GatedState:
     prev_gyro : (3,) [rad/s] last gyro sample (None before the first);
     lp_f : float [m/s^2] low-passed |f|; lp_w : (3,) [rad/s] low-passed ω;
     run : int [samples] consecutive samples with all gate conditions true;
+    quiet : int [samples] consecutive samples with the |f| and ω̇ conditions true (recovery);
     gate_open : bool, whether the last update used the accelerometer.
     """
 
@@ -83,6 +108,7 @@ class GatedState:
     lp_f: float | None = None
     lp_w: tuple | None = None
     run: int = 0
+    quiet: int = 0
     gate_open: bool = False
 
     @property
@@ -94,7 +120,7 @@ class GatedState:
 
 def _hold_samples(hold_s: float, dt: float) -> int:
     """Number of samples the gate conditions must already hold before sample k opens it."""
-    return int(round(hold_s / dt))
+    return int(round(hold_s / dt)) if math.isfinite(hold_s) else 2**62
 
 
 def debounce(ok, n_hold: int) -> np.ndarray:
@@ -153,7 +179,7 @@ def gated_step(state: GatedState, gyro, accel, dt: float, params: GatedParams) -
     pg = state.prev_gyro if state.prev_gyro is not None else (gx, gy, gz)
     wbx, wby, wbz = 0.5 * (pg[0] + gx), 0.5 * (pg[1] + gy), 0.5 * (pg[2] + gz)
     th = params.thresholds
-    run = state.run
+    run, quiet = state.run, state.quiet
     if th is None:
         is_open, lp_f, lp_w = True, state.lp_f, state.lp_w
     else:
@@ -167,14 +193,18 @@ def gated_step(state: GatedState, gyro, accel, dt: float, params: GatedParams) -
             lp_f = alpha * fn + beta * state.lp_f
             lp_w = (alpha * gx + beta * old[0], alpha * gy + beta * old[1], alpha * gz + beta * old[2])
         e_a = abs(lp_f - params.g)
-        e_w = math.sqrt(lp_w[0] * lp_w[0] + lp_w[1] * lp_w[1] + lp_w[2] * lp_w[2])
+        b = state.bias
+        c0, c1, c2 = lp_w[0] - b[0], lp_w[1] - b[1], lp_w[2] - b[2]
+        e_w = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
         d0, d1, d2 = (lp_w[0] - old[0]) / dt, (lp_w[1] - old[1]) / dt, (lp_w[2] - old[2]) / dt
         e_wd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        ok = e_a < th.sigma_a and e_w < th.sigma_w and e_wd < th.sigma_wdot
+        ok_aw = e_a < th.sigma_a and e_wd < th.sigma_wdot
+        ok = ok_aw and e_w < th.sigma_w
         run = run + 1 if ok else 0
-        is_open = run > _hold_samples(params.hold_s, dt)
+        quiet = quiet + 1 if ok_aw else 0
+        is_open = run > _hold_samples(params.hold_s, dt) or quiet > _hold_samples(params.recover_s, dt)
     q, b = _update(state.q, state.bias, wbx, wby, wbz, fx, fy, fz, is_open, params.kp, params.ki, dt)
-    return replace(state, q=q, bias=b, prev_gyro=(gx, gy, gz), lp_f=lp_f, lp_w=lp_w, run=run,
+    return replace(state, q=q, bias=b, prev_gyro=(gx, gy, gz), lp_f=lp_f, lp_w=lp_w, run=run, quiet=quiet,
                    gate_open=is_open)
 
 
@@ -213,8 +243,13 @@ class ComplementaryFilter(GatedStrapdown):
         super().__init__(replace(params, thresholds=None), q0, bias0)
 
 
-def _loop(gyro, accel, gate, dt, kp, ki, q0, b0):
-    """Tight batch loop of :func:`_update` (inlined); returns gravity (N,3)."""
+def _loop(gyro, accel, gate, dt, kp, ki, q0, b0, rate_gate=None):
+    """Tight batch loop of :func:`_update` (inlined); returns (gravity (N,3), used (N,) bool).
+
+    gate (N,) bool: the accelerometer is used where True. ``rate_gate`` = (lp_w (N,3) [rad/s],
+    ok_aw (N,) bool, sigma_w [rad/s], n_hold, n_recover): the gate is instead decided inside the loop
+    from the bias-corrected rate |lp_w - b| with the current bias estimate (see :func:`gated_step`).
+    """
     n = len(gyro)
     wbar = np.empty_like(gyro)
     wbar[0] = gyro[0]
@@ -223,7 +258,13 @@ def _loop(gyro, accel, gate, dt, kp, ki, q0, b0):
     m = -accel / fn[:, None]
     gxl, gyl, gzl = wbar[:, 0].tolist(), wbar[:, 1].tolist(), wbar[:, 2].tolist()
     mxl, myl, mzl = m[:, 0].tolist(), m[:, 1].tolist(), m[:, 2].tolist()
-    gl = gate.tolist()
+    gl = gate.tolist() if rate_gate is None else [False] * n
+    if rate_gate is not None:
+        lpw, ok_aw, sig_w, n_hold, n_rec = rate_gate
+        lwx, lwy, lwz = lpw[:, 0].tolist(), lpw[:, 1].tolist(), lpw[:, 2].tolist()
+        okl = ok_aw.tolist()
+        sw2 = sig_w * sig_w
+        run = quiet = 0
     w, x, y, z = (float(v) for v in q0)
     bx, by, bz = (float(v) for v in b0)
     rxo, ryo, rzo = [0.0] * n, [0.0] * n, [0.0] * n
@@ -231,6 +272,14 @@ def _loop(gyro, accel, gate, dt, kp, ki, q0, b0):
     sqrt, sin, cos = math.sqrt, math.sin, math.cos
     for k in range(n):
         wx, wy, wz = gxl[k] - bx, gyl[k] - by, gzl[k] - bz
+        if rate_gate is not None:
+            if okl[k]:
+                quiet += 1
+                c0, c1, c2 = lwx[k] - bx, lwy[k] - by, lwz[k] - bz
+                run = run + 1 if c0 * c0 + c1 * c1 + c2 * c2 < sw2 else 0
+            else:
+                quiet = run = 0
+            gl[k] = run > n_hold or quiet > n_rec
         if gl[k]:
             mx, my, mz = mxl[k], myl[k], mzl[k]
             rx = 2 * (x * z - w * y)
@@ -262,18 +311,23 @@ def _loop(gyro, accel, gate, dt, kp, ki, q0, b0):
         rxo[k] = 2 * (x * z - w * y)
         ryo[k] = 2 * (y * z + w * x)
         rzo[k] = 1 - 2 * (x * x + y * y)
-    return np.column_stack([rxo, ryo, rzo])
+    return np.column_stack([rxo, ryo, rzo]), np.array(gl, bool)
 
 
 def default_thresholds(gyro, accel, dt: float, *, xi_a: float, xi_w: float, d, L: float, tau: float,
-                       init_s: float, g: float = G0) -> GateThresholds:
-    """Seed-000 thresholds widened by the gate-signal std over the first ``init_s`` [s] (assumed at rest).
+                       init_s: float, g: float | None = None, bias=None) -> GateThresholds:
+    """Seed-000 thresholds widened by the gate signals' rest level over the first ``init_s`` [s] (at rest).
 
-    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], xi_a/xi_w [m/s^2], d (3,) [m], L [m], tau [s].
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], xi_a/xi_w [m/s^2], d (3,) [m], L [m], tau [s];
+    g [m/s^2] |f| reference and bias (3,) [rad/s] (None: estimated from the same rest window,
+    :func:`rest_reference`). The widening is :func:`gate_noise_level` (mean + 4 std at rest).
     """
     n0 = int(round(init_s / dt))
-    noise = gate_noise_std(gyro[:n0], accel[:n0], dt, tau, g)
-    return gate_thresholds(xi_a, xi_w, d, L, noise_std=noise, g=g)
+    g_ref, b_ref = rest_reference(gyro, accel, dt, init_s)
+    g = g_ref if g is None else g
+    bias = b_ref if bias is None else bias
+    noise = gate_noise_level(gyro[:n0], accel[:n0], dt, tau, g, bias)
+    return gate_thresholds(xi_a, xi_w, d, L, noise_std=noise, g=G0)
 
 
 def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, *, init_s: float = 10.0,
@@ -293,12 +347,14 @@ def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, 
         bias0 = initial_bias(gyro, dt, init_s)
     th = params.thresholds
     if th is None:
-        gate = np.ones(len(gyro), bool)
+        r, gate = _loop(gyro, accel, np.ones(len(gyro), bool), dt, params.kp, params.ki, q0, bias0)
     else:
-        e_a, e_w, e_wd = gate_signals(gyro, accel, dt, params.tau, params.g)
-        gate = debounce((e_a < th.sigma_a) & (e_w < th.sigma_w) & (e_wd < th.sigma_wdot),
-                        _hold_samples(params.hold_s, dt))
-    r = _loop(gyro, accel, gate, dt, params.kp, params.ki, q0, bias0)
+        e_a, _, e_wd = gate_signals(gyro, accel, dt, params.tau, params.g)
+        lpw = _lp(gyro, lowpass_alpha(dt, params.tau))
+        ok_aw = (e_a < th.sigma_a) & (e_wd < th.sigma_wdot)
+        r, gate = _loop(gyro, accel, None, dt, params.kp, params.ki, q0, bias0,
+                        (lpw, ok_aw, th.sigma_w, _hold_samples(params.hold_s, dt),
+                         _hold_samples(params.recover_s, dt)))
     return estimate_from_gravity(name, r, gate, time.perf_counter() - t0)
 
 

@@ -12,9 +12,18 @@ renormalised to 1.
 Gates (seed 003 §4): gate 1, the maximum of ``||f| - g|`` over a window of n
 samples below ``a``: the measurement period becomes nT and f̄ is the window
 mean; gate 2, the innovation norm ``|r_m - r|`` below ``innov_max``. Our
-addition (not in the seed): if gate 1 passes but gate 2 keeps rejecting for
-``reject_timeout_s``, the next measurement is accepted (recovery from a
-diverged state, like the peer's acceleration recovery).
+addition (not in the seed): if gate 1 has passed for a total of
+``reject_timeout_s`` [s] of windows since gate 2 last accepted, the filter
+**re-levels**: ``r ← r_m`` (the window's accelerometer direction) and
+``p ← p0`` (recovery from a diverged state; accepting a single measurement
+with its small gain K would leave the next innovation above the gate again).
+
+Real sensors (issue 12): ``g`` is the |f| this accelerometer reads at rest
+and ``a`` = a design allowance plus the level the window maximum of
+``||f| - g|`` does not exceed at rest at the record's own sample rate and
+window (mean + 4 std): :func:`kf_params_from_rest`. With nominal g and a fixed
+0.15 m/s², a part reading 9.90 m/s² at rest never passed gate 1, so the
+re-level timer never ran either.
 
 Propagation uses the trapezoidal rate ``(ω_{k-1} + ω_k)/2 - b`` and the exact
 rotation (Rodrigues). Seed 003 notes that the plain KF (its eq. 32) ignores
@@ -43,18 +52,19 @@ class KFParams:
     """Parameters of the seed-003 filter.
 
     n_window : int [samples]  gate-1 window and measurement period (nT)
-    a : float [m/s^2]         gate 1 threshold on max ||f| - g| in the window
+    a : float [m/s^2]         gate 1 threshold on max ||f| - g| in the window (:func:`kf_params_from_rest`
+                              adds the rest noise level to this design allowance)
     innov_max : float [-]     gate 2 threshold on |r_m - r| (≈ angle [rad])
     q : float [1/s]           process noise density of r (inflated for the unestimated gyro bias)
     R : float [-]             measurement noise variance of r_m
     p0 : float [-]            initial variance
-    reject_timeout_s : float [s]  accept after this long of gate-2 rejections (inf: never)
+    reject_timeout_s : float [s]  re-level after this much gate-1-passing time of gate-2 rejections (inf: never)
     kb : float [1/s^2]        gyro-bias gain of the augmented state (0: plain eq. 32 KF)
-    g : float [m/s^2]         reference gravity
+    g : float [m/s^2]         |f| reference (the accelerometer's reading at rest)
     """
 
     n_window: int = 10
-    a: float = 0.15
+    a: float = 0.05
     innov_max: float = 0.05
     q: float = 2e-6
     R: float = 2e-4
@@ -100,6 +110,27 @@ class KFState:
         return np.array(self.r)
 
 
+def window_max_level(accel, g: float, n_window: int, k: float = 4.0) -> float:
+    """Level [m/s^2] the gate-1 statistic max ||f| - g| over windows of ``n_window`` samples stays below at
+    rest: mean + k std over the consecutive windows of ``accel`` (M,3) [m/s^2] (a record at rest)."""
+    a = np.asarray(accel, float)
+    m = (len(a) // n_window) * n_window
+    if m < 3 * n_window:
+        raise InputError(f"kf gate: a rest window of {len(a)} samples is too short for n_window={n_window}; "
+                         "valid: at least 3 windows")
+    e = np.abs(np.linalg.norm(a[:m], axis=1) - g).reshape(-1, n_window).max(axis=1)
+    return float(e.mean() + k * e.std())
+
+
+def kf_params_from_rest(gyro, accel, dt: float, init_s: float, params: KFParams) -> KFParams:
+    """``params`` with g = the mean |f| over the first ``init_s`` [s] (at rest) and a = params.a (the design
+    allowance [m/s^2]) + :func:`window_max_level` of that rest window. gyro (N,3) [rad/s], accel (N,3) [m/s^2]."""
+    n0 = max(1, int(round(init_s / dt)))
+    a = np.asarray(accel, float)[:n0]
+    g_ref = float(np.mean(np.linalg.norm(a, axis=1)))
+    return replace(params, g=g_ref, a=params.a + window_max_level(a, g_ref, params.n_window))
+
+
 def _propagate(rx, ry, rz, wx, wy, wz, dt):
     """r ← exp(-[ω dt]×) r (Rodrigues), plain floats."""
     ax, ay, az = -wx * dt, -wy * dt, -wz * dt
@@ -117,13 +148,15 @@ def _propagate(rx, ry, rz, wx, wy, wz, dt):
     return (rx * c + s * cx + c1 * dot * ax, ry * c + s * cy + c1 * dot * ay, rz * c + s * cz + c1 * dot * az)
 
 
-def _measure(rx, ry, rz, p, b, sx, sy, sz, R, innov_max, reject_t, period, timeout, kb):
-    """Gate 2 and the update; returns (rx, ry, rz, p, b, reject_t, used)."""
+def _measure(rx, ry, rz, p, b, sx, sy, sz, R, innov_max, reject_t, period, timeout, kb, p0):
+    """Gate 2 and the update (or the re-level after ``timeout``); returns (rx, ry, rz, p, b, reject_t, used)."""
     fn = math.sqrt(sx * sx + sy * sy + sz * sz)
     mx, my, mz = -sx / fn, -sy / fn, -sz / fn
     vx, vy, vz = mx - rx, my - ry, mz - rz
-    if math.sqrt(vx * vx + vy * vy + vz * vz) >= innov_max and reject_t + period < timeout:
-        return rx, ry, rz, p, b, reject_t + period, False
+    if math.sqrt(vx * vx + vy * vy + vz * vz) >= innov_max:
+        if reject_t + period < timeout:
+            return rx, ry, rz, p, b, reject_t + period, False
+        return mx, my, mz, p0, b, 0.0, True  # re-level
     if kb > 0.0:
         c = kb * period
         b = (b[0] - c * (my * rz - mz * ry), b[1] - c * (mz * rx - mx * rz), b[2] - c * (mx * ry - my * rx))
@@ -156,7 +189,7 @@ def kf_step(state: KFState, gyro, accel, dt: float, params: KFParams) -> KFState
         if wmax < params.a:
             rx, ry, rz, p, b, reject_t, used = _measure(rx, ry, rz, p, b, sx, sy, sz, params.R, params.innov_max,
                                                         reject_t, params.n_window * dt, params.reject_timeout_s,
-                                                        params.kb)
+                                                        params.kb, params.p0)
         sx = sy = sz = 0.0
         wmax, wn = 0.0, 0
     return replace(state, r=(rx, ry, rz), p=p, bias=b, prev_gyro=(gx, gy, gz), win_sum=(sx, sy, sz), win_max=wmax,
@@ -215,7 +248,7 @@ def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
     fxl, fyl, fzl = accel[:, 0].tolist(), accel[:, 1].tolist(), accel[:, 2].tolist()
     nw, a, g = params.n_window, params.a, params.g
     qdt, R, imax = params.q * dt, params.R, params.innov_max
-    period, timeout, kb = nw * dt, params.reject_timeout_s, params.kb
+    period, timeout, kb, p0 = nw * dt, params.reject_timeout_s, params.kb, params.p0
     b = tuple(float(v) for v in bias0)
     rx, ry, rz = (float(v) for v in r0)
     p = params.p0
@@ -249,7 +282,7 @@ def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
         if wn == nw:
             if wmax < a:
                 rx, ry, rz, p, b, reject_t, u = _measure(rx, ry, rz, p, b, sx, sy, sz, R, imax, reject_t, period,
-                                                         timeout, kb)
+                                                         timeout, kb, p0)
                 used[k] = u
             sx = sy = sz = 0.0
             wmax, wn = 0.0, 0
