@@ -20,6 +20,8 @@ import argparse
 
 import numpy as np
 
+from imutherm import InputError
+from imutherm.budget import add_memory_argument, check_attitude_cost
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
 from imutherm.imu.motion import PROFILES
 
@@ -40,6 +42,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seed0", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--duration", type=float, default=None, help="profile duration [s] (default: profile's)")
     p.add_argument("--no-plot", action="store_true", help="skip attitude.png")
+    add_memory_argument(p)
     p.add_argument("--out", required=True, help="output directory")
     return p
 
@@ -49,6 +52,18 @@ def main(argv=None) -> int:
     """Entry point; returns the exit status (2 on bad input)."""
     args = _parser().parse_args(argv)
     check_outdir(args.out)
+    if args.profile not in PROFILES:
+        raise InputError(f"--profile: {args.profile!r} is unknown; valid: {', '.join(PROFILES)}")
+    if args.seeds < 1:
+        raise InputError(f"--seeds must be an integer >= 1, got {args.seeds}")
+    if args.seed0 < 0:
+        raise InputError(f"--seed0 must be an integer >= 0 (numpy seeds are non-negative), got {args.seed0}")
+    if args.duration is not None and not (np.isfinite(args.duration) and args.duration > 0):
+        raise InputError(f"--duration must be a finite number > 0 [s], got {args.duration}")
+    from imutherm.imu.sensor_model import load_grade
+
+    # samples x seeds before any allocation; no --duration: the longest profile default (flight, 400 s)
+    check_attitude_cost(args.duration or 400.0, load_grade(args.grade).sample_rate_hz, args.seeds, args.max_memory)
     from imutherm.studies.attitude_study import run_attitude_study
 
     res = run_attitude_study(args.profile, grade=args.grade, temperature_C=args.temperature,

@@ -117,6 +117,11 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True, help="output directory")
     args = parser.parse_args(argv)
     check_outdir(args.out)
+    if args.seed < 0:
+        raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")
+    from imutherm.imu.sensor_model import load_grade
+
+    load_grade(args.grade)  # an unknown grade is refused before the rig simulation starts
     result = run_calibration(args.grade, args.seed, oven_mount_deg=args.oven_mount_deg, interp=args.interp)
     from imutherm.reports.calibration_plots import plot_calibration_residuals
 

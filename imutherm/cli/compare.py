@@ -18,9 +18,13 @@ from __future__ import annotations
 
 import argparse
 
+from imutherm import InputError
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
-from imutherm.cli.geometry import add_layout_arguments
+from imutherm.budget import transient_steps
+from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
 from imutherm.cli.solve import add_model_arguments, add_time_arguments, model_options, time_kwargs
+from imutherm.geometry.build import build_geometry
+from imutherm.geometry.layout import load_layout
 from imutherm.studies.compare import compare_schemes, write_comparison
 
 
@@ -57,9 +61,20 @@ def main(argv=None) -> int:
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
     if not schemes:
         parser.error(f"--schemes {args.schemes!r}: give at least one scheme, e.g. air,grease,potted")
+    if args.seeds < 1:
+        raise InputError(f"--seeds: {args.seeds} is invalid; valid: an integer >= 1")
+    if args.seed < 0:
+        raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")
+    layout = load_layout(args.layout)
+    unknown = [s for s in schemes if s not in layout.schemes]
+    if unknown:
+        raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
+    steps = transient_steps(args.time_kwargs) if args.time_kwargs else 0
+    for s in schemes:  # every scheme's mesh and memory estimated before the first is solved
+        check_thermal_cost(build_geometry(layout, s), args, steps=steps)
     if not (args.thermal_only or args.steady_only):
         return _end_to_end(args, schemes)
-    comp = compare_schemes(args.layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
+    comp = compare_schemes(layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
                            mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=model_options(args),
                            **args.time_kwargs)
     from imutherm.reports.compare_report import write_compare_report

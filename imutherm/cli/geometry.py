@@ -10,11 +10,12 @@ from __future__ import annotations
 import argparse
 import math
 
+from imutherm.budget import add_memory_argument, check_cost, thermal_cost
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
 from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.export import material_names, write_glb, write_stl, write_vtu
 from imutherm.geometry.layout import builtin_layouts, load_layout
-from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh, mesh_info
+from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh, grid_shape, mesh_info
 
 
 def add_layout_arguments(parser: argparse.ArgumentParser) -> None:
@@ -27,6 +28,15 @@ def add_layout_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"largest cell edge [mm] (default {DEFAULT_MAX_CELL_MM})")
     parser.add_argument("--min-cells", type=int, default=DEFAULT_MIN_CELLS,
                         help=f"fewest cells across any part's thinnest dimension (default {DEFAULT_MIN_CELLS})")
+    add_memory_argument(parser)
+
+
+def check_thermal_cost(geometry, args, *, steps: int = 0, saved: int = 1, geometry_only: bool = False):
+    """Estimate the mesh (from its grid lines only) and the run's memory; InputError beyond ``--max-memory``."""
+    shape = grid_shape(geometry, args.mesh_size, args.min_cells)
+    what = f"{'geometry' if geometry_only else 'solve'} of {geometry.layout.name} / {geometry.scheme.name}"
+    return check_cost(thermal_cost(what, shape, steps=steps, saved=saved, geometry_only=geometry_only),
+                      args.max_memory)
 
 
 def geometry_summary(geometry, grid) -> dict:
@@ -64,10 +74,11 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     check_outdir(args.out)
 
-    layout = load_layout(args.layout)
-    geometry = build_geometry(layout, args.scheme)
     if not math.isfinite(args.mesh_size) or args.mesh_size <= 0:
         parser.error(f"--mesh-size must be a finite number > 0 [mm], got {args.mesh_size}")
+    layout = load_layout(args.layout)
+    geometry = build_geometry(layout, args.scheme)
+    check_thermal_cost(geometry, args, geometry_only=True)
     grid = build_mesh(geometry, args.mesh_size, args.min_cells)
     summary = geometry_summary(geometry, grid)
     with atomic_outdir(args.out) as tmp:

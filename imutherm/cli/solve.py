@@ -23,7 +23,8 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.cli._common import FIELD_FILES, atomic_outdir, check_outdir, run_guarded, write_json
-from imutherm.cli.geometry import add_layout_arguments
+from imutherm.budget import MAX_SAVED_FIELDS, transient_steps
+from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.thermal_study import check_time_arguments, probe_table, result_summary, run_scheme
@@ -121,6 +122,9 @@ def main(argv=None) -> int:
         if args.save_every is not None and not (math.isfinite(args.save_every) and args.save_every > 0):
             raise InputError(f"--save-every must be a finite number > 0 [s], got {args.save_every}")
         every = args.save_every if args.save_every is not None else args.t_end / 10
+        if args.t_end / every > MAX_SAVED_FIELDS:
+            raise InputError(f"--save-every {every:g} s keeps {args.t_end / every:.3g} fields of a {args.t_end:g} s "
+                             f"run, more than the limit of {MAX_SAVED_FIELDS}; use a larger --save-every")
         save_times = np.unique(np.append(np.arange(0.0, args.t_end, every), args.t_end))
     elif args.theta is not None:
         raise InputError("--theta needs --transient (a steady solve has no time stepping)")
@@ -128,7 +132,10 @@ def main(argv=None) -> int:
         tkw = {}
     options = model_options(args)
     layout = load_layout(args.layout)
-    sites = list(build_geometry(layout, args.scheme).sites)
+    geometry = build_geometry(layout, args.scheme)
+    check_thermal_cost(geometry, args, steps=transient_steps(tkw) if args.transient else 0,
+                       saved=len(save_times) if save_times is not None else 1)
+    sites = list(geometry.sites)
     if args.site:
         unknown = [s for s in args.site if s not in sites]
         if unknown:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from imutherm import InputError
 from imutherm.geometry.materials import load_library
+from imutherm.textio import quote, read_text
 
 try:  # Python >= 3.11
     import tomllib
@@ -23,6 +24,27 @@ except ModuleNotFoundError:  # pragma: no cover
 
 AXES = ("x", "y", "z")
 SCHEME_NAMES = ("air", "grease", "potted")
+
+# Physical-sense bounds of every layout value, checked before any meshing (stated in the README).
+#: ambient and fixture temperatures [degC]: the material data are near-room-temperature handbook values;
+#: FR-4 boards soften at their glass transition (Tg 130-180 degC, IPC-4101) and the usual military
+#: operating range is -55..125 degC, so anything outside -60..150 degC is outside the model's validity.
+TEMPERATURE_RANGE_C = (-60.0, 150.0)
+#: largest power of one part or component die [W]: a small IMU dissipates ~1-3 W in all; 100 W in one
+#: part would take it far outside TEMPERATURE_RANGE_C (and 1e30 W would overflow the solver).
+MAX_POWER_W = 100.0
+#: largest length or coordinate [mm] of a "small" unit (the reference housing is 70 mm long)
+MAX_LENGTH_MM = 1000.0
+#: thinnest part dimension [mm] (1 um): thinner than any bond line modelled here (grease ~25-100 um);
+#: the mesh places grid lines on every face (coordinates rounded to 1e-12 m), so thinner parts vanish.
+MIN_SIZE_MM = 1e-3
+#: largest contact conductance [W/m^2 K]: soldered and brazed joints reach ~1e5 (Incropera Table 3.2)
+MAX_CONDUCTANCE_W_M2K = 1e6
+#: largest layout file read [bytes]: 1 MiB, ~80 times the 12 kB reference layout; parsing that much TOML
+#: takes ~1 s here, so no layout, however hostile, keeps a run busy before it is refused
+MAX_LAYOUT_BYTES = 2**20
+#: unknown keys quoted in one message at most
+MAX_LISTED = 10
 
 
 def default_layout_path() -> Path:
@@ -191,6 +213,11 @@ class LayoutSpec:
 
 
 # ---------------------------------------------------------------- field checks
+SIZE_BOUNDS = (MIN_SIZE_MM, MAX_LENGTH_MM, "mm")
+TEMPERATURE_BOUNDS = (*TEMPERATURE_RANGE_C, "degC")
+POWER_BOUNDS = (0.0, MAX_POWER_W, "W")
+
+
 class _Table:
     """Reads fields of one TOML table, with the file and the part in every message."""
 
@@ -200,12 +227,23 @@ class _Table:
             self.fail(None, f"must be a table, got {type(table).__name__}")
         unknown = sorted(set(table) - set(allowed))
         if unknown:
-            self.fail(None, f"unknown key(s) {', '.join(map(repr, unknown))}; valid: {', '.join(allowed)}")
+            listed = ", ".join(quote(k, 60) for k in unknown[:MAX_LISTED])
+            more = f" and {len(unknown) - MAX_LISTED} more" if len(unknown) > MAX_LISTED else ""
+            self.fail(None, f"unknown key(s) {listed}{more}; valid: {', '.join(allowed)}")
         self.table, self.allowed = table, allowed
 
     def fail(self, field, msg):
-        loc = f"{self.path}: {self.where}" + (f": field {field!r}" if field else "")
+        loc = f"{self.path}: {self.where}" + (f": field {quote(field, 60)}" if field else "")
+        msg = str(msg)
+        if len(msg) > 600:  # a huge value quoted in full would make a megabyte "line"
+            msg = f"{msg[:600]}... ({len(msg) - 600} more characters)"
         raise InputError(f"{loc}: {msg}")
+
+    def bounded(self, field, value, lo, hi, unit):
+        """``value`` unless outside [lo, hi] (then InputError naming the field and the valid range)."""
+        if value is not None and not lo <= value <= hi:
+            self.fail(field, f"{value!r} {unit} is outside the valid range {lo:g}..{hi:g} {unit}")
+        return value
 
     def get(self, field, default=...):
         if field not in self.table:
@@ -214,29 +252,38 @@ class _Table:
             return default
         return self.table[field]
 
-    def number(self, field, default=..., *, positive=False, nonneg=False):
+    def number(self, field, default=..., *, positive=False, nonneg=False, bounds=None):
+        """A finite number; ``bounds`` = (lo, hi, unit) of physical sense."""
         value = self.get(field, default)
         if value is None:
             return None
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self.fail(field, f"must be a finite number, got {value!r}")
+            self.fail(field, f"must be a finite number, got {quote(value)}")
         if positive and value <= 0:
             self.fail(field, f"must be > 0, got {value!r}")
         if nonneg and value < 0:
             self.fail(field, f"must be >= 0, got {value!r}")
+        if bounds is not None:
+            self.bounded(field, value, *bounds)
         return float(value)
 
     def vector(self, field, n, default=..., *, positive=False):
+        """A list of ``n`` finite numbers [mm]: coordinates within +-MAX_LENGTH_MM; ``positive``: sizes
+        within MIN_SIZE_MM..MAX_LENGTH_MM."""
         value = self.get(field, default)
         if value is None:
             return None
         if not isinstance(value, list) or len(value) != n:
-            self.fail(field, f"must be a list of {n} numbers, got {value!r}")
+            self.fail(field, f"must be a list of {n} numbers, got {quote(value)}")
         for v in value:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                self.fail(field, f"must hold finite numbers, got {v!r}")
+                self.fail(field, f"must hold finite numbers, got {quote(v)}")
             if positive and v <= 0:
                 self.fail(field, f"sizes must be > 0, got {value!r}")
+            if positive:
+                self.bounded(field, v, *SIZE_BOUNDS)
+            else:
+                self.bounded(field, v, -MAX_LENGTH_MM, MAX_LENGTH_MM, "mm")
         return tuple(float(v) for v in value)
 
     def string(self, field, default=..., *, choices=None):
@@ -244,15 +291,15 @@ class _Table:
         if value is None:
             return None
         if not isinstance(value, str) or not value:
-            self.fail(field, f"must be a non-empty string, got {value!r}")
+            self.fail(field, f"must be a non-empty string, got {quote(value)}")
         if choices is not None and value not in choices:
-            self.fail(field, f"unknown value {value!r}; valid: {', '.join(choices)}")
+            self.fail(field, f"unknown value {quote(value)}; valid: {', '.join(choices)}")
         return value
 
     def material(self, field, materials, default=...):
         name = self.string(field, default)
         if name is not None and name not in materials:
-            self.fail(field, f"unknown material {name!r}; valid: {', '.join(sorted(materials))}")
+            self.fail(field, f"unknown material {quote(name)}; valid: {', '.join(sorted(materials))}")
         return name
 
 
@@ -287,13 +334,13 @@ def load_layout(path: str | Path | None = None) -> LayoutSpec:
     """
     path = resolve_layout(path)
     spath = str(path)
+    text = read_text(path, "layout file", MAX_LAYOUT_BYTES)
     try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(f"{spath}: layout file not found; built-in layouts: {', '.join(builtin_layouts())}") from None
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{spath}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{spath}: not valid TOML: arrays or tables nested too deep for the parser") from None
     return parse_layout(data, spath)
 
 
@@ -303,12 +350,13 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     top = _Table(path, "layout", data, _TOP)
 
     env = _Table(path, "[environment]", top.get("environment"), {"ambient_C": "degC"})
-    ambient = env.number("ambient_C")
+    ambient = env.number("ambient_C", bounds=TEMPERATURE_BOUNDS)
 
     h = _Table(path, "[housing]", top.get("housing"),
                {"outer_mm": "3 lengths", "wall_mm": "mm", "base_mm": "mm", "lid_mm": "mm", "material": "name"})
-    housing = HousingSpec(h.vector("outer_mm", 3, positive=True), h.number("wall_mm", positive=True),
-                          h.number("base_mm", positive=True), h.number("lid_mm", positive=True),
+    housing = HousingSpec(h.vector("outer_mm", 3, positive=True), h.number("wall_mm", positive=True, bounds=SIZE_BOUNDS),
+                          h.number("base_mm", positive=True, bounds=SIZE_BOUNDS),
+                          h.number("lid_mm", positive=True, bounds=SIZE_BOUNDS),
                           h.material("material", mats))
     ox, oy, oz = housing.outer_mm
     if 2 * housing.wall_mm >= min(ox, oy) or housing.base_mm + housing.lid_mm >= oz:
@@ -320,8 +368,9 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     kind = m.string("kind", choices=("fixture", "free"))
     mounting = MountingSpec(kind, m.string("face", "bottom", choices=("bottom", "top")),
                             m.number("contact_conductance_W_m2K", 0.0 if kind == "free" else ...,
-                                     positive=kind == "fixture", nonneg=True),
-                            m.number("temperature_C", ambient))
+                                     positive=kind == "fixture", nonneg=True,
+                                     bounds=(0.0, MAX_CONDUCTANCE_W_M2K, "W/m^2 K")),
+                            m.number("temperature_C", ambient, bounds=TEMPERATURE_BOUNDS))
 
     names: dict = {}
 
@@ -337,9 +386,10 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     for i, t in enumerate(_table_array(top, "boards")):
         b = _Table(path, f"boards[{i}]", t, {"name": "str", "normal": "x|y|z", "min_mm": "3 numbers",
                                               "size_mm": "3 sizes", "material": "name"})
+        b.where = f"board {quote(b.string('name'), 60)}"
         spec = BoardSpec(b.string("name"), b.string("normal", choices=AXES), b.vector("min_mm", 3),
                          b.vector("size_mm", 3, positive=True), b.material("material", mats))
-        b.where = f"board {spec.name!r}"
+        b.where = f"board {quote(spec.name, 60)}"
         if spec.size_mm[AXES.index(spec.normal)] != min(spec.size_mm):
             b.fail("size_mm", f"the size along the normal {spec.normal!r} must be the board thickness (smallest size)")
         claim(spec.name, b.where)
@@ -350,10 +400,11 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     for i, t in enumerate(_table_array(top, "parts")):
         p = _Table(path, f"parts[{i}]", t, {"name": "str", "min_mm": "3 numbers", "size_mm": "3 sizes",
                                              "material": "name", "power_W": "W", "board_contact_W_m2K": "W/m^2 K"})
+        p.where = f"part {quote(p.string('name'), 60)}"
         spec = BoxSpec(p.string("name"), p.vector("min_mm", 3), p.vector("size_mm", 3, positive=True),
-                       p.material("material", mats), p.number("power_W", 0.0, nonneg=True),
+                       p.material("material", mats), p.number("power_W", 0.0, nonneg=True, bounds=POWER_BOUNDS),
                        p.number("board_contact_W_m2K", None, positive=True))
-        claim(spec.name, f"part {spec.name!r}")
+        claim(spec.name, f"part {quote(spec.name, 60)}")
         parts.append(spec)
 
     components = []
@@ -364,13 +415,13 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
                     "die_base_mm": "mm", "exposed_pad": "bool", "pad_mm": "(u, v)", "vias": "bool",
                     "power_W": "W", "axis": "x|y|z"})
         name = c.string("name")
-        c.where = f"component {name!r}"
+        c.where = f"component {quote(name, 60)}"
         board = c.string("board")
         if board not in board_by_name:
             c.fail("board", f"unknown board {board!r}; valid: {', '.join(board_by_name) or '(none defined)'}")
         size = c.vector("size_mm", 3, positive=True)
         die = c.vector("die_mm", 3, None, positive=True)
-        die_base = c.number("die_base_mm", 0.2, nonneg=True)
+        die_base = c.number("die_base_mm", 0.2, nonneg=True, bounds=(0.0, MAX_LENGTH_MM, "mm"))
         if die is not None and (die[0] > size[0] or die[1] > size[1] or die_base + die[2] > size[2]):
             c.fail("die_mm", f"die {die} with base {die_base} mm does not fit inside the package {size}")
         pad = c.get("exposed_pad", False)
@@ -391,7 +442,8 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         spec = ComponentSpec(name, board, c.string("side", choices=("top", "bottom")), c.vector("center_mm", 2),
                              size, c.material("material", mats), die, die_base, pad,
                              (pad_mm or (die[:2] if pad else None)), vias,
-                             c.number("power_W", nonneg=True), c.string("axis", None, choices=AXES))
+                             c.number("power_W", nonneg=True, bounds=POWER_BOUNDS),
+                             c.string("axis", None, choices=AXES))
         claim(name, c.where)
         for sub in ("_die", "_pad", "_vias"):
             claim(name + sub, c.where)
@@ -400,7 +452,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
 
     sites = []
     for name, t in _named_tables(top, "sites", "[sites] with name = { ... } lines").items():
-        s = _Table(path, f"site {name!r}", t, {"part": "part name", "board": "board name",
+        s = _Table(path, f"site {quote(name, 60)}", t, {"part": "part name", "board": "board name",
                                                 "side": "top|bottom", "at_mm": "(u, v)"})
         if "part" in t:
             extra = [k for k in ("board", "side", "at_mm") if k in t]
@@ -422,11 +474,11 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
 
     schemes = {}
     for name, t in _named_tables(top, "schemes", "[schemes.<name>] tables").items():
-        s = _Table(path, f"scheme {name!r}", t, {"description": "text", "fill": "material",
+        s = _Table(path, f"scheme {quote(name, 60)}", t, {"description": "text", "fill": "material",
                                                   "move_to_back": "component names",
                                                   "bond_material": "material", "max_bond_gap_mm": "mm"})
         if name not in SCHEME_NAMES:
-            s.fail(None, f"unknown scheme {name!r}; valid: {', '.join(SCHEME_NAMES)}")
+            s.fail(None, f"unknown scheme; valid: {', '.join(SCHEME_NAMES)}")
         moved = s.get("move_to_back", [])
         if not isinstance(moved, list):
             s.fail("move_to_back", f"must be a list of component names, got {moved!r}")
@@ -437,7 +489,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
                 s.fail("move_to_back", f"unknown component {comp!r}; valid: {', '.join(comp_by_name)}")
         schemes[name] = SchemeSpec(name, s.string("description", name), s.material("fill", mats),
                                    tuple(moved), s.material("bond_material", mats, None),
-                                   s.number("max_bond_gap_mm", 2.0, positive=True))
+                                   s.number("max_bond_gap_mm", 2.0, positive=True, bounds=SIZE_BOUNDS))
     if not schemes:
         top.fail("schemes", f"at least one scheme is required; valid names: {', '.join(SCHEME_NAMES)}")
     default = top.string("default_scheme", next(iter(schemes)))

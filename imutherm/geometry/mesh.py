@@ -66,21 +66,45 @@ def _spans(part, geometry: Geometry, axis: int) -> list:
     return [(part.lo[axis], part.hi[axis])]
 
 
-def _axis_lines(geometry: Geometry, axis: int, max_cell: float, min_cells: int) -> np.ndarray:
+def _axis_counts(geometry: Geometry, axis: int, max_cell: float, min_cells: int) -> tuple:
+    """The part-face lines along one axis and the cells [-] (float, uncapped) between each two of them."""
     pts = [geometry.outer[0][axis], geometry.outer[1][axis], geometry.cavity[0][axis], geometry.cavity[1][axis]]
     for p in geometry.parts:
         pts += [p.lo[axis], p.hi[axis]]
     lines = np.unique(np.round(np.asarray(pts), 12))
     widths = np.diff(lines)
-    n = np.maximum(np.ceil(widths / max_cell - 1e-9), 1).astype(int)
-    for p in geometry.parts:
-        cells = min_cells * (BOARD_CELLS_FACTOR if p.kind in _FACTOR_KINDS else 1)
-        for lo, hi in _spans(p, geometry, axis):
-            i0, i1 = np.searchsorted(lines, [lo - 1e-12, hi - 1e-12])
-            need = np.ceil(cells * widths[i0:i1] / (hi - lo) - 1e-9).astype(int)
-            n[i0:i1] = np.maximum(n[i0:i1], need)
-    pieces = [np.linspace(a, b, k + 1)[:-1] for a, b, k in zip(lines[:-1], lines[1:], n)]
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        n = np.maximum(np.ceil(widths / max_cell - 1e-9), 1.0)
+        for p in geometry.parts:
+            cells = min_cells * (BOARD_CELLS_FACTOR if p.kind in _FACTOR_KINDS else 1)
+            for lo, hi in _spans(p, geometry, axis):
+                i0, i1 = np.searchsorted(lines, [lo - 1e-12, hi - 1e-12])
+                need = np.ceil(cells * widths[i0:i1] / (hi - lo) - 1e-9)
+                n[i0:i1] = np.maximum(n[i0:i1], need)
+    return lines, n
+
+
+def _axis_lines(geometry: Geometry, axis: int, max_cell: float, min_cells: int) -> np.ndarray:
+    lines, n = _axis_counts(geometry, axis, max_cell, min_cells)
+    pieces = [np.linspace(a, b, k + 1)[:-1] for a, b, k in zip(lines[:-1], lines[1:], n.astype(int))]
     return np.concatenate(pieces + [lines[-1:]])
+
+
+def grid_shape(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
+               min_cells: int = DEFAULT_MIN_CELLS) -> tuple:
+    """(nx, ny, nz) cells [-] that :func:`build_mesh` would make, from the 1-D line counts only (cheap:
+    nothing of the mesh's size is allocated, so an unaffordable mesh can be refused before it is built).
+    Counts beyond 1e15 per axis are capped there."""
+    _check_mesh_arguments(max_cell_mm, min_cells)
+    return tuple(int(min(float(np.sum(_axis_counts(geometry, a, max_cell_mm * MM, int(min_cells))[1])), 1e15))
+                 for a in range(3))
+
+
+def _check_mesh_arguments(max_cell_mm, min_cells) -> None:
+    if not np.isfinite(max_cell_mm) or max_cell_mm <= 0:
+        raise InputError(f"--mesh-size must be a finite number > 0 [mm], got {max_cell_mm!r}")
+    if int(min_cells) != min_cells or min_cells < 1:
+        raise InputError(f"--min-cells must be an integer >= 1, got {min_cells!r}")
 
 
 def build_mesh(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
@@ -93,10 +117,7 @@ def build_mesh(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
     min_cells : int, fewest cells across every part along each axis (boards, via fields and
         standoffs: ``BOARD_CELLS_FACTOR`` times as many)
     """
-    if not np.isfinite(max_cell_mm) or max_cell_mm <= 0:
-        raise InputError(f"mesh size must be a finite number > 0 mm, got {max_cell_mm!r}")
-    if int(min_cells) != min_cells or min_cells < 1:
-        raise InputError(f"min_cells must be an integer >= 1, got {min_cells!r}")
+    _check_mesh_arguments(max_cell_mm, min_cells)
     xs, ys, zs = (_axis_lines(geometry, a, max_cell_mm * MM, int(min_cells)) for a in range(3))
     names = tuple(p.name for p in geometry.parts)
     cell_part = np.empty((len(xs) - 1, len(ys) - 1, len(zs) - 1), dtype=np.int32)

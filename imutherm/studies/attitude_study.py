@@ -24,6 +24,7 @@ chosen from the physics of the flight profile, not fitted to one run:
 from __future__ import annotations
 
 import csv
+import io
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -122,10 +123,10 @@ def read_temperature_csv(path) -> tuple[np.ndarray, np.ndarray]:
 
     path = Path(path)
     try:
-        with open(path, newline="") as fh:
-            rows = list(csv.reader(fh))
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read temperature CSV ({exc.strerror})") from None
+        from imutherm.textio import read_text  # strict UTF-8 (BOM dropped), size cap, one-line errors
+        rows = list(csv.reader(io.StringIO(read_text(path, "temperature CSV"), newline="")))
+    except csv.Error as exc:
+        raise InputError(f"{path}: not a valid CSV file ({exc})") from None
     rows = [r for r in rows if r and not r[0].lstrip().startswith("#")]
     if len(rows) < 2:
         raise InputError(f"{path}: temperature CSV needs a header and at least one row")

@@ -451,6 +451,19 @@ def _dirichlet_heat_by_face(asm: Assembly, nodes, S_out: np.ndarray, heat: dict)
 
 # --------------------------------------------------------------------------- steady
 
+#: a steady rise beyond this [K] is divergence, not physics (every material here has melted long before)
+DIVERGED_RISE_K = 1e4
+
+
+def _check_diverging(problem, T, amb: float, it: int) -> None:
+    """ConvergenceError naming the likely cause if a Newton iterate is non-finite or has exploded."""
+    rise = float(np.abs(T - amb).max()) if np.all(np.isfinite(T)) else math.inf
+    if rise > DIVERGED_RISE_K:
+        raise ConvergenceError(f"solve_steady: diverging at Newton iteration {it} (max |T - ambient| = {rise:.3g} K, "
+                               f"beyond {DIVERGED_RISE_K:g} K); likely cause: a power far beyond physical sense "
+                               f"(total {problem.power_W:.3g} W) or boundary coefficients that remove no heat")
+
+
 def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 50, solver: str = "auto",
                  probes=None, initial_C=None, assembly: Assembly | None = None,
                  rtol: float | None = None) -> SteadyResult:
@@ -524,6 +537,7 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
         lin_its += its
         if not nonlinear:
             T += dT
+            _check_diverging(problem, T, amb, it)
             converged = True
             break
         rn0 = np.linalg.norm(r)
@@ -538,6 +552,7 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
             step = 1.0
             T_new, r_new, N_new, J_new = T + dT, *residual(T + dT)
         T, r, N, J = T_new, r_new, N_new, J_new
+        _check_diverging(problem, T, amb, it)
         change = step * np.abs(dT).max()
         if change <= tol * max(1.0, float(np.abs(T - amb).max())):
             converged = True

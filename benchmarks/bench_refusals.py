@@ -1,0 +1,59 @@
+"""Wall time of refusing the costliest bad inputs, each as a fresh ``imutherm`` process (start to exit).
+
+    python benchmarks/bench_refusals.py
+
+Prints per case the exit status, the seconds from launch to exit and the message. The
+interpreter start and imports alone are timed too (``--help``), so the cost of the
+checks themselves is the difference.
+"""
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+from imutherm.geometry.layout import default_layout_path
+
+
+def main():
+    ref = default_layout_path().read_text()
+    with tempfile.TemporaryDirectory() as d:
+        big = os.path.join(d, "keys.toml")  # ~1 MiB of unknown keys: just under the layout cap, parsed in full
+        with open(big, "w") as fh:
+            fh.write(ref.replace("[environment]", "[environment]\n" + "".join(
+                f"k{i}_{'x' * 40} = 1\n" for i in range(19_500))))
+        over = os.path.join(d, "over.toml")
+        with open(over, "wb") as fh:
+            fh.write(b"#" * (17 * 2**20))
+        deep = os.path.join(d, "deep.toml")
+        with open(deep, "w") as fh:
+            fh.write("x = " + "[" * 100_000 + "]" * 100_000)
+        power = os.path.join(d, "power.toml")
+        with open(power, "w") as fh:
+            fh.write(ref.replace("power_W = 0.35", "power_W = 1e30", 1))
+        out = os.path.join(d, "out")
+        cases = {
+            "imports only (--help)": ["solve", "--help"],
+            "solve --mesh-size 0.01": ["solve", "--mesh-size", "0.01", "--out", out],
+            "solve --min-cells 1000": ["solve", "--min-cells", "1000", "--out", out],
+            "solve --transient --t-end 1e13 --dt 1": ["solve", "--transient", "--t-end", "1e13", "--dt", "1", "--out", out],
+            "compare --mesh-size 0.2 (3 schemes estimated)": ["compare", "--mesh-size", "0.2", "--out", out],
+            "attitude --seeds 1000000000": ["attitude", "--profile", "flight", "--seeds", "1000000000", "--out", out],
+            "layout: 1 MiB of unknown keys": ["geometry", big, "--out", out],
+            "layout: 17 MiB (over the cap)": ["geometry", over, "--out", out],
+            "layout: nested 100000 deep": ["geometry", deep, "--out", out],
+            "layout: power_W = 1e30": ["solve", power, "--out", out],
+            "--out under /proc": ["solve", "--out", "/proc/x"],
+        }
+        code = "import sys; from imutherm.cli import main; sys.exit(main(sys.argv[1:]))"
+        for name, argv in cases.items():
+            t = time.perf_counter()
+            p = subprocess.run([sys.executable, "-c", code] + argv, capture_output=True, text=True)
+            dt = time.perf_counter() - t
+            msg = (p.stderr.strip().splitlines() or [""])[-1]
+            print(f"{name:<48} exit {p.returncode}  {dt:5.2f} s  {msg[:150]}")
+
+
+if __name__ == "__main__":
+    main()

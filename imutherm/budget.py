@@ -1,0 +1,198 @@
+"""What a run will cost, estimated before anything large is allocated, and refused beyond the limit.
+
+The thermal commands know their mesh from the grid lines alone (1-D, cheap:
+:func:`imutherm.geometry.mesh.grid_shape`), so cells, unknowns, time steps and
+saved fields are counted before any 3-D array exists; memory is that count
+times a measured figure per unknown. A run whose estimate exceeds the limit
+(``--max-memory``, default: the memory the machine has available now,
+``MemAvailable`` of /proc/meminfo) is refused with the estimate and the limit
+in the message.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from dataclasses import dataclass
+
+from imutherm import InputError
+
+#: peak resident memory per unknown of ``imutherm solve`` [bytes] (steady: assembly, AMG hierarchy,
+#: field output). Measured by ``benchmarks/bench_memory.py`` on the reference unit: 2.3 kB at
+#: 186 k and 214 k unknowns; rounded up with margin.
+BYTES_PER_UNKNOWN_SOLVE = 3000
+#: the same for ``imutherm geometry`` (mesh, STL/GLB/VTU export, picture) [bytes], measured ~0.5 kB
+BYTES_PER_UNKNOWN_GEOMETRY = 1000
+#: interpreter, numpy, scipy, scikit-fem, pyamg, meshio loaded [bytes] (measured 75 MiB)
+BASE_BYTES = 100 * 2**20
+#: a field kept for output (one float64 per node, plus its copy when written) [bytes per unknown]
+BYTES_PER_SAVED_VALUE = 16
+#: most transient time steps accepted: 1e5 steps of the ~0.2 s each a 2e5-unknown step takes here
+#: are ~6 h; more is a typing error (e.g. ``--t-end 1e9 --dt 1e-3``) rather than a study
+MAX_TIME_STEPS = 100_000
+#: most fields kept for the PVD series (``--save-every``)
+MAX_SAVED_FIELDS = 10_000
+#: most mesh cells accepted whatever the memory: 2e7 cells are ~60 GB of solve
+MAX_CELLS = 20_000_000
+
+
+def available_memory_bytes() -> int:
+    """Memory the machine can give a new process now [bytes]: ``MemAvailable`` of /proc/meminfo
+    (elsewhere: physical pages x page size)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover
+        return 8 * 2**30
+
+
+_UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "kib": 2**10, "m": 1e6, "mb": 1e6, "mib": 2**20,
+          "g": 1e9, "gb": 1e9, "gib": 2**30, "t": 1e12, "tb": 1e12, "tib": 2**40}
+
+
+def parse_size(text: str) -> int:
+    """A memory size like ``8G``, ``512MiB``, ``2.5e9`` [bytes]; ValueError if not one (for argparse)."""
+    m = re.fullmatch(r"\s*([0-9.]+(?:[eE][+-]?[0-9]+)?)\s*([A-Za-z]*)\s*", str(text))
+    if not m or m.group(2).lower() not in _UNITS:
+        raise ValueError(f"not a memory size: {text!r} (e.g. 8G, 512M, 2e9)")
+    value = float(m.group(1)) * _UNITS[m.group(2).lower()]
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"not a memory size > 0: {text!r}")
+    return int(value)
+
+
+def memory_type(text: str) -> int:
+    """argparse ``type`` of ``--max-memory``."""
+    import argparse
+
+    try:
+        return parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def fmt_bytes(n: float) -> str:
+    """``n`` bytes as a short human figure (``1.2 GiB``)."""
+    for unit, size in (("TiB", 2**40), ("GiB", 2**30), ("MiB", 2**20), ("kiB", 2**10)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n:.0f} B"
+
+
+def add_memory_argument(parser) -> None:
+    """``--max-memory SIZE`` (default: the machine's available memory)."""
+    parser.add_argument("--max-memory", type=memory_type, default=None, metavar="SIZE",
+                        help="refuse runs estimated to need more memory than SIZE (e.g. 8G, 500M; "
+                             "default: the memory available now, MemAvailable of /proc/meminfo)")
+
+
+def count_time_steps(t_end: float, dt: float, dt_max: float | None = None, growth: float = 1.2) -> int:
+    """Number of transient steps [-] of :func:`imutherm.thermal.solve.time_steps` (within one), in O(1)."""
+    if dt_max is None or dt_max <= dt or growth <= 1.0:
+        return int(math.ceil(t_end / dt - 1e-9))
+    k = math.ceil(math.log(dt_max / dt) / math.log(growth))  # steps until the step reaches dt_max
+    ramp = dt * (growth**k - 1.0) / (growth - 1.0)
+    if ramp >= t_end:
+        return int(math.ceil(math.log(1.0 + t_end * (growth - 1.0) / dt) / math.log(growth)))
+    return int(k + math.ceil((t_end - ramp) / dt_max - 1e-9))
+
+
+def transient_steps(time_kwargs: dict) -> int:
+    """Time steps [-] of a transient given ``run_scheme``'s time arguments (``t_end``, ``time_scheme``,
+    ``dt``, ``dt_max``): given steps are counted; for the error-controlled TR-BDF2 steps the count is
+    its lower bound ``t_end / dt_max`` (steps never exceed ``dt_max``, default 300 s)."""
+    from imutherm.studies.thermal_study import THETA_DT, THETA_DT_MAX
+    from imutherm.thermal.solve import DEFAULT_DT_MAX
+
+    t_end, dt, dt_max = time_kwargs["t_end"], time_kwargs.get("dt"), time_kwargs.get("dt_max")
+    if time_kwargs.get("time_scheme") == "theta" and dt is None:
+        dt, dt_max = THETA_DT, THETA_DT_MAX if dt_max is None else dt_max
+    if dt is not None:
+        return count_time_steps(t_end, dt, dt_max)
+    return int(math.ceil(t_end / (dt_max or DEFAULT_DT_MAX) - 1e-9))
+
+
+@dataclass(frozen=True)
+class Cost:
+    """Estimated cost of one run.
+
+    what : str, the run (e.g. ``"solve grease"``)
+    cells, unknowns : int [-] mesh cells and nodes (one temperature unknown per node)
+    steps : int [-] transient time steps (0: steady only)
+    saved : int [-] whole fields kept for output
+    memory_bytes : float [bytes] estimated peak resident memory
+    """
+
+    what: str
+    cells: int
+    unknowns: int
+    steps: int
+    saved: int
+    memory_bytes: float
+
+    def describe(self) -> str:
+        parts = [f"{self.cells:,} cells", f"{self.unknowns:,} unknowns"]
+        if self.steps:
+            parts.append(f"{self.steps:,} time steps")
+        if self.saved > 1:
+            parts.append(f"{self.saved:,} saved fields")
+        return f"{', '.join(parts)}, ~{fmt_bytes(self.memory_bytes)}"
+
+
+def thermal_cost(what: str, shape, *, steps: int = 0, saved: int = 1, geometry_only: bool = False) -> Cost:
+    """Cost of meshing (``geometry_only``) or solving a mesh of ``shape`` = (nx, ny, nz) cells."""
+    nx, ny, nz = (int(v) for v in shape)
+    cells, nodes = nx * ny * nz, (nx + 1) * (ny + 1) * (nz + 1)
+    per = BYTES_PER_UNKNOWN_GEOMETRY if geometry_only else BYTES_PER_UNKNOWN_SOLVE
+    mem = BASE_BYTES + per * nodes + BYTES_PER_SAVED_VALUE * nodes * max(saved - 1, 0)
+    return Cost(what, cells, nodes, int(steps), int(saved), float(mem))
+
+
+def check_cost(cost: Cost, max_memory: int | None, hint: str = "use a larger --mesh-size or a smaller --min-cells"):
+    """InputError stating the estimate and the limit if ``cost`` is beyond what this run may use."""
+    limit = available_memory_bytes() if max_memory is None else int(max_memory)
+    src = "--max-memory" if max_memory is not None else "the memory available now (--max-memory)"
+    if cost.steps > MAX_TIME_STEPS:
+        raise InputError(f"{cost.what}: estimated {cost.steps:,} time steps exceed the limit of {MAX_TIME_STEPS:,}; "
+                         "use a shorter --t-end or a larger --dt / --dt-max")
+    if cost.saved > MAX_SAVED_FIELDS:
+        raise InputError(f"{cost.what}: {cost.saved:,} saved fields exceed the limit of {MAX_SAVED_FIELDS:,}; "
+                         "use a larger --save-every")
+    if cost.cells > MAX_CELLS:
+        raise InputError(f"{cost.what}: estimated {cost.describe()}: {cost.cells:,} cells exceed the limit of "
+                         f"{MAX_CELLS:,}; {hint}")
+    if cost.memory_bytes > limit:
+        raise InputError(f"{cost.what}: estimated {cost.describe()} of memory, more than {src} "
+                         f"{fmt_bytes(limit)}; {hint}")
+    return cost
+
+
+#: peak memory per motion sample of ``imutherm attitude`` [bytes]: measured ~0.9 kB (600 s vs 200 s of the
+#: flight profile at 100 Hz: 190 vs 138 MiB), rounded up with margin; the first seed's series is kept
+BYTES_PER_SAMPLE_ATTITUDE = 1500
+#: most samples x seeds of one attitude run: 1e8 are ~1.6 h at the measured ~57 us per sample and seed
+MAX_SAMPLE_SEEDS = 100_000_000
+
+
+def check_attitude_cost(duration_s: float, rate_hz: float, seeds: int, max_memory: int | None) -> Cost:
+    """InputError if ``seeds`` runs of ``duration_s`` [s] at ``rate_hz`` [Hz] are beyond the limits."""
+    samples = int(min(duration_s * rate_hz, 1e18))
+    cost = Cost("attitude", 0, 0, 0, 0, float(BASE_BYTES + BYTES_PER_SAMPLE_ATTITUDE * samples))
+    limit = available_memory_bytes() if max_memory is None else int(max_memory)
+    src = "--max-memory" if max_memory is not None else "the memory available now (--max-memory)"
+    if samples * seeds > MAX_SAMPLE_SEEDS:
+        raise InputError(f"attitude: --duration {duration_s:g} s at {rate_hz:g} Hz x --seeds {seeds} = "
+                         f"{samples * seeds:.3g} samples, more than the limit of {MAX_SAMPLE_SEEDS:.0e}; "
+                         "use a shorter --duration or fewer --seeds")
+    if cost.memory_bytes > limit:
+        raise InputError(f"attitude: --duration {duration_s:g} s at {rate_hz:g} Hz is {samples:,} samples, "
+                         f"estimated ~{fmt_bytes(cost.memory_bytes)} of memory, more than {src} {fmt_bytes(limit)}; "
+                         "use a shorter --duration")
+    return cost

@@ -1,0 +1,557 @@
+"""A hostile user's corpus (issue 14): every bad input is refused in one line, early, and no earlier result is touched.
+
+Each refused case runs a subcommand in-process with an earlier ``--out`` (the
+files of a real coarse ``imutherm solve``) and asserts: exit status 2, one
+error line on stderr naming the file / field / option, no traceback, the
+meshing and the studies never started (they are replaced by functions that
+fail the test), and ``--out`` byte-identical afterwards (names, contents,
+modes). The killed-run tests run ``imutherm solve`` as a subprocess and
+SIGKILL / SIGINT it during the computation and at each point of the final
+move (``IMUTHERM_TEST_PAUSE``, see :func:`imutherm.cli._common._test_pause`).
+"""
+
+from __future__ import annotations
+
+import codecs
+import fcntl
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from imutherm.cli import _common, main
+
+COARSE = ["--mesh-size", "6", "--min-cells", "1"]
+#: the cheapest solve (linear: fixed h, no radiation) for the killed-run subprocesses
+LINEAR = ["--exterior", "fixed", "--no-radiation", "--no-cavity-radiation"]
+REF_TEXT = None  # the reference layout's text, read lazily
+
+
+def _ref_text() -> str:
+    global REF_TEXT
+    if REF_TEXT is None:
+        from imutherm.geometry.layout import default_layout_path
+
+        REF_TEXT = default_layout_path().read_text()
+    return REF_TEXT
+
+
+def _snapshot(folder: Path) -> dict:
+    """name -> (bytes, mode) of everything under ``folder`` (and the folder's own mode)."""
+    snap = {".": oct(folder.stat().st_mode)}
+    for p in sorted(folder.rglob("*")):
+        snap[str(p.relative_to(folder))] = (p.read_bytes() if p.is_file() else None, oct(p.lstat().st_mode))
+    return snap
+
+
+@pytest.fixture(scope="module")
+def earlier(tmp_path_factory):
+    """A real earlier result set (coarse ``imutherm geometry``) to copy as every test's ``--out``."""
+    out = tmp_path_factory.mktemp("earlier") / "out"
+    assert main(["geometry", "--scheme", "grease", "--no-png", "--out", str(out)] + COARSE) == 0
+    (out / "notes.txt").write_text("the user's own file\n")
+    return out
+
+
+@pytest.fixture
+def out(earlier, tmp_path):
+    dst = tmp_path / "out"
+    shutil.copytree(earlier, dst)
+    return dst
+
+
+def _fail(*args, **kwargs):
+    raise AssertionError("work started although the input should have been refused first")
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """Meshing, solving and the attitude / calibration studies fail the test if they start."""
+    import imutherm.cli.calibrate as cal
+    import imutherm.cli.geometry as geo
+    import imutherm.studies.attitude_study as att
+    import imutherm.studies.thermal_study as ts
+
+    monkeypatch.setattr(geo, "build_mesh", _fail)
+    monkeypatch.setattr(ts, "build_mesh", _fail)
+    monkeypatch.setattr(att, "run_attitude_study", _fail)
+    monkeypatch.setattr(cal, "run_calibration", _fail)
+    try:
+        import imutherm.studies.end_to_end as e2e
+
+        monkeypatch.setattr(e2e, "run_study", _fail)
+    except ImportError:  # pragma: no cover
+        pass
+
+
+def _run(argv, capsys) -> tuple[int, str]:
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse
+        code = exc.code
+    err = capsys.readouterr().err
+    return code, err
+
+
+def _assert_refused(code, err, expect):
+    assert "Traceback" not in err
+    assert code == 2, err
+    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("usage:") and ln.startswith(" ") is False]
+    line = lines[-1]
+    assert "error:" in line and len(line) <= _common.MAX_MESSAGE_CHARS + 200, line[:300]
+    # one line: only argparse adds its usage lines before it
+    assert len(err.strip().splitlines()) == 1 or err.startswith("usage:"), err
+    for token in ([expect] if isinstance(expect, str) else expect):
+        assert token in line, f"{token!r} not in {line!r}"
+
+
+# --------------------------------------------------------------------------- layouts that cannot be read
+def _bytes_cases() -> dict:
+    ref = _ref_text()
+    return {
+        "random_bytes": (bytes(range(256)) * 20, "not UTF-8"),
+        "latin1": (ref.replace('"imu_reference"', '"imu_référence"').encode("latin-1"), "line 23"),
+        "utf16_bom": (ref.encode("utf-16"), "UTF-16"),
+        "utf16le_no_bom": (ref.encode("utf-16-le"), "NUL"),
+        "utf32_bom": (ref.encode("utf-32"), "UTF-32"),
+        "nul_byte": (ref.encode()[:500] + b"\0" + ref.encode()[500:], "NUL"),
+        "nested_arrays": (b"x = " + b"[" * 100_000 + b"]" * 100_000, "nested too deep"),
+        "nested_tables": (b"x = " + b"{a = " * 100_000 + b"1" + b"}" * 100_000, "nested too deep"),
+        "oversize": (b"# " + b"x" * (17 * 2**20) + b"\n", "larger than the limit"),
+        "empty": (b"", "'environment'"),
+        "not_toml": (b"this is not toml\n", "not valid TOML"),
+        "truncated": (ref.encode()[:3000], "not valid TOML"),
+        "bom_then_garbage": (codecs.BOM_UTF8 + b"\xff\xfe", "not UTF-8"),
+        "many_unknown_keys": (ref.replace("[environment]", "[environment]\n" + "".join(
+            f"k{i}_{'x' * 40} = 1\n" for i in range(15_000))).encode(), ["unknown key(s)", "and 14990 more"]),
+        "huge_string_value": (ref.replace(
+            'default_scheme = "grease"', 'default_scheme = "' + "y" * 900_000 + '"').encode(), "default_scheme"),
+        "over_layout_cap": (b"# " + b"x" * 2**20 + b"\n", "1 MiB"),
+    }
+
+
+BYTES_IDS = ["random_bytes", "latin1", "utf16_bom", "utf16le_no_bom", "utf32_bom", "nul_byte", "nested_arrays",
+             "nested_tables", "oversize", "over_layout_cap", "empty", "not_toml", "truncated", "bom_then_garbage", "many_unknown_keys",
+             "huge_string_value"]
+
+
+@pytest.mark.parametrize("command", ["geometry", "solve", "compare"])
+@pytest.mark.parametrize("case", BYTES_IDS)
+def test_unreadable_layout(case, command, out, tmp_path, capsys, no_work):
+    data, expect = _bytes_cases()[case]
+    layout = tmp_path / f"{case}.toml"
+    layout.write_bytes(data)
+    before = _snapshot(out)
+    progress = [] if command == "geometry" else ["--no-progress"]
+    code, err = _run([command, str(layout), "--out", str(out)] + progress + COARSE, capsys)
+    _assert_refused(code, err, [str(layout)] + ([expect] if isinstance(expect, str) else expect))
+    assert _snapshot(out) == before
+
+
+@pytest.mark.parametrize("command", ["geometry", "solve"])
+@pytest.mark.parametrize("case", ["missing", "directory"])
+def test_layout_path_not_a_file(case, command, out, tmp_path, capsys, no_work):
+    path = tmp_path / "nope.toml" if case == "missing" else tmp_path
+    before = _snapshot(out)
+    code, err = _run([command, str(path), "--out", str(out)], capsys)
+    _assert_refused(code, err, [str(path), "not found" if case == "missing" else "is a directory"])
+    assert _snapshot(out) == before
+
+
+def test_layout_with_byte_order_mark_is_read(tmp_path):
+    from imutherm.geometry.layout import load_layout
+
+    path = tmp_path / "bom.toml"
+    path.write_bytes(codecs.BOM_UTF8 + _ref_text().encode())
+    assert load_layout(path).name == "imu_reference"
+
+
+# --------------------------------------------------------------------------- layouts past physical sense
+def _set(*keys, value):
+    def mutate(d):
+        t = d
+        for k in keys[:-1]:
+            t = t[k]
+        t[keys[-1]] = value
+    return mutate
+
+
+PHYSICS = {
+    "mounting_minus_400C": (_set("mounting", "temperature_C", value=-400.0), ["[mounting]", "temperature_C"]),
+    "mounting_1e6C": (_set("mounting", "temperature_C", value=1e6), ["[mounting]", "temperature_C"]),
+    "ambient_1e6C": (_set("environment", "ambient_C", value=1e6), ["[environment]", "ambient_C"]),
+    "ambient_minus_300C": (_set("environment", "ambient_C", value=-300.0), ["ambient_C", "-60..150"]),
+    "ambient_151C": (_set("environment", "ambient_C", value=151.0), ["ambient_C"]),
+    "ambient_nan": (_set("environment", "ambient_C", value=float("nan")), ["ambient_C", "finite"]),
+    "ambient_string": (_set("environment", "ambient_C", value="hot"), ["ambient_C", "finite"]),
+    "part_power_1e30W": (_set("parts", 0, "power_W", value=1e30), ["standoff", "power_W", "0..100 W"]),
+    "part_power_inf": (_set("parts", 0, "power_W", value=float("inf")), ["power_W"]),
+    "component_power_1e30W": (_set("components", 0, "power_W", value=1e30), ["'processor'", "power_W"]),
+    "component_power_negative": (_set("components", 0, "power_W", value=-1.0), ["'processor'", "power_W"]),
+    "housing_10m": (_set("housing", "outer_mm", value=[10000.0, 48.0, 25.0]), ["[housing]", "outer_mm"]),
+    "wall_1e-10mm": (_set("housing", "wall_mm", value=1e-10), ["[housing]", "wall_mm", "0.001..1000 mm"]),
+    "standoff_1e-10mm": (_set("parts", 0, "size_mm", value=[3.0, 3.0, 1e-10]), ["part 'standoff_1'", "size_mm"]),
+    "die_1e-12mm": (_set("components", 0, "die_mm", value=[6.0, 6.0, 1e-12]), ["'processor'", "die_mm"]),
+    "board_1e-9mm": (_set("boards", 0, "size_mm", value=[66.0, 44.0, 1e-9]), ["board 'main'", "size_mm"]),
+    "corner_1e9mm": (_set("parts", 0, "min_mm", value=[1e9, 4.5, 3.0]), ["part 'standoff_1'", "min_mm"]),
+    "contact_1e12": (_set("mounting", "contact_conductance_W_m2K", value=1e12), ["contact_conductance_W_m2K"]),
+    "bond_gap_1e9mm": (_set("schemes", "grease", "max_bond_gap_mm", value=1e9), ["'grease'", "max_bond_gap_mm"]),
+    "pad_zero": (_set("components", 0, "pad_mm", value=[0.0, 6.0]), ["'processor'", "pad_mm"]),
+}
+
+
+@pytest.mark.parametrize("command", ["geometry", "solve"])
+@pytest.mark.parametrize("case", list(PHYSICS))
+def test_layout_past_physical_sense(case, command, out, write_layout, capsys, no_work):
+    mutate, expect = PHYSICS[case]
+    layout = write_layout(mutate)
+    before = _snapshot(out)
+    code, err = _run([command, str(layout), "--out", str(out)] + COARSE, capsys)
+    _assert_refused(code, err, [str(layout)] + expect)
+    assert _snapshot(out) == before
+
+
+# --------------------------------------------------------------------------- options nobody can afford / nonsense
+OPTIONS = {
+    "mesh_0.01": (["solve", "--mesh-size", "0.01"], ["estimated", "cells", "--mesh-size"]),
+    "mesh_0.1": (["solve", "--mesh-size", "0.1"], ["estimated", "GiB"]),
+    "mesh_tiny": (["geometry", "--mesh-size", "1e-300"], ["estimated", "cells"]),
+    "mesh_negative": (["geometry", "--mesh-size", "-1"], "--mesh-size"),
+    "mesh_nan": (["solve", "--mesh-size", "nan"], "--mesh-size"),
+    "mesh_inf": (["solve", "--mesh-size", "inf"], "--mesh-size"),
+    "min_cells_1000": (["solve", "--min-cells", "1000"], ["estimated", "--min-cells"]),
+    "min_cells_0": (["geometry", "--min-cells", "0"], "--min-cells"),
+    "min_cells_negative": (["solve", "--min-cells", "-3"], "--min-cells"),
+    "max_memory_small": (["solve", "--max-memory", "50M"], ["estimated", "--max-memory"]),
+    "max_memory_geometry": (["geometry", "--max-memory", "1M"], ["estimated", "--max-memory"]),
+    "max_memory_garbage": (["solve", "--max-memory", "lots"], "--max-memory"),
+    "max_memory_zero": (["geometry", "--max-memory", "0"], "--max-memory"),
+    "t_end_1e13": (["solve", "--transient", "--t-end", "1e13", "--dt", "1"], ["time steps", "--t-end"]),
+    "t_end_1e13_adaptive": (["solve", "--transient", "--t-end", "1e13"], ["time steps", "--t-end"]),
+    "t_end_1e9_dt_1e-3": (["solve", "--transient", "--t-end", "1e9", "--dt", "1e-3"], ["time steps"]),
+    "constant_tiny_steps": (["solve", "--transient", "--dt", "1e-4", "--dt-max", "1e-4"], ["time steps"]),
+    "save_every_1e-9": (["solve", "--transient", "--save-every", "1e-9"], "--save-every"),
+    "save_every_zero": (["solve", "--transient", "--save-every", "0"], "--save-every"),
+    "theta_2": (["solve", "--transient", "--theta", "2"], "--theta"),
+    "dt_zero": (["solve", "--transient", "--dt", "0"], "dt"),
+    "dt_nan": (["solve", "--transient", "--dt", "nan"], "dt"),
+    "unknown_site": (["solve", "--site", "nowhere"], "--site"),
+    "unknown_scheme": (["solve", "--scheme", "ice"], "ice"),
+    "emissivity_2": (["solve", "--emissivity", "2"], "emissivity"),
+    "h_negative": (["solve", "--exterior", "fixed", "--h", "-5"], "h_fixed_W_m2K"),
+    "compare_schemes_comma": (["compare", "--schemes", ","], "--schemes"),
+    "compare_schemes_blank": (["compare", "--schemes", " "], "--schemes"),
+    "compare_unknown_scheme": (["compare", "--schemes", "air,ice"], "ice"),
+    "compare_t_end_1e13": (["compare", "--t-end", "1e13", "--dt", "1"], ["time steps"]),
+    "compare_mesh_0.2": (["compare", "--mesh-size", "0.2"], ["estimated", "cells"]),
+    "compare_memory": (["compare", "--max-memory", "100M"], ["estimated", "--max-memory"]),
+    "compare_seed_negative": (["compare", "--seed", "-1"], "--seed"),
+    "compare_seeds_0": (["compare", "--seeds", "0"], "--seeds"),
+    "attitude_duration_1e9": (["attitude", "--profile", "flight", "--duration", "1e9"], ["--duration", "samples"]),
+    "attitude_seeds_1e9": (["attitude", "--profile", "flight", "--seeds", "1000000000"], ["--seeds", "samples"]),
+    "attitude_seeds_0": (["attitude", "--profile", "flight", "--seeds", "0"], "--seeds"),
+    "attitude_seed0_negative": (["attitude", "--profile", "flight", "--seed0", "-1"], "--seed0"),
+    "attitude_seed_ambiguous": (["attitude", "--profile", "flight", "--seed", "-1"], "--seed"),
+    "attitude_duration_negative": (["attitude", "--profile", "flight", "--duration", "-5"], "--duration"),
+    "attitude_duration_nan": (["attitude", "--profile", "flight", "--duration", "nan"], "--duration"),
+    "attitude_memory": (["attitude", "--profile", "flight", "--duration", "3e5", "--max-memory", "1G"],
+                        ["--duration", "--max-memory"]),
+    "attitude_unknown_grade": (["attitude", "--profile", "flight", "--grade", "nope"], "nope"),
+    "attitude_unknown_profile": (["attitude", "--profile", "loop"], "loop"),
+    "calibrate_seed_negative": (["calibrate", "--seed", "-1"], "--seed"),
+    "calibrate_unknown_grade": (["calibrate", "--grade", "nope"], "nope"),
+}
+
+
+@pytest.mark.parametrize("case", list(OPTIONS))
+def test_bad_option(case, out, capsys, no_work):
+    argv, expect = OPTIONS[case]
+    before = _snapshot(out)
+    code, err = _run(argv + ["--out", str(out)], capsys)
+    _assert_refused(code, err, expect)
+    assert _snapshot(out) == before
+
+
+# --------------------------------------------------------------------------- temperature CSVs
+def _csv_cases() -> dict:
+    good = "time_s,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n0,25,25,25,25,25,25\n10,26,26,26,26,26,26\n"
+    return {
+        "random_bytes": (bytes(range(256)) * 4, "not UTF-8"),
+        "latin1": (("# température\n" + good).encode("latin-1"), "line 1"),
+        "utf16": (good.encode("utf-16"), "UTF-16"),
+        "nul": (good.encode().replace(b"10,", b"1\0,"), "NUL"),
+        "oversize": (b"#" * (17 * 2**20), "larger than the limit"),
+        "huge_field": (('"' + "x" * 200_000 + '"\n' + good).encode(), "not a valid CSV"),
+        "missing_column": (good.replace("accel_z", "accel_q").encode(), "'accel_z'"),
+        "text_value": (good.replace("26,26,26\n", "26,26,hot\n").encode(), "non-numeric"),
+        "header_only": (good.splitlines()[0].encode(), "header"),
+        "time_backwards": (good.replace("\n10,", "\n-10,").encode(), "strictly increasing"),
+        "too_hot": (good.replace("26", "900").encode(), "calibrated range"),
+    }
+
+
+@pytest.mark.parametrize("case", list(_csv_cases()))
+def test_bad_temperature_csv(case, out, tmp_path, capsys, monkeypatch):
+    import imutherm.studies.attitude_study as att
+
+    data, expect = _csv_cases()[case]
+    path = tmp_path / f"{case}.csv"
+    path.write_bytes(data)
+    # the study runs up to the temperature lookup; the motion profile is the short static one
+    before = _snapshot(out)
+    code, err = _run(["attitude", "--profile", "static", "--duration", "5", "--temperature-csv", str(path),
+                      "--out", str(out), "--no-plot"], capsys)
+    _assert_refused(code, err, ["temperature", expect])
+    assert str(path) in err or case == "too_hot"
+    assert _snapshot(out) == before
+
+
+def test_temperature_csv_with_byte_order_mark(tmp_path):
+    from imutherm.studies.attitude_study import read_temperature_csv
+
+    path = tmp_path / "bom.csv"
+    path.write_bytes(codecs.BOM_UTF8 + b"time_s,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n0,1,2,3,4,5,6\n")
+    t, T = read_temperature_csv(path)
+    assert t.tolist() == [0.0] and T.tolist() == [[1, 2, 3, 4, 5, 6]]
+
+
+# --------------------------------------------------------------------------- --out itself
+def _out_cases(tmp_path: Path) -> dict:
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    return {
+        "empty": ("", "--out is empty"),
+        "blank": ("   ", "--out is empty"),
+        "under_proc": ("/proc/imutherm_out", ["--out /proc/imutherm_out", "cannot write"]),
+        "under_sys": ("/sys/imutherm/out", ["--out /sys/imutherm/out", "cannot write"]),
+        "is_a_file": (str(afile), ["--out", "not a directory"]),
+        "under_a_file": (str(afile / "sub"), ["--out", "not a directory"]),
+    }
+
+
+@pytest.mark.parametrize("command", ["geometry", "solve", "compare", "attitude", "calibrate", "verify"])
+@pytest.mark.parametrize("case", ["empty", "blank", "under_proc", "under_sys", "is_a_file", "under_a_file"])
+def test_bad_out(case, command, tmp_path, capsys, no_work, monkeypatch):
+    import imutherm.thermal.verification as ver
+
+    monkeypatch.setattr(ver, "run_all", _fail)  # verify's suite must not start either
+    value, expect = _out_cases(tmp_path)[case]
+    extra = ["--profile", "flight"] if command == "attitude" else []
+    before = _snapshot(tmp_path)
+    code, err = _run([command] + extra + ["--out", value], capsys)
+    _assert_refused(code, err, expect)
+    assert _snapshot(tmp_path) == before
+
+
+def test_two_runs_into_one_out_refuse(out, capsys, no_work):
+    """A second run into an --out another run holds is refused before any work (the lock is an flock)."""
+    real = Path(os.path.realpath(out))
+    path = _common._lock_path(real)
+    with open(path, "a+") as fh:  # what the other run's check_outdir holds
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fh.write("4242\n")
+        fh.flush()
+        before = _snapshot(out)
+        code, err = _run(["solve", "--out", str(out)] + COARSE, capsys)
+        _assert_refused(code, err, ["--out", "another imutherm run", "4242"])
+        assert _snapshot(out) == before
+
+
+def test_lock_is_released_after_a_run(out, capsys):
+    code, _ = _run(["geometry", "--no-png", "--out", str(out)] + COARSE, capsys)
+    assert code == 0 and not _common._LOCKS
+    path = _common._lock_path(Path(os.path.realpath(out)))
+    assert not path.exists()  # removed at the end, so lock files do not pile up
+    with open(path, "a+") as fh:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)  # free again
+
+
+# --------------------------------------------------------------------------- atomic output, in-process
+def test_symlinked_out_on_another_file_system(tmp_path, capsys):
+    """--out a symlink to another file system: the target is replaced whole, old field files go only
+    with the new set in place, the link stays, modes are 0644/0755 (umask 022)."""
+    shm = Path("/dev/shm")
+    if not shm.is_dir() or os.stat(shm).st_dev == os.stat(tmp_path).st_dev:
+        pytest.skip("needs /dev/shm on another file system")
+    target = Path(tempfile_mkdtemp(shm)) / "results"
+    try:
+        target.mkdir()
+        for name in ("field.pvd", "field_0000.vtu", "field_0012.vtu", "notes.txt"):
+            (target / name).write_text("old")
+        link = tmp_path / "out"
+        link.symlink_to(target)
+        old_umask = os.umask(0o022)
+        try:
+            with _common.atomic_outdir(link, stale=_common.FIELD_FILES) as tmp:
+                assert os.stat(tmp).st_dev == os.stat(target).st_dev  # beside the resolved --out
+                for name in ("field.vtu", "probes.csv", "result.json"):
+                    (tmp / name).write_text("new")
+                os.chmod(tmp / "field.vtu", 0o600)  # as meshio leaves it
+        finally:
+            os.umask(old_umask)
+        assert link.is_symlink()
+        names = sorted(os.listdir(target))
+        assert names == ["field.vtu", "notes.txt", "probes.csv", "result.json"]
+        assert (target / "notes.txt").read_text() == "old"
+        assert {oct(os.stat(target / n).st_mode & 0o777) for n in names} == {"0o644"}
+        assert not [p for p in target.parent.iterdir() if p.name != "results"]
+    finally:
+        shutil.rmtree(target.parent, ignore_errors=True)
+
+
+def tempfile_mkdtemp(where: Path) -> str:
+    import tempfile
+
+    return tempfile.mkdtemp(dir=where)
+
+
+def test_failed_run_leaves_out_untouched(out):
+    before = _snapshot(out)
+    with pytest.raises(RuntimeError):
+        with _common.atomic_outdir(out, stale=_common.FIELD_FILES) as tmp:
+            (tmp / "field.pvd").write_text("new")
+            raise RuntimeError("failed")
+    assert _snapshot(out) == before
+    assert [p.name for p in out.parent.iterdir()] == ["out"]
+
+
+def test_without_exchange_a_kill_between_the_renames_is_recovered(out, monkeypatch):
+    """Where renameat2(RENAME_EXCHANGE) is unavailable: killed between 'out -> backup' and 'new -> out',
+    the next run into out puts the backup (the complete earlier set) back before anything else."""
+
+    class Killed(BaseException):
+        pass
+
+    def pause(stage):
+        if stage == "old-moved":
+            raise Killed
+
+    before = _snapshot(out)
+    monkeypatch.setattr(_common, "_exchange", lambda a, b: False)
+    monkeypatch.setattr(_common, "_test_pause", pause)
+    with pytest.raises(Killed):
+        with _common.atomic_outdir(out) as tmp:
+            (tmp / "result.json").write_text("{}")
+    assert not out.exists()
+    backups = [p for p in out.parent.iterdir() if ".imutherm-old-" in p.name]
+    assert len(backups) == 1 and _snapshot(backups[0]) == before
+    monkeypatch.setattr(_common, "_test_pause", lambda stage: None)
+    with pytest.raises(RuntimeError):  # the next run, failing itself, still restores the earlier set first
+        with _common.atomic_outdir(out):
+            raise RuntimeError("failed")
+    assert _snapshot(out) == before
+    assert [p.name for p in out.parent.iterdir()] == ["out"]
+
+
+def test_working_directory_as_out_is_updated_file_by_file(tmp_path, monkeypatch):
+    """--out . (the working directory) is never swapped away: files are replaced one by one."""
+    (tmp_path / "field_0007.vtu").write_text("old")
+    (tmp_path / "keep.txt").write_text("keep")
+    monkeypatch.chdir(tmp_path)
+    with _common.atomic_outdir(".", stale=_common.FIELD_FILES) as tmp:
+        (tmp / "field.vtu").write_text("new")
+    assert sorted(os.listdir(tmp_path)) == ["field.vtu", "keep.txt"]
+    assert Path.cwd() == tmp_path
+
+
+# --------------------------------------------------------------------------- killed runs (subprocesses)
+def _spawn(out: Path, pause: str | None = None, extra=()):
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    if pause:
+        env.update(IMUTHERM_TEST_PAUSE=pause, IMUTHERM_TEST_PAUSE_S="60")
+    code = "import sys; from imutherm.cli import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.Popen([sys.executable, "-c", code, "solve", "--scheme", "grease", "--out", str(out),
+                             *extra, *COARSE, *LINEAR], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_pause(proc, stage):
+    deadline = time.monotonic() + 300
+    for line in proc.stderr:
+        if f"test pause at {stage}" in line:
+            return
+        if time.monotonic() > deadline:
+            break
+    proc.kill()
+    raise AssertionError(f"the run never reached {stage}")
+
+
+def _complete_new_set(out: Path, before: dict):
+    """The solve's files are all there and complete; the earlier files it does not write are carried over."""
+    import json
+
+    names = set(os.listdir(out))
+    assert {"field.vtu", "probes.csv", "result.json"} <= names
+    assert json.loads((out / "result.json").read_text())["scheme"] == "grease"
+    assert (out / "field.vtu").read_bytes().rstrip().endswith(b"</VTKFile>")
+    carried = {k for k in before if k != "." and "/" not in k} - {"field.vtu", "probes.csv", "result.json"}
+    assert names == carried | {"field.vtu", "probes.csv", "result.json"}
+    assert all((out / k).read_bytes() == before[k][0] for k in carried)
+
+
+@pytest.mark.parametrize("stage, sig", [("written", signal.SIGKILL), ("swap", signal.SIGKILL),
+                                        ("swapped", signal.SIGKILL), ("swap", signal.SIGINT)])
+def test_killed_during_the_final_move(stage, sig, out, capsys):
+    """Killed just after writing, just before the exchange, just after it: out holds the complete old
+    or the complete new set; the next run cleans up what the killed one left beside it."""
+    before = _snapshot(out)
+    proc = _spawn(out, stage)
+    _wait_for_pause(proc, stage)
+    if stage == "written":  # meanwhile a second run into the same --out is refused at once
+        second = _spawn(out)
+        _, err = second.communicate(timeout=120)
+        assert second.returncode == 2 and "another imutherm run" in err and f"pid {proc.pid}" in err, err
+        assert "Traceback" not in err
+    proc.send_signal(sig)
+    proc.wait(timeout=60)
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130
+    if stage == "swapped":
+        _complete_new_set(out, before)  # the exchange happened: the new set is complete
+    else:
+        assert _snapshot(out) == before
+    if sig == signal.SIGINT:  # Ctrl-C cleans up after itself
+        assert [p.name for p in out.parent.iterdir()] == ["out"]
+    # the next run into out (a cheap one) removes what the killed run left beside it
+    code, err = _run(["geometry", "--no-png", "--out", str(out)] + COARSE, capsys)
+    assert code == 0, err
+    assert [p.name for p in out.parent.iterdir()] == ["out"]
+
+
+@pytest.mark.parametrize("delay", [1.0, 4.0])
+def test_killed_during_the_computation(delay, out):
+    before = _snapshot(out)
+    proc = _spawn(out)
+    time.sleep(delay)
+    proc.kill()
+    proc.wait(timeout=60)
+    assert _snapshot(out) == before
+
+
+# --------------------------------------------------------------------------- divergence is not a hang
+@pytest.mark.parametrize("nonlinear", [True, False])
+def test_steady_divergence_names_the_power(nonlinear):
+    """1e30 W/m^3 (past the layout check, straight into the solver): a ConvergenceError at the first
+    iterate naming the total power, not 50 overflowing Newton iterations."""
+    import warnings
+
+    import numpy as np
+
+    from imutherm.geometry.grid import TensorGrid
+    from imutherm.thermal.problem import Convection, Radiation, ThermalProblem
+    from imutherm.thermal.solve import ConvergenceError, solve_steady
+
+    xs = np.linspace(0.0, 0.01, 5)
+    grid = TensorGrid(xs, xs, xs, np.zeros((4, 4, 4), np.int32), ("box",), {})
+    laws = (Radiation(0.8), Convection(10.0)) if nonlinear else (Convection(10.0),)
+    faces = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
+    sane = ThermalProblem(grid, 200.0, 2.4e6, 1e6, 20.0, {f: laws for f in faces})  # 1 W: solves
+    assert np.isfinite(solve_steady(sane).T_C).all()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        with pytest.raises(ConvergenceError, match=r"diverging at Newton iteration 1 .*total 1e\+24 W"):
+            solve_steady(ThermalProblem(grid, 200.0, 2.4e6, 1e30, 20.0, {f: laws for f in faces}))
