@@ -99,13 +99,15 @@ def _table_page(pdf, result) -> None:
     cells = []
     for o in outs:
         by = sens["outputs"][o]["by_key"]
-        row = [f"{by[k][metric]:+.3g}" if k in by else "-" for k in plan.keys]
+        row = [_label(o)] + [f"{by[k][metric]:+.3g}" if k in by else "-" for k in plan.keys]
         if metric == "src":
             row.append(f"{sens['outputs'][o]['r2']:.3f}")
         cells.append(row)
-    cols = [_label(k) for k in plan.keys] + (["R² of fit"] if metric == "src" else [])
-    table = ax.table(cellText=cells, rowLabels=[_label(o) for o in outs], colLabels=cols, loc="upper center",
-                     cellLoc="center")
+    cols = ["output"] + [_label(k) for k in plan.keys] + (["R² of fit"] if metric == "src" else [])
+    first = 0.22
+    rest = (1.0 - first) / (len(cols) - 1)
+    table = ax.table(cellText=cells, colLabels=cols, loc="upper center", cellLoc="center",
+                     colWidths=[first] + [rest] * (len(cols) - 1))
     table.auto_set_font_size(False)
     table.set_fontsize(8)
     table.scale(1.0, 1.4)
