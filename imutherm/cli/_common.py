@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import json
 import os
 import re
 import shutil
@@ -13,6 +12,7 @@ import tempfile
 from pathlib import Path
 
 from imutherm import InputError
+from imutherm.io import write_json  # noqa: F401  (re-exported for the subcommands)
 
 #: the field files ``imutherm solve`` writes: ``field.vtu``, ``field.pvd`` and the series ``field_0000.vtu`` ...
 FIELD_FILES = r"field(\.vtu|\.pvd|_\d{4,}\.vtu)"
@@ -89,17 +89,3 @@ def atomic_outdir(out: str | os.PathLike, stale: str | None = None):
             os.replace(item, target)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-
-
-def write_json(path: str | os.PathLike, data) -> None:
-    """Write ``data`` as indented JSON (numpy scalars and arrays converted)."""
-    import numpy as np
-
-    def default(obj):
-        if isinstance(obj, np.generic):
-            return obj.item()
-        if isinstance(obj, np.ndarray):
-            return obj.tolist()
-        raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
-
-    Path(path).write_text(json.dumps(data, indent=2, default=default) + "\n")

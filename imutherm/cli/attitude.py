@@ -33,6 +33,9 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--temperature-csv", default=None,
                    help="CSV with time_s and one column per site (gyro_x..accel_z) [°C]")
     p.add_argument("--compensation", default="improved", help="none | conventional | improved (default)")
+    p.add_argument("--out-of-range", default="error", choices=("error", "hold", "linear"),
+                   help="reported temperatures outside the calibrated range: error (default), hold (clamp "
+                        "to the range end) or linear (extrapolate the calibration's temperature trend)")
     p.add_argument("--seeds", type=int, default=1, help="number of seeds (units / noise draws), default 1")
     p.add_argument("--seed0", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--duration", type=float, default=None, help="profile duration [s] (default: profile's)")
@@ -50,7 +53,8 @@ def main(argv=None) -> int:
 
     res = run_attitude_study(args.profile, grade=args.grade, temperature_C=args.temperature,
                              temperature_csv=args.temperature_csv, compensation=args.compensation,
-                             seeds=args.seeds, seed0=args.seed0, duration=args.duration)
+                             seeds=args.seeds, seed0=args.seed0, duration=args.duration,
+                             out_of_range=args.out_of_range)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)

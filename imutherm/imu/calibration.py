@@ -146,9 +146,9 @@ def _gyro_runs(rates_dps) -> tuple[np.ndarray, np.ndarray]:
     return np.array(om), np.array(f)
 
 
-def _run_session(unit: ImuUnit, rng, omega: np.ndarray, f: np.ndarray, T_die_C: float, rig: RigConfig,
+def _run_session(unit: ImuUnit, rng, omega: np.ndarray, f: np.ndarray, T_die_C, rig: RigConfig,
                  power_on: PowerOn, noise: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Soaked runs at one die temperature, constant input per run.
+    """Soaked runs at one die temperature [°C] (a number, or (6,) per site), constant input per run.
 
     Returns per-run means (R,3) gyro [rad/s], (R,3) accel [m/s^2], (R,6) reported temperature [°C].
     """
@@ -160,7 +160,7 @@ def _run_session(unit: ImuUnit, rng, omega: np.ndarray, f: np.ndarray, T_die_C: 
     t = np.arange(n) / fs
     om = np.repeat(omega, m, axis=0)
     ff = np.repeat(f, m, axis=0)
-    T = np.full((n, 6), float(T_die_C))
+    T = np.broadcast_to(np.asarray(T_die_C, float), (n, 6))
     s = simulate_imu(unit, t, om, ff, T, rng, noise=noise, power_on=power_on)
 
     def mean(a):
@@ -224,12 +224,15 @@ class Calibration:
     Attributes
     ----------
     grade : str
-    segment_edges_C : ndarray (S+1,) [°C]   reported-temperature segment edges
+    segment_edges_C : ndarray (S+1,) [°C]   segment edges of the rig (chamber temperature; for bare sensors
+                                            without self-heating, the die temperature)
     segment_nodes_C : ndarray (S,6) [°C]    mean reported temperature of each segment's oven data, SITES order
     room_temp_C : ndarray (6,) [°C]         mean reported temperature of the room-temperature data
     gyro : TriadCalibration                 [rad/s]
     accel : TriadCalibration                [m/s^2]
     meta : dict                             rig settings, mounting angles, notes
+    site_edges_C : ndarray (S+1,6) [°C] | None  each site's segment edges in its own *reported*
+                                            temperature (what compensation looks up); None: segment_edges_C
     """
 
     grade: str
@@ -239,11 +242,23 @@ class Calibration:
     gyro: TriadCalibration
     accel: TriadCalibration
     meta: dict = field(default_factory=dict)
+    site_edges_C: np.ndarray | None = None
 
     @property
     def range_C(self) -> tuple[float, float]:
-        """Calibrated reported-temperature range [°C]."""
+        """Rig (chamber) temperature range of the calibration [°C]."""
         return float(self.segment_edges_C[0]), float(self.segment_edges_C[-1])
+
+    def site_edges(self) -> np.ndarray:
+        """Segment edges per site in reported temperature, (S+1, 6) [°C], SITES order."""
+        if self.site_edges_C is not None:
+            return np.asarray(self.site_edges_C, float)
+        return np.repeat(np.asarray(self.segment_edges_C, float)[:, None], 6, axis=1)
+
+    def site_range_C(self) -> tuple[np.ndarray, np.ndarray]:
+        """Calibrated reported-temperature range per site: (low (6,), high (6,)) [°C]."""
+        e = self.site_edges()
+        return e[0].copy(), e[-1].copy()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (SI units; arrays as nested lists)."""
@@ -257,6 +272,7 @@ class Calibration:
             "segment_edges_C": np.asarray(self.segment_edges_C).tolist(),
             "segment_nodes_C": np.asarray(self.segment_nodes_C).tolist(),
             "room_temp_C": np.asarray(self.room_temp_C).tolist(),
+            "site_edges_C": self.site_edges().tolist(),
             "gyro": triad(self.gyro),
             "accel": triad(self.accel),
             "meta": json.loads(json.dumps(self.meta, default=_json_default)),
@@ -271,13 +287,15 @@ class Calibration:
             cal = cls(grade=str(d["grade"]), segment_edges_C=np.asarray(d["segment_edges_C"], float),
                       segment_nodes_C=np.asarray(d["segment_nodes_C"], float),
                       room_temp_C=np.asarray(d["room_temp_C"], float),
-                      gyro=triad(d["gyro"]), accel=triad(d["accel"]), meta=dict(d.get("meta", {})))
+                      gyro=triad(d["gyro"]), accel=triad(d["accel"]), meta=dict(d.get("meta", {})),
+                      site_edges_C=None if d.get("site_edges_C") is None else np.asarray(d["site_edges_C"], float))
         except KeyError as exc:
             raise InputError(f"calibration: missing field {exc.args[0]!r}") from None
         except (TypeError, ValueError) as exc:
             raise InputError(f"calibration: malformed field ({exc})") from None
         S = cal.segment_edges_C.size - 1
-        if cal.segment_nodes_C.shape != (S, 6) or cal.accel.K_conv.shape != (S, 3, 3) or cal.gyro.sigma.shape != (S, 3, 3):
+        if (cal.segment_nodes_C.shape != (S, 6) or cal.accel.K_conv.shape != (S, 3, 3)
+                or cal.gyro.sigma.shape != (S, 3, 3) or cal.site_edges().shape != (S + 1, 6)):
             raise InputError(f"calibration: inconsistent shapes for {S} segments "
                              f"(segment_nodes_C {cal.segment_nodes_C.shape}, accel.K_conv {cal.accel.K_conv.shape})")
         return cal
@@ -317,7 +335,7 @@ def _small_rotation(rng, angle_deg: float) -> np.ndarray:
 
 
 def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | None = None,
-                   noise: bool = True, **rig_overrides) -> Calibration:
+                   noise: bool = True, self_heating=None, **rig_overrides) -> Calibration:
     """Run the simulated two-step rig on ``unit`` and fit the conventional and improved models.
 
     Parameters
@@ -326,7 +344,15 @@ def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | 
     rng : numpy.random.Generator   all randomness (mountings, power-ons, noise)
     rig : RigConfig | None         rig settings (default :class:`RigConfig`)
     noise : bool                   False: noise-free sensor outputs (power-ons without random part)
+    self_heating : callable | None ``rise(chamber_C [°C]) -> (6,) [K]``: each sensor's die temperature
+                                   above the chamber when the unit is calibrated assembled and powered
+                                   (SITES order; from the thermal model). None: bare sensors, die = chamber.
     **rig_overrides                fields of RigConfig, e.g. ``oven_mount_deg=1.4``
+
+    Each site's segments are keyed by its own reported temperature: its edges
+    (``Calibration.site_edges_C``) are the reported temperatures at the rig's
+    edges, interpolated (extrapolated at the ends) from the segment nodes, so
+    self-heating and temperature-sensor offsets are part of the calibrated range.
 
     Returns
     -------
@@ -338,6 +364,15 @@ def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | 
         rig = replace(rig or RigConfig(), **rig_overrides)
     except TypeError as exc:
         raise InputError(f"calibrate_unit: {exc}; valid rig fields: {', '.join(f.name for f in fields(RigConfig))}") from None
+    if self_heating is None:
+        def die(T):
+            return float(T)
+    else:
+        def die(T):
+            rise = np.asarray(self_heating(float(T)), float)
+            if rise.shape != (6,) or not np.all(np.isfinite(rise)):
+                raise InputError(f"calibrate_unit: self_heating({T}) must return 6 finite rises [K], got {rise!r}")
+            return T + rise
     R_table = _small_rotation(rng, rig.table_mount_deg)  # known: table axes -> body axes
     R_oven = _small_rotation(rng, rig.oven_mount_deg)  # unknown to the fits
     zero = PowerOn(gyro=np.zeros((3, 3)), accel=np.zeros((3, 3)))
@@ -349,7 +384,8 @@ def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | 
     om_all = np.vstack([np.zeros_like(f_pos), om_room])
     f_all = np.vstack([f_pos, f_room])
     p_room = draw_power_on(unit, rng) if noise else zero
-    g_m, a_m, T_m = _run_session(unit, rng, om_all @ R_table.T, f_all @ R_table.T, rig.room_temp_C, rig, p_room, noise)
+    g_m, a_m, T_m = _run_session(unit, rng, om_all @ R_table.T, f_all @ R_table.T, die(rig.room_temp_C), rig, p_room,
+                               noise)
     P = len(pos)
     Ka, Da, ra = _lsq_KD(f_pos @ R_table.T, a_m[:P])  # known mounting taken out of the table input
     Kg, Dg, rg = _lsq_KD(om_room @ R_table.T, g_m[P:])
@@ -365,7 +401,7 @@ def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | 
     p_oven = draw_power_on(unit, rng) if noise else zero
 
     def oven(T):
-        return _run_session(unit, rng, om_all @ R_oven.T, f_all @ R_oven.T, T, rig, p_oven, noise)
+        return _run_session(unit, rng, om_all @ R_oven.T, f_all @ R_oven.T, die(T), rig, p_oven, noise)
 
     g_ref, a_ref, _ = oven(rig.room_temp_C)
     out = {k: [] for k in ("Kc_a", "Dc_a", "rc_a", "Kc_g", "Dc_g", "rc_g", "s_a", "rs_a", "s_g", "rs_g", "nodes")}
@@ -382,14 +418,18 @@ def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | 
         out["s_g"].append(s), out["rs_g"].append(r)
     A = {k: np.array(v) for k, v in out.items()}
     nodes = A["nodes"]
-    if np.any(nodes < edges[0]) or np.any(nodes > edges[-1]):
-        raise InputError("calibration: a segment's reported temperature fell outside the calibrated range "
-                         "(temperature-sensor offset larger than half a segment)")
+    # reported temperature at each rig edge, per site: linear through the nodes, extrapolated at the ends
+    site_edges = np.empty((edges.size, 6))
+    for j in range(6):
+        x, y = centres, nodes[:, j]
+        k = np.clip(np.searchsorted(x, edges), 1, x.size - 1)
+        site_edges[:, j] = y[k - 1] + (edges - x[k - 1]) * (y[k] - y[k - 1]) / (x[k] - x[k - 1])
     meta = {
         "rig": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(rig).items()},
         "oven_mount_rotvec_deg": Rotation.from_matrix(R_oven).as_rotvec(degrees=True).tolist(),
         "table_mount_rotvec_deg": Rotation.from_matrix(R_table).as_rotvec(degrees=True).tolist(),
         "noise": bool(noise),
+        "self_heating": self_heating is not None,
         "notes": "conventional: eq. 1 per segment on oven data (table input, unknown 2nd mounting); "
                  "improved: eq. 2-3, K/D from the one-mounting room-temperature fit, sigma fitted to "
                  "N(T)-N(25 degC) at the same oven position/rate; segments keyed by reported temperature",
@@ -400,7 +440,7 @@ def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | 
                               room_fit_rms=rg, conv_fit_rms=A["rc_g"], sigma_fit_rms=A["rs_g"]),
         accel=TriadCalibration(K_room=Ka, D_room=Da, K_conv=A["Kc_a"], D_conv=A["Dc_a"], sigma=A["s_a"],
                                room_fit_rms=ra, conv_fit_rms=A["rc_a"], sigma_fit_rms=A["rs_a"]),
-        meta=meta,
+        meta=meta, site_edges_C=site_edges,
     )
 
 
@@ -462,9 +502,9 @@ def evaluate_calibration(unit: ImuUnit, calibration: Calibration, rng: np.random
     if n_static + n_rates < 1:
         raise InputError("evaluate_calibration: n_static + n_rates must be >= 1")
     rig = RigConfig(dwell_s=dwell_s, settle_s=min(0.2, dwell_s / 4))
-    lo, hi = calibration.range_C
+    lo, hi = calibration.site_range_C()
     off = unit.temp_offset_C
-    Ts = np.sort(rng.uniform(lo - off.min() + 0.2, hi - off.max() - 0.2, n_temps))
+    Ts = np.sort(rng.uniform(np.max(lo - off) + 0.2, np.min(hi - off) - 0.2, n_temps))
     p_test = draw_power_on(unit, rng) if noise else PowerOn(gyro=np.zeros((3, 3)), accel=np.zeros((3, 3)))
     fs = unit.grade.sample_rate_hz
     m = int(round(rig.dwell_s * fs))

@@ -14,8 +14,21 @@ Temperature lookup (``interp``): ``"segment"`` (default, as in seed 000: each
 5 °C segment has its own parameter group; the segment is found from the
 *reported* temperature) or ``"linear"`` (parameters interpolated linearly
 between the temperatures at which the segments were calibrated, extrapolated
-linearly in the half segments beyond the end nodes). Reported temperatures outside the calibrated range
-(-40..70 °C) raise :class:`imutherm.InputError`.
+linearly in the half segments beyond the end nodes).
+
+Out-of-range policy (``out_of_range``): each site's calibrated range is the
+span of *its own reported temperature* during the calibration
+(:meth:`Calibration.site_edges`: a unit calibrated assembled, in an oven, has
+its sensors' self-heating in it). A reported temperature outside it is
+
+* ``"error"`` (default): refused with :class:`imutherm.InputError`;
+* ``"hold"``: clamped to the range (the end segment's parameters, evaluated at
+  the range end: the compensation stops following the temperature);
+* ``"linear"``: the parameters extrapolated linearly in temperature from the
+  two outermost calibration nodes (the trend of the last 5 °C carried on).
+
+:func:`out_of_range_mask` flags the samples a policy had to act on, so every
+result can say how much of it was extrapolated.
 
 Room-temperature node of the improved model: sigma is defined relative to the
 room-temperature (25 °C) calibration, so it is zero there (seed 000: "the
@@ -45,6 +58,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 METHODS = ("none", "conventional", "improved")
 INTERPS = ("segment", "linear")
+OUT_OF_RANGE = ("error", "hold", "linear")
 #: [°C] a reported temperature this close to the room-temperature reference is "at" it (segment mode):
 #: the same reading of the internal sensor, up to floating-point rounding of the calibration's mean
 ROOM_NODE_TOL_C = 1e-6
@@ -54,7 +68,7 @@ def _params_at(params: np.ndarray, nodes: np.ndarray, edges: np.ndarray, T: np.n
                zero_at: np.ndarray | None = None) -> np.ndarray:
     """Per-sample, per-axis parameters.
 
-    params (S,3,P), nodes (S,3) [°C], edges (S+1,) [°C], T (N,3) [°C] -> (N,3,P).
+    params (S,3,P), nodes (S,3) [°C], edges (S+1,3) [°C] per axis, T (N,3) [°C] -> (N,3,P).
     zero_at (3,) [°C] | None: an extra node per axis at which the parameters are zero (the improved model's
     room-temperature reference): "segment" gives zero there (|T - zero_at| <= ROOM_NODE_TOL_C), "linear"
     interpolates through it.
@@ -62,7 +76,8 @@ def _params_at(params: np.ndarray, nodes: np.ndarray, edges: np.ndarray, T: np.n
     S = params.shape[0]
     axes = np.arange(3)[None, :]
     if interp == "segment" or (S == 1 and zero_at is None):
-        k = np.clip(np.searchsorted(edges, T, side="right") - 1, 0, S - 1)  # (N,3)
+        k = np.column_stack([np.searchsorted(edges[:, i], T[:, i], side="right") - 1 for i in range(3)])
+        k = np.clip(k, 0, S - 1)  # (N,3)
         out = params[k, axes]
         if zero_at is not None:
             out = np.where((np.abs(T - np.asarray(zero_at, float)[None, :]) <= ROOM_NODE_TOL_C)[:, :, None],
@@ -84,17 +99,26 @@ def _params_at(params: np.ndarray, nodes: np.ndarray, edges: np.ndarray, T: np.n
     return out
 
 
-def _check_range(temp: np.ndarray, lo: float, hi: float) -> None:
-    bad = (temp < lo) | (temp > hi)
+def out_of_range_mask(temp_C, calibration: "Calibration") -> np.ndarray:
+    """(N,6) bool: reported temperature [°C] (N,6) outside each site's calibrated range (SITES order)."""
+    e = calibration.site_edges()
+    temp = np.asarray(temp_C, float)
+    return (temp < e[0][None, :]) | (temp > e[-1][None, :])
+
+
+def _check_range(temp: np.ndarray, edges: np.ndarray) -> None:
+    bad = (temp < edges[0][None, :]) | (temp > edges[-1][None, :])
     if np.any(bad):
         n, j = np.argwhere(bad)[0]
+        lo, hi = edges[0, j], edges[-1, j]
         raise InputError(
             f"samples.temp_C[{n}, {j}] ({SITES[j]}): reported temperature {temp[n, j]:.2f} °C is outside the "
-            f"calibrated range; valid: {lo:g}..{hi:g} °C ({int(bad.sum())} samples out of range)")
+            f"calibrated range; valid: {lo:.4g}..{hi:.4g} °C ({int(bad.sum())} samples out of range; "
+            "out_of_range='hold' or 'linear' compensates them anyway)")
 
 
 def compensate(samples: ImuSamples, calibration: "Calibration | None", method: str, *,
-               interp: str = "segment") -> ImuSamples:
+               interp: str = "segment", out_of_range: str = "error") -> ImuSamples:
     """Compensate raw samples with a calibration.
 
     Parameters
@@ -103,6 +127,8 @@ def compensate(samples: ImuSamples, calibration: "Calibration | None", method: s
     calibration : Calibration | None   required unless method == "none"
     method : str                 "none" | "conventional" | "improved"
     interp : str                 "segment" (lookup by reported temperature) | "linear"
+    out_of_range : str           "error" | "hold" | "linear" (module docstring); flag the samples it acted
+                                 on with :func:`out_of_range_mask`
 
     Returns
     -------
@@ -110,35 +136,50 @@ def compensate(samples: ImuSamples, calibration: "Calibration | None", method: s
 
     Raises
     ------
-    InputError  unknown method / interp, missing calibration, bad shapes, or a reported
-                temperature outside the calibrated range.
+    InputError  unknown method / interp / policy, missing calibration, bad shapes, or (policy
+                "error") a reported temperature outside the calibrated range.
     """
     if method not in METHODS:
         raise InputError(f"compensation method: {method!r} is not valid; valid: {', '.join(METHODS)}")
     if interp not in INTERPS:
         raise InputError(f"compensation interp: {interp!r} is not valid; valid: {', '.join(INTERPS)}")
+    if out_of_range not in OUT_OF_RANGE:
+        raise InputError(f"compensation out_of_range: {out_of_range!r} is not valid; "
+                         f"valid: {', '.join(OUT_OF_RANGE)}")
     validate_samples(samples)
     if method == "none":
         return samples
     if calibration is None:
         raise InputError(f"calibration: required for method {method!r} (only 'none' works without one)")
     temp = np.asarray(samples.temp_C, float)
-    edges = np.asarray(calibration.segment_edges_C, float)
-    _check_range(temp, edges[0], edges[-1])
+    edges = calibration.site_edges()  # (S+1, 6)
+    if out_of_range == "error":
+        _check_range(temp, edges)
+    elif out_of_range == "hold":
+        temp = np.clip(temp, edges[0][None, :], edges[-1][None, :])
+    outside = out_of_range_mask(temp, calibration) if out_of_range == "linear" else None
     nodes = np.asarray(calibration.segment_nodes_C, float)
     out = {}
     for name, cols in (("gyro", slice(0, 3)), ("accel", slice(3, 6))):
         N = np.asarray(getattr(samples, name), float)
         T = temp[:, cols]
         c = getattr(calibration, name)
+        room = np.asarray(calibration.room_temp_C, float)[cols]  # sigma = 0 node (module docstring)
+
+        def params(table, zero_at=None):
+            p = _params_at(table, nodes[:, cols], edges[:, cols], T, interp, zero_at=zero_at)
+            if outside is not None and interp == "segment" and np.any(outside[:, cols]):
+                lin = _params_at(table, nodes[:, cols], edges[:, cols], T, "linear", zero_at=zero_at)
+                p = np.where(outside[:, cols, None], lin, p)
+            return p
+
         if method == "conventional":
             KD = np.concatenate([c.K_conv, c.D_conv[:, :, None]], axis=2)  # (S,3,4): row i = [K_i, D_i]
-            p = _params_at(KD, nodes[:, cols], edges, T, interp)  # (N,3,4)
+            p = params(KD)  # (N,3,4)
             K, D = p[:, :, :3], p[:, :, 3]
             out[name] = np.linalg.solve(K, (N - D)[:, :, None])[:, :, 0]
         else:
-            room = np.asarray(calibration.room_temp_C, float)[cols]  # sigma = 0 node (module docstring)
-            p = _params_at(c.sigma, nodes[:, cols], edges, T, interp, zero_at=room)  # (N,3,3): a, b, c
+            p = params(c.sigma, zero_at=room)  # (N,3,3): a, b, c
             sig = p[:, :, 0] * N**2 + p[:, :, 1] * N + p[:, :, 2]
             out[name] = np.linalg.solve(c.K_room, (N - sig - c.D_room).T).T
     return ImuSamples(t=samples.t, gyro=out["gyro"], accel=out["accel"], temp_C=samples.temp_C)

@@ -58,7 +58,11 @@ from imutherm.imu.grades import GRADES
 SITES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 G0 = 9.80665  # [m/s^2] standard gravity
 T_REF_C = 25.0  # [°C] room (reference) temperature of the curves
-T_RANGE_C = (-40.0, 70.0)  # [°C] operating / calibrated range
+T_RANGE_C = (-40.0, 70.0)  # [°C] the paper's operating / calibrated range (seed 000)
+#: [°C] die temperatures the truth model accepts: the curves are scaled over T_RANGE_C and continue
+#: smoothly (cubic + wiggle) beyond it; ADIS16355 / ADXRS150 datasheets rate operation to +85 °C and
+#: storage to +125 °C; 105 °C leaves room for a hot scheme's sensor dies at 70 °C ambient (assumed limit)
+T_MODEL_RANGE_C = (-55.0, 105.0)
 _X_SCALE = 55.0  # [°C] normalisation of the curve argument x = (T - 25)/55
 #: [-] peak Allan deviation of a first-order Gauss-Markov process divided by its standard deviation sigma.
 #: Allan variance of exponentially correlated (Markov) noise, q = 2 sigma^2 / Tc (IEEE Std 952-1997 Annex C;

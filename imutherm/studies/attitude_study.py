@@ -145,12 +145,14 @@ def read_temperature_csv(path) -> tuple[np.ndarray, np.ndarray]:
     return t, data[:, 1:]
 
 
-def temperature_on(t, temperature_C=None, temperature_csv=None) -> tuple[np.ndarray, dict]:
+def temperature_on(t, temperature_C=None, temperature_csv=None, *, valid_C=None) -> tuple[np.ndarray, dict]:
     """True die temperatures (N, 6) [°C] on sample times ``t`` [s] and a description dict.
 
     Either a constant ``temperature_C`` [°C] (default 25) or a CSV interpolated
     linearly (held constant beyond its ends; a single-row CSV is a constant,
-    whatever its time). Raises InputError outside the calibrated range -40..70 °C.
+    whatever its time). Raises InputError outside ``valid_C`` (default the
+    calibrated range -40..70 °C; the attitude study passes the truth model's
+    range when compensation has an out-of-range policy).
     """
     from imutherm.imu.sensor_model import SITES, T_RANGE_C
 
@@ -169,13 +171,31 @@ def temperature_on(t, temperature_C=None, temperature_csv=None) -> tuple[np.ndar
             raise InputError(f"temperature: {temperature_C!r} is invalid; valid: a number in °C")
         temp = np.full((len(t), 6), T0)
         desc = {"source": "constant", "value_C": T0}
-    lo, hi = T_RANGE_C
+    lo, hi = T_RANGE_C if valid_C is None else valid_C
+    what = "the calibrated range" if valid_C is None else "the sensor model's range"
     bad = (temp < lo) | (temp > hi)
     if np.any(bad):
         n, j = np.argwhere(bad)[0]
+        hint = " (or compensate beyond it with --out-of-range hold|linear)" if valid_C is None else ""
         raise InputError(f"temperature: {temp[n, j]:.2f} °C at site {SITES[j]} (t = {t[n]:.2f} s) is outside "
-                         f"the calibrated range; valid: {lo:g}..{hi:g} °C")
+                         f"{what}; valid: {lo:g}..{hi:g} °C{hint}")
     return temp, desc
+
+
+def leveling_window_s(traj, gate: "GateConfig") -> float:
+    """The initial rest used for leveling [s]: ``gate.init_s`` or the profile's initial rest if shorter.
+
+    Raises InputError when it is under 1 s.
+    """
+    rate = 1.0 / float(traj.t[1] - traj.t[0])
+    first = traj.segment[0]
+    first_len = float(np.sum(traj.segment == first)) / rate if traj.phase[0] == "stable" else 0.0
+    init_s = min(gate.init_s, first_len)
+    if init_s < 1.0:
+        raise InputError(f"leveling window init_s={init_s:.2f} s (the smaller of GateConfig.init_s={gate.init_s} s "
+                         f"and the initial rest of {first_len:.2f} s of profile {traj.profile!r}) is too short; "
+                         "valid: at least 1 s")
+    return init_s
 
 
 # --------------------------------------------------------------------------- metrics
@@ -224,17 +244,20 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
 def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", temperature_C: float | None = None,
                        temperature_csv=None, compensation: str = "improved", seeds: int = 1, seed0: int = 0,
                        duration: float | None = None, lever_arm=None, gate: GateConfig = GateConfig(),
-                       names=FILTERS) -> AttitudeStudyResult:
+                       names=FILTERS, out_of_range: str = "error") -> AttitudeStudyResult:
     """Run the attitude chain for ``seeds`` seeds (seed0, seed0+1, ...) and reduce the errors.
 
     profile : one of motion.PROFILES; grade : sensor grade name; temperature_C [°C] constant
     (default 25) or temperature_csv (path; ``time_s`` + one column per site [°C]);
     compensation : none|conventional|improved; duration [s] (None: profile default);
-    lever_arm (3,) [m] (None: per-profile default); gate : GateConfig.
+    lever_arm (3,) [m] (None: per-profile default); gate : GateConfig;
+    out_of_range : error|hold|linear, the compensation's policy for reported temperatures outside the
+    calibrated range (:mod:`imutherm.imu.compensation`); ``temperature["extrapolated_fraction"]`` in the
+    result is the share of (sample, sensor) pairs it acted on (first seed).
     """
     from imutherm.imu.calibration import calibrate_unit
-    from imutherm.imu.compensation import compensate
-    from imutherm.imu.sensor_model import draw_unit, load_grade, simulate_imu
+    from imutherm.imu.compensation import OUT_OF_RANGE, compensate, out_of_range_mask
+    from imutherm.imu.sensor_model import T_MODEL_RANGE_C, draw_unit, load_grade, simulate_imu
 
     if profile not in motion.PROFILES:
         raise InputError(f"--profile: {profile!r} is unknown; valid: {', '.join(motion.PROFILES)}")
@@ -249,14 +272,11 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
     d = tuple(float(v) for v in (DEFAULT_LEVER_ARM[profile] if lever_arm is None else lever_arm))
     rate = g.sample_rate_hz
     traj = motion.make_profile(profile, duration, rate, lever_arm=d)
-    temp, tdesc = temperature_on(traj.t, temperature_C, temperature_csv)
-    first = traj.segment[0]
-    first_len = float(np.sum(traj.segment == first)) / rate if traj.phase[0] == "stable" else 0.0
-    init_s = min(gate.init_s, first_len)
-    if init_s < 1.0:
-        raise InputError(f"leveling window init_s={init_s:.2f} s (the smaller of GateConfig.init_s={gate.init_s} s "
-                         f"and the initial rest of {first_len:.2f} s of profile {profile!r}) is too short; "
-                         "valid: at least 1 s")
+    if out_of_range not in OUT_OF_RANGE:
+        raise InputError(f"--out-of-range: {out_of_range!r} is unknown; valid: {', '.join(OUT_OF_RANGE)}")
+    temp, tdesc = temperature_on(traj.t, temperature_C, temperature_csv,
+                                 valid_C=None if out_of_range == "error" else T_MODEL_RANGE_C)
+    init_s = leveling_window_s(traj, gate)
     gate_run = replace(gate, init_s=init_s)
     dt = 1.0 / rate
     masks = {"overall": np.ones(traj.t.size, bool), "stable": traj.stable, "manoeuvre": ~traj.stable}
@@ -270,7 +290,9 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         unit = draw_unit(g, rng)
         cal = calibrate_unit(unit, rng) if compensation != "none" else None
         raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, temp, rng)
-        samp = compensate(raw, cal, compensation)
+        samp = compensate(raw, cal, compensation, out_of_range=out_of_range)
+        if cal is not None and s == seed0:
+            tdesc["extrapolated_fraction"] = float(out_of_range_mask(raw.temp_C, cal).mean())
         est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names)
         for n, e in est.items():
             per[n].append(error_metrics(e.roll - traj.roll, e.pitch - traj.pitch, masks))

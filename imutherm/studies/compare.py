@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from imutherm import InputError
-from imutherm.cli._common import write_json
+from imutherm.io import write_json
 from imutherm.geometry.build import MM
 from imutherm.geometry.layout import AXES, load_layout
 from imutherm.studies.thermal_study import SchemeResult, probe_table, result_summary, run_scheme
