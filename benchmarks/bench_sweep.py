@@ -5,7 +5,7 @@ scheme, run with ``--jobs 2`` through the CLI as a user would: the 5 V
 regulator's power, the mounting contact conductance, the grease conductivity
 and the housing emissivity. Reports the wall time of the whole command (design
 checks, worker start-up, 50 solves, PDF), the mean and max per-case time the
-workers measured, the load average of the machine before and after (it is
+workers measured, the CPU seconds of all processes (the load-independent cost), the load average of the machine before and after (it is
 shared), and the ranking the sweep found. Target: <= 5 minutes.
 
     python benchmarks/bench_sweep.py                # 50 cases, --jobs 2, default mesh
@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import sys
 import tempfile
 import time
@@ -45,10 +46,16 @@ def main() -> int:
     rc = cli(argv)
     wall = time.perf_counter() - t0
     load1 = os.getloadavg()
+    # CPU seconds of this process and of the (joined) worker processes: the load-independent cost;
+    # on an idle machine the wall time is about cpu_s / min(jobs, cores) plus worker start-up
+    cpu = sum(resource.getrusage(w).ru_utime + resource.getrusage(w).ru_stime
+              for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
     rec = json.loads((out / "sweep.json").read_text())
     figures = {"cases": rec["counts"]["cases"], "ok": rec["counts"]["ok"], "jobs": args.jobs,
                "wall_s": round(wall, 1), "wall_per_case_s": round(wall / rec["counts"]["cases"], 2),
                "case_s_mean": round(rec["timing"]["case_s_mean"], 2), "case_s_max": round(rec["timing"]["case_s_max"], 2),
+               "cpu_s_total": round(cpu, 1), "cpu_s_per_case": round(cpu / rec["counts"]["cases"], 2),
+               "idle_machine_wall_estimate_s": round(cpu / min(args.jobs, os.cpu_count() or 1), 1),
                "loadavg_1min_before_after": [round(load0[0], 2), round(load1[0], 2)], "cpus": os.cpu_count(),
                "ranking_max_rise": rec["sensitivity"]["ranking"], "out": str(out)}
     print(json.dumps(figures, indent=2))

@@ -509,11 +509,13 @@ def run_case(case: Case, settings: CaseSettings) -> dict:
     return row
 
 
-def limit_threads(threads: int) -> None:
-    """Worker initializer: BLAS / OpenMP / numba thread counts for a process sharing the cores."""
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS",
-                "VECLIB_MAXIMUM_THREADS"):
-        os.environ[var] = str(threads)
+def _pool_case(case: Case, settings: CaseSettings) -> dict:
+    """``run_case`` in a local worker; a worker whose sweep was killed stops instead of running queued cases."""
+    from imutherm.studies import _worker
+
+    if _worker.parent_gone():
+        raise SystemExit(0)
+    return run_case(case, settings)
 
 
 # ---------------------------------------------------------------- results.csv
@@ -695,11 +697,14 @@ def _run_local(pending, settings, jobs, record, lost):
     import multiprocessing
     from concurrent.futures.process import BrokenProcessPool
 
+    from imutherm.studies._worker import init_worker
+
     threads = max(1, (os.cpu_count() or 1) // jobs)
-    # spawn: workers start without the parent's numpy, so the thread limits apply before BLAS loads
-    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=limit_threads,
-                             initargs=(threads,)) as pool:
-        futures = {pool.submit(run_case, c, settings): c.case_id for c in pending}
+    # spawn: workers start without the parent's numpy, and init_worker (a module without numpy) sets the
+    # thread limits before the first task imports it, so they apply when BLAS loads
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=init_worker,
+                             initargs=(threads, os.getpid())) as pool:
+        futures = {pool.submit(_pool_case, c, settings): c.case_id for c in pending}
         for fut in as_completed(futures):
             try:
                 record(fut.result())
