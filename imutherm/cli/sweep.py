@@ -62,10 +62,12 @@ def main(argv=None) -> int:
                       transient=args.transient, t_end=args.t_end)
     cost = estimate_cost(plan, 1 if args.dask else args.jobs)
     d = plan.design
-    runner = f"Dask at {args.dask}" if args.dask else f"{args.jobs} local process{'es' if args.jobs > 1 else ''}"
-    print(f"sweep of {plan.design['scheme']} ({d['method']}): {cost.cases} cases of {', '.join(plan.keys)}; "
-          f"~{cost.unknowns} unknowns each, ~{cost.case_s:.0f} s per case, estimate {_duration(cost.total_s)} "
-          f"on {runner}" + (" (more on a cluster's own cores)" if args.dask else ""), flush=True)
+    runner = f"{args.jobs} local process{'es' if args.jobs > 1 else ''}"
+    where = (f"{_duration(cost.total_s)} of one core, divided over the cluster's workers" if args.dask
+             else f"{_duration(cost.total_s)} on {runner}")
+    print(f"sweep of {d['scheme']} ({d['method']}): {cost.cases} cases of {', '.join(plan.keys)}; "
+          f"~{cost.unknowns} unknowns each, ~{cost.case_s:.0f} s per case on an idle core; estimate {where}",
+          flush=True)
     res = run_sweep(plan, args.out, jobs=args.jobs, dask_address=args.dask, resume=args.resume,
                     progress=not args.no_progress)
 

@@ -702,14 +702,19 @@ def _run_local(pending, settings, jobs, record, lost):
     threads = max(1, (os.cpu_count() or 1) // jobs)
     # spawn: workers start without the parent's numpy, and init_worker (a module without numpy) sets the
     # thread limits before the first task imports it, so they apply when BLAS loads
-    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=init_worker,
-                             initargs=(threads, os.getpid())) as pool:
+    pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=init_worker,
+                               initargs=(threads, os.getpid()))
+    try:
         futures = {pool.submit(_pool_case, c, settings): c.case_id for c in pending}
         for fut in as_completed(futures):
             try:
                 record(fut.result())
             except BrokenProcessPool:
                 lost.append(futures[fut])
+    except BaseException:  # Ctrl-C: drop the queued cases instead of waiting for them
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
 
 
 def _dask_client(address: str):
