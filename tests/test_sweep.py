@@ -298,3 +298,16 @@ def test_dask_unreachable_scheduler_is_one_line(tmp_path, capsys):
     out = tmp_path / "d"
     assert main(["sweep", *DESIGN, "--dask", "tcp://127.0.0.1:9", "--out", str(out), *COARSE]) == 2
     assert "cannot connect to a Dask scheduler" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_transient_sweep_adds_t95_of_the_hottest_site(tmp_path):
+    out = tmp_path / "t"
+    assert main(["sweep", "--scheme", "grease", "--set", f"{POWER}=0.8", "--transient", "--t-end", "400",
+                 "--out", str(out), *COARSE]) == 0
+    (row,) = _rows(out)
+    assert row["status"] == "ok"
+    # the hottest site is tp1 (beside the regulators); it settles within the run, not at its first step
+    assert 20.0 < float(row["t95_s"]) < 400.0
+    assert float(row["rise_tp1_K"]) == max(float(row[c]) for c in row if c.startswith("rise_"))
+    assert json.loads((out / "sweep.json").read_text())["design"]["t_end_s"] == 400.0
