@@ -53,12 +53,12 @@ except ModuleNotFoundError:  # pragma: no cover
 METHODS = ("grid", "lhs", "morris")
 #: Morris grid levels (SALib's default; Morris & Campolongo recommend an even p, 4 is usual)
 MORRIS_LEVELS = 4
-#: wall time per mesh unknown of one steady case [s], measured with benchmarks/bench_sweep.py on the
-#: 2-core development machine (reference unit, default 2 mm mesh: ~6.7 s for 185 724 unknowns)
-STEADY_S_PER_UNKNOWN = 3.6e-5
-#: a power-on transient (1200 s, steps growing 2 -> 60 s) costs about this many steady solves
-#: (measured alongside: ~13 s steady+transient vs ~6.7 s steady at the default mesh)
-TRANSIENT_FACTOR = 2.0
+#: CPU time per mesh unknown of one steady case [s]: benchmarks/bench_sweep.py on the 2-core development
+#: machine, 50 cases of the reference unit at the default mesh: 7.4 s per case for 185 724 unknowns
+STEADY_S_PER_UNKNOWN = 4.0e-5
+#: a case with the 1200 s power-on transient costs about this many steady cases (README thermal benchmark,
+#: grease: the transient adds 25.1 s to a ~7 s steady case)
+TRANSIENT_FACTOR = 4.5
 #: optional numeric fields a layout table may leave out (their defaults apply) but a sweep may set
 _OPTIONAL_FIELDS = {"components": ("power_W", "die_base_mm"), "parts": ("power_W",),
                     "mounting": ("temperature_C",), "schemes": ("max_bond_gap_mm",)}
