@@ -1,10 +1,14 @@
-"""``imutherm compare``: the main job. Solve the three cooling schemes (steady + power-on transient)
-and write the comparison report.
+"""``imutherm compare``: the main job. The end-to-end study of the cooling schemes: thermal (steady +
+power-on transient), calibration of the assembled unit in the oven, IMU and attitude error in degrees.
 
-Writes in ``--out DIR``: ``report.pdf`` (summary table against the paper, rises,
-power-on curves, board temperature maps, the layout), ``compare.json``
-(each scheme's ``result.json`` content), ``probes_<scheme>.csv`` and
-``map_<scheme>.npz`` (the files the report is drawn from) and ``layout.png``.
+Writes in ``--out DIR``: ``report.pdf`` (the design-review document: the answer table on page 1),
+``summary.json`` (every figure, with the paper's beside ours), per scheme ``curves_<s>.csv`` (site
+temperatures [°C] over the power-on transient), ``residuals_<s>.csv`` (residual sensor errors over the
+warm-up), ``attitude_<s>.csv`` (attitude error of each filter over the warm-up), ``steady_<s>.vtu``
+(ParaView), ``maps_<s>.npz`` and ``layout_<s>.png``.
+
+``--thermal-only`` (or ``--steady-only``) runs the thermal comparison alone and writes the earlier
+files: ``report.pdf``, ``compare.json``, ``probes_<s>.csv``, ``map_<s>.npz``, ``layout.png``.
 """
 
 from __future__ import annotations
@@ -29,7 +33,18 @@ def main(argv=None) -> int:
     parser.add_argument("--dt", type=float, default=2.0, metavar="SECONDS",
                         help="first time step [s]; steps grow by 1.2 up to --dt-max (default 2)")
     parser.add_argument("--dt-max", type=float, default=60.0, metavar="SECONDS", help="largest time step [s] (default 60)")
-    parser.add_argument("--steady-only", action="store_true", help="skip the transients")
+    parser.add_argument("--steady-only", action="store_true", help="thermal steady states only (implies --thermal-only)")
+    parser.add_argument("--thermal-only", action="store_true", help="thermal comparison only, no IMU / attitude")
+    g = parser.add_argument_group("IMU and attitude (the end-to-end study)")
+    g.add_argument("--grade", default="adis16355", help="sensor grade (default adis16355)")
+    g.add_argument("--seeds", type=int, default=3, metavar="N",
+                   help="units / noise draws, the same in every scheme (default 3)")
+    g.add_argument("--seed", type=int, default=0, metavar="N", help="first seed (default 0)")
+    g.add_argument("--out-of-range", default="linear", choices=("error", "hold", "linear"),
+                   help="compensation beyond the calibrated range: linear (default: extrapolate the "
+                        "calibration's temperature trend), hold (clamp), error (refuse)")
+    g.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="processes (default: min(2, CPUs)); the IMU side runs beside the thermal solves")
     parser.add_argument("--no-progress", action="store_true")
     add_model_arguments(parser)
     parser.add_argument("--out", required=True, help="output directory")
@@ -40,6 +55,10 @@ def main(argv=None) -> int:
     if not args.steady_only:
         check_time_arguments(args.t_end, args.dt, args.dt_max)
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
+    if not schemes:
+        parser.error(f"--schemes {args.schemes!r}: give at least one scheme, e.g. air,grease,potted")
+    if not (args.thermal_only or args.steady_only):
+        return _end_to_end(args, schemes)
     comp = compare_schemes(args.layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
                            t_end=args.t_end, dt=args.dt, dt_max=args.dt_max, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                            options=model_options(args))
@@ -64,3 +83,50 @@ def main(argv=None) -> int:
               f"{'-' if t95 is None else f'{t95:.0f}':>11} {'-' if settle is None else f'{settle:.0f}':>16}")
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png")
     return 0
+
+
+def _end_to_end(args, schemes) -> int:
+    from imutherm.studies.end_to_end import StudyConfig, run_study, write_study
+
+    config = StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range)
+    res = run_study(args.layout, schemes, config=config, options=model_options(args), jobs=args.jobs,
+                    progress=not args.no_progress, t_end=args.t_end, dt=args.dt, dt_max=args.dt_max,
+                    mesh_size_mm=args.mesh_size, min_cells=args.min_cells)
+    from imutherm.reports.layout_plot import plot_layout
+    from imutherm.reports.study_report import write_study_report
+
+    with atomic_outdir(args.out) as tmp:
+        summary = write_study(res, tmp)
+        for name, st in res.schemes.items():
+            plot_layout(st.thermal.geometry, tmp / f"layout_{name}.png")
+        write_study_report(tmp, tmp / "report.pdf")
+    print_answer(summary)
+    print(f"wrote {args.out}/report.pdf summary.json curves_*.csv residuals_*.csv attitude_*.csv steady_*.vtu "
+          f"({res.wall_s:.0f} s)")
+    return 0
+
+
+def print_answer(summary: dict) -> None:
+    """The answer table on stdout: flight, improved compensation calibrated in the unit, roll/pitch RMS [deg]."""
+    from imutherm.studies.end_to_end import ANSWER_COMPENSATION, ANSWER_PROFILE
+
+    st = summary["study"]
+    comp = ANSWER_COMPENSATION if ANSWER_COMPENSATION in st["compensations"] else st["compensations"][-1]
+    prof = ANSWER_PROFILE if ANSWER_PROFILE in st["profiles"] else st["profiles"][0]
+    print(f"{'scheme':<8} {'max rise [K]':>12} {'t95 [s]':>8}  attitude error, {prof}, {comp} compensation, "
+          f"roll/pitch RMS [deg] (mean of {len(summary['seeds'])} seeds), warm-up | steady | bare-sensor cal. warm-up")
+    for name, s in summary["schemes"].items():
+        cells = []
+        for f in st["filters"]:
+            w = s["attitude"]["warmup"][comp][f][prof]
+            d = s["attitude"]["steady"][comp][f][prof]
+            b = s["attitude_bare_calibration"]["warmup"][comp][f][prof]
+            cells.append(f"{f} {w['roll_rms_deg']['mean']:.2f}/{w['pitch_rms_deg']['mean']:.2f} | "
+                         f"{d['roll_rms_deg']['mean']:.2f}/{d['pitch_rms_deg']['mean']:.2f} | "
+                         f"{b['roll_rms_deg']['mean']:.2f}/{b['pitch_rms_deg']['mean']:.2f}")
+        t95 = s["t95_s"]
+        print(f"{name:<8} {s['max_rise_K']:12.2f} {'-' if t95 is None else f'{t95:.0f}':>8}  " + "; ".join(cells[:2]))
+        for i in range(2, len(cells), 2):
+            print(" " * 32 + "; ".join(cells[i:i + 2]))
+    for name, s in summary["schemes"].items():
+        print(s["answer"])
