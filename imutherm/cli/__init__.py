@@ -12,7 +12,7 @@ import sys
 
 #: subcommand -> one-line help
 COMMANDS = {
-    "compare": "the main job: solve the three cooling schemes and write the comparison report PDF",
+    "compare": "the main job: the cooling schemes end to end (thermal, calibration, attitude error) and the report PDF",
     "geometry": "build the layout's parts and mesh; write geometry.json, STL, VTU, layout.png",
     "solve": "steady or transient thermal solve of one scheme; write result.json, probes.csv, VTU",
     "verify": "run the thermal verification suite against analytic solutions and benchmarks",

@@ -26,8 +26,16 @@ from imutherm.imu.compensation import INTERPS
 from imutherm.imu.grades import GRADES
 from imutherm.imu.sensor_model import G0, draw_unit, unit_to_dict
 
-PAPER = {"conventional_max_residual_mg": 30.0, "improved_max_residual_mg": 5.0,
-         "source": "seed 000 section 2.2.2 (reference/paper_targets.toml [calibration])"}
+def _paper() -> dict:
+    from imutherm.studies.paper import load_paper
+
+    c = load_paper()["calibration"]
+    return {"conventional_max_residual_mg": c["conventional_max_residual_mg"],
+            "improved_max_residual_mg": c["improved_max_residual_mg"],
+            "source": "seed 000 section 2.2.2 (imutherm/studies/paper_targets.toml [calibration])"}
+
+
+PAPER = _paper()
 _KEYS = {"none": "uncompensated", "conventional": "conventional", "improved": "improved"}
 
 

@@ -40,6 +40,9 @@ def main(argv=None) -> int:
     g.add_argument("--seeds", type=int, default=3, metavar="N",
                    help="units / noise draws, the same in every scheme (default 3)")
     g.add_argument("--seed", type=int, default=0, metavar="N", help="first seed (default 0)")
+    g.add_argument("--profiles", default="flight,swing", help="motion profiles (default flight,swing)")
+    g.add_argument("--filters", default="gated,kf,ungated,fusion",
+                   help="attitude filters (default gated,kf,ungated,fusion)")
     g.add_argument("--out-of-range", default="linear", choices=("error", "hold", "linear"),
                    help="compensation beyond the calibrated range: linear (default: extrapolate the "
                         "calibration's temperature trend), hold (clamp), error (refuse)")
@@ -88,7 +91,11 @@ def main(argv=None) -> int:
 def _end_to_end(args, schemes) -> int:
     from imutherm.studies.end_to_end import StudyConfig, run_study, write_study
 
-    config = StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range)
+    def names(text):
+        return tuple(v.strip() for v in text.split(",") if v.strip())
+
+    config = StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
+                         profiles=names(args.profiles), filters=names(args.filters))
     res = run_study(args.layout, schemes, config=config, options=model_options(args), jobs=args.jobs,
                     progress=not args.no_progress, t_end=args.t_end, dt=args.dt, dt_max=args.dt_max,
                     mesh_size_mm=args.mesh_size, min_cells=args.min_cells)

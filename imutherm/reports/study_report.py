@@ -58,6 +58,8 @@ def _table(ax, rows, cols, fontsize=7.0, col_widths=None, scale_y=1.25) -> None:
         if r == 0:
             cell.set_facecolor("#e8e8e8")
             cell.set_text_props(weight="bold")
+            n = max(str(c).count("\n") + 1 for c in cols)
+            cell.set_height(cell.get_height() * (1.0 + 0.9 * (n - 1)))
 
 
 def _attitude_rows(s: dict, tree_key: str, profile: str, comps, filters) -> list:
@@ -81,15 +83,20 @@ ATT_COLS = ["compensation", "filter", "warm-up roll\nRMS [deg]", "warm-up pitch\
             "steady max\nroll/pitch [deg]"]
 
 
+def _main_profile(st: dict) -> str:
+    return "flight" if "flight" in st["profiles"] else st["profiles"][0]
+
+
 def _answer_page(pdf, data: dict) -> None:
     st = data["study"]
+    prof = _main_profile(st)
     fig = plt.figure(figsize=A4)
-    _title(fig, f"Which cooling scheme, and what it does to attitude accuracy: {data['layout']}",
+    _title(fig, f"Which cooling scheme, and what it does to attitude accuracy: {data['layout']}", textwrap.fill(
            f"ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; grade {st['grade']}, seeds "
            f"{data['seeds'][0]}..{data['seeds'][-1]} (mean±std, the same seeds in every scheme); calibrated in the "
            f"unit (oven -40..70 C with each scheme's self-heating); out-of-range policy '{data['out_of_range_policy']}'; "
-           "flight profile, roll/pitch error RMS and max")
-    y = 0.895
+           f"{prof} profile, roll/pitch error RMS and max", 200))
+    y = 0.88
     for name, s in data["schemes"].items():
         lines = textwrap.wrap(s["answer"], 190)
         fig.text(0.03, y, "\n".join(lines), fontsize=7.6, va="top", color=_colour(name))
@@ -97,7 +104,7 @@ def _answer_page(pdf, data: dict) -> None:
     schemes = list(data["schemes"])
     rows = []
     for name in schemes:
-        for r in _attitude_rows(data["schemes"][name], "attitude", "flight", st["compensations"], st["filters"]):
+        for r in _attitude_rows(data["schemes"][name], "attitude", prof, st["compensations"], st["filters"]):
             rows.append([name] + r)
     ax = fig.add_axes([0.02, 0.02, 0.96, y - 0.03])
     _table(ax, rows, ["scheme"] + ATT_COLS, fontsize=6.4, scale_y=0.92 * min(1.3, 30.0 / max(len(rows), 1)))
@@ -108,9 +115,10 @@ def _answer_page(pdf, data: dict) -> None:
 def _bare_page(pdf, data: dict) -> None:
     st = data["study"]
     comps = [c for c in st["compensations"] if c != "none"]
+    prof = _main_profile(st)
     fig = plt.figure(figsize=A4)
     _title(fig, "Calibrated in the unit vs calibrated as bare sensors; the swing test",
-           "flight: roll/pitch RMS [deg] with each calibration (mean±std over seeds); 'bare' = the same sensors "
+           f"{prof}: roll/pitch RMS [deg] with each calibration (mean±std over seeds); 'bare' = the same sensors "
            "calibrated on their own over -40..70 C die temperature, so in the unit they run beyond it; "
            "extrapolated = share of sample-sensor pairs outside the calibrated range")
     rows = []
@@ -120,7 +128,7 @@ def _bare_page(pdf, data: dict) -> None:
                 cells = [name, comp, f]
                 for key in ("attitude", "attitude_bare_calibration"):
                     for ph in ("warmup", "steady"):
-                        m = s[key].get(ph, {}).get(comp, {}).get(f, {}).get("flight")
+                        m = s[key].get(ph, {}).get(comp, {}).get(f, {}).get(prof)
                         cells.append("-" if m is None else
                                      f"{m['roll_rms_deg']['mean']:.2f} / {m['pitch_rms_deg']['mean']:.2f}")
                 rows.append(cells)
@@ -133,7 +141,7 @@ def _bare_page(pdf, data: dict) -> None:
     ax = fig.add_axes([0.60, 0.70, 0.38, 0.2])
     _table(ax, ext, ["scheme", "extrapolated\n(unit cal.)", "extrapolated\n(bare cal.)", "max beyond bare\nrange [K]"],
            fontsize=7)
-    if "swing" in st["profiles"]:
+    if "swing" in st["profiles"] and prof != "swing":
         rows = []
         for name, s in data["schemes"].items():
             for r in _attitude_rows(s, "attitude", "swing", [c for c in st["compensations"] if c != "none"][-1:],

@@ -1,0 +1,78 @@
+"""Benchmark of the main job: ``imutherm compare`` end to end at the default mesh.
+
+Runs the command as a user does (a subprocess: thermal + oven self-heating + calibration + IMU and
+attitude, three schemes, default seeds) and reports its wall time and the peak resident memory of the
+whole process tree (the command and its worker processes, summed, sampled every 0.2 s from /proc), the
+stage times from ``summary.json``, and PASS/FAIL against the targets of issue 10 (<= 120 s,
+<= 2 GB). Run it on an otherwise idle machine: the figures are the machine's.
+
+    python benchmarks/bench_study.py                # default settings of `imutherm compare`
+    python benchmarks/bench_study.py -- --seeds 6   # extra arguments for imutherm compare
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+TARGET_S = 120.0
+TARGET_MB = 2048.0
+
+
+def _tree_rss_mb(pid: int) -> float:
+    """Resident memory of ``pid`` and all its descendants [MB] (Linux /proc)."""
+    total, todo = 0.0, [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            for line in Path(f"/proc/{p}/status").read_text().splitlines():
+                if line.startswith("VmRSS:"):
+                    total += float(line.split()[1]) / 1024.0
+            for task in Path(f"/proc/{p}/task").iterdir():
+                todo += [int(c) for c in (task / "children").read_text().split()]
+        except (FileNotFoundError, ProcessLookupError, PermissionError):
+            continue
+    return total
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("extra", nargs="*", help="arguments passed to imutherm compare (after --)")
+    args = ap.parse_args(argv)
+    out = Path(tempfile.mkdtemp(prefix="bench_study_")) / "out"
+    cmd = [sys.executable, "-m", "imutherm.cli", "compare", "--no-progress", "--out", str(out)] + args.extra
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    peak = 0.0
+    while proc.poll() is None:
+        peak = max(peak, _tree_rss_mb(proc.pid))
+        time.sleep(0.2)
+    wall = time.perf_counter() - t0
+    text = proc.stdout.read()
+    print(text)
+    if proc.returncode != 0:
+        print(f"imutherm compare failed with status {proc.returncode}")
+        return 1
+    s = json.loads((out / "summary.json").read_text())
+    print(f"{'scheme':<8} {'nodes':>8} {'steady [s]':>10} {'transient [s]':>13} {'steps':>6} {'max rise [K]':>12}")
+    for name, sch in s["schemes"].items():
+        th = sch["thermal"]
+        tm = th["timings_s"]
+        print(f"{name:<8} {th['mesh']['nodes']:8d} {tm['steady_solve']:10.1f} {tm.get('transient_solve', 0):13.1f} "
+              f"{th.get('steps', 0):6d} {sch['max_rise_K']:12.2f}")
+    print(f"\nimutherm compare end to end: {wall:.1f} s wall (study {s['wall_s']:.1f} s), peak memory {peak:.0f} MB "
+          f"(process tree), {len(s['seeds'])} seeds, {os.cpu_count()} CPUs")
+    ok_t, ok_m = wall <= TARGET_S, peak <= TARGET_MB
+    print(f"  wall <= {TARGET_S:.0f} s: {'PASS' if ok_t else 'FAIL'}")
+    print(f"  peak <= {TARGET_MB:.0f} MB: {'PASS' if ok_m else 'FAIL'}")
+    return 0 if ok_t and ok_m else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
