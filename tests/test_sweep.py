@@ -311,3 +311,28 @@ def test_transient_sweep_adds_t95_of_the_hottest_site(tmp_path):
     assert 20.0 < float(row["t95_s"]) < 400.0
     assert float(row["rise_tp1_K"]) == max(float(row[c]) for c in row if c.startswith("rise_"))
     assert json.loads((out / "sweep.json").read_text())["design"]["t_end_s"] == 400.0
+
+
+@pytest.mark.slow
+def test_attitude_columns_are_the_end_to_end_metrics_of_the_case(tmp_path):
+    from imutherm.studies.end_to_end import scheme_attitude_metrics
+    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.thermal.model import ModelOptions
+
+    out = tmp_path / "a"
+    assert main(["sweep", "--scheme", "grease", "--set", "options.emissivity=0.5", "--attitude",
+                 "--out", str(out), *COARSE]) == 0
+    (row,) = _rows(out)
+    assert row["status"] == "ok", row["message"]
+    cols = sweep_mod.attitude_columns(False)
+    assert "steady_improved_gated_flight_roll_rms_deg" in cols and all(c in row for c in cols)
+    # one call per case, seeds 0.. (the same in every case): equal to the study's own function on that case
+    res = run_scheme(None, "grease", mesh_size_mm=6, min_cells=1, options=ModelOptions(emissivity=0.5))
+    direct = scheme_attitude_metrics(res, seeds=1, seed0=0)
+    for c in cols:
+        assert float(row[c]) == pytest.approx(direct[c], rel=1e-9)
+    assert 0 < float(row["steady_improved_gated_flight_roll_rms_deg"]) < 5.0
+    from pypdf import PdfReader
+
+    text = "".join(p.extract_text() for p in PdfReader(out / "sweep.pdf").pages)
+    assert "roll RMS error" in text

@@ -8,7 +8,8 @@ and its values: a list ``0.5,1,2`` or a range ``lo:hi:n`` (grid), ``lo:hi``
 (lhs, morris). Every key and every case is checked before the first case runs.
 
 Writes in ``--out DIR``: ``results.csv`` (one row per case: case id, inputs,
-``max_rise_K``, ``t95_s`` with ``--transient``, ``rise_<site>_K``, ``status``,
+``max_rise_K``, ``t95_s`` with ``--transient``, ``rise_<site>_K``, attitude RMS
+errors with ``--attitude``, ``status``,
 ``message``, ``seconds``; appended as cases finish, so ``--resume`` after a
 kill runs only the missing cases), ``sweep.json`` (design, sensitivity ranking,
 timing) and ``sweep.pdf`` (each output against each input, ranking of the
@@ -45,6 +46,11 @@ def main(argv=None) -> int:
     parser.add_argument("--transient", action="store_true",
                         help="also run the power-on transient: adds t95_s of the hottest site")
     parser.add_argument("--t-end", type=float, default=1200.0, metavar="SECONDS", help="transient end time [s]")
+    parser.add_argument("--attitude", action="store_true",
+                        help="add attitude RMS error columns per case (improved compensation, unit calibrated in the "
+                             "oven, gated and kf filters, flight; warm-up phase with --transient)")
+    parser.add_argument("--attitude-seeds", type=int, default=1, metavar="N",
+                        help="IMU units / noise draws averaged per case, the same in every case (default 1)")
     run = parser.add_mutually_exclusive_group()
     run.add_argument("--jobs", type=int, default=1, metavar="N", help="local worker processes (default 1)")
     run.add_argument("--dask", default=None, metavar="ADDRESS", help="run the cases on a Dask scheduler, tcp://host:port")
@@ -59,7 +65,8 @@ def main(argv=None) -> int:
         raise InputError(f"--jobs must be >= 1, got {args.jobs}")
     plan = plan_sweep(args.layout, args.scheme, args.sets, method=args.method, samples=args.samples, seed=args.seed,
                       options=model_options(args), mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                      transient=args.transient, t_end=args.t_end)
+                      transient=args.transient, t_end=args.t_end, attitude=args.attitude,
+                      attitude_seeds=args.attitude_seeds)
     cost = estimate_cost(plan, 1 if args.dask else args.jobs)
     d = plan.design
     runner = f"{args.jobs} local process{'es' if args.jobs > 1 else ''}"

@@ -33,7 +33,11 @@ def _label(name: str) -> str:
 def _output_title(name: str) -> str:
     if name.startswith("rise_") and name.endswith("_K"):
         return f"steady rise of {name[5:-2]}"
-    return {"max_rise_K": "largest steady rise", "t95_s": "t95 of the hottest site"}.get(name, name)
+    if name.endswith("_rms_deg"):  # <phase>_<compensation>_<filter>_<profile>_<roll|pitch>_rms_deg
+        ph, comp, filt, prof, angle = name[: -len("_rms_deg")].split("_", 4)
+        return f"{angle} RMS error, {filt}, {prof}, {ph}"
+    return {"max_rise_K": "largest steady rise", "t95_s": "t95 of the hottest site",
+            "extrapolated_fraction": "share of samples beyond calibration"}.get(name, name)
 
 
 def _measure(sens: dict) -> tuple:
@@ -119,7 +123,7 @@ def _scatter_pages(pdf, result) -> None:
     plan = result.plan
     ok = [r for r in result.rows if r["status"] == "ok"]
     outs = list(plan.outputs)
-    ncol = 4 if len(outs) > 9 else 3
+    ncol = 5 if len(outs) > 16 else 4 if len(outs) > 9 else 3
     nrow = int(np.ceil(len(outs) / ncol))
     for key in plan.keys:
         fig, axes = plt.subplots(nrow, ncol, figsize=A4_LANDSCAPE, constrained_layout=True, squeeze=False)

@@ -94,6 +94,7 @@ class CaseSettings:
     t_end: float
     sites: tuple
     attitude: bool
+    attitude_seeds: int = 1
 
 
 @dataclass(frozen=True)
@@ -385,7 +386,8 @@ def _canonical_hash(data) -> str:
 def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: str = "grid",
                samples: int | None = None, seed: int | None = None, options: ModelOptions | None = None,
                mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
-               transient: bool = False, t_end: float = 1200.0, attitude: bool = False) -> SweepPlan:
+               transient: bool = False, t_end: float = 1200.0, attitude: bool = False,
+               attitude_seeds: int = 1) -> SweepPlan:
     """Check a sweep and build every case; nothing runs.
 
     Parameters
@@ -399,7 +401,9 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     options : ModelOptions, the base model (``options.*`` and ``materials.*`` keys change it per case)
     mesh_size_mm : float [mm]; min_cells : int
     transient : bool, also run the power-on transient (adds ``t95_s``); t_end : float [s]
-    attitude : bool, add attitude-error columns
+    attitude : bool, add the attitude-error columns of :func:`attitude_columns` (one call of
+        :func:`imutherm.studies.end_to_end.scheme_attitude_metrics` per case, the same seeds in every case)
+    attitude_seeds : int, IMU units / noise draws averaged per case (seeds 0 .. n-1)
 
     Raises InputError on an unknown key (naming the nearest valid ones), a bad value or range,
     or a case the layout, the geometry or the model refuses.
@@ -412,8 +416,8 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
         raise InputError("give at least one --set KEY=VALUES")
     if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0):
         raise InputError(f"--t-end must be a finite number > 0 [s], got {t_end!r}")
-    if attitude:
-        raise InputError("--attitude is not available: the end-to-end attitude study is not part of this version")
+    if not (isinstance(attitude_seeds, int) and 1 <= attitude_seeds <= 1000):
+        raise InputError(f"--attitude-seeds must be an integer in 1..1000, got {attitude_seeds!r}")
     path = Path(layout_path) if layout_path else default_layout_path()
     try:
         with open(path, "rb") as fh:
@@ -441,11 +445,14 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     X = _design_matrix(factors, method, samples, seed)
 
     sites = tuple(s.name for s in base_layout.sites)
-    settings = CaseSettings(scheme, float(mesh_size_mm), int(min_cells), bool(transient), float(t_end), sites, attitude)
+    settings = CaseSettings(scheme, float(mesh_size_mm), int(min_cells), bool(transient), float(t_end), sites,
+                            bool(attitude), int(attitude_seeds))
     built = [_case(i, tuple(float(v) for v in row), factors, raw, str(path), settings, base) for i, row in enumerate(X)]
     cases = tuple(c for c, _ in built)
     unknowns = np.array([n for _, n in built], int)
     outputs = ("max_rise_K",) + (("t95_s",) if transient else ()) + tuple(f"rise_{s}_K" for s in sites)
+    if attitude:
+        outputs += attitude_columns(transient)
     base_opts = asdict(base)
     base_opts["materials"] = [m.name for m in base.materials]
     design = {
@@ -455,7 +462,8 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
         "factors": [{"key": f.key, "unit": f.unit, "values": list(f.values) if f.values else None,
                      "bounds": list(f.bounds)} for f in factors],
         "cases": len(cases), "mesh_size_mm": float(mesh_size_mm), "min_cells": int(min_cells),
-        "transient": bool(transient), "t_end_s": float(t_end) if transient else None, "attitude": attitude,
+        "transient": bool(transient), "t_end_s": float(t_end) if transient else None, "attitude": bool(attitude),
+        "attitude_seeds": int(attitude_seeds) if attitude else None,
         "model_options": json.loads(json.dumps(base_opts, default=str)),
         "X_sha256": _canonical_hash(X.tolist()),
     }
@@ -491,6 +499,20 @@ def case_outputs(result, sites) -> dict:
     return out
 
 
+def attitude_columns(transient: bool) -> tuple:
+    """The attitude columns of a sweep with ``--attitude``: roll and pitch RMS error [deg] of the lean
+    IMU configuration :data:`~imutherm.studies.end_to_end.SWEEP_CONFIG` (improved compensation, unit
+    calibrated in the oven with this case's self-heating, gated and kf filters, flight profile), per
+    phase (``warmup`` needs ``transient``; ``steady``), then ``extrapolated_fraction`` [-] (share of
+    compensated samples beyond the calibrated range).
+    """
+    from imutherm.studies.end_to_end import PHASES, SWEEP_CONFIG as C
+
+    phases = PHASES if transient else ("steady",)
+    return tuple(f"{ph}_{comp}_{f}_{prof}_{m}" for ph in phases for comp in C.compensations for f in C.filters
+                 for prof in C.profiles for m in ("roll_rms_deg", "pitch_rms_deg")) + ("extrapolated_fraction",)
+
+
 def run_case(case: Case, settings: CaseSettings) -> dict:
     """Run one case; any exception is recorded in the row (status ``failed``), never raised."""
     from imutherm.studies.thermal_study import run_scheme
@@ -502,6 +524,15 @@ def run_case(case: Case, settings: CaseSettings) -> dict:
                          min_cells=settings.min_cells, options=case.options, transient=settings.transient,
                          t_end=settings.t_end)
         row.update(case_outputs(res, settings.sites))
+        if settings.attitude:
+            from imutherm.studies.end_to_end import scheme_attitude_metrics
+
+            metrics = scheme_attitude_metrics(res, seeds=settings.attitude_seeds, seed0=0)
+            cols = attitude_columns(settings.transient)
+            missing = [c for c in cols if c not in metrics]
+            if missing:
+                raise RuntimeError(f"scheme_attitude_metrics gave no {', '.join(missing)}")
+            row.update({c: float(metrics[c]) for c in cols})
         row.update(status="ok", message="")
     except Exception as exc:  # noqa: BLE001 - a failing case is recorded and the sweep goes on
         row.update(status="failed", message=f"{type(exc).__name__}: {' '.join(str(exc).split())}")
