@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imutherm import InputError
 from imutherm.cli import main
 from imutherm.studies import sweep as sweep_mod
 from imutherm.studies.sweep import plan_sweep, sensitivity
