@@ -21,7 +21,8 @@ def _no_solve(*args, **kwargs):
 @pytest.fixture(scope="module")
 def transient(tmp_path_factory):
     out = tmp_path_factory.mktemp("solve") / "T"
-    assert main(["solve", "--scheme", "grease", "--transient", "--t-end", "600", "--dt", "20", "--no-progress",
+    # the default time stepping: adaptive TR-BDF2 (0.01 K at the sites)
+    assert main(["solve", "--scheme", "grease", "--transient", "--t-end", "600", "--no-progress",
                  "--out", str(out)] + COARSE) == 0
     return out
 
@@ -41,6 +42,8 @@ def test_transient_result_json(transient):
     assert r["energy_balance_rel_error"] < 1e-7
     assert r["steady_energy_balance_rel_error"] < 1e-9
     assert 0 <= r["transient_residual"] < 1e-6  # largest relative linear residual of any step
+    assert r["time_scheme"] == "trbdf2" and r["time_tol_K"] == 0.01 and r["theta"] is None
+    assert r["linear_solves"] == 3 * (r["steps"] + r["rejected_steps"]) and not r["settled"]
 
 
 def test_probes_csv_and_pvd(transient):
@@ -87,6 +90,10 @@ def test_steady_result_matches_energy_and_sites(tmp_path):
     (["--transient", "--theta", "nan"], "--theta must be in [0.5, 1]"),
     (["--theta", "0.5"], "--theta needs --transient"),
     (["--transient", "--save-every", "0"], "--save-every must be a finite number > 0 [s]"),
+    (["--transient", "--time-tol", "0"], "time_tol must be a finite number > 0 [K]"),
+    (["--transient", "--time-tol", "0.01", "--dt", "5"], "--time-tol sets the error-controlled TR-BDF2 steps"),
+    (["--transient", "--time-tol", "0.01", "--theta", "1"], "--time-tol sets the error-controlled TR-BDF2 steps"),
+    (["--transient", "--dt-max", "-1"], "dt_max must be a finite number > 0"),
     (["--transient", "--save-every", "-5"], "--save-every must be a finite number > 0 [s]"),
 ])
 def test_bad_input_one_line_no_files(tmp_path, capsys, monkeypatch, args, message):
@@ -185,3 +192,12 @@ def test_compare_writes_the_report(tmp_path):
     assert rises["air"] > rises["grease"] > rises["potted"] > 0
     pdf = (out / "report.pdf").read_bytes()
     assert pdf[:5] == b"%PDF-" and len(pdf) > 30_000
+
+
+def test_theta_scheme_and_settle_stop_from_the_cli(tmp_path, capsys):
+    out = tmp_path / "BE"
+    assert main(["solve", "--scheme", "potted", "--transient", "--theta", "1", "--t-end", "40", "--dt", "20",
+                 "--dt-max", "20", "--no-progress", "--out", str(out)] + COARSE) == 0
+    r = json.loads((out / "result.json").read_text())
+    assert r["time_scheme"] == "theta" and r["theta"] == 1.0 and r["steps"] == 2 and r["time_tol_K"] is None
+    assert "theta 1: 2 steps (0 rejected), 2 linear solves, to 40 s" in capsys.readouterr().out

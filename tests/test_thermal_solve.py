@@ -236,9 +236,102 @@ def test_time_steps():
 def test_settle_time_interpolates():
     t = np.array([0.0, 1.0, 2.0, 3.0])
     v = np.array([10.0, 12.0, 14.0, 15.0])        # final rise 5 -> 63.2 % = 3.16 reached between 1 and 2
-    assert settle_time(t, v, 1 - math.exp(-1)) == pytest.approx(1 + (5 * (1 - math.exp(-1)) - 2) / 2)
+    lin = dict(interpolation="linear")
+    assert settle_time(t, v, 1 - math.exp(-1), **lin) == pytest.approx(1 + (5 * (1 - math.exp(-1)) - 2) / 2)
+    assert settle_time(t, v, 0.95, **lin) == pytest.approx(2 + (4.75 - 4) / 1)
+    # log-gap: the last point defines the final value (gap 0 there) -> linear on that bracket
     assert settle_time(t, v, 0.95) == pytest.approx(2 + (4.75 - 4) / 1)
     assert math.isnan(settle_time(t, np.full(4, 3.0), 0.5))
+    with pytest.raises(InputError, match="interpolation"):
+        settle_time(t, v, 0.5, interpolation="cubic")
+
+
+@pytest.mark.parametrize("dt", [10.0, 60.0, 150.0])
+def test_settle_time_log_gap_is_exact_for_an_exponential(dt):
+    """t63 = τ and t95 = τ ln 20 of 1 − exp(−t/τ) from coarse samples: exact with the log-gap interpolation,
+    late by up to Δt^2/(8τ) with linear interpolation (t95 = 330 s mid-way between samples at Δt = 60 s: 1.2 %)."""
+    tau = 330.0 / math.log(20)
+    t = np.arange(0.0, 1000.0 + dt, dt)
+    v = 20.0 + 8.0 * (1 - np.exp(-t / tau))
+    for f, exact in ((1 - math.exp(-1), tau), (0.95, tau * math.log(20))):
+        assert settle_time(t, v, f, 8.0) == pytest.approx(exact, rel=1e-12)
+        late = settle_time(t, v, f, 8.0, interpolation="linear") / exact - 1
+        assert late >= -1e-12                    # a chord of a concave curve crosses late (or on a sample)
+    if dt == 60.0:
+        assert settle_time(t, v, 0.95, 8.0, interpolation="linear") / (tau * math.log(20)) - 1 > 0.01
+
+
+# --------------------------------------------------------------------------- TR-BDF2
+
+@pytest.mark.parametrize("adaptive", [False, True])
+def test_trbdf2_energy_balance_nonlinear(adaptive):
+    pr = _nonlinear_problem()
+    kw = dict(dt=None, tol_K=0.01) if adaptive else dict(dt=20.0)
+    r = solve_transient(pr, 600.0, scheme="trbdf2", probes={"chip": (0.015, 0.01, 0.006)}, **kw)
+    assert r.scheme == "trbdf2" and math.isnan(r.theta) and r.lagged_nonlinear and r.times[-1] == 600.0
+    assert r.energy_in_J == pytest.approx(600.0 * (0.5 + 50.0 * 0.03 * 0.007))
+    assert r.energy_balance_rel_error < 1e-10          # measured ~1e-13 (direct solves)
+    if adaptive:
+        assert r.tol_K == 0.01 and r.linear_solves == 3 * (r.steps + r.rejected_steps)
+    else:
+        assert r.steps == 30 and r.linear_solves == 60 and r.tol_K is None
+
+
+@pytest.mark.parametrize("solver", ["amg", "direct"])
+def test_trbdf2_energy_balance_time_dependent_fixed_temperature(solver):
+    g, k, rc, q = _box()
+    pr = ThermalProblem(g, k, rc, q, 25.0, {"zmin": FixedTemperature(lambda t: 25.0 + 5 * math.sin(t / 50)),
+                                            "zmax": Convection(10.0), "xmax": Radiation(0.9)})
+    fixed = solve_transient(pr, 300.0, 10.0, scheme="trbdf2", solver=solver)
+    adapt = solve_transient(pr, 300.0, None, scheme="trbdf2", solver=solver, tol_K=0.01)
+    # AMG: the balance follows the per-stage CG rtol 1e-6 (measured 9e-8 fixed, 7e-7 adaptive); direct: round-off
+    limit = 5e-6 if solver == "amg" else 1e-10
+    assert fixed.energy_balance_rel_error < limit and adapt.energy_balance_rel_error < limit
+    assert np.abs(fixed.T_C - adapt.T_C).max() < 0.05
+
+
+def test_trbdf2_beats_backward_euler_at_equal_steps_and_converges_to_steady():
+    pr = _nonlinear_problem()
+    fine = solve_transient(pr, 600.0, 0.5, scheme="trbdf2")
+    be = solve_transient(pr, 600.0, 20.0)
+    tr = solve_transient(pr, 600.0, 20.0, scheme="trbdf2")
+    e_be, e_tr = np.abs(be.T_C - fine.T_C).max(), np.abs(tr.T_C - fine.T_C).max()
+    assert e_tr < 0.1 * e_be
+    s = solve_steady(pr)
+    long = solve_transient(pr, 2e5, None, scheme="trbdf2", tol_K=1e-3, dt_max=2e4)
+    assert np.abs(long.T_C - s.T_C).max() < 1e-3
+
+
+def test_settle_stop_ends_after_every_probe_settled():
+    pr = _nonlinear_problem()
+    probes = {"chip": (0.015, 0.01, 0.006), "corner": (0.0, 0.0, 0.0)}
+    s = solve_steady(pr, probes=probes)
+    r = solve_transient(pr, 2e5, None, scheme="trbdf2", probes=probes, settle_C=dict(zip(s.probe_names, s.probe_C)),
+                        save_times=[0.0, 10.0, 1.9e5])
+    assert r.settled and r.times[-1] < 2e5
+    rise = s.probe_C - r.probe_C[0]
+    assert np.all(np.abs(s.probe_C - r.probe_C[-1]) <= 0.005 * np.abs(rise))
+    assert np.any(np.abs(s.probe_C - r.probe_C[-2]) > 0.005 * np.abs(rise))  # not settled one step earlier
+    assert list(r.saved_times) == [0.0, 10.0] and r.saved_C.shape[0] == 2
+    m = thermal_metrics(r, final_rise_K=dict(zip(s.probe_names, rise)))
+    assert all(m.t95_s[n] < r.times[-1] for n in s.probe_names)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"scheme": "rk4"}, r"scheme must be one of"),
+    ({"dt": None}, r"dt is required for the theta scheme"),
+    ({"scheme": "trbdf2", "tol_K": 0.01}, r"apply to adaptive steps"),
+    ({"scheme": "trbdf2", "dt": None, "tol_K": -1.0}, r"tol_K \[K\] must be a finite number > 0"),
+    ({"scheme": "trbdf2", "dt": None, "dt_first": 10.0, "dt_max": 5.0}, r"must not be smaller than dt_first"),
+    ({"scheme": "trbdf2", "dt": None, "error_control": "probes"}, r"needs probes"),
+    ({"scheme": "trbdf2", "dt": None, "error_control": "sites"}, r"error_control must be"),
+    ({"settle_C": {"x": 30.0}}, r"settle_C must give a final temperature for every probe"),
+    ({"settle_C": [30.0]}, r"settle_C needs probes|one value per probe"),
+])
+def test_bad_trbdf2_input_raises_input_error(kwargs, match):
+    kw = {"dt": 10.0, **kwargs}
+    with pytest.raises(InputError, match=match):
+        solve_transient(_nonlinear_problem(), 100.0, **kw)
 
 
 def test_metrics_steady_and_transient():

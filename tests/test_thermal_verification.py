@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 
 from imutherm.cli import verify as verify_cli
@@ -21,6 +22,8 @@ TOLERANCES = {
     "orthotropic_plate": 1e-3,        # relative, centre rise
     "lumped_backward_euler": 3e-3,    # fraction of ΔT∞ at dt = τ/80 (first-order estimate 2.3e-3)
     "natural_convection_1d": 1e-6,    # K against the brentq roots (Newton tolerance)
+    "lumped_trbdf2": 3e-5,            # fraction of ΔT∞ at dt = τ/40 (second-order estimate 9.4e-6 + O(Bi))
+    "lumped_trbdf2_adaptive": 2.0,    # max error / tol_K (error-per-step control, measured 1.3)
 }
 
 
@@ -61,6 +64,34 @@ def test_backward_euler_order_check_can_fail(monkeypatch):
     rec = V.case_lumped_backward_euler(divisions=(20, 40, 80))
     assert rec.error <= rec.tolerance
     assert not rec.passed and "ORDER CHECK FAILED" in rec.note
+
+
+def test_trbdf2_is_second_order():
+    """TR-BDF2 must show order ≈ 2 against the semi-discrete exact solution (both pairs in [1.9, 2.1])."""
+    rec = V.case_lumped_trbdf2()
+    assert 1.9 <= rec.computed <= 2.1
+    assert "orders" in rec.note and "ORDER CHECK FAILED" not in rec.note
+    assert rec.passed
+
+
+def test_trbdf2_order_check_can_fail(monkeypatch):
+    """Backward Euler in place of TR-BDF2 (order 1) fails the order check."""
+    real = V.solve_transient
+
+    def first_order(pr, t_end, dt, **kw):
+        kw.pop("scheme", None)
+        return real(pr, t_end, dt, scheme="theta", theta=1.0, **kw)
+
+    monkeypatch.setattr(V, "solve_transient", first_order)
+    rec = V.case_lumped_trbdf2()
+    assert not rec.passed and "ORDER CHECK FAILED" in rec.note
+
+
+def test_semi_discrete_exact_is_the_closed_form_to_lumped_model_accuracy():
+    pr, tau, rise_inf, Tinf, centre, Bi = V._lumped_block()
+    t = np.linspace(0, 3 * tau, 7)
+    sd = V._semi_discrete_exact(pr, [centre])(t)[:, 0]
+    assert np.abs(sd - Tinf - rise_inf * (1 - np.exp(-t / tau))).max() < 10 * Bi * rise_inf
 
 
 def test_natural_convection_reference():

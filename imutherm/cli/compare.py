@@ -9,6 +9,9 @@ warm-up), ``attitude_<s>.csv`` (attitude error of each filter over the warm-up),
 
 ``--thermal-only`` (or ``--steady-only``) runs the thermal comparison alone and writes the earlier
 files: ``report.pdf``, ``compare.json``, ``probes_<s>.csv``, ``map_<s>.npz``, ``layout.png``.
+
+Transients: adaptive TR-BDF2 (``--time-tol``, default 0.01 K at the sites), each ending once
+every site has settled, past its t95 (``--full-length``: run to ``--t-end``).
 """
 
 from __future__ import annotations
@@ -17,9 +20,8 @@ import argparse
 
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
 from imutherm.cli.geometry import add_layout_arguments
-from imutherm.cli.solve import add_model_arguments, model_options
+from imutherm.cli.solve import add_model_arguments, add_time_arguments, model_options, time_kwargs
 from imutherm.studies.compare import compare_schemes, write_comparison
-from imutherm.studies.thermal_study import check_time_arguments
 
 
 @run_guarded("imutherm compare")
@@ -28,11 +30,7 @@ def main(argv=None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     add_layout_arguments(parser)
     parser.add_argument("--schemes", default="air,grease,potted", help="comma-separated schemes (default all three)")
-    parser.add_argument("--t-end", type=float, default=2400.0, metavar="SECONDS",
-                        help="power-on transient length [s] (default 2400: the paper's air scheme settles in ~800 s)")
-    parser.add_argument("--dt", type=float, default=2.0, metavar="SECONDS",
-                        help="first time step [s]; steps grow by 1.2 up to --dt-max (default 2)")
-    parser.add_argument("--dt-max", type=float, default=60.0, metavar="SECONDS", help="largest time step [s] (default 60)")
+    add_time_arguments(parser, t_end=2400.0, settle_stop=True)
     parser.add_argument("--steady-only", action="store_true", help="thermal steady states only (implies --thermal-only)")
     parser.add_argument("--thermal-only", action="store_true", help="thermal comparison only, no IMU / attitude")
     g = parser.add_argument_group("IMU and attitude (the end-to-end study)")
@@ -55,16 +53,15 @@ def main(argv=None) -> int:
     check_outdir(args.out)
     if args.scheme:
         parser.error("use --schemes with compare")
-    if not args.steady_only:
-        check_time_arguments(args.t_end, args.dt, args.dt_max)
+    args.time_kwargs = {} if args.steady_only else time_kwargs(args)
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
     if not schemes:
         parser.error(f"--schemes {args.schemes!r}: give at least one scheme, e.g. air,grease,potted")
     if not (args.thermal_only or args.steady_only):
         return _end_to_end(args, schemes)
     comp = compare_schemes(args.layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
-                           t_end=args.t_end, dt=args.dt, dt_max=args.dt_max, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                           options=model_options(args))
+                           mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=model_options(args),
+                           **args.time_kwargs)
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout
 
@@ -97,8 +94,8 @@ def _end_to_end(args, schemes) -> int:
     config = StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
                          profiles=names(args.profiles), filters=names(args.filters))
     res = run_study(args.layout, schemes, config=config, options=model_options(args), jobs=args.jobs,
-                    progress=not args.no_progress, t_end=args.t_end, dt=args.dt, dt_max=args.dt_max,
-                    mesh_size_mm=args.mesh_size, min_cells=args.min_cells)
+                    progress=not args.no_progress, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
+                    **args.time_kwargs)
     from imutherm.reports.layout_plot import plot_layout
     from imutherm.reports.study_report import write_study_report
 

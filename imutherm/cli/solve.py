@@ -1,5 +1,10 @@
 """``imutherm solve``: steady or power-on transient thermal solve of one cooling scheme.
 
+The transient is TR-BDF2 (second order, L-stable) with error-controlled
+steps (``--time-tol``, default 0.01 K at the sites), or given steps
+(``--dt``/``--dt-max``), or the theta scheme (``--theta``);
+``--until-settled`` ends it once every site has settled.
+
 Writes in ``--out DIR``: ``result.json`` (rises, hot spot, per-site rise and
 t63/t95, energy balance, unknowns, timings), ``probes.csv`` (``time_s`` then
 one column per site, degC; a steady run has one row at time ``inf``) and the
@@ -39,6 +44,45 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
 
 
+def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_stop: bool = False) -> None:
+    """Time stepping of the power-on transient (shared by ``solve`` and ``compare``)."""
+    g = parser.add_argument_group("time stepping")
+    g.add_argument("--t-end", type=float, default=t_end, metavar="SECONDS",
+                   help=f"transient end time [s] (default {t_end:g}; the latest end with --until-settled)")
+    g.add_argument("--time-tol", type=float, default=None, metavar="K",
+                   help="local error tolerance of the adaptive TR-BDF2 steps at the sites [K] (default 0.01)")
+    g.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+                   help="given steps instead of error control: first step [s], constant, or growing by 1.2 "
+                        "up to --dt-max (theta scheme default: 2 s up to 60 s)")
+    g.add_argument("--dt-max", type=float, default=None, metavar="SECONDS",
+                   help="largest step [s] (adaptive default 300)")
+    g.add_argument("--theta", type=float, default=None,
+                   help="use the theta scheme with given steps instead of TR-BDF2: 1 backward Euler, "
+                        "0.5 Crank-Nicolson (in [0.5, 1]; needs --transient)")
+    if settle_stop:
+        g.add_argument("--full-length", dest="until_settled", action="store_false",
+                       help="run every transient to --t-end (default: stop once every site is within 0.5 %% "
+                            "of its steady rise, past its t95)")
+    else:
+        g.add_argument("--until-settled", action="store_true",
+                       help="stop once every site is within 0.5 %% of its steady rise (past its t95)")
+
+
+def time_kwargs(args) -> dict:
+    """``run_scheme`` time arguments from the options of :func:`add_time_arguments` (checked)."""
+    if args.theta is not None and not 0.5 <= args.theta <= 1.0:
+        raise InputError(f"--theta must be in [0.5, 1] (1 backward Euler, 0.5 Crank-Nicolson), got {args.theta}")
+    if args.time_tol is not None and (args.dt is not None or args.theta is not None):
+        raise InputError("--time-tol sets the error-controlled TR-BDF2 steps: not with --dt or --theta")
+    scheme = "trbdf2" if args.theta is None else "theta"
+    check_time_arguments(args.t_end, args.dt, args.dt_max, args.time_tol, scheme)
+    kw = dict(t_end=args.t_end, time_scheme=scheme, tol_K=args.time_tol, dt=args.dt, dt_max=args.dt_max,
+              until_settled=args.until_settled)
+    if args.theta is not None:
+        kw["theta"] = args.theta
+    return kw
+
+
 def model_options(args) -> ModelOptions:
     return ModelOptions(exterior=args.exterior, h_fixed_W_m2K=args.h, radiation=not args.no_radiation,
                         emissivity=args.emissivity, mounting_conductance_W_m2K=args.mount_conductance,
@@ -59,14 +103,7 @@ def main(argv=None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     add_layout_arguments(parser)
     parser.add_argument("--transient", action="store_true", help="power-on transient from ambient")
-    parser.add_argument("--t-end", type=float, default=1200.0, metavar="SECONDS", help="transient end time [s]")
-    parser.add_argument("--dt", type=float, default=2.0, metavar="SECONDS",
-                        help="first transient step [s]; steps grow by 1.2 up to --dt-max (default 2)")
-    parser.add_argument("--dt-max", type=float, default=60.0, metavar="SECONDS",
-                        help="largest transient step [s] (default 60; equal to --dt for constant steps)")
-    parser.add_argument("--theta", type=float, default=None,
-                        help="time-stepping weight in [0.5, 1]: 1 backward Euler (default), 0.5 Crank-Nicolson; "
-                             "needs --transient")
+    add_time_arguments(parser, t_end=1200.0)
     parser.add_argument("--save-every", type=float, default=None, metavar="SECONDS",
                         help="keep the whole field every SECONDS for the PVD series (default: t_end/10)")
     parser.add_argument("--site", action="append", default=None, metavar="NAME",
@@ -80,15 +117,15 @@ def main(argv=None) -> int:
     check_outdir(args.out)
     save_times = None
     if args.transient:
-        check_time_arguments(args.t_end, args.dt, args.dt_max)
-        if args.theta is not None and not 0.5 <= args.theta <= 1.0:
-            raise InputError(f"--theta must be in [0.5, 1] (1 backward Euler, 0.5 Crank-Nicolson), got {args.theta}")
+        tkw = time_kwargs(args)
         if args.save_every is not None and not (math.isfinite(args.save_every) and args.save_every > 0):
             raise InputError(f"--save-every must be a finite number > 0 [s], got {args.save_every}")
         every = args.save_every if args.save_every is not None else args.t_end / 10
         save_times = np.unique(np.append(np.arange(0.0, args.t_end, every), args.t_end))
     elif args.theta is not None:
         raise InputError("--theta needs --transient (a steady solve has no time stepping)")
+    else:
+        tkw = {}
     options = model_options(args)
     layout = load_layout(args.layout)
     sites = list(build_geometry(layout, args.scheme).sites)
@@ -98,9 +135,8 @@ def main(argv=None) -> int:
             raise InputError(f"--site: unknown site(s) {', '.join(unknown)}; valid: {', '.join(sites)}")
 
     res = run_scheme(layout, args.scheme, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                     options=options, transient=args.transient, t_end=args.t_end, dt=args.dt, dt_max=args.dt_max,
-                     theta=1.0 if args.theta is None else args.theta, save_times=save_times,
-                     progress=args.transient and not args.no_progress)
+                     options=options, transient=args.transient, save_times=save_times,
+                     progress=args.transient and not args.no_progress, **tkw)
     summary = result_summary(res)
     header, rows = probe_table(res)
     if args.site:
@@ -115,6 +151,12 @@ def main(argv=None) -> int:
           f"({summary['max_temperature_C']:.2f} C) in {summary['hottest_part']}; "
           f"energy balance {summary['energy_balance_rel_error']:.1e}; {summary['unknowns']} unknowns; "
           f"{summary['timings_s']['wall']:.1f} s")
+    if args.transient:
+        how = (f"theta {summary['theta']:g}" if summary["time_scheme"] == "theta" else
+               "TR-BDF2" + (f", tol {summary['time_tol_K']:g} K" if summary["time_tol_K"] is not None else ""))
+        print(f"  {how}: {summary['steps']} steps ({summary['rejected_steps']} rejected), "
+              f"{summary['linear_solves']} linear solves, to {summary['t_end_s']:.0f} s"
+              + (" (settled)" if summary["settled"] else ""))
     for name, s in summary["sites"].items():
         extra = f", t63 {s['t63_s']:.0f} s, t95 {s['t95_s']:.0f} s" if s.get("t95_s") is not None else ""
         print(f"  {name:<8} rise {s['rise_K']:6.2f} K{extra}")

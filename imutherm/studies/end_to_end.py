@@ -224,7 +224,8 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     Returns
     -------
     dict with ``attitude[cal][phase][comp][filter][profile] -> {metric: value [deg]}``,
-    ``residuals[cal][comp] -> {metric: value}`` (flight warm-up, ``residual_window_s`` means: accel [mg],
+    ``residuals[cal][comp] -> {metric: value}`` (flight (else the first profile) warm-up,
+    ``residual_window_s`` means: accel [mg],
     gyro [°/s]), ``extrapolated[cal] -> fraction`` (sample-sensor pairs outside the calibrated range, all
     runs), ``range_C[cal] -> (lo (6,), hi (6,))`` reported-temperature ranges [°C], ``max_reported_C`` (6,)
     [°C], and ``series`` (residual and attitude-error curves of the flight warm-up).
@@ -258,6 +259,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     n_all = 0
     max_rep = np.full(6, -np.inf)
     run_seeds = run_ss.spawn(len(config.profiles) * len(PHASES))
+    series_profile = "flight" if "flight" in config.profiles else config.profiles[0]  # residuals, curves
     for p_i, profile in enumerate(config.profiles):
         d = DEFAULT_LEVER_ARM[profile]
         traj = motion.make_profile(profile, None, rate, lever_arm=d)
@@ -289,7 +291,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
                 for ck in cal_keys:
                     for f in config.filters:
                         att[ck][phase].setdefault(comp, {}).setdefault(f, {})[profile] = m[f]
-                if profile == "flight" and phase == "warmup":
+                if profile == series_profile and phase == "warmup":
                     nb = max(1, int(round(config.residual_window_s * rate)))
                     ea = _block_mean((s.accel - traj.f_b) / G0 * 1e3, nb)  # [mg]
                     eg = _block_mean(np.degrees(s.gyro - traj.omega_b), nb)  # [°/s]

@@ -49,16 +49,28 @@ class SchemeResult:
 
 #: growth factor of the transient step from ``dt`` to ``dt_max`` (first steps resolve the power-on jump)
 DT_GROWTH = 1.2
+#: given-step defaults of the θ-scheme (the pre-TR-BDF2 default): 2 s growing by 1.2 up to 60 s
+THETA_DT, THETA_DT_MAX = 2.0, 60.0
+TIME_SCHEMES = ("trbdf2", "theta")
 
 
-def check_time_arguments(t_end: float, dt: float, dt_max: float | None = None) -> None:
-    """InputError unless 0 < dt <= dt_max and dt <= t_end are finite [s]."""
-    for name, v in (("t_end", t_end), ("dt", dt)) + ((("dt_max", dt_max),) if dt_max is not None else ()):
-        if v is None or not math.isfinite(v) or v <= 0:
-            raise InputError(f"{name} must be a finite number > 0 [s], got {v!r}")
-    if dt > t_end:
+def check_time_arguments(t_end: float, dt: float | None = None, dt_max: float | None = None,
+                         tol_K: float | None = None, time_scheme: str = "trbdf2") -> None:
+    """InputError unless the transient's time arguments are valid.
+
+    ``t_end``, ``dt``, ``dt_max`` [s] and ``tol_K`` [K] finite and > 0 where given,
+    ``dt <= dt_max``, ``dt <= t_end``; ``time_scheme`` 'trbdf2' or 'theta'.
+    """
+    if time_scheme not in TIME_SCHEMES:
+        raise InputError(f"time scheme must be one of {', '.join(TIME_SCHEMES)}, got {time_scheme!r}")
+    for name, v in (("t_end", t_end), ("dt", dt), ("dt_max", dt_max), ("time_tol", tol_K)):
+        if name == "t_end" or v is not None:
+            if v is None or not math.isfinite(v) or v <= 0:
+                unit = "[K]" if name == "time_tol" else "[s]"
+                raise InputError(f"{name} must be a finite number > 0 {unit}, got {v!r}")
+    if dt is not None and dt > t_end:
         raise InputError(f"dt = {dt} s must not exceed t_end = {t_end} s")
-    if dt_max is not None and dt_max < dt:
+    if dt is not None and dt_max is not None and dt_max < dt:
         raise InputError(f"dt_max = {dt_max} s must not be smaller than dt = {dt} s")
 
 
@@ -71,7 +83,8 @@ def step_sizes(t_end: float, dt: float, dt_max: float | None) -> np.ndarray | fl
 def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None, *,
                mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
                options: ModelOptions | None = None, transient: bool = False, t_end: float = 1200.0,
-               dt: float = 2.0, dt_max: float | None = 60.0, theta: float = 1.0, save_times=None,
+               time_scheme: str = "trbdf2", tol_K: float | None = None, dt: float | None = None,
+               dt_max: float | None = None, theta: float = 1.0, until_settled: bool = False, save_times=None,
                progress: bool = False) -> SchemeResult:
     """Solve one cooling scheme of a layout.
 
@@ -81,14 +94,29 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     scheme : str (air, grease, potted; default: the layout's)
     mesh_size_mm : float [mm] largest cell edge
     transient : bool, also run the power-on transient from ambient
-    t_end : float [s] transient end time
-    dt, dt_max : float [s] first step and largest step (steps grow by 1.2; ``dt_max=None``: constant ``dt``)
-    theta : float, 1 backward Euler, 0.5 Crank-Nicolson
+    t_end : float [s] transient end time (the latest end with ``until_settled``)
+    time_scheme : 'trbdf2' (default: second order, L-stable; error-controlled unless ``dt`` is given)
+        or 'theta' (θ-scheme with given steps; 1 backward Euler, 0.5 Crank-Nicolson)
+    tol_K : float [K] local error tolerance of the adaptive TR-BDF2 steps on the sites
+        (default 0.01 K, see :func:`imutherm.thermal.solve.solve_transient`)
+    dt, dt_max : float [s] given steps: first step ``dt`` growing by 1.2 up to ``dt_max``
+        (``dt_max`` None: constant ``dt``); the θ-scheme defaults to 2 s up to 60 s. Without ``dt``
+        (TR-BDF2), ``dt_max`` is the largest adaptive step (default 300 s).
+    theta : float, θ of the θ-scheme
+    until_settled : bool, stop the transient once every site is within 0.5 % of its steady rise
+        (and past its t95): the steady solution is computed first
     save_times : sequence [s], times at which the transient keeps the whole field
     """
     start = time.perf_counter()
     if transient:
-        steps = step_sizes(t_end, dt, dt_max)
+        if time_scheme == "theta" and dt is None:
+            dt, dt_max = THETA_DT, THETA_DT_MAX if dt_max is None else dt_max
+        check_time_arguments(t_end, dt, dt_max, tol_K, time_scheme)
+        if dt is not None and tol_K is not None:
+            raise InputError("time_tol applies to error-controlled steps: give either dt or time_tol")
+        if time_scheme == "theta" and tol_K is not None:
+            raise InputError("time_tol needs the trbdf2 time scheme (the theta scheme takes given steps)")
+        steps = step_sizes(t_end, dt, dt_max) if dt is not None else None
     if not isinstance(layout, LayoutSpec):
         layout = load_layout(layout)
     options = options or ModelOptions()
@@ -100,9 +128,15 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     steady = solve_steady(problem, probes=probes, assembly=asm)
     tr = None
     if transient:
-        tr = solve_transient(problem, t_end, steps, theta=theta, save_times=save_times, probes=probes,
-                             progress=progress, assembly=asm)
-        final = {n: float(v) - problem.ambient_C for n, v in zip(steady.probe_names, steady.probe_C)}
+        final_C = dict(zip(steady.probe_names, (float(v) for v in steady.probe_C)))
+        kw = dict(scheme=time_scheme, save_times=save_times, probes=probes, progress=progress, assembly=asm,
+                  settle_C=final_C if until_settled else None)
+        if time_scheme == "theta":
+            kw["theta"] = theta
+        if steps is None:
+            kw.update(tol_K=tol_K, dt_max=dt_max, error_control="probes")
+        tr = solve_transient(problem, t_end, steps, **kw)
+        final = {n: v - problem.ambient_C for n, v in final_C.items()}
         metrics = thermal_metrics(tr, final_rise_K=final)
     else:
         metrics = thermal_metrics(steady)
@@ -155,7 +189,10 @@ def result_summary(res: SchemeResult) -> dict:
     }
     if tr is not None:
         # transient_residual [-]: largest relative linear residual of any step (TransientResult.residual)
-        out.update({"t_end_s": float(tr.times[-1]), "steps": tr.steps, "theta": tr.theta,
+        out.update({"t_end_s": float(tr.times[-1]), "steps": tr.steps, "time_scheme": tr.scheme,
+                    "theta": tr.theta if tr.scheme == "theta" else None, "time_tol_K": tr.tol_K,
+                    "rejected_steps": tr.rejected_steps, "linear_solves": tr.linear_solves,
+                    "settled": tr.settled,
                     "transient_iterations": tr.iterations, "transient_residual": tr.residual})
         out["timings_s"].update({"transient_assembly": tr.assembly_s, "transient_solve": tr.solve_s})
     return out

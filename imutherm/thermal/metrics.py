@@ -34,8 +34,8 @@ class ThermalMetrics:
         Probe name -> probe temperature minus ambient.
     t63_s, t95_s : dict or None [s]
         Probe name -> time to reach 63.2 % (1 − 1/e) / 95 % of the final rise
-        (rise measured from the probe's t = 0 value; linear interpolation between
-        steps; NaN if never reached or the final rise is zero). ``None`` for steady results.
+        (rise measured from the probe's t = 0 value; crossing interpolated in the log of
+        the remaining gap, see :func:`settle_time`; NaN if never reached or the final rise is zero). ``None`` for steady results.
     part_max_C : dict [°C]
         Part name -> hottest node of the part's cells.
     part_max_rise_K : dict [K]
@@ -54,7 +54,7 @@ class ThermalMetrics:
     part_max_rise_K: dict
 
 
-def settle_time(times, values, fraction: float, final=None) -> float:
+def settle_time(times, values, fraction: float, final=None, *, interpolation: str = "log") -> float:
     """First time [s] at which ``values − values[0]`` reaches ``fraction`` of the final rise.
 
     Parameters
@@ -65,11 +65,21 @@ def settle_time(times, values, fraction: float, final=None) -> float:
         E.g. 0.632 or 0.95.
     final : float, optional [K]
         Final rise over ``values[0]``; default ``values[-1] − values[0]``.
+    interpolation : {'log', 'linear'}
+        How the crossing is located between the two bracketing steps. ``'log'``
+        (default): linear in time in the logarithm of the remaining gap
+        ``1 − rise/final``, exact for an exponential approach
+        ``gap = exp(−t/τ)`` whatever the step; linear interpolation of such a curve
+        is late by up to ~(Δt/τ)² τ/8 (about 1.5 % of t95 with 60 s steps at τ = 100 s).
+        Falls back to linear where the gap does not shrink monotonically to a
+        positive value across the bracket (overshoot, or the last point defines the final value).
 
     Returns
     -------
-    float [s], linearly interpolated between steps; NaN if never reached.
+    float [s]; NaN if never reached.
     """
+    if interpolation not in ("log", "linear"):
+        raise InputError(f"settle_time: interpolation must be 'log' or 'linear', got {interpolation!r}")
     t = np.asarray(times, dtype=float)
     v = np.asarray(values, dtype=float)
     rise = v - v[0]
@@ -84,7 +94,11 @@ def settle_time(times, values, fraction: float, final=None) -> float:
     if i == 0:
         return float(t[0])
     s0, s1 = s[i - 1], s[i]
-    w = (fraction - s0) / (s1 - s0) if s1 != s0 else 1.0
+    g0, g1, gt = 1.0 - s0, 1.0 - s1, 1.0 - fraction
+    if interpolation == "log" and g1 > 0 and g0 > g1 and gt > 0:
+        w = math.log(g0 / gt) / math.log(g0 / g1)
+    else:
+        w = (fraction - s0) / (s1 - s0) if s1 != s0 else 1.0
     return float(t[i - 1] + w * (t[i] - t[i - 1]))
 
 
