@@ -334,6 +334,8 @@ def load_layout(path: str | Path | None = None) -> LayoutSpec:
     """
     path = resolve_layout(path)
     spath = str(path)
+    if not path.exists():
+        raise InputError(f"{spath}: layout file not found; built-in layouts: {', '.join(builtin_layouts())}")
     text = read_text(path, "layout file", MAX_LAYOUT_BYTES)
     try:
         data = tomllib.loads(text)

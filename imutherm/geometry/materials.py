@@ -96,3 +96,37 @@ def get_material(name: str) -> Material:
     if name not in lib:
         raise InputError(f"unknown material {name!r}; valid: {', '.join(sorted(lib))}")
     return lib[name]
+
+
+#: the properties :func:`with_properties` may change: ``k`` (isotropic materials) or ``k_in_plane`` /
+#: ``k_through`` (orthotropic ones) [W/m K], ``density`` [kg/m^3], ``specific_heat`` [J/kg K], ``emissivity`` [-]
+PROPERTY_UNITS = {"k": "W/m K", "k_in_plane": "W/m K", "k_through": "W/m K", "density": "kg/m^3",
+                  "specific_heat": "J/kg K", "emissivity": "-"}
+
+
+def settable_properties(material: Material) -> tuple:
+    """Names of the properties of ``material`` that :func:`with_properties` accepts."""
+    k = ("k",) if material.isotropic else ("k_in_plane", "k_through")
+    return k + ("density", "specific_heat") + (("emissivity",) if material.emissivity is not None else ())
+
+
+def with_properties(material: Material, where: str = "override", **changes) -> Material:
+    """A copy of ``material`` (same name) with some properties changed, checked like a library entry.
+
+    ``changes``: see :data:`PROPERTY_UNITS`; ``k`` only for isotropic materials. The library itself is
+    not touched; pass the result to the model (``ModelOptions.materials``).
+    """
+    valid = settable_properties(material)
+    unknown = sorted(set(changes) - set(valid))
+    if unknown:
+        raise InputError(f"{where}: material {material.name!r} has no settable property {unknown}; valid: {list(valid)}")
+    table = {"density": material.density, "specific_heat": material.specific_heat, "source": material.source}
+    if material.isotropic:
+        table["k"] = material.k_in_plane
+    else:
+        table.update(k_in_plane=material.k_in_plane, k_through=material.k_through)
+    if material.emissivity is not None:
+        table["emissivity"] = material.emissivity
+    table.update(changes)
+    table["source"] = f"{material.source}; changed ({where}): " + ", ".join(f"{k} = {v!r}" for k, v in changes.items())
+    return _material_from_table(material.name, table, where)

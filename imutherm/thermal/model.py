@@ -18,7 +18,7 @@ from imutherm import InputError
 from imutherm.geometry.build import Geometry
 from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 from imutherm.geometry.layout import AXES
-from imutherm.geometry.materials import get_material
+from imutherm.geometry.materials import Material, get_material
 from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Contact, Convection, NaturalConvection, Radiation,
                                       ThermalProblem)
 
@@ -69,6 +69,8 @@ class ModelOptions:
     standoff_contact_W_m2K : float or None [W/m^2 K], contact conductance where a
         plain part (standoff, bracket) touches the housing, the lid or a board; None: none
         (a part's own ``board_contact_W_m2K`` in the layout overrides it towards boards)
+    materials : tuple of Material, property sets used instead of the library entries of
+        the same name (a sweep varies a material this way without touching the library)
     """
 
     exterior: str = "natural"
@@ -85,6 +87,7 @@ class ModelOptions:
     # assumed: a dry screwed joint like the lid's; the nylon's own resistance (2.7 mm / 0.25 W/m K)
     # is ~40x larger, so this value hardly matters
     standoff_contact_W_m2K: float | None = AL_AL_AIR_JOINT_W_M2K
+    materials: tuple = ()
 
     def __post_init__(self):
         if self.exterior not in ("natural", "fixed", "none"):
@@ -101,6 +104,17 @@ class ModelOptions:
             v = getattr(self, name)
             if v is not None and not (0.0 <= v <= 1.0):
                 raise InputError(f"model option {name!r}: emissivity must be in [0, 1], got {v!r}")
+        for m in self.materials:
+            if not isinstance(m, Material):
+                raise InputError(f"model option 'materials' must hold Material entries, got {m!r}")
+            get_material(m.name)  # an override replaces a library entry: the name must exist
+
+    def material(self, name: str) -> Material:
+        """The material ``name``: its override in ``materials`` if given, else the library's."""
+        for m in self.materials:
+            if m.name == name:
+                return m
+        return get_material(name)
 
     def with_(self, **changes) -> "ModelOptions":
         """A copy with some options changed."""
@@ -217,7 +231,7 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
     k_part = np.zeros((nparts, 3))
     rc_part = np.zeros(nparts)
     for i, p in enumerate(parts):
-        m = get_material(p.material)
+        m = options.material(p.material)
         k_part[i] = m.k_in_plane
         if p.normal:
             k_part[i, AXES.index(p.normal)] = m.k_through
@@ -228,7 +242,7 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
     k = k_part[cp]  # (nx, ny, nz, 3)
 
     fill = grid.part_names.index("fill")
-    if options.cavity_radiation and get_material(parts[fill].material).name == "air":
+    if options.cavity_radiation and options.material(parts[fill].material).name == "air":
         air = cp == fill
         mean_T = ambient + 10.0  # linearisation point [degC]: hot parts run ~0-30 K above ambient
         for axis, w in enumerate(grid.cell_sizes()):
@@ -237,7 +251,7 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
     for itf in unit_interfaces(geometry, options):
         _apply_interface(k, grid, itf)
 
-    housing = get_material(parts[grid.part_names.index("housing")].material)
+    housing = options.material(parts[grid.part_names.index("housing")].material)
     eps = options.emissivity if options.emissivity is not None else (housing.emissivity or 0.0)
     (x0, y0, z0), (x1, y1, z1) = geometry.outer
     lengths = {"vertical": z1 - z0, "up": (x1 - x0) * (y1 - y0) / (2 * ((x1 - x0) + (y1 - y0)))}

@@ -1,0 +1,105 @@
+"""``imutherm sweep``: a parameter sweep of one cooling scheme, resumable, local or on a Dask cluster.
+
+Each ``--set KEY=VALUES`` names an input by a dotted key into the layout
+(``components.reg_5v.power_W``, ``mounting.contact_conductance_W_m2K``,
+``environment.ambient_C``, ``boards.main.min_mm.2``), a material of the scheme
+(``materials.silicone_grease.k``) or the model options (``options.emissivity``),
+and its values: a list ``0.5,1,2`` or a range ``lo:hi:n`` (grid), ``lo:hi``
+(lhs, morris). Every key and every case is checked before the first case runs.
+
+Writes in ``--out DIR``: ``results.csv`` (one row per case: case id, inputs,
+``max_rise_K``, ``t95_s`` with ``--transient``, ``rise_<site>_K``, attitude RMS
+errors with ``--attitude``, ``status``,
+``message``, ``seconds``; appended as cases finish, so ``--resume`` after a
+kill runs only the missing cases), ``sweep.json`` (design, sensitivity ranking,
+timing) and ``sweep.pdf`` (each output against each input, ranking of the
+inputs' influence).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from imutherm import InputError
+from imutherm.cli._common import check_outdir, run_guarded
+from imutherm.cli.geometry import add_layout_arguments
+from imutherm.cli.solve import add_model_arguments, model_options
+from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
+@run_guarded("imutherm sweep")
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="imutherm sweep", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_layout_arguments(parser)
+    parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUES",
+                        help="an input and its values (repeatable): KEY=0.5,1,2 or KEY=lo:hi:n (grid), KEY=lo:hi (lhs, morris)")
+    parser.add_argument("--method", choices=METHODS, default="grid",
+                        help="grid: every combination; lhs: SALib Latin hypercube of --samples cases; "
+                             "morris: SALib Morris design of --samples trajectories ((inputs + 1) cases each)")
+    parser.add_argument("--samples", type=int, default=None, metavar="N", help="design size of lhs / morris")
+    parser.add_argument("--seed", type=int, default=None, metavar="N", help="seed of the lhs / morris design")
+    parser.add_argument("--transient", action="store_true",
+                        help="also run the power-on transient: adds t95_s of the hottest site")
+    parser.add_argument("--t-end", type=float, default=1200.0, metavar="SECONDS", help="transient end time [s]")
+    parser.add_argument("--attitude", action="store_true",
+                        help="add attitude RMS error columns per case (improved compensation, unit calibrated in the "
+                             "oven, gated and kf filters, flight; warm-up phase with --transient)")
+    parser.add_argument("--attitude-seeds", type=int, default=1, metavar="N",
+                        help="IMU units / noise draws averaged per case, the same in every case (default 1)")
+    run = parser.add_mutually_exclusive_group()
+    run.add_argument("--jobs", type=int, default=1, metavar="N", help="local worker processes (default 1)")
+    run.add_argument("--dask", default=None, metavar="ADDRESS", help="run the cases on a Dask scheduler, tcp://host:port")
+    parser.add_argument("--resume", action="store_true", help="continue the sweep in --out: run only the missing cases")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_model_arguments(parser)
+    parser.add_argument("--out", required=True, help="output directory")
+    args = parser.parse_args(argv)
+
+    check_outdir(args.out)
+    if args.jobs < 1:
+        raise InputError(f"--jobs must be >= 1, got {args.jobs}")
+    plan = plan_sweep(args.layout, args.scheme, args.sets, method=args.method, samples=args.samples, seed=args.seed,
+                      options=model_options(args), mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
+                      transient=args.transient, t_end=args.t_end, attitude=args.attitude,
+                      attitude_seeds=args.attitude_seeds)
+    cost = estimate_cost(plan, 1 if args.dask else args.jobs)
+    d = plan.design
+    runner = f"{args.jobs} local process{'es' if args.jobs > 1 else ''}"
+    where = (f"{_duration(cost.total_s)} of one core, divided over the cluster's workers" if args.dask
+             else f"{_duration(cost.total_s)} on {runner}")
+    print(f"sweep of {d['scheme']} ({d['method']}): {cost.cases} cases of {', '.join(plan.keys)}; "
+          f"~{cost.unknowns} unknowns each, ~{cost.case_s:.0f} s per case on an idle core; estimate {where}",
+          flush=True)
+    res = run_sweep(plan, args.out, jobs=args.jobs, dask_address=args.dask, resume=args.resume,
+                    progress=not args.no_progress)
+
+    from imutherm.reports.sweep_report import write_sweep_pdf
+
+    write_sweep_pdf(res, res.out_dir / "sweep.pdf")
+    ok = len(res.rows) - res.failed
+    print(f"{len(res.rows)}/{len(plan.cases)} cases recorded ({ok} ok, {res.failed} failed; {res.ran} run now, "
+          f"{res.skipped} already recorded) in {_duration(res.wall_s)}")
+    for r in res.rows:
+        if r["status"] == "failed":
+            print(f"  case {r['case']} failed: {r['message']}")
+    sens = res.sensitivity
+    if sens["ranking"]:
+        metric = "mu_star" if sens["measure"] == "morris_mu_star" else "src"
+        name = {"mu_star": "Morris mu*", "src": "standardised regression coefficient"}[metric]
+        by = sens["outputs"]["max_rise_K"]["by_key"]
+        extra = f", R^2 {sens['outputs']['max_rise_K']['r2']:.2f}" if metric == "src" else ""
+        print(f"influence on max_rise_K ({name}{extra}):")
+        for k in sens["ranking"]:
+            print(f"  {k:<40} {by[k][metric]:+.3g}")
+    if sens["note"]:
+        print(f"note: {sens['note']}")
+    print(f"wrote {args.out}/results.csv sweep.json sweep.pdf")
+    if res.lost:
+        print(f"imutherm sweep: {len(res.lost)} case(s) not run (a worker process was lost): rerun with --resume")
+        return 1
+    return 0

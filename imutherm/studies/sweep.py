@@ -1,0 +1,874 @@
+"""Parameter sweeps of one cooling scheme: design, sampling, running (local or Dask), resume, sensitivity.
+
+A sweep varies numeric inputs named by dotted keys:
+
+- ``<table>.<field>`` and ``<array>.<name>.<field>[.<index>]`` of the layout file, e.g.
+  ``environment.ambient_C``, ``mounting.contact_conductance_W_m2K``, ``components.reg_5v.power_W``,
+  ``boards.main.min_mm.2`` (an element of a vector);
+- ``materials.<material>.<property>`` of a material the scheme uses (``k`` or ``k_in_plane`` /
+  ``k_through``, ``density``, ``specific_heat``, ``emissivity``): a changed copy of the library entry is
+  handed to the model (``ModelOptions.materials``), the library is not touched;
+- ``options.<field>`` of the numeric :class:`~imutherm.thermal.model.ModelOptions`, e.g. ``options.emissivity``.
+
+:func:`plan_sweep` checks every key and every case before anything runs (each case's values are
+applied to the layout file's dict, which is re-parsed and built, so the layout's own checks run);
+:func:`run_sweep` runs the missing cases and appends one row per case to ``results.csv`` as each
+finishes (flushed and fsynced), so a killed sweep loses only the cases in flight and ``resume``
+runs exactly the missing case ids. Designs (grid, Latin hypercube, Morris) and the Morris
+measures come from SALib; for grid and LHS the influence measure is the standardised regression
+coefficient (SRC) of a linear least-squares fit, reported with its R^2.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import difflib
+import hashlib
+import io
+import itertools
+import json
+import math
+import os
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.geometry.build import build_geometry
+from imutherm.geometry.layout import default_layout_path, parse_layout
+from imutherm.geometry.materials import PROPERTY_UNITS, get_material, settable_properties, with_properties
+from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
+from imutherm.thermal.model import ModelOptions
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover
+    import tomli as tomllib
+
+METHODS = ("grid", "lhs", "morris")
+#: Morris grid levels (SALib's default; Morris & Campolongo recommend an even p, 4 is usual)
+MORRIS_LEVELS = 4
+#: CPU time per mesh unknown of one steady case [s]: benchmarks/bench_sweep.py on the 2-core development
+#: machine, 50 cases of the reference unit at the default mesh: 7.4 s per case for 185 724 unknowns
+STEADY_S_PER_UNKNOWN = 4.0e-5
+#: a case with the 1200 s power-on transient costs about this many steady cases (README thermal benchmark,
+#: grease: the transient adds 25.1 s to a ~7 s steady case; measured with the θ-scheme steps, the adaptive
+#: TR-BDF2 default was not re-measured for this estimate)
+TRANSIENT_FACTOR = 4.5
+#: optional numeric fields a layout table may leave out (their defaults apply) but a sweep may set
+_OPTIONAL_FIELDS = {"components": ("power_W", "die_base_mm"), "parts": ("power_W",),
+                    "mounting": ("temperature_C",), "schemes": ("max_bond_gap_mm",)}
+RESULTS_CSV = "results.csv"
+SWEEP_JSON = "sweep.json"
+
+
+# ---------------------------------------------------------------- design
+@dataclass(frozen=True)
+class Factor:
+    """One swept input.
+
+    key : str, dotted path (see the module docstring)
+    values : tuple of float or None, the levels of a grid design
+    bounds : (lo, hi) or None, the range of an LHS / Morris design
+    unit : str, e.g. ``W``, ``degC``, ``W/m^2 K`` (for labels)
+    """
+
+    key: str
+    values: tuple | None
+    bounds: tuple | None
+    unit: str
+
+
+@dataclass(frozen=True)
+class CaseSettings:
+    """What every case shares: scheme, mesh and run switches (sent to the workers once per case)."""
+
+    scheme: str
+    mesh_size_mm: float
+    min_cells: int
+    transient: bool
+    t_end: float
+    sites: tuple
+    attitude: bool
+    attitude_seeds: int = 1
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case: its id, input values (in factor order), the checked layout and model options."""
+
+    case_id: int
+    values: tuple
+    layout: object
+    options: ModelOptions
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    """A checked sweep, ready to run.
+
+    design : dict, everything that determines the rows (recorded in ``sweep.json``; a resume must match it)
+    factors : tuple of Factor
+    X : ndarray (cases, factors), the input values of every case
+    cases : tuple of Case
+    settings : CaseSettings
+    outputs : tuple of str, output columns of ``results.csv``
+    unknowns : ndarray (cases,), mesh unknowns of every case
+    """
+
+    design: dict
+    factors: tuple
+    X: np.ndarray
+    cases: tuple
+    settings: CaseSettings
+    outputs: tuple
+    unknowns: np.ndarray
+
+    @property
+    def keys(self) -> tuple:
+        return tuple(f.key for f in self.factors)
+
+    @property
+    def columns(self) -> tuple:
+        """Header of ``results.csv``."""
+        return ("case",) + self.keys + self.outputs + ("status", "message", "seconds")
+
+
+@dataclass(frozen=True)
+class CostEstimate:
+    """cases : int; unknowns : int (mean per case); case_s : float [s] per case; total_s : float [s] on ``jobs``."""
+
+    cases: int
+    unknowns: int
+    case_s: float
+    total_s: float
+    jobs: int
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """The outcome of :func:`run_sweep`.
+
+    out_dir : Path
+    plan : SweepPlan
+    rows : list of dict, every recorded case sorted by id (values as in ``results.csv``: floats, None when empty)
+    ran : int, cases run by this call; skipped : int, cases already recorded (resume)
+    failed : int, rows with status ``failed``; lost : tuple of case ids not run (a worker died)
+    sensitivity : dict, see :func:`sensitivity`
+    wall_s : float [s] of this call
+    """
+
+    out_dir: Path
+    plan: SweepPlan
+    rows: list
+    ran: int
+    skipped: int
+    failed: int
+    lost: tuple
+    sensitivity: dict
+    wall_s: float
+
+
+def key_unit(key: str) -> str:
+    """Unit of a sweep key or output column from its name (``_W_m2K`` -> ``W/m^2 K``, ``_mm`` -> ``mm`` ...)."""
+    parts = key.split(".")
+    if parts[0] == "materials" and len(parts) == 3:
+        return PROPERTY_UNITS.get(parts[2], "-")
+    name = parts[-2] if parts[-1].isdigit() and len(parts) > 1 else parts[-1]
+    for suffix, unit in (("_W_m2K", "W/m^2 K"), ("_mm", "mm"), ("_C", "degC"), ("_W", "W"), ("_K", "K"),
+                         ("_s", "s"), ("_deg", "deg")):
+        if name.endswith(suffix):
+            return unit
+    return "-"
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _layout_keys(raw: dict, scheme: str) -> dict:
+    """Settable numeric leaves of a layout dict: dotted key -> unit."""
+    keys = {}
+
+    def leaf(prefix, name, value):
+        if _is_number(value):
+            keys[f"{prefix}.{name}"] = key_unit(name)
+        elif isinstance(value, list) and value and all(_is_number(v) for v in value):
+            for i in range(len(value)):
+                keys[f"{prefix}.{name}.{i}"] = key_unit(name)
+
+    def table(prefix, t, kind):
+        for name, value in t.items():
+            leaf(prefix, name, value)
+        for name in _OPTIONAL_FIELDS.get(kind, ()):
+            keys.setdefault(f"{prefix}.{name}", key_unit(name))
+
+    for top, value in raw.items():
+        if top == "schemes" and isinstance(value, dict):
+            if isinstance(value.get(scheme), dict):
+                table(f"schemes.{scheme}", value[scheme], "schemes")
+        elif isinstance(value, dict):
+            if all(isinstance(v, dict) for v in value.values()) and value:  # [sites]: named inline tables
+                for name, t in value.items():
+                    table(f"{top}.{name}", t, top)
+            else:
+                table(top, value, top)
+        elif isinstance(value, list) and value and all(isinstance(t, dict) for t in value):
+            for t in value:
+                if isinstance(t.get("name"), str):
+                    table(f"{top}.{t['name']}", t, top)
+    return keys
+
+
+def _options_keys() -> dict:
+    """Numeric ModelOptions fields: ``options.<field>`` -> unit."""
+    out = {}
+    for f in fields(ModelOptions):
+        if "float" in str(f.type):
+            out[f"options.{f.name}"] = "-" if "emissivity" in f.name else key_unit(f.name)
+    return out
+
+
+def _material_keys(geometry) -> dict:
+    out = {}
+    for name in sorted({p.material for p in geometry.parts}):
+        for prop in settable_properties(get_material(name)):
+            out[f"materials.{name}.{prop}"] = PROPERTY_UNITS[prop]
+    return out
+
+
+def valid_keys(raw: dict, layout, scheme: str) -> dict:
+    """Every key a sweep of ``scheme`` of this layout may set: dotted key -> unit."""
+    keys = _layout_keys(raw, scheme)
+    keys.update(_material_keys(build_geometry(layout, scheme)))
+    keys.update(_options_keys())
+    return keys
+
+
+def _unknown_key(key: str, valid) -> InputError:
+    near = difflib.get_close_matches(key, list(valid), n=5, cutoff=0.5)
+    if not near:  # nearest by the last component (a right field in the wrong table, or vice versa)
+        last = key.rsplit(".", 1)[-1]
+        near = [k for k in valid if k.rsplit(".", 1)[-1] == last][:5]
+    hint = f"nearest valid: {', '.join(near)}" if near else f"valid keys start with: {', '.join(sorted({k.split('.')[0] for k in valid}))}"
+    return InputError(f"--set: unknown key {key!r}; {hint}")
+
+
+def _number(text: str, key: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f"--set {key}: {text.strip()!r} is not a number") from None
+    if not math.isfinite(v):
+        raise InputError(f"--set {key}: values must be finite numbers, got {text.strip()!r}")
+    return v
+
+
+def _tidy(v: float) -> float:
+    """12 significant digits: linspace's 0.6000000000000001 becomes 0.6; every case uses the tidied value."""
+    return float(f"{v:.12g}")
+
+
+def parse_values(key: str, text: str, method: str) -> tuple:
+    """(values, bounds) of one ``--set KEY=VALUES``.
+
+    grid: a list ``0.5,1,2`` or ``lo:hi:n`` (n >= 2 evenly spaced values); lhs / morris: ``lo:hi`` with lo < hi.
+    """
+    text = text.strip()
+    if not text:
+        raise InputError(f"--set {key}=: no values; give a list 0.5,1,2 or a range lo:hi:n")
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) not in (2, 3):
+            raise InputError(f"--set {key}={text}: a range is lo:hi:n (grid) or lo:hi (lhs, morris)")
+        lo, hi = _number(parts[0], key), _number(parts[1], key)
+        if not lo < hi:
+            raise InputError(f"--set {key}={text}: a range needs lo < hi")
+        if method == "grid":
+            if len(parts) != 3:
+                raise InputError(f"--set {key}={text}: a grid range needs a count: lo:hi:n")
+            try:
+                n = int(parts[2])
+            except ValueError:
+                raise InputError(f"--set {key}={text}: n must be an integer >= 2, got {parts[2]!r}") from None
+            if n < 2:
+                raise InputError(f"--set {key}={text}: n must be an integer >= 2, got {n}")
+            return tuple(_tidy(v) for v in np.linspace(lo, hi, n)), (lo, hi)
+        if len(parts) == 3:
+            raise InputError(f"--set {key}={text}: with --method {method} give the range as lo:hi "
+                             "(the number of cases comes from --samples)")
+        return None, (lo, hi)
+    if method != "grid":
+        raise InputError(f"--set {key}={text}: --method {method} samples a range: give lo:hi, not a list")
+    values = tuple(_number(v, key) for v in text.split(","))
+    if len(set(values)) != len(values):
+        raise InputError(f"--set {key}={text}: repeated value (each case would run twice)")
+    return values, (min(values), max(values))
+
+
+def _split_set(item: str) -> tuple:
+    if "=" not in item:
+        raise InputError(f"--set {item!r}: expected KEY=VALUES, e.g. components.reg_5v.power_W=0.4,0.8,1.2")
+    key, text = item.split("=", 1)
+    key = key.strip()
+    if not key:
+        raise InputError(f"--set {item!r}: missing KEY before '='")
+    return key, text
+
+
+def _design_matrix(factors, method: str, samples: int | None, seed: int | None) -> np.ndarray:
+    if method == "grid":
+        return np.array(list(itertools.product(*(f.values for f in factors))), float)
+    if samples is None or samples < 1:
+        raise InputError(f"--method {method} needs --samples N >= 1, got {samples!r}")
+    if seed is None:
+        raise InputError(f"--method {method} needs --seed N (the design is reproducible from it)")
+    problem = {"num_vars": len(factors), "names": [f.key for f in factors], "bounds": [list(f.bounds) for f in factors]}
+    rng = np.random.default_rng(seed)
+    if method == "lhs":
+        from SALib.sample import latin
+        X = latin.sample(problem, samples, seed=rng)
+    else:
+        from SALib.sample import morris
+        X = morris.sample(problem, samples, num_levels=MORRIS_LEVELS, seed=rng)
+    return np.vectorize(_tidy)(np.asarray(X, float)).reshape(-1, len(factors))
+
+
+def _assign(data: dict, key: str, value: float) -> None:
+    """Set the numeric leaf ``key`` of a layout dict (the key was checked against :func:`valid_keys`)."""
+    parts = key.split(".")
+    node = data[parts[0]]
+    rest = parts[1:]
+    if isinstance(node, list):  # array of tables, selected by name
+        node = next(t for t in node if t.get("name") == rest[0])
+        rest = rest[1:]
+    while len(rest) > 1 and not rest[1].isdigit():
+        node = node[rest[0]]
+        rest = rest[1:]
+    if len(rest) == 2:  # vector element
+        node[rest[0]][int(rest[1])] = value
+    else:
+        node[rest[0]] = value
+
+
+def _case(case_id: int, values, factors, raw: dict, path: str, settings: CaseSettings, base: ModelOptions) -> tuple:
+    """(Case, unknowns): the case's layout re-parsed and built, its options and materials checked."""
+    data = copy.deepcopy(raw)
+    opts, mats = {}, {}
+    for f, v in zip(factors, values):
+        head = f.key.split(".")
+        if head[0] == "options":
+            opts[head[1]] = v
+        elif head[0] == "materials":
+            mats.setdefault(head[1], {})[head[2]] = v
+        else:
+            _assign(data, f.key, v)
+    what = ", ".join(f"{f.key}={v:g}" for f, v in zip(factors, values))
+    try:
+        layout = parse_layout(data, path)
+        geometry = build_geometry(layout, settings.scheme)
+        overrides = tuple(with_properties(get_material(m), f"--set materials.{m}", **ch) for m, ch in mats.items())
+        options = base.with_(**opts, materials=base.materials + overrides)
+        unknowns = build_mesh(geometry, settings.mesh_size_mm, settings.min_cells).n_nodes
+    except InputError as exc:
+        raise InputError(f"--set: case {case_id} ({what}) is refused: {exc}") from None
+    return Case(case_id, tuple(values), layout, options), unknowns
+
+
+def _canonical_hash(data) -> str:
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: str = "grid",
+               samples: int | None = None, seed: int | None = None, options: ModelOptions | None = None,
+               mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
+               transient: bool = False, t_end: float = 1200.0, attitude: bool = False,
+               attitude_seeds: int = 1) -> SweepPlan:
+    """Check a sweep and build every case; nothing runs.
+
+    Parameters
+    ----------
+    layout_path : path or None (the reference unit)
+    scheme : str or None (the layout's default)
+    sets : sequence of ``KEY=VALUES`` strings
+    method : ``grid`` (full factorial of the value lists), ``lhs`` (SALib Latin hypercube of ``samples``
+        cases) or ``morris`` (SALib Morris design: ``samples`` trajectories of factors + 1 cases)
+    samples, seed : int, design size and seed of lhs / morris
+    options : ModelOptions, the base model (``options.*`` and ``materials.*`` keys change it per case)
+    mesh_size_mm : float [mm]; min_cells : int
+    transient : bool, also run the power-on transient (adds ``t95_s``); t_end : float [s]
+    attitude : bool, add the attitude-error columns of :func:`attitude_columns` (one call of
+        :func:`imutherm.studies.end_to_end.scheme_attitude_metrics` per case, the same seeds in every case)
+    attitude_seeds : int, IMU units / noise draws averaged per case (seeds 0 .. n-1)
+
+    Raises InputError on an unknown key (naming the nearest valid ones), a bad value or range,
+    or a case the layout, the geometry or the model refuses.
+    """
+    if method not in METHODS:
+        raise InputError(f"--method: unknown {method!r}; valid: {', '.join(METHODS)}")
+    if method == "grid" and (samples is not None or seed is not None):
+        raise InputError("--samples and --seed belong to --method lhs or morris; a grid runs every combination")
+    if not sets:
+        raise InputError("give at least one --set KEY=VALUES")
+    if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0):
+        raise InputError(f"--t-end must be a finite number > 0 [s], got {t_end!r}")
+    if not (isinstance(attitude_seeds, int) and 1 <= attitude_seeds <= 1000):
+        raise InputError(f"--attitude-seeds must be an integer in 1..1000, got {attitude_seeds!r}")
+    path = Path(layout_path) if layout_path else default_layout_path()
+    try:
+        with open(path, "rb") as fh:
+            raw = tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError(f"{path}: layout file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    base_layout = parse_layout(raw, str(path))
+    scheme = base_layout.scheme(scheme).name
+    base = options or ModelOptions()
+    valid = valid_keys(raw, base_layout, scheme)
+
+    factors, seen = [], set()
+    for item in sets:
+        key, text = _split_set(item)
+        if key not in valid:
+            raise _unknown_key(key, valid)
+        if key in seen:
+            raise InputError(f"--set {key}: given twice; give all its values in one --set")
+        seen.add(key)
+        values, bounds = parse_values(key, text, method)
+        factors.append(Factor(key, values, bounds, valid[key]))
+    factors = tuple(factors)
+    X = _design_matrix(factors, method, samples, seed)
+
+    sites = tuple(s.name for s in base_layout.sites)
+    settings = CaseSettings(scheme, float(mesh_size_mm), int(min_cells), bool(transient), float(t_end), sites,
+                            bool(attitude), int(attitude_seeds))
+    built = [_case(i, tuple(float(v) for v in row), factors, raw, str(path), settings, base) for i, row in enumerate(X)]
+    cases = tuple(c for c, _ in built)
+    unknowns = np.array([n for _, n in built], int)
+    outputs = ("max_rise_K",) + (("t95_s",) if transient else ()) + tuple(f"rise_{s}_K" for s in sites)
+    if attitude:
+        outputs += attitude_columns(transient)
+    base_opts = asdict(base)
+    base_opts["materials"] = [m.name for m in base.materials]
+    design = {
+        "layout": str(path.resolve()), "layout_sha256": _canonical_hash(raw), "scheme": scheme,
+        "method": method, "samples": samples, "seed": seed,
+        "morris_levels": MORRIS_LEVELS if method == "morris" else None,
+        "factors": [{"key": f.key, "unit": f.unit, "values": list(f.values) if f.values else None,
+                     "bounds": list(f.bounds)} for f in factors],
+        "cases": len(cases), "mesh_size_mm": float(mesh_size_mm), "min_cells": int(min_cells),
+        "transient": bool(transient), "t_end_s": float(t_end) if transient else None, "attitude": bool(attitude),
+        "attitude_seeds": int(attitude_seeds) if attitude else None,
+        "model_options": json.loads(json.dumps(base_opts, default=str)),
+        "X_sha256": _canonical_hash(X.tolist()),
+    }
+    return SweepPlan(design, factors, X, cases, settings, outputs, unknowns)
+
+
+def estimate_cost(plan: SweepPlan, jobs: int = 1) -> CostEstimate:
+    """Cases and an estimate of the wall time: mesh unknowns x :data:`STEADY_S_PER_UNKNOWN`
+    (x :data:`TRANSIENT_FACTOR` with the transient), divided over ``jobs`` workers."""
+    per = plan.unknowns * STEADY_S_PER_UNKNOWN * (TRANSIENT_FACTOR if plan.settings.transient else 1.0)
+    n = len(plan.cases)
+    return CostEstimate(n, int(plan.unknowns.mean()) if n else 0, float(per.mean()) if n else 0.0,
+                        float(per.sum()) / max(1, min(jobs, n or 1)), jobs)
+
+
+# ---------------------------------------------------------------- one case
+def case_outputs(result, sites) -> dict:
+    """Outputs of one :class:`~imutherm.studies.thermal_study.SchemeResult`.
+
+    max_rise_K [K] largest steady rise anywhere; rise_<site>_K [K] steady rise of each site;
+    t95_s [s] (transient only) time to 95 % of its final rise of the site with the largest rise
+    (None if it has not settled by t_end).
+    """
+    from imutherm.thermal.metrics import thermal_metrics
+
+    steady = thermal_metrics(result.steady)
+    out = {"max_rise_K": float(steady.max_rise_K)}
+    if result.transient is not None:
+        hottest = max(sites, key=lambda s: steady.probe_rise_K[s])
+        t95 = result.metrics.t95_s[hottest]
+        out["t95_s"] = None if t95 is None or not math.isfinite(t95) else float(t95)
+    out.update({f"rise_{s}_K": float(steady.probe_rise_K[s]) for s in sites})
+    return out
+
+
+def attitude_columns(transient: bool) -> tuple:
+    """The attitude columns of a sweep with ``--attitude``: roll and pitch RMS error [deg] of the lean
+    IMU configuration :data:`~imutherm.studies.end_to_end.SWEEP_CONFIG` (improved compensation, unit
+    calibrated in the oven with this case's self-heating, gated and kf filters, flight profile), per
+    phase (``warmup`` needs ``transient``; ``steady``), then ``extrapolated_fraction`` [-] (share of
+    compensated samples beyond the calibrated range).
+    """
+    from imutherm.studies.end_to_end import PHASES, SWEEP_CONFIG as C
+
+    phases = PHASES if transient else ("steady",)
+    return tuple(f"{ph}_{comp}_{f}_{prof}_{m}" for ph in phases for comp in C.compensations for f in C.filters
+                 for prof in C.profiles for m in ("roll_rms_deg", "pitch_rms_deg")) + ("extrapolated_fraction",)
+
+
+def run_case(case: Case, settings: CaseSettings) -> dict:
+    """Run one case; any exception is recorded in the row (status ``failed``), never raised."""
+    from imutherm.studies.thermal_study import run_scheme
+
+    start = time.perf_counter()
+    row = {"case": case.case_id}
+    try:
+        res = run_scheme(case.layout, settings.scheme, mesh_size_mm=settings.mesh_size_mm,
+                         min_cells=settings.min_cells, options=case.options, transient=settings.transient,
+                         t_end=settings.t_end)
+        row.update(case_outputs(res, settings.sites))
+        if settings.attitude:
+            from imutherm.studies.end_to_end import scheme_attitude_metrics
+
+            metrics = scheme_attitude_metrics(res, seeds=settings.attitude_seeds, seed0=0)
+            cols = attitude_columns(settings.transient)
+            missing = [c for c in cols if c not in metrics]
+            if missing:
+                raise RuntimeError(f"scheme_attitude_metrics gave no {', '.join(missing)}")
+            row.update({c: float(metrics[c]) for c in cols})
+        row.update(status="ok", message="")
+    except Exception as exc:  # noqa: BLE001 - a failing case is recorded and the sweep goes on
+        row.update(status="failed", message=f"{type(exc).__name__}: {' '.join(str(exc).split())}")
+    row["seconds"] = time.perf_counter() - start
+    return row
+
+
+def _pool_case(case: Case, settings: CaseSettings) -> dict:
+    """``run_case`` in a local worker; a worker whose sweep was killed stops instead of running queued cases."""
+    from imutherm.studies import _worker
+
+    if _worker.parent_gone():
+        raise SystemExit(0)
+    return run_case(case, settings)
+
+
+# ---------------------------------------------------------------- results.csv
+def _fmt(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return "" if not math.isfinite(v) else repr(v)
+    return str(v)
+
+
+def _row_line(plan: SweepPlan, row: dict) -> str:
+    values = dict(zip(plan.keys, plan.cases[row["case"]].values))
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow(
+        [_fmt(row.get(c, values.get(c))) for c in plan.columns])
+    return buf.getvalue()
+
+
+def _parse_cell(column: str, text: str):
+    if column in ("status", "message"):
+        return text
+    if column == "case":
+        return int(text)
+    return float(text) if text != "" else None
+
+
+def read_results(path: Path, columns) -> list:
+    """Rows of a ``results.csv`` (a partial last line, cut by a kill mid-write, is dropped from the file)."""
+    data = path.read_bytes()
+    if data and not data.endswith(b"\n"):
+        cut = data.rfind(b"\n") + 1
+        with open(path, "r+b") as fh:
+            fh.truncate(cut)
+        data = data[:cut]
+    reader = csv.reader(io.StringIO(data.decode()))
+    header = next(reader, None)
+    if header is None:
+        return []
+    if tuple(header) != tuple(columns):
+        raise InputError(f"{path}: its columns {header} are not this sweep's {list(columns)}")
+    rows, seen = [], set()
+    for line in reader:
+        if len(line) != len(columns):
+            raise InputError(f"{path}: a row has {len(line)} fields, expected {len(columns)}: {line}")
+        row = {c: _parse_cell(c, t) for c, t in zip(columns, line)}
+        if row["case"] in seen:
+            raise InputError(f"{path}: case {row['case']} is recorded twice")
+        seen.add(row["case"])
+        rows.append(row)
+    return rows
+
+
+class _RowWriter:
+    """Appends one complete line per call, flushed and fsynced."""
+
+    def __init__(self, path: Path, plan: SweepPlan):
+        self.plan = plan
+        new = not path.exists() or path.stat().st_size == 0
+        self.fh = open(path, "a", newline="")
+        if new:
+            self._write(",".join(plan.columns) + "\n")
+
+    def _write(self, text: str) -> None:
+        self.fh.write(text)
+        self.fh.flush()
+        os.fsync(self.fh.fileno())
+
+    def append(self, row: dict) -> None:
+        self._write(_row_line(self.plan, row))
+
+    def close(self) -> None:
+        self.fh.close()
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _json_text(data) -> str:
+    def default(obj):
+        if isinstance(obj, np.generic):
+            return obj.item()
+        if isinstance(obj, np.ndarray):
+            return obj.tolist()
+        if isinstance(obj, Path):
+            return str(obj)
+        raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+    return json.dumps(data, indent=2, default=default) + "\n"
+
+
+def _design_mismatch(old: dict, new: dict) -> list:
+    return [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+
+
+# ---------------------------------------------------------------- sensitivity
+def sensitivity(plan: SweepPlan, rows: list) -> dict:
+    """Influence of each input on each output.
+
+    morris: SALib ``analyze.morris`` (mu*, sigma, mu* confidence) when every case is ok;
+    otherwise (and for grid / lhs): standardised regression coefficients (SRC) of a linear
+    least-squares fit of the standardised output on the standardised inputs over the ok cases,
+    with the fit's R^2 (SRC ranks inputs well only where R^2 is near 1).
+
+    Returns {"measure", "note", "outputs": {output: {"by_key": {key: {...}}, "r2"?}},
+    "ranking": [keys, most influential on max_rise_K first]}.
+    """
+    ok = [r for r in rows if r["status"] == "ok"]
+    keys = plan.keys
+    out = {"measure": None, "note": "", "outputs": {}, "ranking": []}
+    use_morris = plan.design["method"] == "morris" and len(ok) == len(plan.cases)
+    if plan.design["method"] == "morris" and not use_morris:
+        out["note"] = (f"Morris measures need every case of the design; {len(plan.cases) - len(ok)} of "
+                       f"{len(plan.cases)} failed or missing, so SRC over the ok cases is given instead")
+    if use_morris:
+        from SALib.analyze import morris
+
+        out["measure"] = "morris_mu_star"
+        problem = {"num_vars": len(keys), "names": list(keys), "bounds": [list(f.bounds) for f in plan.factors]}
+        by_id = {r["case"]: r for r in ok}
+        for name in plan.outputs:
+            Y = np.array([by_id[c.case_id][name] if by_id[c.case_id][name] is not None else np.nan
+                          for c in plan.cases], float)
+            if not np.all(np.isfinite(Y)):
+                continue
+            res = morris.analyze(problem, plan.X, Y, num_levels=MORRIS_LEVELS,
+                                 seed=np.random.default_rng(plan.design["seed"]))
+            out["outputs"][name] = {"by_key": {k: {"mu_star": float(res["mu_star"][i]), "sigma": float(res["sigma"][i]),
+                                                   "mu_star_conf": float(res["mu_star_conf"][i])}
+                                               for i, k in enumerate(keys)}}
+        metric = "mu_star"
+    else:
+        out["measure"] = "src"
+        X = np.array([[r[k] for k in keys] for r in ok], float).reshape(len(ok), len(keys))
+        sx = X.std(axis=0) if len(ok) else np.zeros(len(keys))
+        live = [i for i in range(len(keys)) if sx[i] > 0]
+        for name in plan.outputs:
+            y = np.array([np.nan if r[name] is None else r[name] for r in ok], float)
+            good = np.isfinite(y)
+            if good.sum() < len(live) + 2 or not live:
+                continue
+            Xs = (X[good][:, live] - X[good][:, live].mean(0)) / X[good][:, live].std(0)
+            if np.any(~np.isfinite(Xs)) or y[good].std() == 0:
+                continue
+            ys = (y[good] - y[good].mean()) / y[good].std()
+            A = np.column_stack([Xs, np.ones(len(ys))])
+            coef, *_ = np.linalg.lstsq(A, ys, rcond=None)
+            r2 = float(1.0 - np.sum((ys - A @ coef) ** 2) / np.sum(ys ** 2))
+            out["outputs"][name] = {"r2": r2, "by_key": {keys[i]: {"src": float(coef[j])} for j, i in enumerate(live)}}
+        metric = "src"
+    primary = out["outputs"].get("max_rise_K")
+    if primary:
+        out["ranking"] = sorted(primary["by_key"], key=lambda k: -abs(primary["by_key"][k][metric]))
+    return out
+
+
+# ---------------------------------------------------------------- running
+def _progress(total: int, initial: int, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, unit="case", desc="sweep", disable=not enabled, dynamic_ncols=True)
+
+
+def _run_local(pending, settings, jobs, record, lost):
+    if jobs == 1:
+        for case in pending:
+            record(run_case(case, settings))
+        return
+    import multiprocessing
+    from concurrent.futures.process import BrokenProcessPool
+
+    from imutherm.studies._worker import init_worker
+
+    threads = max(1, (os.cpu_count() or 1) // jobs)
+    # spawn: workers start without the parent's numpy, and init_worker (a module without numpy) sets the
+    # thread limits before the first task imports it, so they apply when BLAS loads
+    pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=init_worker,
+                               initargs=(threads, os.getpid()))
+    try:
+        futures = {pool.submit(_pool_case, c, settings): c.case_id for c in pending}
+        for fut in as_completed(futures):
+            try:
+                record(fut.result())
+            except BrokenProcessPool:
+                lost.append(futures[fut])
+    except BaseException:  # Ctrl-C: drop the queued cases instead of waiting for them
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+
+
+def _dask_client(address: str):
+    try:
+        from distributed import Client
+    except ImportError:  # pragma: no cover - a declared dependency
+        raise InputError("--dask needs the 'distributed' package: pip install 'dask[distributed]'") from None
+    try:
+        return Client(address, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(f"--dask: cannot connect to a Dask scheduler at {address!r}: {exc}") from None
+
+
+def _run_dask(pending, settings, client, record, lost):
+    from distributed import as_completed as dask_completed
+
+    tag = time.time_ns()  # unique task keys: a resumed sweep on the same cluster never reuses old results
+    futures = [client.submit(run_case, c, settings, pure=False, key=f"imutherm-sweep-{tag}-case-{c.case_id}")
+               for c in pending]
+    ids = {f.key: c.case_id for f, c in zip(futures, pending)}
+    for fut in dask_completed(futures):
+        try:
+            record(fut.result())
+        except Exception:  # noqa: BLE001 - a lost worker: the case is not recorded, a resume reruns it
+            lost.append(ids[fut.key])
+
+
+def run_sweep(plan: SweepPlan, out_dir, *, jobs: int = 1, dask_address: str | None = None,
+              resume: bool = False, progress: bool = True) -> SweepResult:
+    """Run the cases of ``plan`` not yet in ``out_dir/results.csv``; write ``sweep.json``.
+
+    jobs : int, local worker processes (1: in this process); dask_address : ``tcp://host:port`` of a
+    Dask scheduler (instead of ``jobs``); resume : continue a sweep in ``out_dir`` (its recorded
+    design must equal ``plan``'s); progress : tqdm bar on stderr.
+
+    Raises InputError if ``out_dir`` already holds a sweep and ``resume`` is False, or if ``resume``
+    finds a different design or no sweep.
+    """
+    start = time.perf_counter()
+    if not isinstance(jobs, int) or jobs < 1:
+        raise InputError(f"--jobs must be an integer >= 1, got {jobs!r}")
+    out = Path(out_dir)
+    csv_path, json_path = out / RESULTS_CSV, out / SWEEP_JSON
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} exists and is not a directory")
+    rows: list = []
+    client = _dask_client(dask_address) if dask_address else None  # before anything is written
+    try:
+        return _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resume, progress, start)
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resume, progress, start):
+    if resume:
+        if not json_path.is_file():
+            raise InputError(f"--resume: {json_path} not found; start the sweep without --resume")
+        try:
+            old = json.loads(json_path.read_text())["design"]
+        except (ValueError, KeyError) as exc:
+            raise InputError(f"--resume: {json_path} is not a sweep record: {exc}") from None
+        diff = _design_mismatch(old, plan.design)
+        if diff:
+            raise InputError(f"--resume: this sweep's design differs from the one recorded in {json_path} "
+                             f"in {', '.join(diff)}; give the same --set, --method, --samples, --seed, layout, "
+                             "scheme, mesh and model options, or a new --out")
+        if csv_path.exists():
+            rows = read_results(csv_path, plan.columns)
+            bad = [r["case"] for r in rows if not 0 <= r["case"] < len(plan.cases)]
+            if bad:
+                raise InputError(f"{csv_path}: case ids {bad} are not in this design (0..{len(plan.cases) - 1})")
+    else:
+        if csv_path.exists() or json_path.exists():
+            raise InputError(f"--out {out} already holds a sweep ({RESULTS_CSV}/{SWEEP_JSON}); "
+                             "add --resume to continue it or give a new directory")
+        out.mkdir(parents=True, exist_ok=True)
+        _atomic_write(json_path, _json_text({"design": plan.design, "status": "running"}))
+    done = {r["case"] for r in rows}
+    pending = [c for c in plan.cases if c.case_id not in done]
+    writer = _RowWriter(csv_path, plan)
+    lost: list = []
+    ran = 0
+    bar = _progress(len(plan.cases), len(done), progress)
+
+    def record(row):
+        nonlocal ran
+        writer.append(row)
+        rows.append(dict(zip(plan.columns, _defaults(plan, row))))  # as a resume would read it back
+        ran += 1
+        bar.update(1)
+
+    try:
+        if client is not None:
+            _run_dask(pending, plan.settings, client, record, lost)
+        else:
+            _run_local(pending, plan.settings, jobs, record, lost)
+    finally:
+        bar.close()
+        writer.close()
+    rows.sort(key=lambda r: r["case"])
+    # tidy: the appended file rewritten in case order (atomic replace: a kill now loses nothing)
+    _atomic_write(csv_path, ",".join(plan.columns) + "\n" + "".join(_row_line(plan, r) for r in rows))
+    sens = sensitivity(plan, rows)
+    failed = sum(r["status"] == "failed" for r in rows)
+    wall = time.perf_counter() - start
+    ok_s = [r["seconds"] for r in rows if r["status"] == "ok" and r["seconds"] is not None]
+    record_json = {
+        "design": plan.design,
+        "status": "complete" if len(rows) == len(plan.cases) else "incomplete",
+        "counts": {"cases": len(plan.cases), "recorded": len(rows), "ok": len(rows) - failed, "failed": failed,
+                   "ran_this_call": ran, "lost": len(lost)},
+        "sensitivity": sens,
+        "timing": {"wall_s_this_call": wall, "runner": f"dask {dask_address}" if dask_address else f"{jobs} local process(es)",
+                   "case_s_mean": float(np.mean(ok_s)) if ok_s else None,
+                   "case_s_max": float(np.max(ok_s)) if ok_s else None},
+    }
+    _atomic_write(json_path, _json_text(record_json))
+    return SweepResult(out, plan, rows, ran, len(done), failed, tuple(sorted(lost)), sens, wall)
+
+
+def _defaults(plan: SweepPlan, row: dict) -> list:
+    """The row's value for each column, inputs filled from the design (as read back from the CSV)."""
+    values = dict(zip(plan.keys, plan.cases[row["case"]].values))
+    return [_parse_cell(c, _fmt(row.get(c, values.get(c)))) for c in plan.columns]
