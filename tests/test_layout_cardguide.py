@@ -145,7 +145,7 @@ def test_bad_board_contact_is_rejected(tmp_path, value, fragment):
     with pytest.raises(InputError) as info:
         load_layout(path)
     msg = str(info.value)
-    for frag in (str(path), "parts[2]", "'board_contact_W_m2K'", fragment):
+    for frag in (str(path), f"part '{data['parts'][2]['name']}'", "'board_contact_W_m2K'", fragment):
         assert frag in msg, (frag, msg)
 
 def test_board_contact_on_a_part_touching_no_board_is_rejected(tmp_path):
