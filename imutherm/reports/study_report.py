@@ -95,7 +95,7 @@ def _answer_page(pdf, data: dict) -> None:
            f"ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; grade {st['grade']}, seeds "
            f"{data['seeds'][0]}..{data['seeds'][-1]} (mean±std, the same seeds in every scheme); calibrated in the "
            f"unit (oven -40..70 C with each scheme's self-heating); out-of-range policy '{data['out_of_range_policy']}'; "
-           f"{prof} profile, roll/pitch error RMS and max", 200))
+           f"{prof} profile, roll/pitch error RMS and max", 165))
     y = 0.88
     for name, s in data["schemes"].items():
         lines = textwrap.wrap(s["answer"], 190)
