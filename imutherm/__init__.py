@@ -14,3 +14,9 @@ class InputError(ValueError):
 
     The CLI turns it into a one-line message and a non-zero exit status.
     """
+
+
+class ConvergenceError(RuntimeError):
+    """A solve did not converge or diverged (Newton, the linear solver, or a transient's iterates); no result
+    is returned. Not bad input: the CLI exits with status 3 (bad input: 2); the message names the likely cause.
+    """

@@ -16,12 +16,17 @@ import tempfile
 import time
 from pathlib import Path
 
-from imutherm import InputError
+from imutherm import ConvergenceError, InputError
 from imutherm.io import write_json  # noqa: F401  (re-exported for the subcommands)
 
 #: the field files ``imutherm solve`` writes: ``field.vtu``, ``field.pvd`` and the series ``field_0000.vtu`` ...
 FIELD_FILES = r"field(\.vtu|\.pvd|_\d{4,}\.vtu)"
 
+
+#: exit status of bad input (InputError) or a file-system error (OSError), as argparse's own refusals
+EXIT_BAD_INPUT = 2
+#: exit status of a solve that did not converge (ConvergenceError)
+EXIT_NOT_CONVERGED = 3
 
 #: longest error line printed [characters]; the rest is cut (a value quoted in full could be megabytes)
 MAX_MESSAGE_CHARS = 1000
@@ -37,8 +42,9 @@ def _one_line(text) -> str:
 def run_guarded(prog: str):
     """Decorate a subcommand ``main``: one line on stderr instead of a traceback.
 
-    InputError (bad input) and OSError (file system) -> exit status 2;
-    KeyboardInterrupt -> exit status 130. The ``--out`` lock taken by
+    InputError (bad input) and OSError (file system) -> exit status 2; ConvergenceError (a solve that did
+    not converge or diverged: not bad input, though the input is its likely cause) -> exit status 3
+    (:data:`EXIT_NOT_CONVERGED`); KeyboardInterrupt -> exit status 130. The ``--out`` lock taken by
     :func:`check_outdir` is released when ``main`` returns.
     """
 
@@ -50,7 +56,10 @@ def run_guarded(prog: str):
                 return func(argv)
             except (InputError, OSError) as exc:
                 print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
-                return 2
+                return EXIT_BAD_INPUT
+            except ConvergenceError as exc:
+                print(f"{prog}: not converged: {_one_line(exc)}", file=sys.stderr)
+                return EXIT_NOT_CONVERGED
             except KeyboardInterrupt:
                 print(f"{prog}: interrupted", file=sys.stderr)
                 return 130

@@ -37,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from imutherm import InputError
+from imutherm import ConvergenceError, InputError  # noqa: F401  (ConvergenceError re-exported)
 from imutherm.thermal.assembly import Assembly, assemble
 from imutherm.thermal.problem import ThermalProblem
 
@@ -50,10 +50,6 @@ CG_RTOL = 1e-10
 NEWTON_CG_RTOL = 1e-4
 #: Relative residual of the per-step CG solves of a transient.
 TRANSIENT_CG_RTOL = 1e-6
-
-
-class ConvergenceError(InputError):
-    """A solve did not converge (Newton iterations or the linear solver); no result is returned."""
 
 
 # --------------------------------------------------------------------------- results
