@@ -252,6 +252,12 @@ OPTIONS = {
     "compare_memory": (["compare", "--max-memory", "100M"], ["estimated", "--max-memory"]),
     "compare_seed_negative": (["compare", "--seed", "-1"], "--seed"),
     "compare_seeds_0": (["compare", "--seeds", "0"], "--seeds"),
+    "compare_seeds_1000_imu_time": (["compare", "--seeds", "1000"], ["IMU side", "3,000 cases", "h on 1 worker",
+                                                                      "limit of 6 h", "--seeds"]),
+    "compare_jobs_1000_imu_memory": (["compare", "--jobs", "1000"], ["IMU side", "999 worker", "--jobs 1000",
+                                                                      "memory", "--max-memory"]),
+    "compare_jobs_memory_limit": (["compare", "--jobs", "9", "--max-memory", "1G"], ["IMU side", "--max-memory"]),
+    "compare_jobs_0": (["compare", "--jobs", "0"], "--jobs"),
     "attitude_duration_1e9": (["attitude", "--profile", "flight", "--duration", "1e9"], ["--duration", "samples"]),
     "attitude_seeds_1e9": (["attitude", "--profile", "flight", "--seeds", "1000000000"], ["--seeds", "samples"]),
     "attitude_seeds_0": (["attitude", "--profile", "flight", "--seeds", "0"], "--seeds"),
@@ -555,3 +561,21 @@ def test_steady_divergence_names_the_power(nonlinear):
         warnings.simplefilter("ignore", RuntimeWarning)
         with pytest.raises(ConvergenceError, match=r"diverging at Newton iteration 1 .*total 1e\+24 W"):
             solve_steady(ThermalProblem(grid, 200.0, 2.4e6, 1e30, 20.0, {f: laws for f in faces}))
+
+
+def test_study_cost_counts_the_imu_work():
+    """The compare estimate counts what imu_case runs: per (scheme, seed) every profile's samples in both
+    phases, for the uncompensated set and each calibration x compensation, through every filter."""
+    from imutherm.budget import SECONDS_PER_CASE, SECONDS_PER_FILTER_SAMPLE, check_study_cost
+    from imutherm.studies.end_to_end import StudyConfig
+
+    w = check_study_cost(StudyConfig(), 3, 2, 1e15)
+    assert w["samples"] == {"flight": 40_000, "swing": 6_000}   # 400 s and 60 s at 100 Hz
+    assert (w["sets"], w["cases"]) == (5, 9) and w["filter_samples"] == 9 * 46_000 * 2 * 5 * 4
+    assert w["seconds"] == pytest.approx(9 * 1.84e6 * SECONDS_PER_FILTER_SAMPLE + 9 * SECONDS_PER_CASE)
+    lean = check_study_cost(StudyConfig(seeds=1, profiles=("swing",), compensations=("improved",),
+                                        filters=("gated",), calibrations=("unit",)), 1, 1, 1e15)
+    assert (lean["sets"], lean["filter_samples"]) == (1, 6_000 * 2)
+    two = check_study_cost(StudyConfig(), 3, 3, 1e15)          # two workers share the cases (given two CPUs)
+    assert two["seconds"] == pytest.approx(w["seconds"] / min(2, os.cpu_count() or 1))
+    assert two["memory_bytes"] > w["memory_bytes"]

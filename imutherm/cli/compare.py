@@ -20,7 +20,7 @@ import argparse
 
 from imutherm import InputError
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
-from imutherm.budget import transient_steps
+from imutherm.budget import check_study_cost, transient_steps
 from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
 from imutherm.cli.solve import add_model_arguments, add_time_arguments, model_options, time_kwargs
 from imutherm.geometry.build import build_geometry
@@ -73,7 +73,9 @@ def main(argv=None) -> int:
     for s in schemes:  # every scheme's mesh and memory estimated before the first is solved
         check_thermal_cost(build_geometry(layout, s), args, steps=steps)
     if not (args.thermal_only or args.steady_only):
-        return _end_to_end(args, schemes)
+        config = _study_config(args)
+        check_study_cost(config, len(schemes), args.jobs, args.max_memory)  # the IMU side, before any solve
+        return _end_to_end(args, schemes, config)
     comp = compare_schemes(layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
                            mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=model_options(args),
                            **args.time_kwargs)
@@ -100,14 +102,19 @@ def main(argv=None) -> int:
     return 0
 
 
-def _end_to_end(args, schemes) -> int:
-    from imutherm.studies.end_to_end import StudyConfig, run_study, write_study
+def _study_config(args):
+    from imutherm.studies.end_to_end import StudyConfig
 
     def names(text):
         return tuple(v.strip() for v in text.split(",") if v.strip())
 
-    config = StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
-                         profiles=names(args.profiles), filters=names(args.filters))
+    return StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
+                       profiles=names(args.profiles), filters=names(args.filters))
+
+
+def _end_to_end(args, schemes, config) -> int:
+    from imutherm.studies.end_to_end import run_study, write_study
+
     res = run_study(args.layout, schemes, config=config, options=model_options(args), jobs=args.jobs,
                     progress=not args.no_progress, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                     **args.time_kwargs)
