@@ -500,7 +500,8 @@ def _complete_new_set(out: Path, before: dict):
 
 
 @pytest.mark.parametrize("stage, sig", [("written", signal.SIGKILL), ("swap", signal.SIGKILL),
-                                        ("swapped", signal.SIGKILL), ("swap", signal.SIGINT)])
+                                        ("swapped", signal.SIGKILL), ("swap", signal.SIGINT),
+                                        ("written", signal.SIGINT), ("swapped", signal.SIGINT)])
 def test_killed_during_the_final_move(stage, sig, out, capsys):
     """Killed just after writing, just before the exchange, just after it: out holds the complete old
     or the complete new set; the next run cleans up what the killed one left beside it."""
@@ -523,6 +524,43 @@ def test_killed_during_the_final_move(stage, sig, out, capsys):
     if sig == signal.SIGINT:  # Ctrl-C cleans up after itself
         assert [p.name for p in out.parent.iterdir()] == ["out"]
     # the next run into out (a cheap one) removes what the killed run left beside it
+    code, err = _run(["geometry", "--no-png", "--out", str(out)] + COARSE, capsys)
+    assert code == 0, err
+    assert [p.name for p in out.parent.iterdir()] == ["out"]
+
+
+@pytest.fixture(scope="module")
+def uncut_run_s(earlier, tmp_path_factory):
+    """Wall time [s] of one uncut killed-run subprocess (launch to exit), here and now (the machine's load)."""
+    dst = tmp_path_factory.mktemp("uncut") / "out"
+    shutil.copytree(earlier, dst)
+    start = time.monotonic()
+    proc = _spawn(dst)
+    _, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err
+    return time.monotonic() - start
+
+
+@pytest.mark.parametrize("seed", [0, 1] + [pytest.param(k, marks=pytest.mark.slow) for k in range(2, 12)])
+def test_killed_at_a_random_point(seed, uncut_run_s, out, capsys):
+    """SIGKILL (even seeds) or SIGINT (odd) at a time drawn uniformly over an uncut run's length (start-up,
+    meshing, solve, writing, the final move): ``out`` is then byte-identical to the earlier set or holds the
+    complete new one, never a mix; the next run into it leaves nothing beside it."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    sig = signal.SIGINT if seed % 2 else signal.SIGKILL
+    delay = float(rng.uniform(0.0, 1.05 * uncut_run_s))
+    before = _snapshot(out)
+    proc = _spawn(out)
+    time.sleep(delay)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    if proc.returncode == 0 or _snapshot(out) != before:  # finished, or killed after the exchange
+        _complete_new_set(out, before)
+    if sig == signal.SIGINT and proc.returncode == 130:  # interrupted inside the command: one line, tidied up
+        assert err.strip().splitlines()[-1] == "imutherm solve: interrupted" and "Traceback" not in err
+        assert [p.name for p in out.parent.iterdir()] == ["out"]
     code, err = _run(["geometry", "--no-png", "--out", str(out)] + COARSE, capsys)
     assert code == 0, err
     assert [p.name for p in out.parent.iterdir()] == ["out"]
