@@ -19,6 +19,11 @@ from pathlib import Path
 from imutherm import ConvergenceError, InputError
 from imutherm.io import write_json  # noqa: F401  (re-exported for the subcommands)
 
+# The commands draw into files only, never on a screen (and may run without a display): matplotlib's
+# non-interactive backend unless the user chose one. Set here, where every subcommand starts, not at
+# import of ``imutherm.reports`` (that would force it on scripts and notebooks that import the drawing code).
+os.environ.setdefault("MPLBACKEND", "Agg")
+
 #: the field files ``imutherm solve`` writes: ``field.vtu``, ``field.pvd`` and the series ``field_0000.vtu`` ...
 FIELD_FILES = r"field(\.vtu|\.pvd|_\d{4,}\.vtu)"
 

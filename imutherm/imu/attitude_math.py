@@ -18,8 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-#: standard gravity [m/s^2] (same value as ``imutherm.imu.sensor_model.G0``)
-G0 = 9.80665
+from imutherm.constants import STANDARD_GRAVITY as G0  # [m/s^2]
 
 
 def euler_to_quat(roll, pitch, yaw) -> np.ndarray:

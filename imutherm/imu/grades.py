@@ -34,6 +34,8 @@ correctly.
 
 from __future__ import annotations
 
+from imutherm.constants import STANDARD_GRAVITY
+
 #: Thermal misalignment (issue 12), an estimate, not a datasheet value: the boards (FR4, in-plane CTE
 #: 14-17 ppm/K) are screwed to an aluminium housing (Al 6061, 23.6 ppm/K); the ~7 ppm/K mismatch over the
 #: 110 K range is a 0.08 % differential strain, about 30 um over a 40 mm screw pitch. Taken up partly
@@ -123,7 +125,7 @@ GRADES: dict[str, dict] = {
             "g_sensitivity_dps_per_g": 0.009,   # [DS] linear-g 0.009 deg/s/g (recalled)
         },
         "accel": {
-            "noise_rms_mg": 0.029 / 60.0 / 9.80665 * 1000.0 * 10.0,  # [DS] VRW 0.029 m/s/sqrt(h) -> rms at 100 Hz
+            "noise_rms_mg": 0.029 / 60.0 / STANDARD_GRAVITY * 1000.0 * 10.0,  # [DS] VRW 0.029 m/s/sqrt(h) -> rms at 100 Hz
             "noise_ref_rate_hz": 100.0,         # [DS] the 100 Hz used above to express the VRW as an rms; rms/sqrt(rate) gives the VRW back
             "bias_instability_mg": 0.1,         # [DS] in-run bias 0.1 mg
             "bias_corr_time_s": 100.0,          # [ASSUMED]

@@ -7,11 +7,8 @@ from __future__ import annotations
 
 import os
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
 _STYLE = {"none": ("uncompensated", "tab:gray", "x"),
           "conventional": ("conventional (eq. 1, 2nd mounting)", "tab:red", "o"),

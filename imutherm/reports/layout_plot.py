@@ -11,15 +11,12 @@ from __future__ import annotations
 
 import os
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import Rectangle
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Rectangle  # noqa: E402
-
-from imutherm.geometry.build import MM, Geometry  # noqa: E402
-from imutherm.geometry.layout import AXES  # noqa: E402
+from imutherm.geometry.build import MM, Geometry
+from imutherm.geometry.layout import AXES
 
 COLOURS = {"housing": "#b0b4bc", "lid": "#d0d4dc", "board": "#2e8b57", "vias": "#8fbc8f", "box": "#e8e4d0", "component": "#333333",
            "die": "#c8402a", "pad": "#c88232", "bond": "#6fa8e6"}

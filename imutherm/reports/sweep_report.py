@@ -12,14 +12,11 @@ from __future__ import annotations
 
 import os
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.backends.backend_pdf import PdfPages
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
-
-from imutherm.studies.sweep import key_unit  # noqa: E402
+from imutherm.studies.sweep import key_unit
 
 A4_LANDSCAPE = (11.69, 8.27)
 _UNIT_TEXT = {"degC": "°C", "W/m^2 K": "W/m² K", "kg/m^3": "kg/m³"}

@@ -29,6 +29,7 @@ from typing import Callable, Union
 import numpy as np
 
 from imutherm import InputError
+from imutherm.constants import STANDARD_GRAVITY
 from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 
 #: Stefan–Boltzmann constant [W/m^2 K^4] (CODATA 2018, exact in the 2019 SI).
@@ -58,7 +59,7 @@ AIR_TABLE = np.array([
 #: Laminar Nusselt correlations Nu = a Ra^(1/4) behind the C values (McAdams / Incropera ch. 9):
 #: vertical plate 0.59 (1e4 < Ra < 1e9), hot surface up 0.54 (1e4 < Ra < 1e7), hot surface down 0.27.
 NUSSELT_A = {"vertical": 0.59, "up": 0.54, "down": 0.27}
-G_ACC = 9.80665
+G_ACC = STANDARD_GRAVITY  # [m/s^2]
 
 Number = Union[int, float]
 
