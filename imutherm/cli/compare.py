@@ -22,7 +22,8 @@ from imutherm import InputError
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
 from imutherm.budget import check_study_cost, transient_steps
 from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
-from imutherm.cli.solve import add_model_arguments, add_time_arguments, model_options, time_kwargs
+from imutherm.cli.solve import (add_model_arguments, add_time_arguments, model_options, reject_time_options,
+                                time_kwargs)
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.compare import compare_schemes, write_comparison
@@ -57,6 +58,8 @@ def main(argv=None) -> int:
     check_outdir(args.out)
     if args.scheme:
         parser.error("use --schemes with compare")
+    if args.steady_only:
+        reject_time_options(args, "with --steady-only")
     args.time_kwargs = {} if args.steady_only else time_kwargs(args)
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
     if not schemes:

@@ -48,8 +48,10 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
 def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_stop: bool = False) -> None:
     """Time stepping of the power-on transient (shared by ``solve`` and ``compare``)."""
     g = parser.add_argument_group("time stepping")
-    g.add_argument("--t-end", type=float, default=t_end, metavar="SECONDS",
+    g.add_argument("--t-end", type=float, default=None, metavar="SECONDS",
                    help=f"transient end time [s] (default {t_end:g}; the latest end with --until-settled)")
+    # None above tells "not given" from the default (see reject_time_options); time_kwargs fills it in
+    parser.set_defaults(t_end_default=t_end, settle_flag="--full-length" if settle_stop else "--until-settled")
     g.add_argument("--time-tol", type=float, default=None, metavar="K",
                    help="local error tolerance of the adaptive TR-BDF2 steps at the sites [K] (default 0.01)")
     g.add_argument("--dt", type=float, default=None, metavar="SECONDS",
@@ -69,8 +71,23 @@ def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_sto
                        help="stop once every site is within 0.5 %% of its steady rise (past its t95)")
 
 
+def reject_time_options(args, why: str) -> None:
+    """InputError naming the options of :func:`add_time_arguments` (and ``--save-every``) that were given
+    although no transient runs (``why``): they would be silently ignored."""
+    given = [opt for opt, dest in (("--t-end", "t_end"), ("--time-tol", "time_tol"), ("--dt", "dt"),
+                                   ("--dt-max", "dt_max"), ("--theta", "theta"), ("--save-every", "save_every"))
+             if getattr(args, dest, None) is not None]
+    if args.until_settled == (args.settle_flag == "--until-settled"):
+        given.append(args.settle_flag)
+    if given:
+        raise InputError(f"{', '.join(given)}: time stepping given {why}; a steady solve has no time steps, "
+                         f"so drop {'it' if len(given) == 1 else 'them'} or run the transient")
+
+
 def time_kwargs(args) -> dict:
     """``run_scheme`` time arguments from the options of :func:`add_time_arguments` (checked)."""
+    if args.t_end is None:
+        args.t_end = args.t_end_default
     if args.theta is not None and not 0.5 <= args.theta <= 1.0:
         raise InputError(f"--theta must be in [0.5, 1] (1 backward Euler, 0.5 Crank-Nicolson), got {args.theta}")
     if args.time_tol is not None and (args.dt is not None or args.theta is not None):
@@ -126,9 +143,8 @@ def main(argv=None) -> int:
             raise InputError(f"--save-every {every:g} s keeps {args.t_end / every:.3g} fields of a {args.t_end:g} s "
                              f"run, more than the limit of {MAX_SAVED_FIELDS}; use a larger --save-every")
         save_times = np.unique(np.append(np.arange(0.0, args.t_end, every), args.t_end))
-    elif args.theta is not None:
-        raise InputError("--theta needs --transient (a steady solve has no time stepping)")
     else:
+        reject_time_options(args, "without --transient")
         tkw = {}
     options = model_options(args)
     layout = load_layout(args.layout)
