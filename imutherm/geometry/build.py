@@ -196,10 +196,6 @@ def _bond(layout: LayoutSpec, scheme: SchemeSpec, package: Part, board, side: st
     return Part(package.name + "_bond", "bond", scheme.bond_material, tuple(lo), tuple(hi), parent=package.name)
 
 
-def _boxes_overlap(a: Part, b: Part) -> bool:
-    return all(min(a.hi[i], b.hi[i]) - max(a.lo[i], b.lo[i]) > _TOL for i in range(3))
-
-
 def _faces_touch(a: Part, b: Part) -> bool:
     """True if two boxes share a face patch of non-zero area."""
     gaps = [max(a.lo[i], b.lo[i]) - min(a.hi[i], b.hi[i]) for i in range(3)]  # > 0 apart, < 0 overlapping

@@ -88,14 +88,3 @@ class TensorGrid:
         return np.column_stack([c(0, 0, 0), c(1, 0, 0), c(1, 1, 0), c(0, 1, 0),
                                 c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)])
 
-    def part_cells(self, name: str) -> np.ndarray:
-        """Flat (C-order) indices of the cells of part ``name``."""
-        idx = self.part_names.index(name)
-        return np.flatnonzero(self.cell_part.ravel() == idx)
-
-    def locate(self, point) -> tuple:
-        """(i, j, k) of the cell containing ``point`` [m] (clipped to the grid)."""
-        out = []
-        for axis, p in zip((self.xs, self.ys, self.zs), point):
-            out.append(int(np.clip(np.searchsorted(axis, p, side="right") - 1, 0, len(axis) - 2)))
-        return tuple(out)

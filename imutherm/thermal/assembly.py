@@ -306,12 +306,6 @@ class Assembly:
         """Heat-capacity matrix [J/K]."""
         return self.pattern.csr(self.M_data)
 
-    def dirichlet_nodes(self) -> np.ndarray:
-        """Sorted unique node ids with a prescribed temperature."""
-        if not self.dirichlet:
-            return np.zeros(0, dtype=np.int64)
-        return np.unique(np.concatenate([d.nodes for d in self.dirichlet]))
-
     def dirichlet_values(self, t: float | None) -> tuple:
         """(nodes, values [°C]) at time ``t`` [s] (``None`` for steady); later laws win on shared nodes."""
         if not self.dirichlet:

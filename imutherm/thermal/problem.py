@@ -545,11 +545,6 @@ class ThermalProblem:
         """Total volumetric power [W]."""
         return float(np.dot(self.q, self.grid.cell_volumes().reshape(-1)))
 
-    @property
-    def is_linear(self) -> bool:
-        """True when no law is nonlinear in T."""
-        return not any(isinstance(law, NONLINEAR_LAWS) for laws in self.boundary.values() for law in laws)
-
     def law_T_C(self, law) -> float:
         """Reference temperature of a law [°C] (its ``T_C`` or the ambient)."""
         return self.ambient_C if getattr(law, "T_C", None) is None else float(law.T_C)
