@@ -147,3 +147,13 @@ def test_cli_dispatcher_knows_verify(capsys):
 
     assert main(["verify", "--list"]) == 0
     assert "nafems_t4" in capsys.readouterr().out
+
+
+def test_notes_state_the_figures_of_this_run():
+    """Issue 13 §4: a note quotes what this run computed, not figures observed once when it was written."""
+    from imutherm.thermal.verification import CASES
+
+    t3, t4, semi = CASES["nafems_t3"](), CASES["nafems_t4"](), CASES["semi_infinite"]()
+    assert f"error {t3.error:.4f} K" in t3.note
+    assert f"give {t4.computed:.4f} °C" in t4.note and "18.214" not in t4.note
+    assert f"Observed {semi.error:.1e}" in semi.note
