@@ -90,17 +90,13 @@ def main(argv=None) -> int:
         plot_layout(next(iter(comp.runs.values())).geometry if "grease" not in comp.runs
                     else comp.runs["grease"].geometry, tmp / "layout.png")
         write_compare_report(tmp, tmp / "report.pdf")
-    from imutherm.studies.compare import PAPER
-    print(f"{'scheme':<8} {'steady max rise [K]':>19} {'paper sim. [K]':>14} {'hottest part':<14} "
-          f"{'tp1 rise [K]':>12} {'t95 tp1 [s]':>11} {'paper settle [s]':>16}")
-    for s, r in comp.summaries.items():
-        tp1 = r["sites"].get("tp1", {})
-        t95 = tp1.get("t95_s")
-        meas = PAPER["measured"].get(s, {})
-        settle = meas.get("near_steady_s", meas.get("steady_s"))
-        print(f"{s:<8} {r['steady_max_rise_K']:19.2f} {PAPER['simulated_max_rise_K'].get(s, float('nan')):14.1f} "
-              f"{r['hottest_part']:<14} {tp1.get('rise_K', float('nan')):12.2f} "
-              f"{'-' if t95 is None else f'{t95:.0f}':>11} {'-' if settle is None else f'{settle:.0f}':>16}")
+    from imutherm.studies.compare import PAPER, PAPER_TABLE_COLUMNS, paper_table
+
+    cols = [c.replace("\n", " ") for c in PAPER_TABLE_COLUMNS]
+    rows = paper_table({"paper": PAPER, "schemes": comp.summaries})
+    widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
+    for line in [cols] + rows:
+        print("  ".join(v.ljust(w) if i in (0, 3) else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths))))
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png")
     return 0
 

@@ -28,20 +28,9 @@ def _table_page(pdf, data: dict) -> None:
     any_s = next(iter(data["schemes"].values()))
     fig.text(0.05, 0.90, f"layout {any_s['layout']}, ambient {any_s['ambient_C']:.0f} C, power {any_s['power_W']:.3f} W, "
              f"mesh {any_s['mesh']['nodes']} nodes; rises in K over ambient; paper = seed 000", fontsize=10)
-    paper = data["paper"]
-    cols = ["scheme", "steady max\nrise [K]", "paper sim.\n[K]", "hottest part", "tp1\n[K]", "tp2\n[K]", "tp3\n[K]",
-            "gyro\nspread [K]", "accel\nspread [K]", "t95 tp1\n[s]", "paper meas.\nsettle [s]", "energy\nbalance"]
-    rows = []
-    for s, r in data["schemes"].items():
-        meas = paper["measured"].get(s, {})
-        settle = meas.get("near_steady_s", meas.get("steady_s"))
-        sites = r["sites"]
-        t95 = sites.get("tp1", {}).get("t95_s")
-        rows.append([s, f"{r.get('steady_max_rise_K', r['max_rise_K']):.1f}", f"{paper['simulated_max_rise_K'].get(s, float('nan')):.0f}",
-                     r["hottest_part"]] + [f"{sites[t]['rise_K']:.1f}" if t in sites else "-" for t in ("tp1", "tp2", "tp3")]
-                    + [f"{r['gyro_spread_K']:.2f}", f"{r['accel_spread_K']:.2f}",
-                       "-" if t95 is None else f"{t95:.0f}", "-" if settle is None else f"{settle:.0f}",
-                       f"{r['energy_balance_rel_error']:.0e}"])
+    from imutherm.studies.compare import PAPER_TABLE_COLUMNS, paper_table
+
+    cols, rows = list(PAPER_TABLE_COLUMNS), paper_table(data)
     ax = fig.add_axes([0.03, 0.55, 0.94, 0.3])
     ax.axis("off")
     tab = ax.table(cellText=rows, colLabels=cols, loc="center", cellLoc="center")

@@ -39,6 +39,33 @@ def _paper() -> dict:
 PAPER = _paper()
 
 
+#: column labels of the paper-vs-model table (line breaks where the report wraps them)
+PAPER_TABLE_COLUMNS = ("scheme", "steady max\nrise [K]", "paper sim.\n[K]", "hottest part", "tp1\n[K]", "tp2\n[K]",
+                       "tp3\n[K]", "gyro\nspread [K]", "accel\nspread [K]", "t95 tp1\n[s]", "paper meas.\nsettle [s]",
+                       "energy\nbalance")
+
+
+def paper_table(data: dict) -> list[list[str]]:
+    """The paper-vs-model table of the thermal comparison, one formatted row per scheme (columns
+    :data:`PAPER_TABLE_COLUMNS`), built once for ``imutherm compare --thermal-only`` and its report.
+
+    ``data``: the ``compare.json`` content, ``{"paper": PAPER, "schemes": {scheme: result_summary}}``.
+    """
+    paper, rows = data["paper"], []
+    for s, r in data["schemes"].items():
+        meas = paper["measured"].get(s, {})
+        settle = meas.get("near_steady_s", meas.get("steady_s"))
+        sites = r["sites"]
+        t95 = sites.get("tp1", {}).get("t95_s")
+        rows.append([s, f"{r.get('steady_max_rise_K', r['max_rise_K']):.1f}",
+                     f"{paper['simulated_max_rise_K'].get(s, float('nan')):.0f}", r["hottest_part"]]
+                    + [f"{sites[t]['rise_K']:.1f}" if t in sites else "-" for t in ("tp1", "tp2", "tp3")]
+                    + [f"{r['gyro_spread_K']:.2f}", f"{r['accel_spread_K']:.2f}",
+                       "-" if t95 is None else f"{t95:.0f}", "-" if settle is None else f"{settle:.0f}",
+                       f"{r['energy_balance_rel_error']:.0e}"])
+    return rows
+
+
 @dataclass(frozen=True)
 class Comparison:
     """The three schemes' results: ``runs`` scheme -> SchemeResult, ``summaries`` scheme -> result dict."""
