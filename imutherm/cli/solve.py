@@ -16,7 +16,6 @@ earlier run in DIR are removed, so DIR holds only this run's field.
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 
 import numpy as np
@@ -29,6 +28,7 @@ from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.thermal_study import check_time_arguments, probe_table, result_summary, run_scheme
 from imutherm.thermal.model import ModelOptions
+from imutherm.site_table import write_site_table
 from imutherm.thermal.output import write_result
 
 
@@ -107,14 +107,6 @@ def model_options(args) -> ModelOptions:
                         cavity_radiation=not args.no_cavity_radiation)
 
 
-def write_probes_csv(path, header, rows) -> None:
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for row in rows:
-            w.writerow([f"{v:.6g}" if i == 0 else f"{v:.6f}" for i, v in enumerate(row)])
-
-
 @run_guarded("imutherm solve")
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="imutherm solve", description=__doc__,
@@ -168,7 +160,7 @@ def main(argv=None) -> int:
         summary["sites"] = {s: summary["sites"][s] for s in args.site}
     with atomic_outdir(args.out, stale=FIELD_FILES) as tmp:
         write_json(tmp / "result.json", summary)
-        write_probes_csv(tmp / "probes.csv", header, rows)
+        write_site_table(tmp / "probes.csv", rows[:, 0], header[1:], rows[:, 1:])
         write_result(tmp / "field", res.transient if res.transient is not None else res.steady)
     print(f"{summary['layout']} / {summary['scheme']} ({summary['mode']}): max rise {summary['max_rise_K']:.2f} K "
           f"({summary['max_temperature_C']:.2f} C) in {summary['hottest_part']}; "

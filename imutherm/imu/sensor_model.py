@@ -55,8 +55,8 @@ from scipy.signal import lfilter
 from imutherm import InputError
 from imutherm.constants import STANDARD_GRAVITY as G0  # [m/s^2]
 from imutherm.imu.grades import GRADES
+from imutherm.site_table import SITES  # noqa: F401  (the site names, defined once; re-exported)
 
-SITES = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 T_REF_C = 25.0  # [°C] room (reference) temperature of the curves
 T_RANGE_C = (-40.0, 70.0)  # [°C] the paper's operating / calibrated range (seed 000)
 #: [°C] die temperatures the truth model accepts: the curves are scaled over T_RANGE_C and continue

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import json
 import os
 from pathlib import Path
@@ -15,11 +14,11 @@ SCHEME_COLOURS = {"air": "#d62728", "grease": "#1f77b4", "potted": "#2ca02c"}
 
 
 def _read_probes(path: Path) -> tuple:
-    with open(path) as fh:
-        rows = list(csv.reader(fh))
-    header = rows[0]
-    data = np.array([[float(v) for v in r] for r in rows[1:]])
-    return header, data
+    """(header with ``time_s`` first, data (M, 1 + sites)) of a site-temperature table."""
+    from imutherm.site_table import TIME, read_site_table
+
+    t, T, names = read_site_table(path, None)
+    return [TIME, *names], np.column_stack([t, T])
 
 
 def _table_page(pdf, data: dict) -> None:

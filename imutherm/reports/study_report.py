@@ -20,6 +20,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 
+from imutherm.site_table import read_site_table
+
 SCHEME_COLOURS = {"air": "#d62728", "grease": "#1f77b4", "potted": "#2ca02c"}
 A4 = (11.69, 8.27)
 FILTER_STYLE = {"gated": "-", "kf": "--", "ungated": ":", "fusion": "-."}
@@ -206,7 +208,8 @@ def _curves_page(pdf, folder: Path, data: dict) -> None:
     _title(fig, "Sensor-site temperatures after power-on (the warm-up the IMU sees)",
            "die centroids of the six sensors, test points tp1-3 on the main board; markers: t95 of each sensor")
     for ax, s in zip(axes[0], schemes):
-        header, d = _read_csv(folder / f"curves_{s}.csv")
+        t, T, names = read_site_table(folder / f"curves_{s}.csv", None)
+        header, d = ["time_s", *names], np.column_stack([t, T])
         for j, name in enumerate(header[1:], start=1):
             tp = name.startswith("tp")
             line, = ax.plot(d[:, 0], d[:, j], lw=1.6 if tp else 1.1, ls=":" if tp else "-", label=name)

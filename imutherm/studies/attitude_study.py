@@ -23,8 +23,6 @@ chosen from the physics of the flight profile, not fitted to one run:
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -111,44 +109,12 @@ class AttitudeStudyResult:
 
 # --------------------------------------------------------------------------- temperatures
 def read_temperature_csv(path) -> tuple[np.ndarray, np.ndarray]:
-    """Read a temperature CSV: ``time_s`` and one column per site (SITES) [°C].
+    """Read a site-temperature table (:func:`imutherm.site_table.read_site_table`): ``time_s`` and one
+    column per site (SITES) [°C]. Returns (time [s] (M,), temperatures [°C] (M, 6))."""
+    from imutherm.site_table import read_site_table
 
-    Returns (time [s] (M,), temperatures [°C] (M, 6)). Several rows: ``time_s``
-    finite and strictly increasing. A single row is a constant temperature and
-    its ``time_s`` may be any number, ``inf`` included (a steady run of
-    ``imutherm solve`` writes one row at time ``inf``). Temperatures must be
-    finite. Raises InputError naming the file and the missing / bad column.
-    """
-    from imutherm.imu.sensor_model import SITES
-
-    path = Path(path)
-    try:
-        from imutherm.textio import read_text  # strict UTF-8 (BOM dropped), size cap, one-line errors
-        rows = list(csv.reader(io.StringIO(read_text(path, "temperature CSV"), newline="")))
-    except csv.Error as exc:
-        raise InputError(f"{path}: not a valid CSV file ({exc})") from None
-    rows = [r for r in rows if r and not r[0].lstrip().startswith("#")]
-    if len(rows) < 2:
-        raise InputError(f"{path}: temperature CSV needs a header and at least one row")
-    header = [h.strip() for h in rows[0]]
-    need = ("time_s",) + SITES
-    for col in need:
-        if col not in header:
-            raise InputError(f"{path}: column {col!r} is missing; valid header: {', '.join(need)}")
-    idx = [header.index(c) for c in need]
-    try:
-        data = np.array([[float(r[i]) for i in idx] for r in rows[1:]], float)
-    except (ValueError, IndexError) as exc:
-        raise InputError(f"{path}: non-numeric or short row in temperature CSV ({exc})") from None
-    if not np.all(np.isfinite(data[:, 1:])):
-        raise InputError(f"{path}: temperature CSV contains NaN or inf temperatures")
-    if len(data) > 1 and not np.all(np.isfinite(data[:, 0])):
-        raise InputError(f"{path}: column 'time_s' contains NaN or inf; only a single-row (constant, e.g. "
-                         "steady-state) file may have a non-finite time")
-    t = data[:, 0]
-    if len(t) > 1 and np.any(np.diff(t) <= 0):
-        raise InputError(f"{path}: column 'time_s' must be strictly increasing")
-    return t, data[:, 1:]
+    t, T, _ = read_site_table(path)
+    return t, T
 
 
 def temperature_on(t, temperature_C=None, temperature_csv=None, *, valid_C=None) -> tuple[np.ndarray, dict]:

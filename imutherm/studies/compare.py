@@ -8,7 +8,6 @@ run, the site curves, and a temperature map in the main board's mid-plane.
 
 from __future__ import annotations
 
-import csv
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ from imutherm import InputError
 from imutherm.io import write_json
 from imutherm.geometry.build import MM
 from imutherm.geometry.layout import AXES, load_layout
+from imutherm.site_table import write_site_table
 from imutherm.studies.thermal_study import SchemeResult, probe_table, result_summary, run_scheme
 
 def _paper() -> dict:
@@ -111,8 +111,5 @@ def write_comparison(comp: Comparison, out: str | os.PathLike) -> None:
     write_json(out / "compare.json", {"paper": PAPER, "schemes": comp.summaries})
     for s, res in comp.runs.items():
         header, rows = probe_table(res)
-        with open(out / f"probes_{s}.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(header)
-            w.writerows([[f"{v:.6g}"] + [f"{x:.5f}" for x in row[1:]] for v, row in zip(rows[:, 0], rows)])
+        write_site_table(out / f"probes_{s}.csv", rows[:, 0], header[1:], rows[:, 1:])
         np.savez_compressed(out / f"map_{s}.npz", **board_plane_map(res))

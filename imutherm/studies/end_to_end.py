@@ -672,6 +672,7 @@ def write_study(result: StudyResult, out, *, summary: dict | None = None) -> dic
     from pathlib import Path
 
     from imutherm.io import write_csv, write_json
+    from imutherm.site_table import write_site_table
     from imutherm.studies.compare import board_plane_map
     from imutherm.studies.thermal_study import probe_table
     from imutherm.thermal.output import write_vtu
@@ -681,7 +682,7 @@ def write_study(result: StudyResult, out, *, summary: dict | None = None) -> dic
     write_json(out / "summary.json", summary)
     for name, st in result.schemes.items():
         header, rows = probe_table(st.thermal)
-        write_csv(out / f"curves_{name}.csv", header, rows, fmt="{:.5f}")
+        write_site_table(out / f"curves_{name}.csv", rows[:, 0], header[1:], rows[:, 1:])
         ser = st.series
         rk = [k for k in ser if k.endswith("_accel_mg") or k.endswith("_gyro_dps")]
         cols = ["time_s"] + [f"{k[:-len('_accel_mg')]}_accel_{a}_mg" if k.endswith("_accel_mg") else

@@ -21,9 +21,8 @@ from imutherm.thermal.metrics import ThermalMetrics, thermal_metrics
 from imutherm.thermal.model import ModelOptions, build_problem
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.solve import solve_steady, solve_transient, time_steps
+from imutherm.site_table import ACCEL_SITES, GYRO_SITES
 
-GYRO_SITES = ("gyro_x", "gyro_y", "gyro_z")
-ACCEL_SITES = ("accel_x", "accel_y", "accel_z")
 
 
 @dataclass(frozen=True)
