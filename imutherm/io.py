@@ -2,7 +2,10 @@
 
 One writer per format, so every result file of the package has the same
 conventions: JSON indented with NaN/inf written as ``null``; CSV with a header
-row, ``time_s`` first where there is a time axis, temperatures in °C.
+row, ``time_s`` first where there is a time axis, temperatures in °C (the
+site-temperature tables: :mod:`imutherm.site_table`). :func:`atomic_write` is
+the one way a single file is replaced (a temporary name beside it, then one
+rename); whole result folders are swapped by ``imutherm.cli._common.atomic_outdir``.
 """
 
 from __future__ import annotations
@@ -11,29 +14,50 @@ import csv
 import json
 import math
 import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 
-def _plain(obj):
-    """numpy scalars/arrays -> Python; non-finite floats -> None (JSON has no NaN)."""
+def plain(obj, *, finite: bool = True):
+    """numpy scalars/arrays -> Python lists and numbers, dict keys -> str; with ``finite`` (default)
+    non-finite floats -> None (JSON has no NaN)."""
     if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
+        return {str(k): plain(v, finite=finite) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
+        return [plain(v, finite=finite) for v in obj]
     if isinstance(obj, np.ndarray):
-        return _plain(obj.tolist())
+        return plain(obj.tolist(), finite=finite)
     if isinstance(obj, np.generic):
-        return _plain(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
+        return plain(obj.item(), finite=finite)
+    if finite and isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
 
 
-def write_json(path: str | os.PathLike, data) -> None:
-    """Write ``data`` as indented JSON (numpy values converted, NaN/inf as null)."""
-    Path(path).write_text(json.dumps(_plain(data), indent=2) + "\n")
+def atomic_write(path: str | os.PathLike, write) -> Path:
+    """Replace ``path`` in one step: ``write(tmp)`` fills a temporary file beside it (same folder, so the
+    same file system), which is then renamed over ``path``; on any error the temporary file is removed
+    and ``path`` is untouched. Returns ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_json(path: str | os.PathLike, data, *, indent: int = 2, finite: bool = True) -> Path:
+    """Write ``data`` as indented JSON, atomically (numpy values converted; with ``finite`` NaN/inf as
+    null, else as JSON's NaN/Infinity extension, which :func:`json.load` reads back)."""
+    text = json.dumps(plain(data, finite=finite), indent=indent) + "\n"
+    return atomic_write(path, lambda tmp: Path(tmp).write_text(text))
 
 
 def write_csv(path: str | os.PathLike, header, rows, fmt: str = "{:.6g}") -> None:

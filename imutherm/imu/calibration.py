@@ -61,6 +61,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from imutherm import InputError
+from imutherm.io import plain, write_json
 from imutherm.imu.compensation import compensate
 from imutherm.imu.sensor_model import (
     G0, T_RANGE_C, T_REF_C, ImuUnit, PowerOn, draw_power_on, simulate_imu,
@@ -276,7 +277,7 @@ class Calibration:
             "site_edges_C": self.site_edges().tolist(),
             "gyro": triad(self.gyro),
             "accel": triad(self.accel),
-            "meta": json.loads(json.dumps(self.meta, default=_json_default)),
+            "meta": plain(self.meta, finite=False),
         }
 
     @classmethod
@@ -302,11 +303,8 @@ class Calibration:
         return cal
 
     def save_json(self, path: str | os.PathLike) -> None:
-        """Write :meth:`to_dict` to ``path`` (atomic: temporary name, then rename)."""
-        path = Path(path)
-        tmp = path.with_name(f".{path.name}.tmp")
-        tmp.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
-        os.replace(tmp, path)
+        """Write :meth:`to_dict` to ``path`` (atomic: :func:`imutherm.io.write_json`, NaN kept as NaN)."""
+        write_json(path, self.to_dict(), indent=1, finite=False)
 
     @classmethod
     def load_json(cls, path: str | os.PathLike) -> "Calibration":
@@ -320,12 +318,6 @@ class Calibration:
         return cls.from_dict(d)
 
 
-def _json_default(obj):
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    raise TypeError(type(obj).__name__)
 
 
 # --------------------------------------------------------------------------- calibrate

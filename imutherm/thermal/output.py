@@ -8,14 +8,13 @@ leaves nothing half-written.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from imutherm import InputError
+from imutherm.io import atomic_write
 
 
 def _mesh(grid, T_C):
@@ -29,18 +28,6 @@ def _mesh(grid, T_C):
                        point_data={"temperature_C": T},
                        cell_data={"part": [np.asarray(grid.cell_part).reshape(-1).astype(np.int32)]},
                        field_data=field_data)
-
-
-def _atomic(path: Path, write):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def write_vtu(path, grid, T_C) -> Path:
@@ -61,7 +48,7 @@ def write_vtu(path, grid, T_C) -> Path:
 
     path = Path(path)
     mesh = _mesh(grid, T_C)
-    _atomic(path, lambda tmp: meshio.write(tmp, mesh, file_format="vtu"))
+    atomic_write(path, lambda tmp: meshio.write(tmp, mesh, file_format="vtu"))
     return path
 
 
@@ -93,7 +80,7 @@ def write_pvd(path, grid, times, fields) -> Path:
         write_vtu(path.parent / name, grid, T)
         lines.append(f'    <DataSet timestep="{t:.9g}" group="" part="0" file={quoteattr(name)}/>')
     lines += ["  </Collection>", "</VTKFile>", ""]
-    _atomic(path, lambda tmp: Path(tmp).write_text("\n".join(lines)))
+    atomic_write(path, lambda tmp: Path(tmp).write_text("\n".join(lines)))
     return path
 
 
