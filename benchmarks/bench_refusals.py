@@ -39,6 +39,8 @@ def main():
             "solve --min-cells 1000": ["solve", "--min-cells", "1000", "--out", out],
             "solve --transient --t-end 1e13 --dt 1": ["solve", "--transient", "--t-end", "1e13", "--dt", "1", "--out", out],
             "compare --mesh-size 0.2 (3 schemes estimated)": ["compare", "--mesh-size", "0.2", "--out", out],
+            "compare --seeds 1000 (IMU side ~18 h)": ["compare", "--seeds", "1000", "--out", out],
+            "compare --jobs 1000 (999 workers' memory)": ["compare", "--jobs", "1000", "--out", out],
             "attitude --seeds 1000000000": ["attitude", "--profile", "flight", "--seeds", "1000000000", "--out", out],
             "layout: 1 MiB of unknown keys": ["geometry", big, "--out", out],
             "layout: 17 MiB (over the cap)": ["geometry", over, "--out", out],
