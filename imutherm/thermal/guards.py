@@ -10,8 +10,9 @@ follow) would take unbounded time. :func:`check_step` stops both with a
 :class:`~imutherm.ConvergenceError` that names the likely cause.
 
 The time loops of :mod:`imutherm.thermal.solve` call it once per accepted
-step with the new field; it costs one pass over the field (~1 ms at 2e5
-unknowns against ~0.2 s per step).
+step with the new field; it costs a subtraction and two reductions over the
+field (measured 6.7 ms at 2e5 nodes, best of 5, on this machine at load 12,
+against the ~0.2 s a step of that size takes).
 """
 
 from __future__ import annotations
