@@ -44,9 +44,10 @@ SEGMENTS = ("overall", "stable", "manoeuvre")
 METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
 COMPENSATIONS = ("none", "conventional", "improved")
 
-#: default sensor lever arm from the rotation centre [m], per profile
+#: default sensor lever arm from the rotation centre [m], per profile; vehicle: 0.5 m ahead of and 0.3 m
+#: above the reference point [ASSUMED, a dashboard mount]; handheld: 8 cm from the wrist [ASSUMED]
 DEFAULT_LEVER_ARM = {"static": (0.0, 0.0, 0.0), "swing": (0.0, 0.03, 0.05), "shake": (0.0, 0.0, 0.0),
-                     "flight": (0.3, 0.0, 0.05)}
+                     "flight": (0.3, 0.0, 0.05), "vehicle": (0.5, 0.0, -0.3), "handheld": (0.08, 0.0, 0.0)}
 
 
 @dataclass(frozen=True)
