@@ -122,3 +122,15 @@ def test_flight_accuracy_targets():
 def test_study_rejects_too_short_rest():
     with pytest.raises(InputError, match="init_s=0.50 s .* is too short; valid: at least 1 s"):
         run_attitude_study("flight", duration=60.0, compensation="none", gate=GateConfig(init_s=0.5))
+
+
+def test_cli_vehicle_with_realistic_disturbances(tmp_path):
+    out = tmp_path / "veh"
+    assert main(["--profile", "vehicle", "--duration", "80", "--disturbances", "realistic", "--no-plot",
+                 "--out", str(out)]) == 0
+    d = json.loads((out / "attitude.json").read_text())
+    assert d["gate"]["disturbances"]["vibration"] is True and d["gate"]["disturbances"]["sync_ms"] == 5.0
+    for n in NAMES:
+        assert np.isfinite(d["filters"][n]["overall"]["roll_rms_deg"]["mean"])
+    clean = run_attitude_study("vehicle", duration=80.0, names=("kf",))
+    assert clean.gate["disturbances"] is None

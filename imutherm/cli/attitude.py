@@ -44,6 +44,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seed0", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--duration", type=float, default=None, help="profile duration [s] (default: profile's)")
     p.add_argument("--no-plot", action="store_true", help="skip attitude.png")
+    p.add_argument("--disturbances", default="none", choices=("none", "realistic"),
+                   help="realistic: the profile's vibration, turbulence, wind, sync error and jitter "
+                        "(imutherm.imu.disturbances.PRESETS); default none")
     add_memory_argument(p)
     p.add_argument("--out", required=True, help="output directory")
     from imutherm.cli import _attitude_csv
@@ -80,7 +83,7 @@ def main(argv=None) -> int:
     res = run_attitude_study(args.profile, grade=args.grade, temperature_C=args.temperature,
                              temperature_csv=args.temperature_csv, compensation=args.compensation,
                              seeds=args.seeds, seed0=args.seed0, duration=args.duration,
-                             out_of_range=args.out_of_range)
+                             out_of_range=args.out_of_range, disturbances=args.disturbances == "realistic")
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)
