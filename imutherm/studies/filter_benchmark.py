@@ -55,6 +55,9 @@ TUNABLE = {
     "mahony": (("k_P", MahonyParams.k_P), ("k_I", MahonyParams.k_I)),
     "ekf": (("var_gyr", EKFParams.var_gyr), ("var_acc", EKFParams.var_acc)),
 }
+#: the gates' design turn radius L [m] per profile: the platform's (:data:`imutherm.studies.recorded.PLATFORMS`,
+#: as ``--imu-csv --platform`` uses), GateConfig.L (the aircraft's 1146 m) for the others
+TURN_RADIUS = {"vehicle": 50.0, "handheld": 0.5}
 BOX_DECADES = 2.5
 N_SOBOL = 32
 MAX_NM = 24
@@ -65,7 +68,8 @@ N_START = 3
 class Record:
     """One simulated, compensated record: gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], reference roll/pitch
     (N,) [rad] (the truth, delayed by the sync error when disturbed), lever_arm (3,) [m], init_s [s] rest at
-    the start, profile, seed."""
+    the start, profile, seed, turn_radius [m] the gates' design turn radius L for the profile's platform
+    (:data:`TURN_RADIUS`)."""
 
     profile: str
     seed: int
@@ -76,6 +80,7 @@ class Record:
     pitch: np.ndarray = field(repr=False)
     lever_arm: tuple
     init_s: float
+    turn_radius: float = GateConfig.L
 
 
 def check_split(train=TRAIN, held_out=HELD_OUT) -> None:
@@ -120,7 +125,8 @@ def make_records(sets, grade: str = "adis16355", compensation: str = "improved",
             dr = dist_mod.apply(traj, dist, np.random.default_rng([s, motion.PROFILES.index(profile), 1]))
             raw = simulate_imu(unit, traj.t, dr.omega_in, dr.f_in, np.full((traj.t.size, 6), 25.0), rng)
             smp = compensate(raw, cal, compensation)
-            out.append(Record(profile, s, smp.gyro, smp.accel, 1.0 / rate, dr.ref_roll, dr.ref_pitch, d, init_s))
+            out.append(Record(profile, s, smp.gyro, smp.accel, 1.0 / rate, dr.ref_roll, dr.ref_pitch, d, init_s,
+                              TURN_RADIUS.get(profile, GateConfig.L)))
     return out
 
 
@@ -141,9 +147,9 @@ def run_one(name: str, rec: Record, values: dict | None = None):
     """AttitudeEstimate of filter ``name`` on ``rec`` with ``values`` (None: published defaults)."""
     kw = settings_for(name, values)
     if "gate" in kw:
-        kw["gate"] = replace(kw["gate"], init_s=rec.init_s)
+        kw["gate"] = replace(kw["gate"], init_s=rec.init_s, L=rec.turn_radius)
     else:
-        kw["gate"] = GateConfig(init_s=rec.init_s)
+        kw["gate"] = GateConfig(init_s=rec.init_s, L=rec.turn_radius)
     est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, names=(name,), **kw)
     return est[name]
 
