@@ -335,7 +335,7 @@ class Wind:
     gusts: tuple = ()
 
     def speed(self, h) -> np.ndarray:
-        """Wind speed [m/s] at height h [m] (held at the 20 ft value below 20 ft... to ground_m, 0 below z0)."""
+        """Wind speed [m/s] at height h [m] by the log law (heights below z0 taken as z0: zero wind)."""
         h = np.maximum(np.asarray(h, float), self.z0_m * 1.0001)
         return self.w20_kt * KT * np.log(h / self.z0_m) / math.log(20 * FT / self.z0_m)
 
