@@ -335,7 +335,7 @@ class Wind:
     gusts: tuple = ()
 
     def speed(self, h) -> np.ndarray:
-        """Wind speed [m/s] at height h [m] by the log law (heights below z0 taken as z0: zero wind)."""
+        """Wind speed [m/s] at height h [m] by the log law (heights at or below z0 clipped just above it: ~0)."""
         h = np.maximum(np.asarray(h, float), self.z0_m * 1.0001)
         return self.w20_kt * KT * np.log(h / self.z0_m) / math.log(20 * FT / self.z0_m)
 
