@@ -135,3 +135,23 @@ def test_cli_refuses_profile_and_csv_together(tmp_path, rec):
     assert main(["--imu-csv", str(p), "--profile", "swing", "--out", str(tmp_path / "x")]) == 2
     assert main(["--out", str(tmp_path / "y")]) == 2
     assert main(["--imu-csv", str(p), "--lever-arm", "1,2", "--out", str(tmp_path / "z")]) == 2
+
+
+@pytest.fixture(scope="module")
+def handheld():
+    return fb.make_records([("handheld", (1,))])[0]  # comes to rest tilted by 35° and more, at most 190 °/s
+
+
+def test_gyro_unit_off_by_180_over_pi_is_refused_both_ways(tmp_path, handheld):
+    r = handheld
+    t = np.arange(len(r.gyro)) * r.dt
+    ok = write_imu_csv(tmp_path / "ok.csv", t, r.gyro, r.accel, gyro_units="deg/s")
+    assert read_imu_csv(ok).units["gyro"] == "deg/s"  # declared right: passes the check
+    p = write_imu_csv(tmp_path / "rad.csv", t, r.gyro, r.accel)  # rad/s data
+    p.write_text(p.read_text().replace("# gyro_units: rad/s", "# gyro_units: deg/s"))
+    with pytest.raises(InputError, match="it looks like the gyro is in rad/s: declare gyro_units rad/s"):
+        read_imu_csv(p)
+    q = write_imu_csv(tmp_path / "deg.csv", t, r.gyro, r.accel, gyro_units="deg/s")
+    q.write_text(q.read_text().replace("# gyro_units: deg/s", "# gyro_units: rad/s"))
+    with pytest.raises(InputError, match="looks like deg/s|looks like the gyro is in deg/s"):
+        read_imu_csv(q)

@@ -21,7 +21,7 @@ Checks (each a one-line :class:`imutherm.InputError` naming the file and what wo
 columns, non-numeric or non-finite values, non-monotonic time, gaps, a log shorter than the leveling
 window, an accelerometer whose magnitude at rest is not g in the declared unit (the typical mistake, g
 declared as m/s² or the reverse, is named as such), a gyro declared rad/s whose values exceed any MEMS
-range (deg/s declared as rad/s), and a first window that is not at rest (the filters level and measure
+range (deg/s declared as rad/s), a gyro off by 180/π either way (:func:`scale_check`), and a first window that is not at rest (the filters level and measure
 the gyro bias there).
 """
 
@@ -195,12 +195,69 @@ def read_imu_csv(path, *, gyro_units: str | None = None, accel_units: str | None
         raise InputError(f"{path}: the unit is not at rest over the first {init_s:g} s (the specific force turns "
                          f"by {tilt:.1f}°); valid: a log that starts with {init_s:g} s at rest, or a shorter "
                          "--init-s")
+    scale_check(path, gyro, accel, dt, n0, declared["gyro_units"])
     rr = rp = None
     if ref_present:
         rr, rp = np.radians(data[:, 7]), np.radians(data[:, 8])
     return ImuLog(str(path), t - t[0], gyro, accel, rr, rp, dt, 1.0 / dt,
                   {"gyro": declared["gyro_units"], "accel": declared["accel_units"], "axes": declared["axes"]},
                   g_rest, spread)
+
+
+def _integrate_down(gyro, r0, dt):
+    """Down direction in body axes (N,3) from r0 [-] by the gyro (N,3) [rad/s]: dr/dt = −ω × r, exact per step."""
+    out = np.empty((len(gyro), 3))
+    x, y, z = (float(v) for v in r0)
+    for k, (wx, wy, wz) in enumerate(gyro.tolist()):
+        out[k] = (x, y, z)
+        a = math.sqrt(wx * wx + wy * wy + wz * wz) * dt
+        if a > 0:  # rotate r by −a about ω (Rodrigues)
+            ux, uy, uz = wx * dt / a, wy * dt / a, wz * dt / a
+            c, s_ = math.cos(a), -math.sin(a)
+            d = (ux * x + uy * y + uz * z) * (1 - c)
+            x, y, z = (x * c + (uy * z - uz * y) * s_ + ux * d, y * c + (uz * x - ux * z) * s_ + uy * d,
+                       z * c + (ux * y - uy * x) * s_ + uz * d)
+    return out
+
+
+#: gyro-unit check: quasi-static 0.5 s blocks tilted at least this much from the start are compared [deg]
+CHECK_TILT_DEG = 15.0
+
+
+def scale_check(path, gyro, accel, dt: float, n0: int, unit: str) -> None:
+    """Refuse a gyro whose declared unit is off by 180/π either way.
+
+    The down direction integrated from the rest window with the gyro (bias = its rest mean) must follow the
+    accelerometer's down direction at the quasi-static moments (0.5 s blocks, |f| within 5 % of its rest
+    value, per-axis std < 0.5 m/s^2) that are tilted by more than :data:`CHECK_TILT_DEG` from the start.
+    The median angle between the two is computed for the gyro read as declared, ×(π/180) and ×(180/π);
+    if the declared reading is off by more than 10° and another is three times closer, the log is refused.
+    No such moments (a log that never comes to rest tilted): no check.
+    """
+    nb = max(1, int(round(0.5 / dt)))
+    m = (len(accel) // nb) * nb
+    blk = accel[:m].reshape(-1, nb, 3)
+    mean, std = blk.mean(axis=1), blk.std(axis=1)
+    g0 = float(np.mean(np.linalg.norm(accel[:n0], axis=1)))
+    down = -mean / np.linalg.norm(mean, axis=1)[:, None]
+    r0 = -accel[:n0].mean(axis=0)
+    r0 /= np.linalg.norm(r0)
+    tilt = np.degrees(np.arccos(np.clip(down @ r0, -1, 1)))
+    ok = (np.abs(np.linalg.norm(mean, axis=1) - g0) < 0.05 * g0) & np.all(std < 0.5, axis=1) & (tilt > CHECK_TILT_DEG)
+    if not np.any(ok):
+        return
+    centre = np.flatnonzero(ok) * nb + nb // 2
+    bias = gyro[:n0].mean(axis=0)
+    err = {}
+    for label, f in (("declared", 1.0), ("x pi/180", math.pi / 180), ("x 180/pi", 180 / math.pi)):
+        r = _integrate_down((gyro[: centre[-1] + 1] - bias) * f, r0, dt)[centre]
+        err[label] = float(np.median(np.degrees(np.arccos(np.clip(np.sum(r * down[ok], axis=1), -1, 1)))))
+    best = min(err, key=err.get)
+    if best != "declared" and err["declared"] > 10.0 and err[best] < err["declared"] / 3:
+        other = {"rad/s": "deg/s", "deg/s": "rad/s"}[unit]
+        raise InputError(f"{path}: read as {unit}, the gyro turns the down direction {err['declared']:.0f}° away "
+                         f"from the accelerometer's at rest after rotating (read as {other}: {err[best]:.1f}°) — "
+                         f"it looks like the gyro is in {other}: declare gyro_units {other}")
 
 
 def write_imu_csv(path, t, gyro, accel, *, roll=None, pitch=None, gyro_units: str = "rad/s",
