@@ -22,8 +22,7 @@ columns, non-numeric or non-finite values, non-monotonic time, gaps, a log short
 window, an accelerometer whose magnitude at rest is not g in the declared unit (the typical mistake, g
 declared as m/s² or the reverse, is named as such), a gyro declared rad/s whose values exceed any MEMS
 range (deg/s declared as rad/s), a gyro off by 180/π either way (:func:`scale_check`), and a first
-window that is not at rest (the filters level and measure
-the gyro bias there).
+window that is not at rest (the filters level and measure the gyro bias there).
 """
 
 from __future__ import annotations
