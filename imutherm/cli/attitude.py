@@ -1,5 +1,7 @@
 """``imutherm attitude``: run the four attitude filters on a motion profile and report roll/pitch errors.
 
+``--imu-csv FILE`` runs every filter on a recorded log instead (:mod:`imutherm.cli._attitude_csv`).
+
 Outputs in ``--out DIR``:
 
 * ``attitude.json``: ``filters.<name>.<segment>.<metric>`` for names ``gated``
@@ -28,7 +30,7 @@ from imutherm.imu.motion import PROFILES
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="imutherm attitude", description=__doc__.split("\n")[0])
-    p.add_argument("--profile", required=True, help=f"motion profile: {', '.join(PROFILES)}")
+    p.add_argument("--profile", default=None, help=f"motion profile: {', '.join(PROFILES)} (or --imu-csv)")
     p.add_argument("--grade", default="adis16355", help="sensor grade (default adis16355)")
     t = p.add_mutually_exclusive_group()
     t.add_argument("--temperature", type=float, default=None, help="constant die temperature [°C] (default 25)")
@@ -42,8 +44,14 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seed0", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--duration", type=float, default=None, help="profile duration [s] (default: profile's)")
     p.add_argument("--no-plot", action="store_true", help="skip attitude.png")
+    p.add_argument("--disturbances", default="none", choices=("none", "realistic"),
+                   help="realistic: the profile's vibration, turbulence, wind, sync error and jitter "
+                        "(imutherm.imu.disturbances.PRESETS); default none")
     add_memory_argument(p)
     p.add_argument("--out", required=True, help="output directory")
+    from imutherm.cli import _attitude_csv
+
+    _attitude_csv.add_arguments(p)
     return p
 
 
@@ -52,6 +60,12 @@ def main(argv=None) -> int:
     """Entry point; returns the exit status (2 on bad input)."""
     args = _parser().parse_args(argv)
     check_outdir(args.out)
+    if args.imu_csv is not None:  # a user's recorded log (imutherm.cli._attitude_csv)
+        from imutherm.cli import _attitude_csv
+
+        return _attitude_csv.run(args)
+    if args.profile is None:
+        raise InputError(f"give --profile ({', '.join(PROFILES)}) or --imu-csv FILE")
     if args.profile not in PROFILES:
         raise InputError(f"--profile: {args.profile!r} is unknown; valid: {', '.join(PROFILES)}")
     if args.seeds < 1:
@@ -69,7 +83,7 @@ def main(argv=None) -> int:
     res = run_attitude_study(args.profile, grade=args.grade, temperature_C=args.temperature,
                              temperature_csv=args.temperature_csv, compensation=args.compensation,
                              seeds=args.seeds, seed0=args.seed0, duration=args.duration,
-                             out_of_range=args.out_of_range)
+                             out_of_range=args.out_of_range, disturbances=args.disturbances == "realistic")
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)

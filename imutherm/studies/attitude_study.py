@@ -44,9 +44,10 @@ SEGMENTS = ("overall", "stable", "manoeuvre")
 METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
 COMPENSATIONS = ("none", "conventional", "improved")
 
-#: default sensor lever arm from the rotation centre [m], per profile
+#: default sensor lever arm from the rotation centre [m], per profile; vehicle: 0.5 m ahead of and 0.3 m
+#: above the reference point [ASSUMED, a dashboard mount]; handheld: 8 cm from the wrist [ASSUMED]
 DEFAULT_LEVER_ARM = {"static": (0.0, 0.0, 0.0), "swing": (0.0, 0.03, 0.05), "shake": (0.0, 0.0, 0.0),
-                     "flight": (0.3, 0.0, 0.05)}
+                     "flight": (0.3, 0.0, 0.05), "vehicle": (0.5, 0.0, -0.3), "handheld": (0.08, 0.0, 0.0)}
 
 
 @dataclass(frozen=True)
@@ -263,17 +264,21 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
 def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", temperature_C: float | None = None,
                        temperature_csv=None, compensation: str = "improved", seeds: int = 1, seed0: int = 0,
                        duration: float | None = None, lever_arm=None, gate: GateConfig = GateConfig(),
-                       names=FILTERS, out_of_range: str = "error") -> AttitudeStudyResult:
+                       names=FILTERS, out_of_range: str = "error", disturbances: bool = False) -> AttitudeStudyResult:
     """Run the attitude chain for ``seeds`` seeds (seed0, seed0+1, ...) and reduce the errors.
 
     profile : one of motion.PROFILES; grade : sensor grade name; temperature_C [°C] constant
     (default 25) or temperature_csv (path; ``time_s`` + one column per site [°C]);
     compensation : none|conventional|improved; duration [s] (None: profile default);
     lever_arm (3,) [m] (None: per-profile default); gate : GateConfig;
+    disturbances : True applies the profile's realistic disturbances (:data:`imutherm.imu.disturbances.PRESETS`,
+    drawn from the generator seeded ``[seed, 7]``) and scores against the reference attitude (truth delayed by
+    the sync error); ``gate["disturbances"]`` in the result describes them.
     out_of_range : error|hold|linear, the compensation's policy for reported temperatures outside the
     calibrated range (:mod:`imutherm.imu.compensation`); ``temperature["extrapolated_fraction"]`` in the
     result is the share of (sample, sensor) pairs it acted on (first seed).
     """
+    from imutherm.imu import disturbances as dist_mod
     from imutherm.imu.calibration import calibrate_unit
     from imutherm.imu.compensation import OUT_OF_RANGE, compensate, out_of_range_mask
     from imutherm.imu.sensor_model import T_MODEL_RANGE_C, draw_unit, load_grade, simulate_imu
@@ -308,18 +313,20 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         rng = np.random.default_rng(s)
         unit = draw_unit(g, rng)
         cal = calibrate_unit(unit, rng) if compensation != "none" else None
-        raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, temp, rng)
+        dr = dist_mod.apply(traj, dist_mod.PRESETS[profile] if disturbances else None,
+                            np.random.default_rng([s, 7]))
+        raw = simulate_imu(unit, traj.t, dr.omega_in, dr.f_in, temp, rng)
         samp = compensate(raw, cal, compensation, out_of_range=out_of_range)
         if cal is not None and s == seed0:
             tdesc["extrapolated_fraction"] = float(out_of_range_mask(raw.temp_C, cal).mean())
         est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names)
         for n, e in est.items():
-            per[n].append(error_metrics(e.roll - traj.roll, e.pitch - traj.pitch, masks))
+            per[n].append(error_metrics(e.roll - dr.ref_roll, e.pitch - dr.ref_pitch, masks))
             runtimes[n].append(e.runtime_s)
         if series is None:
             th0 = th
             series = {"t": traj.t, "phase": traj.phase, "segment": traj.segment,
-                      "truth_roll_deg": np.degrees(traj.roll), "truth_pitch_deg": np.degrees(traj.pitch)}
+                      "truth_roll_deg": np.degrees(dr.ref_roll), "truth_pitch_deg": np.degrees(dr.ref_pitch)}
             for n, e in est.items():
                 series[f"{n}_roll_deg"] = np.degrees(e.roll)
                 series[f"{n}_pitch_deg"] = np.degrees(e.pitch)
@@ -330,7 +337,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         metrics[n]["runtime_s"] = _spread(runtimes[n])
     gate_json = {"xi_a_mps2": gate.xi_a, "xi_w_mps2": gate.xi_w, "L_m": gate.L, "d_m": list(d),
                  "kp_per_s": gate.kp, "ki_per_s2": gate.ki, "tau_s": gate.tau, "hold_s": gate.hold_s,
-                 "init_s": init_s,
+                 "init_s": init_s, "disturbances": dist_mod.PRESETS[profile].describe() if disturbances else None,
                  "thresholds_seed0": {"sigma_a_mps2": th0.sigma_a, "sigma_w_radps": th0.sigma_w,
                                       "sigma_wdot_radps2": th0.sigma_wdot, "theory": list(th0.theory),
                                       "noise_std": list(th0.noise_std)}}
