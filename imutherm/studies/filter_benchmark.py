@@ -29,8 +29,9 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import (ALL_FILTERS, EKFParams, FusionParams, KFParams, MadgwickParams, MahonyParams,
-                                  VQFParams)
+from imutherm.imu.filters import (ALL_FILTERS, AEKFParams, EKFParams, FusionParams, KFParams, MadgwickParams,
+                                  MahonyParams, VQFParams)
+from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, run_filters
 
 #: training (profile, seeds) and held-out (profile, seeds) sets of the benchmark
@@ -47,6 +48,8 @@ TUNABLE = {
     "madgwick": (("gain", MadgwickParams.gain),),
     "mahony": (("k_P", MahonyParams.k_P), ("k_I", MahonyParams.k_I)),
     "ekf": (("var_gyr", EKFParams.var_gyr), ("var_acc", EKFParams.var_acc)),
+    "aekf": (("memory_s", AEKFParams.memory_s), ("accel_gate", AEKFParams.accel_gate)),
+    "aekf_gnss": (("memory_s", AEKFParams.memory_s), ("accel_density", AEKFParams.accel_density)),
 }
 BOX_DECADES = 2.5
 N_SOBOL = 32
@@ -57,7 +60,8 @@ N_START = 3
 @dataclass(frozen=True)
 class Record:
     """One simulated, compensated record: gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], truth roll/pitch
-    (N,) [rad], lever_arm (3,) [m], init_s [s] rest at the start, profile, seed."""
+    (N,) [rad], lever_arm (3,) [m], init_s [s] rest at the start, profile, seed; gnss: the simulated GNSS
+    velocity fixes (:class:`imutherm.imu.gnss.GnssVelocity`, default receiver) for ``aekf_gnss``."""
 
     profile: str
     seed: int
@@ -68,6 +72,7 @@ class Record:
     pitch: np.ndarray = field(repr=False)
     lever_arm: tuple
     init_s: float
+    gnss: object = field(default=None, repr=False)
 
 
 def check_split(train=TRAIN, held_out=HELD_OUT) -> None:
@@ -103,7 +108,9 @@ def make_records(sets, grade: str = "adis16355", compensation: str = "improved")
             rng = np.random.default_rng([s, motion.PROFILES.index(profile)])  # the noise of this record
             raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, np.full((traj.t.size, 6), 25.0), rng)
             smp = compensate(raw, cal, compensation)
-            out.append(Record(profile, s, smp.gyro, smp.accel, 1.0 / rate, traj.roll, traj.pitch, d, init_s))
+            fixes = simulate_gnss(traj, np.random.default_rng([s, motion.PROFILES.index(profile), 0x6E55]),
+                                  GnssConfig())
+            out.append(Record(profile, s, smp.gyro, smp.accel, 1.0 / rate, traj.roll, traj.pitch, d, init_s, fixes))
     return out
 
 
@@ -116,7 +123,8 @@ def settings_for(name: str, values: dict | None):
         return {"kf": replace(KFParams(), **v)}
     if name == "fusion":
         return {"fusion": replace(FusionParams(), **v)}
-    cls = {"vqf": VQFParams, "madgwick": MadgwickParams, "mahony": MahonyParams, "ekf": EKFParams}[name]
+    cls = {"vqf": VQFParams, "madgwick": MadgwickParams, "mahony": MahonyParams, "ekf": EKFParams,
+           "aekf": AEKFParams, "aekf_gnss": AEKFParams}[name]
     return {"params": {name: cls(**v)}}
 
 
@@ -127,7 +135,7 @@ def run_one(name: str, rec: Record, values: dict | None = None):
         kw["gate"] = replace(kw["gate"], init_s=rec.init_s)
     else:
         kw["gate"] = GateConfig(init_s=rec.init_s)
-    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, names=(name,), **kw)
+    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, names=(name,), gnss=rec.gnss, **kw)
     return est[name]
 
 
