@@ -91,3 +91,17 @@ def test_bad_input():
     with pytest.raises(InputError, match="vel_std"):
         GnssConfig(vel_std=-1.0)
     assert G0 > 9.8
+
+
+def test_attitude_study_reports_heading_and_gnss(tmp_path):
+    """The attitude study simulates the GNSS for aekf_gnss and reports heading for the filters that have one."""
+    from imutherm.studies.attitude_study import run_attitude_study
+
+    res = run_attitude_study("shake", compensation="none", duration=30.0, names=("gated", "aekf", "aekf_gnss"),
+                             gnss=GnssConfig(rate_hz=2.0, vel_std=0.1))
+    d = res.to_json()
+    assert d["gnss"]["rate_hz"] == 2.0 and d["gnss"]["vel_std_mps"] == 0.1
+    for n in ("aekf", "aekf_gnss"):
+        h = d["filters"][n]["heading"]
+        assert np.isfinite(h["rms_deg"]["mean"]) and h["max_deg"]["mean"] >= h["rms_deg"]["mean"]
+    assert "heading" not in d["filters"]["gated"]
