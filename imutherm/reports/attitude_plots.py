@@ -10,7 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-COLORS = {"gated": "tab:blue", "kf": "tab:green", "ungated": "tab:gray", "fusion": "tab:red"}
+COLORS = {"gated": "tab:blue", "kf": "tab:green", "ungated": "tab:gray", "fusion": "tab:red", "aekf": "tab:purple",
+          "aekf_gnss": "tab:brown"}
 
 
 def _wrap_deg(a):

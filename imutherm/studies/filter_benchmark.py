@@ -35,8 +35,9 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import (ALL_FILTERS, EKFParams, FusionParams, KFParams, MadgwickParams, MahonyParams,
-                                  VQFParams)
+from imutherm.imu.filters import (ALL_FILTERS, AEKFParams, EKFParams, FusionParams, KFParams, MadgwickParams,
+                                  MahonyParams, VQFParams)
+from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, run_filters
 
 #: training (profile, seeds) and held-out (profile, seeds) sets of the benchmark
@@ -54,6 +55,8 @@ TUNABLE = {
     "madgwick": (("gain", MadgwickParams.gain),),
     "mahony": (("k_P", MahonyParams.k_P), ("k_I", MahonyParams.k_I)),
     "ekf": (("var_gyr", EKFParams.var_gyr), ("var_acc", EKFParams.var_acc)),
+    "aekf": (("memory_s", AEKFParams.memory_s), ("accel_gate", AEKFParams.accel_gate)),
+    "aekf_gnss": (("memory_s", AEKFParams.memory_s), ("accel_density", AEKFParams.accel_density)),
 }
 #: the gates' design turn radius L [m] per profile: the platform's (:data:`imutherm.studies.recorded.PLATFORMS`,
 #: as ``--imu-csv --platform`` uses), GateConfig.L (the aircraft's 1146 m) for the others
@@ -69,7 +72,8 @@ class Record:
     """One simulated, compensated record: gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], reference roll/pitch
     (N,) [rad] (the truth, delayed by the sync error when disturbed), lever_arm (3,) [m], init_s [s] rest at
     the start, profile, seed, turn_radius [m] the gates' design turn radius L for the profile's platform
-    (:data:`TURN_RADIUS`)."""
+    (:data:`TURN_RADIUS`); gnss: the simulated GNSS velocity fixes (:class:`imutherm.imu.gnss.GnssVelocity`,
+    default receiver) for ``aekf_gnss``."""
 
     profile: str
     seed: int
@@ -81,6 +85,7 @@ class Record:
     lever_arm: tuple
     init_s: float
     turn_radius: float = GateConfig.L
+    gnss: object = field(default=None, repr=False)
 
 
 def check_split(train=TRAIN, held_out=HELD_OUT) -> None:
@@ -125,8 +130,10 @@ def make_records(sets, grade: str = "adis16355", compensation: str = "improved",
             dr = dist_mod.apply(traj, dist, np.random.default_rng([s, motion.PROFILES.index(profile), 1]))
             raw = simulate_imu(unit, traj.t, dr.omega_in, dr.f_in, np.full((traj.t.size, 6), 25.0), rng)
             smp = compensate(raw, cal, compensation)
+            fixes = simulate_gnss(traj, np.random.default_rng([s, motion.PROFILES.index(profile), 0x6E55]),
+                                  GnssConfig())
             out.append(Record(profile, s, smp.gyro, smp.accel, 1.0 / rate, dr.ref_roll, dr.ref_pitch, d, init_s,
-                              TURN_RADIUS.get(profile, GateConfig.L)))
+                              TURN_RADIUS.get(profile, GateConfig.L), fixes))
     return out
 
 
@@ -139,7 +146,8 @@ def settings_for(name: str, values: dict | None):
         return {"kf": replace(KFParams(), **v)}
     if name == "fusion":
         return {"fusion": replace(FusionParams(), **v)}
-    cls = {"vqf": VQFParams, "madgwick": MadgwickParams, "mahony": MahonyParams, "ekf": EKFParams}[name]
+    cls = {"vqf": VQFParams, "madgwick": MadgwickParams, "mahony": MahonyParams, "ekf": EKFParams,
+           "aekf": AEKFParams, "aekf_gnss": AEKFParams}[name]
     return {"params": {name: cls(**v)}}
 
 
@@ -150,7 +158,7 @@ def run_one(name: str, rec: Record, values: dict | None = None):
         kw["gate"] = replace(kw["gate"], init_s=rec.init_s, L=rec.turn_radius)
     else:
         kw["gate"] = GateConfig(init_s=rec.init_s, L=rec.turn_radius)
-    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, names=(name,), **kw)
+    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, names=(name,), gnss=rec.gnss, **kw)
     return est[name]
 
 
