@@ -2,12 +2,13 @@
 
 Usage::
 
-    python benchmarks/bench_attitude.py [--tuned FILE] [--out DIR] [--skip-speed]
+    python benchmarks/bench_attitude.py [--tuned FILE] [--out DIR] [--skip-speed] [--clean] [--ablation]
 
 1. Records: adis16355 units (one per seed, two-step calibration, ``improved``
    compensation, 25 °C) on the training set (flight + shake, seeds 100-101) and
-   the held-out set (flight, swing, shake; seeds 0-5): see
-   :mod:`imutherm.studies.filter_benchmark`.
+   the held-out set (flight, swing, vehicle, handheld; seeds 0-5), each profile with its realistic
+   disturbances (``--clean``: idealised): see :mod:`imutherm.studies.filter_benchmark` and
+   :mod:`imutherm.imu.disturbances`.
 2. Tuning (skipped with ``--tuned FILE`` from an earlier run): each filter's
    1-3 parameters by the common procedure (Sobol 32, then Nelder-Mead <= 24 from each of the best 3, in log10
    space, ±2.5 decades around the defaults) on the training records; written
@@ -16,6 +17,8 @@ Usage::
    the whole record [deg], mean ± std over the six held-out seeds; written to
    ``DIR/table.json``. Target: the table (steps 1 and 3) in <= 2 min.
 4. Speed: a 3600 s flight at 100 Hz (360 000 samples) through every filter.
+5. ``--ablation``: gated, kf and the tuned peers on the flight (seeds 0-5) with no disturbance, each
+   disturbance alone, and all of them: what each one costs.
 """
 
 from __future__ import annotations
@@ -37,7 +40,10 @@ def main() -> None:
     ap.add_argument("--out", default="out/bench_attitude")
     ap.add_argument("--filters", default=",".join(ALL_FILTERS))
     ap.add_argument("--skip-speed", action="store_true")
+    ap.add_argument("--clean", action="store_true", help="idealised records (no disturbances)")
+    ap.add_argument("--ablation", action="store_true", help="flight: each disturbance alone (after the table)")
     a = ap.parse_args()
+    dist = not a.clean
     names = a.filters.split(",")
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -48,7 +54,7 @@ def main() -> None:
         print(f"tuned settings from {a.tuned}")
     else:
         t0 = time.perf_counter()
-        train = fb.make_records(fb.TRAIN)
+        train = fb.make_records(fb.TRAIN, disturbances=dist)
         print(f"== tuning on {[(p, list(s)) for p, s in fb.TRAIN]} ({time.perf_counter() - t0:.1f} s to build)")
         tuned, info = {}, {}
         for n in names:
@@ -62,25 +68,50 @@ def main() -> None:
         (out / "tuned.json").write_text(json.dumps({"values": tuned, "info": info, "train": fb.TRAIN}, indent=1))
         t_all = time.perf_counter()
     t0 = time.perf_counter()
-    recs = fb.make_records(fb.HELD_OUT)
+    recs = fb.make_records(fb.HELD_OUT, disturbances=dist)
     t_rec = time.perf_counter() - t0
     tab = fb.table(names, recs, tuned)
     t_tab = time.perf_counter() - t0
-    (out / "table.json").write_text(json.dumps({"held_out": fb.HELD_OUT, "tuned": tuned, "table": tab}, indent=1))
-    print(f"\n== held-out table: {[(p, list(s)) for p, s in fb.HELD_OUT]}, adis16355, improved, 25 °C "
+    (out / "table.json").write_text(json.dumps({"held_out": fb.HELD_OUT, "tuned": tuned, "table": tab,
+                                                "disturbances": dist}, indent=1))
+    print(f"\n== held-out table: {[(p, list(s)) for p, s in fb.HELD_OUT]}, adis16355, improved, 25 °C, "
+          f"{'realistic disturbances' if dist else 'idealised'} "
           f"(records {t_rec:.1f} s, table {t_tab:.1f} s wall)")
     print("whole-record error [deg], mean ± std over seeds")
     print(f"{'filter':9s} {'profile':7s} {'setting':8s} {'roll rms':>14s} {'pitch rms':>14s} {'roll max':>14s} "
           f"{'pitch max':>14s}")
     for n in names:
-        for prof in ("flight", "swing", "shake"):
+        for prof in [p for p, _ in fb.HELD_OUT]:
             for setting, m in tab[n].get(prof, {}).items():
                 row = " ".join(f"{m[k]['mean']:6.2f} ±{m[k]['std']:5.2f}" for k in
                                ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg"))
                 print(f"{n:9s} {prof:7s} {setting:8s} {row}")
     print(f"table wall time (records + filters): {time.perf_counter() - t_all:.1f} s (target <= 120 s)")
+    if a.ablation:
+        ablation(names, tuned)
     if not a.skip_speed:
         speed(names)
+
+
+def ablation(names, tuned, seeds=tuple(range(6))) -> None:
+    """Flight, held-out seeds: whole-record RMS of each filter with no / each / all disturbances."""
+    from imutherm.imu import disturbances as D
+    from imutherm.studies import filter_benchmark as fb
+
+    P = D.PRESETS["flight"]
+    cases = {"none": None, "vibration": D.Disturbances(vibration=P.vibration),
+             "turbulence": D.Disturbances(turbulence=P.turbulence), "wind shear + gusts": D.Disturbances(wind=P.wind),
+             "sync 5 ms": D.Disturbances(sync_s=P.sync_s), "jitter 0.2 ms": D.Disturbances(jitter_s=P.jitter_s),
+             "all": P}
+    print(f"\n== ablation: flight, seeds {list(seeds)}, roll / pitch RMS [deg] mean over seeds (tuned settings)")
+    print(f"{'disturbance':20s} " + " ".join(f"{n:>13s}" for n in names))
+    for label, d in cases.items():
+        recs = fb.make_records([("flight", seeds)], disturbances={"flight": d} if d else False)
+        cells = []
+        for n in names:
+            ms = [fb.score(fb.run_one(n, r, tuned.get(n)), r) for r in recs]
+            cells.append(f"{np.mean([m['roll_rms_deg'] for m in ms]):5.2f} /{np.mean([m['pitch_rms_deg'] for m in ms]):5.2f}")
+        print(f"{label:20s} " + " ".join(f"{c:>13s}" for c in cells), flush=True)
 
 
 def speed(names, duration: float = 3600.0) -> None:

@@ -19,7 +19,8 @@ QUIET = {"bias_instability": 0.0, "rate_random_walk": 0.0, "lsb": 0.0, "turn_on_
 
 
 def _linear_unit(seed=0, quiet=True):
-    """An adis16355 unit whose model is exactly N = K(T) E + D(T): seed-004 terms off; optionally white noise only."""
+    """An adis16355 unit whose model is exactly N = K(T) E + D(T): seed-004 terms and seed 001's roll coupling off;
+    optionally white noise only."""
     g = load_grade("adis16355")
     if quiet:
         g = dc.replace(g, gyro=dc.replace(g.gyro, **QUIET), accel=dc.replace(g.accel, **QUIET), temp_sensor_lsb_C=0.0)
@@ -27,7 +28,7 @@ def _linear_unit(seed=0, quiet=True):
     z3 = np.zeros(3)
     z33 = np.zeros((3, 3))
     return dc.replace(u, accel=dc.replace(u.accel, asym=z3, k2=z3, dM_dT=z33),
-                      gyro=dc.replace(u.gyro, g_sens=z33, dM_dT=z33))
+                      gyro=dc.replace(u.gyro, g_sens=z33, dM_dT=z33, roll_coupling=np.zeros((3, 2))))
 
 
 def _true_K(triad, T):

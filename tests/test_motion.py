@@ -125,3 +125,29 @@ def test_bad_input():
         motion.static_profile(5.0, lever_arm=(1.0, 2.0))
     with pytest.raises(InputError, match="axis"):
         motion.swing_profile(60.0, axis="q")
+
+
+def test_vehicle_turn_rolls_outward_by_the_roll_gradient():
+    tr = motion.vehicle_profile(240.0, 100.0)
+    seg = np.flatnonzero(tr.segment == "turn-1")
+    k = seg[len(seg) // 2]  # middle of the steady part of the 90° turn at 14 m/s, 12 °/s
+    a_y = 14.0 * np.radians(12.0)
+    assert np.degrees(tr.roll[k]) == pytest.approx(-5.0 * a_y / G0, rel=1e-6)  # outward: left in a right turn
+    # not coordinated: the lateral specific force is the centripetal acceleration seen in the rolled body
+    assert tr.f_b[k, 1] == pytest.approx(a_y * np.cos(tr.roll[k]) - G0 * np.sin(tr.roll[k]), rel=1e-6)
+    assert abs(np.linalg.norm(tr.vel_n[-1])) < 1e-6 and np.all(tr.phase[-100:] == "stable")
+    assert np.allclose(tr.f_b[-100:], [0.0, 0.0, -G0], atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["vehicle", "handheld"])
+def test_new_profiles_are_kinematically_consistent(name):
+    tr = motion.make_profile(name, None, 200.0)
+    q = tr.quat
+    qd = np.gradient(q, tr.t, axis=0)
+    om = 2 * _qmul(q * np.array([1, -1, -1, -1]), qd)[:, 1:]
+    assert np.max(np.abs(om - tr.omega_b)[2:-2]) < 2e-3 * max(1.0, np.max(np.abs(tr.omega_b)))
+    assert tr.phase[0] == "stable" and np.sum(tr.segment == tr.segment[0]) / 200.0 >= 10.0  # leveling rest
+    if name == "handheld":
+        assert np.degrees(np.max(np.abs(tr.omega_b))) > 150.0  # the flicks
+        walk = np.char.startswith(tr.segment.astype(str), "walk")
+        assert np.std(np.linalg.norm(tr.f_b[walk], axis=1)) > 1.0  # step accelerations

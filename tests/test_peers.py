@@ -90,3 +90,11 @@ def test_tuning_improves_training_objective_within_the_box():
     assert again.values == res.values
     with pytest.raises(InputError, match="unknown"):
         fb.tune("nope", recs)
+
+
+def test_benchmark_turn_radius_matches_the_platform_defaults():
+    from imutherm.studies.recorded import PLATFORMS
+    from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM
+
+    for prof in ("vehicle", "handheld"):
+        assert fb.TURN_RADIUS[prof] == PLATFORMS[prof][1] and DEFAULT_LEVER_ARM[prof] == PLATFORMS[prof][0]

@@ -1,10 +1,14 @@
-"""``imutherm attitude``: run the four attitude filters on a motion profile and report roll/pitch errors.
+"""``imutherm attitude``: run the attitude filters on a motion profile and report roll/pitch errors.
+
+``--imu-csv FILE`` runs every filter on a recorded log instead (:mod:`imutherm.cli._attitude_csv`).
 
 Outputs in ``--out DIR``:
 
 * ``attitude.json``: ``filters.<name>.<segment>.<metric>`` for names ``gated``
   (seed 000), ``kf`` (seed 003), ``ungated`` (complementary baseline),
-  ``fusion`` (imufusion peer); segments ``overall``, ``stable``, ``manoeuvre``;
+  ``fusion`` (imufusion peer), ``aekf`` / ``aekf_gnss`` (seed 001's adaptive
+  EKF without / with simulated GNSS velocity, ``--gnss-rate``, ``--gnss-vel-std``;
+  these two also carry ``heading`` ``{rms_deg, max_deg}``); segments ``overall``, ``stable``, ``manoeuvre``;
   metrics ``roll_rms_deg``, ``pitch_rms_deg``, ``roll_max_deg``,
   ``pitch_max_deg``, each ``{"mean", "std"}`` over the seeds (null if the
   phase is empty); ``filters.<name>.runtime_s`` ``{"mean", "std"}`` [s]; the
@@ -28,7 +32,7 @@ from imutherm.imu.motion import PROFILES
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="imutherm attitude", description=__doc__.split("\n")[0])
-    p.add_argument("--profile", required=True, help=f"motion profile: {', '.join(PROFILES)}")
+    p.add_argument("--profile", default=None, help=f"motion profile: {', '.join(PROFILES)} (or --imu-csv)")
     p.add_argument("--grade", default="adis16355", help="sensor grade (default adis16355)")
     t = p.add_mutually_exclusive_group()
     t.add_argument("--temperature", type=float, default=None, help="constant die temperature [°C] (default 25)")
@@ -41,9 +45,19 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=int, default=1, help="number of seeds (units / noise draws), default 1")
     p.add_argument("--seed0", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--duration", type=float, default=None, help="profile duration [s] (default: profile's)")
+    p.add_argument("--gnss-rate", type=float, default=5.0, metavar="HZ",
+                   help="simulated GNSS velocity rate for aekf_gnss [Hz] (default 5)")
+    p.add_argument("--gnss-vel-std", type=float, default=0.05, metavar="MPS",
+                   help="simulated GNSS velocity noise per axis, 1 sigma [m/s] (default 0.05)")
     p.add_argument("--no-plot", action="store_true", help="skip attitude.png")
+    p.add_argument("--disturbances", default="none", choices=("none", "realistic"),
+                   help="realistic: the profile's vibration, turbulence, wind, sync error and jitter "
+                        "(imutherm.imu.disturbances.PRESETS); default none")
     add_memory_argument(p)
     p.add_argument("--out", required=True, help="output directory")
+    from imutherm.cli import _attitude_csv
+
+    _attitude_csv.add_arguments(p)
     return p
 
 
@@ -52,6 +66,12 @@ def main(argv=None) -> int:
     """Entry point; returns the exit status (2 on bad input)."""
     args = _parser().parse_args(argv)
     check_outdir(args.out)
+    if args.imu_csv is not None:  # a user's recorded log (imutherm.cli._attitude_csv)
+        from imutherm.cli import _attitude_csv
+
+        return _attitude_csv.run(args)
+    if args.profile is None:
+        raise InputError(f"give --profile ({', '.join(PROFILES)}) or --imu-csv FILE")
     if args.profile not in PROFILES:
         raise InputError(f"--profile: {args.profile!r} is unknown; valid: {', '.join(PROFILES)}")
     if args.seeds < 1:
@@ -64,12 +84,16 @@ def main(argv=None) -> int:
 
     # samples x seeds before any allocation; no --duration: the longest profile default (flight, 400 s)
     check_attitude_cost(args.duration or 400.0, load_grade(args.grade).sample_rate_hz, args.seeds, args.max_memory)
+    from imutherm.imu.gnss import GnssConfig
     from imutherm.studies.attitude_study import run_attitude_study
+
+    gnss = GnssConfig(rate_hz=args.gnss_rate, vel_std=args.gnss_vel_std)  # InputError names the bad value
 
     res = run_attitude_study(args.profile, grade=args.grade, temperature_C=args.temperature,
                              temperature_csv=args.temperature_csv, compensation=args.compensation,
                              seeds=args.seeds, seed0=args.seed0, duration=args.duration,
-                             out_of_range=args.out_of_range)
+                             out_of_range=args.out_of_range, disturbances=args.disturbances == "realistic",
+                             gnss=gnss)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)
@@ -81,5 +105,6 @@ def main(argv=None) -> int:
     for name in m:
         o = m[name]["overall"]
         print(f"{name:8s} roll rms {o['roll_rms_deg']['mean']:.3f} deg  pitch rms {o['pitch_rms_deg']['mean']:.3f} deg"
-              f"  runtime {m[name]['runtime_s']['mean']:.2f} s")
+              f"  runtime {m[name]['runtime_s']['mean']:.2f} s"
+              + (f"  heading rms {m[name]['heading']['rms_deg']['mean']:.2f} deg" if "heading" in m[name] else ""))
     return 0

@@ -74,6 +74,10 @@ GRADES: dict[str, dict] = {
             "power_on_curve_fraction": 0.02,    # [ASSUMED] ordering per 000 (gyros repeat better than accels): 2 % of the curve
             "temp_rate_coeff_dps_per_Cmin": 0.01,  # [ASSUMED] thermal-gradient bias per degC/min (1 sigma)
             "g_sensitivity_dps_per_g": 0.05,    # [DS] linear acceleration effect 0.05 deg/s/g (recalled)
+            "roll_coupling_dps": (0.1, 0.05),   # [ASSUMED] seed 001 roll coupling: 1-sigma y/z gyro error at 300 deg/s
+                                                # roll rate from the quadratic and the cubic term (~3e-4 of full
+                                                # scale, 2-5x the paper's post-calibration RMSE; seed 001 gives none)
+            "roll_coupling_ref_dps": 300.0,     # [DS] full scale +-300 deg/s: the rate the sizes are stated at
         },
         "accel": {
             "noise_rms_mg": 3.5,                # [003] output noise; [DS] VRW ~0.2 m/s/sqrt(h) agrees
@@ -123,6 +127,8 @@ GRADES: dict[str, dict] = {
             "power_on_curve_fraction": 0.02,    # [ASSUMED] ordering per 000 (gyros repeat better than accels)
             "temp_rate_coeff_dps_per_Cmin": 0.002,  # [ASSUMED]
             "g_sensitivity_dps_per_g": 0.009,   # [DS] linear-g 0.009 deg/s/g (recalled)
+            "roll_coupling_dps": (0.02, 0.01),  # [ASSUMED] as adis16355, scaled like its other errors (1/5)
+            "roll_coupling_ref_dps": 300.0,     # [ASSUMED] stated at 300 deg/s like adis16355
         },
         "accel": {
             "noise_rms_mg": 0.029 / 60.0 / STANDARD_GRAVITY * 1000.0 * 10.0,  # [DS] VRW 0.029 m/s/sqrt(h) -> rms at 100 Hz

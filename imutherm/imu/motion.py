@@ -20,6 +20,10 @@ Profiles
 ``swing``   turntable oscillation about one body axis, sinusoidal, 80° amplitude,
             200 °/s peak rate, with a smooth amplitude envelope.
 ``shake``   level table shaken horizontally in bursts, peak acceleration above 1 g.
+``vehicle`` ground vehicle: start from rest, accelerate, turns with body roll outward
+            (roll gradient), hills, braking with nose dive (pitch gradient), lane change, stop.
+``handheld`` a unit held in the hand: picked up, tilted and turned by the wrist (up to
+            ~190 °/s), carried while walking (step accelerations), put down.
 ``flight``  takeoff acceleration, climb, level legs, coordinated turns (bank
             from ``tan φ = V ψ̇ cos γ / (V γ̇ + g cos γ)``, i.e. ``tan φ = V ω / g`` in
             level flight), pitch manoeuvre, circling, descent, landing
@@ -39,7 +43,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0, euler_to_quat, quat_to_dcm
 
-PROFILES = ("static", "swing", "shake", "flight")
+PROFILES = ("static", "swing", "shake", "flight", "vehicle", "handheld")
 
 
 # --------------------------------------------------------------------------- jets
@@ -471,9 +475,185 @@ def flight_profile(duration: float = 400.0, rate_hz: float = 100.0, *, lever_arm
 def make_profile(name: str, duration: float | None = None, rate_hz: float = 100.0, **kwargs) -> Trajectory:
     """Build profile ``name`` (one of :data:`PROFILES`); ``duration`` [s] None → the profile default."""
     builders = {"static": static_profile, "swing": swing_profile, "shake": shake_profile,
-                "flight": flight_profile}
+                "flight": flight_profile, "vehicle": vehicle_profile, "handheld": handheld_profile}
     if name not in builders:
         raise InputError(f"motion: profile={name!r} is unknown; valid: {', '.join(PROFILES)}")
     if duration is not None:
         kwargs["duration"] = float(duration)
     return builders[name](rate_hz=rate_hz, **kwargs)
+
+
+# --------------------------------------------------------------------------- ground vehicle
+#: the drive: (name, phase, nominal duration [s], ΔA [m/s^2], Δγ [deg], Δψ̇ [deg/s]) as in the flight plan;
+#: speeds 14 m/s (50 km/h) in town, 5 m/s round a corner; the speed returns to exactly 0 at the stop
+#: (the ΔA ramps integrate to +14, -9, +9, -14 m/s, and they scale together when the plan is compressed).
+_DRIVE = [
+    ("rest", "stable", 20.0, 0, 0, 0),
+    ("accelerate", "manoeuvre", 2.0, 2.0, 0, 0), ("accelerate", "manoeuvre", 5.0, 0, 0, 0),
+    ("accelerate", "manoeuvre", 2.0, -2.0, 0, 0),
+    ("cruise", "stable", 20.0, 0, 0, 0),
+    ("turn", "manoeuvre", 2.0, 0, 0, 12.0), ("turn", "manoeuvre", 5.5, 0, 0, 0),
+    ("turn", "manoeuvre", 2.0, 0, 0, -12.0),
+    ("cruise", "stable", 15.0, 0, 0, 0),
+    ("hill", "manoeuvre", 4.0, 0, 3.0, 0), ("hill", "stable", 10.0, 0, 0, 0), ("hill", "manoeuvre", 8.0, 0, -6.0, 0),
+    ("hill", "stable", 10.0, 0, 0, 0), ("hill", "manoeuvre", 4.0, 0, 3.0, 0),
+    ("cruise", "stable", 15.0, 0, 0, 0),
+    ("brake", "manoeuvre", 1.0, -3.0, 0, 0), ("brake", "manoeuvre", 2.0, 0, 0, 0),
+    ("brake", "manoeuvre", 1.0, 3.0, 0, 0),
+    ("corner", "manoeuvre", 1.5, 0, 0, -20.0), ("corner", "manoeuvre", 3.0, 0, 0, 0),
+    ("corner", "manoeuvre", 1.5, 0, 0, 20.0),
+    ("accelerate", "manoeuvre", 1.5, 2.0, 0, 0), ("accelerate", "manoeuvre", 3.0, 0, 0, 0),
+    ("accelerate", "manoeuvre", 1.5, -2.0, 0, 0),
+    ("cruise", "stable", 20.0, 0, 0, 0),
+    ("lane-change", "manoeuvre", 1.0, 0, 0, 8.0), ("lane-change", "manoeuvre", 2.0, 0, 0, -16.0),
+    ("lane-change", "manoeuvre", 1.0, 0, 0, 8.0),
+    ("cruise", "stable", 20.0, 0, 0, 0),
+    ("stop", "manoeuvre", 2.0, -2.0, 0, 0), ("stop", "manoeuvre", 5.0, 0, 0, 0), ("stop", "manoeuvre", 2.0, 2.0, 0, 0),
+    ("rest", "stable", 10.0, 0, 0, 0),
+]
+
+
+def _fill(plan, duration: float, stretch: str):
+    """Stretch the ``stretch`` segments (duration above the nominal) or compress all (below) to fill ``duration``;
+    number the segment names. Returns [(name, phase, duration [s], ΔA, Δγ, Δψ̇), ...]."""
+    nominal = sum(s[2] for s in plan)
+    if duration >= nominal:
+        n = sum(1 for s in plan if s[0] == stretch)
+        extra = (duration - nominal) / n
+        plan = [(a, p, T + (extra if a == stretch else 0.0), *r) for a, p, T, *r in plan]
+    else:
+        plan = [(a, p, T * duration / nominal, *r) for a, p, T, *r in plan]
+    counts: dict[str, int] = {}
+    out, prev = [], None
+    for a, p, T, *r in plan:
+        if a != prev:
+            counts[a] = counts.get(a, 0) + 1
+        prev = a
+        out.append((f"{a}-{counts[a]}", p, T, *r))
+    return out
+
+
+#: body roll per g of lateral acceleration [deg/g], outward in a turn: Gillespie, Fundamentals of Vehicle
+#: Dynamics (SAE 1992), ch. 8: passenger cars 3-7 deg/g; we take 5
+VEHICLE_ROLL_GRADIENT_DEG_PER_G = 5.0
+#: body pitch per g of longitudinal acceleration [deg/g] (squat / dive): [ASSUMED] 1.5, typical of a passenger car
+VEHICLE_PITCH_GRADIENT_DEG_PER_G = 1.5
+
+
+def vehicle_profile(duration: float = 240.0, rate_hz: float = 100.0, *, lever_arm=(0.0, 0.0, 0.0),
+                    heading_deg: float = 0.0, roll_gradient_deg_per_g: float = VEHICLE_ROLL_GRADIENT_DEG_PER_G,
+                    pitch_gradient_deg_per_g: float = VEHICLE_PITCH_GRADIENT_DEG_PER_G) -> Trajectory:
+    """Ground vehicle drive (:data:`_DRIVE`): rest, accelerate to 14 m/s, a 90° turn at 0.3 g, a hill
+    (road grade ±5 %), braking at 0.3 g, a tight corner, a lane change, stop, rest.
+
+    Unlike the aircraft the turns are not coordinated: the lateral acceleration ``V ψ̇ cos γ`` appears in
+    the specific force and the body rolls *outward* by ``roll_gradient · a_y / g``; the body pitches by
+    ``γ + pitch_gradient · A / g`` (squat when accelerating, dive when braking). Body x is along the
+    velocity heading (no tyre slip).
+
+    duration [s] (>= 60, default 240; longer stretches the cruise legs), rate_hz [Hz], lever_arm (3,) [m]
+    sensor from the vehicle's reference point, heading_deg [deg], gradients [deg/g].
+    """
+    d = _check_common(duration, rate_hz, lever_arm, 60.0)
+    t = _time(duration, rate_hz)
+    acc, gam, psid = _Schedule(0.0), _Schedule(0.0), _Schedule(0.0)
+    segs, t0 = [], 0.0
+    for name, phase, T, dv, dg, dw in _fill(_DRIVE, duration, "cruise"):
+        acc.ramp(t0, T, dv)
+        gam.ramp(t0, T, np.radians(dg))
+        psid.ramp(t0, T, np.radians(dw))
+        segs.append((name, phase, t0, t0 + T))
+        t0 += T
+    segs[-1] = (segs[-1][0], segs[-1][1], segs[-1][2], t[-1] + 1)
+    aj, _, v_int = acc.jets(t)
+    Vj = Jet(np.maximum(v_int, 0.0), aj.v, aj.d1)
+    gj, gdj, _ = gam.jets(t)
+    wj, _, psi_int = psid.jets(t)
+    yaw = Jet(np.radians(heading_deg) + psi_int, wj.v, wj.d1)
+    cg, sg = gj.cos(), gj.sin()
+    a_lat = Vj * wj * cg
+    roll = a_lat * (-np.radians(roll_gradient_deg_per_g) / G0)
+    pitch = gj + aj * (np.radians(pitch_gradient_deg_per_g) / G0)
+    u = np.stack([cg.v * np.cos(yaw.v), cg.v * np.sin(yaw.v), -sg.v], -1)
+    yw = np.stack([-np.sin(yaw.v), np.cos(yaw.v), np.zeros_like(t)], -1)
+    zw = np.stack([sg.v * np.cos(yaw.v), sg.v * np.sin(yaw.v), cg.v], -1)
+    a_n = aj.v[:, None] * u + a_lat.v[:, None] * yw - (Vj.v * gdj.v)[:, None] * zw
+    seg, ph = _labels(t, segs)
+    return _assemble("vehicle", t, roll, pitch, yaw, a_n, d, seg, ph, Vj.v[:, None] * u)
+
+
+# --------------------------------------------------------------------------- handheld
+#: the handheld session: (name, phase, nominal duration [s], Δroll [deg], Δpitch [deg], Δyaw [deg], walking 0/1)
+_HANDHELD = [
+    ("rest", "stable", 15.0, 0, 0, 0, 0),
+    ("pick-up", "manoeuvre", 1.5, 10, -25, 0, 0), ("hold", "stable", 8.0, 0, 0, 0, 0),
+    ("tilt", "manoeuvre", 1.5, 35, 0, 0, 0), ("hold", "stable", 6.0, 0, 0, 0, 0),
+    ("tilt", "manoeuvre", 1.5, -70, 0, 0, 0), ("hold", "stable", 6.0, 0, 0, 0, 0),
+    ("tilt", "manoeuvre", 1.0, 35, 30, 90, 0), ("hold", "stable", 6.0, 0, 0, 0, 0),
+    ("flick", "manoeuvre", 0.6, 60, 0, 0, 0), ("flick", "manoeuvre", 0.6, -60, 0, 0, 0),
+    ("flick", "manoeuvre", 0.6, 0, -40, 0, 0), ("flick", "manoeuvre", 0.6, 0, 40, 0, 0),
+    ("hold", "stable", 6.0, 0, 0, 0, 0),
+    ("walk", "manoeuvre", 2.0, 0, -5, -90, 1), ("walk", "manoeuvre", 30.0, 0, 0, 0, 1),
+    ("walk", "manoeuvre", 3.0, 0, 0, 120, 1), ("walk", "manoeuvre", 15.0, 0, 0, 0, 1),
+    ("hold", "stable", 6.0, 0, 0, 0, 0),
+    ("put-down", "manoeuvre", 1.5, -10, 0, 0, 0),
+    ("rest", "stable", 10.0, 0, 0, 0, 0),
+]
+#: walking: step frequency [Hz] and the hand's acceleration amplitudes [m/s^2] (fore-aft and vertical at the
+#: step frequency, lateral at half of it), attitude sway amplitudes [deg]. [ASSUMED] from gait studies of the
+#: trunk (Zijlstra & Hof, Gait & Posture 18 (2003): step frequency ~1.8-2 Hz, vertical trunk acceleration
+#: ~±0.3 g, fore-aft ~±0.15 g, lateral ~±0.1 g at the stride frequency); a held unit is taken to follow the trunk.
+WALK_STEP_HZ = 1.9
+WALK_ACCEL_MPS2 = (1.5, 1.0, 3.0)
+WALK_SWAY_DEG = (2.0, 1.5)
+
+
+def handheld_profile(duration: float = 150.0, rate_hz: float = 100.0, *,
+                     lever_arm=(0.08, 0.0, 0.0)) -> Trajectory:
+    """A unit held in the hand (:data:`_HANDHELD`): at rest on a table, picked up, tilted by ±35°, turned,
+    flicked about roll and pitch (smoothstep of 60° in 0.6 s: 190 °/s peak), carried while walking
+    (step accelerations of :data:`WALK_ACCEL_MPS2` at :data:`WALK_STEP_HZ`, sway of :data:`WALK_SWAY_DEG`),
+    put down. The hand's hold phases are labelled 'stable' (no linear acceleration, no rotation:
+    tremor is a disturbance of :mod:`imutherm.imu.disturbances`).
+
+    duration [s] (>= 60, default 150; longer stretches the holds), rate_hz [Hz], lever_arm (3,) [m]
+    sensor from the wrist, the rotation centre (default 8 cm forward).
+    """
+    d = _check_common(duration, rate_hz, lever_arm, 60.0)
+    t = _time(duration, rate_hz)
+    R, P, Y, W = _Schedule(0.0), _Schedule(0.0), _Schedule(0.0), _Schedule(0.0)
+    plan = [(n, p, T, dr, dp, dy, w) for n, p, T, dr, dp, dy, w in _HANDHELD]
+    segs, t0, walking = [], 0.0, 0
+    filled = _fill([(n, p, T, (dr, dp, dy, w)) for n, p, T, dr, dp, dy, w in plan], duration, "hold")
+    for name, phase, T, (dr, dp, dy, w) in filled:
+        R.ramp(t0, T, np.radians(dr))
+        P.ramp(t0, T, np.radians(dp))
+        Y.ramp(t0, T, np.radians(dy))
+        if w != walking:  # walking envelope ramps up over the first walking segment, down over the next
+            W.ramp(t0 - (0.0 if w else 1.0), 1.0, 1.0 if w else -1.0)
+            walking = w
+        segs.append((name, phase, t0, t0 + T))
+        t0 += T
+    segs[-1] = (segs[-1][0], segs[-1][1], segs[-1][2], t[-1] + 1)
+    e, _, _ = W.jets(t)
+    w1, w2 = 2 * np.pi * WALK_STEP_HZ, np.pi * WALK_STEP_HZ
+
+    def osc(amp, w, ph=0.0):
+        s, c = np.sin(w * t + ph), np.cos(w * t + ph)
+        return e * Jet(amp * s, amp * w * c, -amp * w * w * s)
+
+    rj, _, _ = R.jets(t)
+    pj, _, _ = P.jets(t)
+    yj, _, _ = Y.jets(t)
+    roll = rj + osc(np.radians(WALK_SWAY_DEG[0]), w2, 0.3)
+    pitch = pj + osc(np.radians(WALK_SWAY_DEG[1]), w1, 1.1)
+    # walking acceleration in the walking direction (the heading), lateral and vertical
+    ax, ay, az = (osc(a, w, ph).v for a, w, ph in
+                  zip(WALK_ACCEL_MPS2, (w1, w2, w1), (0.0, 0.5, 1.6)))
+    ch, sh = np.cos(yj.v), np.sin(yj.v)
+    a_n = np.stack([ax * ch - ay * sh, ax * sh + ay * ch, az], -1)
+    from scipy.integrate import cumulative_trapezoid
+
+    vel = cumulative_trapezoid(a_n, t, axis=0, initial=0.0)
+    seg, ph = _labels(t, segs)
+    return _assemble("handheld", t, roll, pitch, yj, a_n, d, seg, ph, vel)

@@ -27,6 +27,13 @@ Measurement model of one sensor triad (gyro shown; accelerometer alike)::
   die temperature rate.
 * Seed 004 dynamic terms: accelerometer scale-factor asymmetry ``a_i`` and
   quadratic coefficient ``K2_i``; gyro g-sensitivity ``G`` (3x3) [rad/s per m/s^2].
+* Seed 001 high-rate roll coupling: the y and z gyros read ``c2 ω_x² + c3 ω_x³``
+  more, ω_x the body roll rate (:func:`draw_roll_coupling`; sizes in the grade).
+  Seed 001 shows the effect (a rolling projectile's non-rolling axes, figure 3)
+  but gives no form or number; the form is the lowest-order nonlinear one
+  (an even term, as a centrifugal change of the sense-mode stiffness would
+  give, and an odd one beyond the linear misalignment, which the ordinary
+  calibration already takes out).
 * Noise from Allan parameters: white (ARW / VRW), bias instability as a
   first-order Gauss-Markov process, rate random walk; then quantisation.
   The grade's bias instability B is the datasheet figure, i.e. the floor of
@@ -102,6 +109,9 @@ class SensorSpec:
     misalignment_tempco : float [rad/K]    1-sigma of each off-diagonal misalignment temperature coefficient
     asymmetry : float [-]                  1-sigma scale-factor asymmetry (accel only)
     k2 : float [1/(m/s^2)]                 1-sigma quadratic coefficient (accel only)
+    roll_coupling : tuple [rad/s]          gyro only: 1-sigma error of the y and z gyros at roll rate
+                                           ``roll_coupling_ref`` from the quadratic and the cubic coupling term
+    roll_coupling_ref : float [rad/s]      roll rate at which ``roll_coupling`` is stated
     """
 
     noise_density: float
@@ -121,6 +131,8 @@ class SensorSpec:
     misalignment_tempco: float = 0.0
     asymmetry: float = 0.0
     k2: float = 0.0
+    roll_coupling: tuple = (0.0, 0.0)
+    roll_coupling_ref: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -171,6 +183,8 @@ def _spec_from_dict(d: dict, kind: str) -> SensorSpec:
             temp_rate_coeff=d["temp_rate_coeff_dps_per_Cmin"] * u,
             g_sensitivity=d["g_sensitivity_dps_per_g"] * u / G0,
             misalignment_tempco=d.get("misalignment_tempco_deg_per_K", 0.0) * _DEG,
+            roll_coupling=tuple(float(v) * u for v in d.get("roll_coupling_dps", (0.0, 0.0))),
+            roll_coupling_ref=d.get("roll_coupling_ref_dps", 300.0) * u,
         )
     u = _MG  # mg -> m/s^2
     rms = d["noise_rms_mg"] * u
@@ -242,6 +256,9 @@ class TriadTruth:
     k2 : ndarray (3,) [1/unit]      quadratic coefficient (zero for gyros)
     dM_dT : ndarray (3,3) [1/K]     temperature coefficient of the misalignment (off-diagonal; board /
                                     housing thermal strain): M(T) = M0 + dM_dT (T - 25 °C), row i at sensor i's T
+    roll_coupling : ndarray (3,2)   gyro only (seed 001): per gyro [c2 [1/(rad/s)], c3 [1/(rad/s)^2]], the error
+                                    c2 ω_x² + c3 ω_x³ [rad/s] the body roll rate ω_x adds to it (row 0, the roll
+                                    gyro itself, is zero)
     """
 
     M0: np.ndarray
@@ -254,6 +271,7 @@ class TriadTruth:
     asym: np.ndarray
     k2: np.ndarray
     dM_dT: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    roll_coupling: np.ndarray = field(default_factory=lambda: np.zeros((3, 2)))
 
     def K0(self) -> np.ndarray:
         """Scale-factor / misalignment matrix at 25 °C, small-signal (no asymmetry) [-]."""
@@ -341,6 +359,17 @@ def _draw_triad(spec: SensorSpec, rng: np.random.Generator, kind: str) -> TriadT
     )
 
 
+def draw_roll_coupling(spec: SensorSpec, rng: np.random.Generator) -> np.ndarray:
+    """Roll-coupling coefficients (3,2) of one unit's gyros: row 0 zero, rows 1-2 [c2, c3] with
+    c2 ~ N(0, (e2 / W²)²), c3 ~ N(0, (e3 / W³)²), (e2, e3) = spec.roll_coupling [rad/s], W = spec.roll_coupling_ref."""
+    e2, e3 = spec.roll_coupling
+    W = spec.roll_coupling_ref
+    out = np.zeros((3, 2))
+    if e2 > 0 or e3 > 0:
+        out[1:] = rng.normal(0.0, 1.0, (2, 2)) * np.array([e2 / W**2, e3 / W**3])
+    return out
+
+
 def _offdiag(rng, sigma: float) -> np.ndarray:
     m = rng.normal(0.0, sigma, (3, 3)) if sigma > 0 else np.zeros((3, 3))
     np.fill_diagonal(m, 0.0)
@@ -386,6 +415,9 @@ def draw_unit(grade: str | SensorGrade, rng: np.random.Generator, *, ideal: bool
     trng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (0x7E3C,)))
     gyro = replace(gyro, dM_dT=_offdiag(trng, g.gyro.misalignment_tempco))
     accel = replace(accel, dM_dT=_offdiag(trng, g.accel.misalignment_tempco))
+    # seed 001's high-rate roll coupling, from a third keyed stream (the unit's other draws are unchanged)
+    crng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (0x5011,)))
+    gyro = replace(gyro, roll_coupling=draw_roll_coupling(g.gyro, crng))
     off = np.clip(rng.normal(0.0, g.temp_sensor_offset_std_C, 6), -3 * g.temp_sensor_offset_std_C,
                   3 * g.temp_sensor_offset_std_C)
     tau = np.full(6, g.temp_sensor_tau_s)
@@ -519,6 +551,9 @@ def _triad_output(triad: TriadTruth, spec: SensorSpec, x, T, dTdt_min, f_b, p_on
     y = sf * u + triad.k2 * u**2 + triad.bias0 + triad.bias_T(T) + triad.temp_rate_coeff * dTdt_min
     if kind == "gyro":
         y = y + f_b @ triad.g_sens.T
+        if np.any(triad.roll_coupling):  # seed 001: high roll rate couples into the other gyros
+            wx = x[:, :1]
+            y = y + triad.roll_coupling[:, 0] * wx**2 + triad.roll_coupling[:, 1] * wx**3
     y = y + p_on[:, 0] + p_on[:, 1] * xx + p_on[:, 2] * xx**2
     if noise:
         n = y.shape[0]
@@ -600,7 +635,7 @@ def unit_to_dict(unit: ImuUnit) -> dict[str, Any]:
 
 def unit_from_dict(d: dict[str, Any]) -> ImuUnit:
     """Inverse of :func:`unit_to_dict`."""
-    def triad(x):
+    def triad(x):  # a unit written before a field existed gets that field's default (zeros)
         return TriadTruth(**{k: np.asarray(v, float) for k, v in x.items()})
     return ImuUnit(grade=load_grade(d["grade"]), gyro=triad(d["gyro"]), accel=triad(d["accel"]),
                    temp_offset_C=np.asarray(d["temp_offset_C"], float), temp_tau_s=np.asarray(d["temp_tau_s"], float))

@@ -7,7 +7,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-COLORS = {"gated": "tab:blue", "kf": "tab:green", "ungated": "tab:gray", "fusion": "tab:red"}
+COLORS = {"gated": "tab:blue", "kf": "tab:green", "ungated": "tab:gray", "fusion": "tab:red", "aekf": "tab:purple",
+          "aekf_gnss": "tab:brown"}
 
 
 def _wrap_deg(a):

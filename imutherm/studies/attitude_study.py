@@ -32,9 +32,10 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import (ALL_FILTERS, FILTERS, EKFParams, FusionParams, GatedParams, KFParams,
-                                  MadgwickParams, MahonyParams, VQFParams, default_thresholds, run_ekf, run_fusion,
-                                  run_gated, run_kf, run_madgwick, run_mahony, run_ungated, run_vqf)
+from imutherm.imu.filters import (ALL_FILTERS, FILTERS, AEKFParams, EKFParams, FusionParams, GatedParams, KFParams,
+                                  MadgwickParams, MahonyParams, VQFParams, default_thresholds, run_aekf, run_ekf,
+                                  run_fusion, run_gated, run_kf, run_madgwick, run_mahony, run_ungated, run_vqf)
+from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.imu.filters.gate import rest_reference
 from imutherm.imu.filters.kf003 import kf_params_from_rest
 
@@ -42,9 +43,10 @@ SEGMENTS = ("overall", "stable", "manoeuvre")
 METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
 COMPENSATIONS = ("none", "conventional", "improved")
 
-#: default sensor lever arm from the rotation centre [m], per profile
+#: default sensor lever arm from the rotation centre [m], per profile; vehicle: 0.5 m ahead of and 0.3 m
+#: above the reference point [ASSUMED, a dashboard mount]; handheld: 8 cm from the wrist [ASSUMED]
 DEFAULT_LEVER_ARM = {"static": (0.0, 0.0, 0.0), "swing": (0.0, 0.03, 0.05), "shake": (0.0, 0.0, 0.0),
-                     "flight": (0.3, 0.0, 0.05)}
+                     "flight": (0.3, 0.0, 0.05), "vehicle": (0.5, 0.0, -0.3), "handheld": (0.08, 0.0, 0.0)}
 
 
 @dataclass(frozen=True)
@@ -80,6 +82,7 @@ class AttitudeStudyResult:
     gate : dict                     gate configuration and the thresholds of the first seed (SI)
     series : dict                   first seed's time series: t [s], phase, segment, truth roll/pitch [deg],
                                     per filter roll/pitch [deg] and accel_used
+    gnss : dict                     the simulated receiver of aekf_gnss: rate_hz [Hz], vel_std_mps [m/s]
     """
 
     profile: str
@@ -93,6 +96,7 @@ class AttitudeStudyResult:
     metrics: dict
     gate: dict
     series: dict = field(repr=False)
+    gnss: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """JSON-ready dict (the content of attitude.json)."""
@@ -103,7 +107,7 @@ class AttitudeStudyResult:
             "spread": "each metric is {mean, std} over the seeds (std: population, ddof=0); "
                       "angles in deg, runtime in s; null where a phase has no samples",
             "frames": "NED navigation, FRD body, ZYX Euler; errors are estimate - truth",
-            "gate": self.gate, "filters": self.metrics,
+            "gate": self.gate, "gnss": self.gnss, "filters": self.metrics,
         }
 
 
@@ -195,7 +199,8 @@ def _spread(values):
 
 
 def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig(),
-                fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=FILTERS, params=None):
+                fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=FILTERS, params=None,
+                gnss=None):
     """Run the named filters on one record; returns ({name: AttitudeEstimate}, thresholds).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
@@ -203,7 +208,8 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     not nominal g) and the gates' noise widening are measured there (:func:`rest_reference`,
     :func:`kf_params_from_rest`). ``fusion.gyroscope_range=None`` takes the range from the data.
     ``names`` may include the PEERS (vqf, madgwick, mahony, ekf); ``params`` {name: their params object}
-    (VQFParams, MadgwickParams, MahonyParams, EKFParams; default: published defaults).
+    (VQFParams, MadgwickParams, MahonyParams, EKFParams, AEKFParams for ``aekf`` / ``aekf_gnss``; default:
+    published defaults). ``gnss`` (:class:`imutherm.imu.gnss.GnssVelocity`) feeds ``aekf_gnss``, which needs it.
     """
     params = {} if params is None else dict(params)
     init_s = gate.init_s
@@ -222,24 +228,39 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
         "madgwick": lambda: run_madgwick(gyro, accel, dt, params.get("madgwick", MadgwickParams()), init_s=init_s),
         "mahony": lambda: run_mahony(gyro, accel, dt, params.get("mahony", MahonyParams()), init_s=init_s),
         "ekf": lambda: run_ekf(gyro, accel, dt, params.get("ekf", EKFParams()), init_s=init_s),
+        "aekf": lambda: run_aekf(gyro, accel, dt, params.get("aekf", AEKFParams()), init_s=init_s),
+        "aekf_gnss": lambda: run_aekf(gyro, accel, dt, params.get("aekf_gnss", AEKFParams()), gnss=gnss,
+                                      init_s=init_s),
     }
+    if "aekf_gnss" in names and gnss is None:
+        raise InputError("filter aekf_gnss: needs GNSS velocity fixes (gnss=...); valid: run it from the attitude "
+                         "study, which simulates them")
     return {n: runners[n]() for n in names}, th
 
 
 def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", temperature_C: float | None = None,
                        temperature_csv=None, compensation: str = "improved", seeds: int = 1, seed0: int = 0,
                        duration: float | None = None, lever_arm=None, gate: GateConfig = GateConfig(),
-                       names=FILTERS, out_of_range: str = "error") -> AttitudeStudyResult:
+                       names=FILTERS, out_of_range: str = "error", disturbances: bool = False,
+                       gnss: GnssConfig = GnssConfig()) -> AttitudeStudyResult:
     """Run the attitude chain for ``seeds`` seeds (seed0, seed0+1, ...) and reduce the errors.
 
     profile : one of motion.PROFILES; grade : sensor grade name; temperature_C [°C] constant
     (default 25) or temperature_csv (path; ``time_s`` + one column per site [°C]);
     compensation : none|conventional|improved; duration [s] (None: profile default);
     lever_arm (3,) [m] (None: per-profile default); gate : GateConfig;
+    disturbances : True applies the profile's realistic disturbances (:data:`imutherm.imu.disturbances.PRESETS`,
+    drawn from the generator seeded ``[seed, 7]``) and scores against the reference attitude (truth delayed by
+    the sync error); ``gate["disturbances"]`` in the result describes them.
     out_of_range : error|hold|linear, the compensation's policy for reported temperatures outside the
     calibrated range (:mod:`imutherm.imu.compensation`); ``temperature["extrapolated_fraction"]`` in the
     result is the share of (sample, sensor) pairs it acted on (first seed).
+    gnss : GnssConfig, the simulated receiver of ``aekf_gnss`` (fixes drawn per seed from
+    ``default_rng([seed, 0x6E55])``, so the IMU noise stream is unchanged).
+    Filters with a heading estimate (``aekf``, ``aekf_gnss``) also get ``filters.<name>.heading``:
+    ``{"rms_deg", "max_deg"}`` each {mean, std} over the seeds, whole record.
     """
+    from imutherm.imu import disturbances as dist_mod
     from imutherm.imu.calibration import calibrate_unit
     from imutherm.imu.compensation import OUT_OF_RANGE, compensate, out_of_range_mask
     from imutherm.imu.sensor_model import T_MODEL_RANGE_C, draw_unit, load_grade, simulate_imu
@@ -267,6 +288,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
     masks = {"overall": np.ones(traj.t.size, bool), "stable": traj.stable, "manoeuvre": ~traj.stable}
     per = {n: [] for n in names}
     runtimes = {n: [] for n in names}
+    heading = {}
     series = None
     th0 = None
     seed_list = tuple(range(seed0, seed0 + int(seeds)))
@@ -274,18 +296,24 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         rng = np.random.default_rng(s)
         unit = draw_unit(g, rng)
         cal = calibrate_unit(unit, rng) if compensation != "none" else None
-        raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, temp, rng)
+        dr = dist_mod.apply(traj, dist_mod.PRESETS[profile] if disturbances else None,
+                            np.random.default_rng([s, 7]))
+        raw = simulate_imu(unit, traj.t, dr.omega_in, dr.f_in, temp, rng)
         samp = compensate(raw, cal, compensation, out_of_range=out_of_range)
         if cal is not None and s == seed0:
             tdesc["extrapolated_fraction"] = float(out_of_range_mask(raw.temp_C, cal).mean())
-        est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names)
+        fixes = simulate_gnss(traj, np.random.default_rng([s, 0x6E55]), gnss) if "aekf_gnss" in names else None
+        est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names, gnss=fixes)
         for n, e in est.items():
-            per[n].append(error_metrics(e.roll - traj.roll, e.pitch - traj.pitch, masks))
+            per[n].append(error_metrics(e.roll - dr.ref_roll, e.pitch - dr.ref_pitch, masks))
             runtimes[n].append(e.runtime_s)
+            if e.yaw is not None:
+                hd = np.degrees(wrap_angle(e.yaw - traj.yaw))
+                heading.setdefault(n, []).append((float(np.sqrt(np.mean(hd**2))), float(np.max(np.abs(hd)))))
         if series is None:
             th0 = th
             series = {"t": traj.t, "phase": traj.phase, "segment": traj.segment,
-                      "truth_roll_deg": np.degrees(traj.roll), "truth_pitch_deg": np.degrees(traj.pitch)}
+                      "truth_roll_deg": np.degrees(dr.ref_roll), "truth_pitch_deg": np.degrees(dr.ref_pitch)}
             for n, e in est.items():
                 series[f"{n}_roll_deg"] = np.degrees(e.roll)
                 series[f"{n}_pitch_deg"] = np.degrees(e.pitch)
@@ -294,12 +322,17 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
     for n in names:
         metrics[n] = {seg: {m: _spread([r[seg][m] for r in per[n]]) for m in METRICS} for seg in SEGMENTS}
         metrics[n]["runtime_s"] = _spread(runtimes[n])
+        if n in heading:
+            metrics[n]["heading"] = {"rms_deg": _spread([h[0] for h in heading[n]]),
+                                     "max_deg": _spread([h[1] for h in heading[n]])}
     gate_json = {"xi_a_mps2": gate.xi_a, "xi_w_mps2": gate.xi_w, "L_m": gate.L, "d_m": list(d),
                  "kp_per_s": gate.kp, "ki_per_s2": gate.ki, "tau_s": gate.tau, "hold_s": gate.hold_s,
-                 "init_s": init_s,
+                 "init_s": init_s, "disturbances": dist_mod.PRESETS[profile].describe() if disturbances else None,
                  "thresholds_seed0": {"sigma_a_mps2": th0.sigma_a, "sigma_w_radps": th0.sigma_w,
                                       "sigma_wdot_radps2": th0.sigma_wdot, "theory": list(th0.theory),
                                       "noise_std": list(th0.noise_std)}}
     return AttitudeStudyResult(profile=profile, grade=g.name, compensation=compensation, seeds=seed_list,
                                duration_s=float(traj.t[-1] + dt), rate_hz=rate, lever_arm=d, temperature=tdesc,
-                               metrics=metrics, gate=gate_json, series=series)
+                               metrics=metrics, gate=gate_json, series=series,
+                               gnss={"rate_hz": gnss.rate_hz, "vel_std_mps": gnss.vel_std,
+                                     "used_by": "aekf_gnss", "antenna": "at the IMU (no antenna lever arm)"})

@@ -26,9 +26,10 @@ For each scheme of a layout, with one set of model options:
    motion noise in every scheme, so a difference between schemes is the
    cooling's; the seed-to-seed spread is reported as ``std``.
 
-The IMU side of one (scheme, seed) is a pure function of small arrays
-(:func:`imu_case`), run in worker processes while the next scheme's thermal
-solve runs (``jobs``).
+The thermal side of one scheme (:func:`thermal_case`) and the IMU side of one
+(scheme, seed) (:func:`imu_case`, a pure function of small arrays) are the
+units of work: with ``jobs`` > 1 the schemes' thermal solves run side by side
+in worker processes and the IMU cases are queued behind them.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
-"""Attitude filters (roll / pitch): seed 000 gated strapdown, seed 003 KF, ungated baseline, peer.
+"""Attitude filters (roll / pitch): seed 000 gated strapdown, seed 003 KF, ungated baseline, peer, seed 001 AEKF.
 
 ``FILTERS`` lists the names used in result files: ``gated``, ``kf``,
-``ungated``, ``fusion``. Each filter has a procedural step function, a thin
+``ungated``, ``fusion``, ``aekf``, ``aekf_gnss`` (the last needs GNSS fixes). Each filter has a procedural step function, a thin
 class over it, and a batch runner returning an :class:`AttitudeEstimate`:
 
 =========  ==============================  ====================  ===============
@@ -11,12 +11,15 @@ gated      :func:`gated_step`              GatedStrapdown        run_gated
 kf         :func:`kf_step`                 GravityKF             run_kf
 ungated    gated_step (thresholds=None)    ComplementaryFilter   run_ungated
 fusion     :func:`fusion_step`             FusionPeer            run_fusion
+aekf       (numba loop)                    --                    run_aekf
+aekf_gnss  (numba loop, GNSS velocity)     --                    run_aekf
 =========  ==============================  ====================  ===============
 
 ``PEERS`` (``vqf``, ``madgwick``, ``mahony``, ``ekf``): batch runners only
 (:mod:`imutherm.imu.filters.peers`); ``ALL_FILTERS`` = FILTERS + PEERS.
 """
 
+from imutherm.imu.filters.aekf import AEKFParams, AEKFTrace, run_aekf
 from imutherm.imu.filters.common import AttitudeEstimate, initial_quat
 from imutherm.imu.filters.fusion_peer import FusionParams, FusionPeer, fusion_step, run_fusion
 from imutherm.imu.filters.gate import GateThresholds, gate_noise_std, gate_signals, gate_thresholds
@@ -27,7 +30,9 @@ from imutherm.imu.filters.kf003 import GravityKF, KFParams, KFState, kf_step, ru
 from imutherm.imu.filters.peers import (EKFParams, MadgwickParams, MahonyParams, VQFParams, run_ekf, run_ekf_many,
                                         run_madgwick, run_mahony, run_vqf)
 
-FILTERS = ("gated", "kf", "ungated", "fusion")
+#: seed 001's adaptive EKF without and with simulated GNSS velocity aiding (:mod:`imutherm.imu.filters.aekf`)
+ADAPTIVE = ("aekf", "aekf_gnss")
+FILTERS = ("gated", "kf", "ungated", "fusion") + ADAPTIVE
 #: further 6D peers (VQF, ahrs Madgwick / Mahony / EKF), see :mod:`imutherm.imu.filters.peers`
 PEERS = ("vqf", "madgwick", "mahony", "ekf")
 ALL_FILTERS = FILTERS + PEERS
@@ -38,4 +43,5 @@ __all__ = [
     "run_gated", "run_ungated", "default_thresholds", "KFParams", "KFState", "GravityKF", "kf_step", "run_kf",
     "FusionParams", "FusionPeer", "fusion_step", "run_fusion", "PEERS", "ALL_FILTERS", "EKFParams", "MadgwickParams",
     "MahonyParams", "VQFParams", "run_ekf", "run_ekf_many", "run_madgwick", "run_mahony", "run_vqf",
+    "ADAPTIVE", "AEKFParams", "AEKFTrace", "run_aekf",
 ]

@@ -19,6 +19,7 @@ class AttitudeEstimate:
     gravity : (N, 3) [-]        estimated gravity direction in body axes (unit)
     accel_used : (N,) bool      True where the accelerometer corrected the estimate
     runtime_s : float [s]       wall time of the run
+    yaw : (N,) [rad] | None     heading estimate where the filter has one (aekf, aekf_gnss)
     """
 
     name: str
@@ -27,6 +28,7 @@ class AttitudeEstimate:
     gravity: np.ndarray
     accel_used: np.ndarray
     runtime_s: float
+    yaw: np.ndarray | None = None
 
 
 def estimate_from_gravity(name, r, used, runtime_s) -> AttitudeEstimate:

@@ -1,0 +1,80 @@
+"""``imutherm attitude --imu-csv FILE``: every filter on a user's recorded log (options and the run).
+
+Outputs in ``--out DIR``: ``attitude.json`` (:meth:`RecordedResult.to_json`: per filter roll / pitch RMS and
+max against the log's reference, null without one, the share of samples on which the accelerometer
+corrected the attitude, runtime; the units, axes, rate, platform, lever arm, turn radius used),
+``attitude_series.npz`` (every filter's roll / pitch, the reference) and, with a reference,
+``attitude.png``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.cli._common import atomic_outdir, write_json
+
+
+def add_arguments(p) -> None:
+    """The recorded-log options of ``imutherm attitude``."""
+    from imutherm.imu.imu_log import ACCEL_UNITS, AXES, GYRO_UNITS
+    from imutherm.studies.recorded import PLATFORMS
+
+    g = p.add_argument_group("recorded log (--imu-csv)")
+    g.add_argument("--imu-csv", default=None,
+                   help="recorded log: time_s,gyro_x..z,accel_x..z[,roll_deg,pitch_deg] (replaces --profile)")
+    g.add_argument("--gyro-units", default=None, help=f"{' | '.join(GYRO_UNITS)} (default: header, else rad/s)")
+    g.add_argument("--accel-units", default=None, help=f"{' | '.join(ACCEL_UNITS)} (default: header, else m/s2)")
+    g.add_argument("--axes", default=None, help=f"{' | '.join(AXES)} body axes of the log (default: header, else FRD)")
+    g.add_argument("--platform", default="handheld", help=f"{' | '.join(PLATFORMS)}: lever arm and turn radius "
+                   "defaults of the gates (default handheld)")
+    g.add_argument("--lever-arm", default=None, help="sensor position from the rotation centre x,y,z [m] (FRD)")
+    g.add_argument("--turn-radius", type=float, default=None, help="turn radius L of the rate gate [m]")
+    g.add_argument("--init-s", type=float, default=8.0, help="rest window at the start of the log [s] (default 8)")
+
+
+def _lever(text):
+    if text is None:
+        return None
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 3 or not all(np.isfinite(v)):
+        raise InputError(f"--lever-arm: {text!r} is invalid; valid: three lengths x,y,z [m], e.g. 0.1,0,0")
+    return tuple(v)
+
+
+def run(args) -> int:
+    """Run the filters on ``args.imu_csv`` and write the outputs; returns 0."""
+    from imutherm.imu.imu_log import read_imu_csv
+    from imutherm.studies.recorded import run_recorded
+
+    if args.profile is not None:
+        raise InputError("--imu-csv and --profile: give one (a recorded log or a simulated profile)")
+    if not (np.isfinite(args.init_s) and args.init_s > 0):
+        raise InputError(f"--init-s must be a positive number of seconds, got {args.init_s}")
+    lever = _lever(args.lever_arm)
+    log = read_imu_csv(args.imu_csv, gyro_units=args.gyro_units, accel_units=args.accel_units, axes=args.axes,
+                       init_s=args.init_s)
+    res = run_recorded(log, platform=args.platform, lever_arm=lever, turn_radius_m=args.turn_radius,
+                       init_s=args.init_s)
+    with atomic_outdir(args.out) as tmp:
+        write_json(tmp / "attitude.json", res.to_json())
+        np.savez_compressed(tmp / "attitude_series.npz", **res.series)
+        if res.has_reference and not args.no_plot:
+            from imutherm.reports.attitude_plots import plot_attitude
+
+            plot_attitude(tmp / "attitude_series.npz", tmp / "attitude.png")
+    print(f"{log.path}: {res.n_samples} samples at {res.rate_hz:.4g} Hz ({res.duration_s:.1f} s), "
+          f"gyro {log.units['gyro']}, accel {log.units['accel']}, axes {log.units['axes']}; |f| at rest "
+          f"{res.g_rest_mps2:.4f} m/s²; platform {res.platform}, lever arm {list(res.lever_arm)} m, "
+          f"turn radius {res.turn_radius_m:g} m")
+    for name, m in res.metrics.items():
+        if res.has_reference:
+            score = f"roll rms {m['roll_rms_deg']:.3f} deg  pitch rms {m['pitch_rms_deg']:.3f} deg"
+        else:
+            score = "no reference"
+        print(f"{name:8s} {score}  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  "
+              f"runtime {m['runtime_s']:.2f} s")
+    return 0

@@ -1,0 +1,346 @@
+"""Adaptive error-state EKF (seed 001's "intelligent KF"), with or without GNSS velocity aiding.
+
+Seed 001 tunes the EKF's Q and R online with a neural network and a fuzzy
+controller whose rules and weights it does not publish; we use two published
+adaptation laws instead:
+
+* **R: the Sage-Husa fading-memory estimator** (A. P. Sage, G. W. Husa,
+  "Adaptive filtering with unknown prior statistics", JACC 1969; the fading
+  form with forgetting factor b as in most INS/GNSS texts):
+  ``R_k = Ĉ_ν,k - (H P⁻ Hᵀ)‾_k`` with fading means ``x̄_k = b x̄_{k-1} + (1 - b) x_k``
+  of ``ν νᵀ`` and ``H P⁻ Hᵀ`` (averaging before subtracting keeps R positive; the
+  per-sample form ``(1 - d) R + d (ν νᵀ - H P⁻ Hᵀ)`` collapsed to the floor and
+  diverged here), ``b = 1 - T_meas / memory_s``, the means started from the
+  initial R (so d is constant, not Sage-Husa's ``(1 - b)/(1 - b^(k+1))``, which
+  assumes no prior), kept diagonal and floored at ``r_floor``. Both laws adapt
+  only on consecutive updates (after a gated gap P⁻ is not in steady state).
+* **Q: innovation-based covariance matching** (A. H. Mohamed, K. P. Schwarz,
+  "Adaptive Kalman filtering for INS/GPS", J. Geodesy 73, 1999, eq. 32:
+  ``Q̂ = K Ĉ_ν Kᵀ``): the same fading mean of ``K ν νᵀ Kᵀ`` over the attitude
+  states, divided by the time since the previous update, is the gyro white
+  noise density² ``q̂_g`` [(rad/s)²/Hz] (mean of the observable attitude axes:
+  roll and pitch without GNSS, all three with it); it sets the attitude
+  block of Q, once one memory time has passed since the start (the large
+  early corrections of P0's transient are not process noise). The bias
+  random walk is not adapted.
+
+Seed 001 starts both from Allan variance; we start them from the rest
+window (the sample variance of gyro and accelerometer over the first
+``init_s`` [s], i.e. the Allan variance at one sample) unless given.
+
+States (error = true - estimate): attitude ``φ`` (NED, ``C_true = (I + [φ×]) C_est``),
+velocity ``δv`` [m/s] (NED), gyro bias ``δb`` [rad/s]::
+
+    φ̇ = -C_nb δb - C_nb n_g      δv̇ = -[(C_nb f)×] φ - C_nb n_a      δḃ = n_b
+
+* ``aekf`` (no GNSS): the accelerometer is the measurement of gravity,
+  ``f = -C_bn g_n`` (``|g_n|`` = the accelerometer's rest reading), every sample;
+  ``H_φ = -C_bn [g_n×]``. Short accelerations raise the innovation and
+  Sage-Husa raises R. A sustained one (a coordinated turn: the apparent
+  vertical is the body z axis) is coloured, not noise: the filter follows it
+  and its bias state absorbs the difference (roll errors of tens of degrees
+  after a 17° turn on the flight profile without it), so a sample updates only
+  when ``||f| - g| < accel_gate`` (A. M. Sabatini, "Quaternion-based extended
+  Kalman filter for determining orientation by inertial and magnetic
+  sensing", IEEE TBME 53(7), 2006: measurement skipped under acceleration).
+  A horizontal acceleration changes |f| only to second order (1.4 m/s² passes
+  a 0.1 m/s² test and tilts the apparent vertical by 8°), so the innovation
+  must also pass a chi-square test with the adapted S (seed 003's gate 2 in
+  its statistical form), with a re-level after ``reject_timeout_s`` of
+  rejections. The adaptation therefore estimates the noise of the samples the
+  filter uses; the gates, not R, keep the manoeuvres out.
+  Heading is not observable; the velocity states are propagated but not
+  observed.
+* ``aekf_gnss``: the accelerometer drives the velocity ``v̇ = C_nb f + g_n``
+  and the GNSS velocity (:mod:`imutherm.imu.gnss`) is the measurement,
+  ``H = [0 I 0]``, at the receiver's rate; acceleration no longer disturbs
+  the attitude, and heading becomes observable when the vehicle accelerates
+  horizontally. R is the GNSS velocity noise, adapted the same way.
+
+Initial attitude: leveling over the rest window, yaw 0 (the true start heading
+of every profile here, as a magnetometer or the GNSS course would give it;
+P0 yaw (5°)²); initial bias the rest-window mean rate.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from imutherm import InputError
+from imutherm.imu.filters.common import AttitudeEstimate, check_samples, initial_bias, initial_quat
+
+
+@dataclass(frozen=True)
+class AEKFParams:
+    """Settings of the adaptive EKF.
+
+    memory_s : float [s]            fading-memory time constant of both adaptation laws (b = 1 - dt_meas/memory_s)
+    gyro_density0 : float | None [rad/s/sqrt(Hz)]  initial gyro white-noise density (None: rest-window std / sqrt(fs))
+    accel_std0 : float | None [m/s^2]  initial accelerometer measurement std (None: rest-window std)
+    gnss_std0 : float [m/s]         initial GNSS velocity measurement std
+    bias_rw : float [rad/s/sqrt(s)] gyro-bias random walk (not adapted)
+    accel_density : float [m/s^2/sqrt(Hz)]  velocity process noise (GNSS variant)
+    adapt_q, adapt_r : bool         switch the adaptation laws off (plain EKF) for comparison
+    r_floor : float [unit^2]        floor of the adapted R diagonal
+    accel_gate : float [m/s^2]      no-GNSS variant: a sample updates only if ||f| - g| < accel_gate
+                                    (Sabatini 2006's acceleration test; inf: never skip)
+    innov_gate : float [-]          no-GNSS variant: a sample updates only if νᵀ S⁻¹ ν < innov_gate (default the
+                                    99.9 % point of chi-square with 3 dof)
+    reject_timeout_s : float [s]    after this much time of innovation rejections the filter re-levels
+                                    (attitude covariance reset to (10°)², as seed 003's filter does here)
+    """
+
+    memory_s: float = 5.0
+    gyro_density0: float | None = None
+    accel_std0: float | None = None
+    gnss_std0: float = 0.1
+    bias_rw: float = 3e-5
+    accel_density: float = 0.05
+    adapt_q: bool = False
+    adapt_r: bool = True
+    r_floor: float = 1e-8
+    accel_gate: float = 0.1
+    innov_gate: float = 16.27
+    reject_timeout_s: float = 20.0
+
+    def __post_init__(self):
+        for name in ("memory_s", "gnss_std0", "bias_rw", "accel_density", "r_floor", "accel_gate", "innov_gate",
+                     "reject_timeout_s"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise InputError(f"AEKFParams: {name}={v!r} is invalid; valid: a positive number")
+        for name in ("gyro_density0", "accel_std0"):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise InputError(f"AEKFParams: {name}={v!r} is invalid; valid: a positive number or None")
+
+
+@dataclass(frozen=True)
+class AEKFTrace:
+    """Adaptation history of one run: t_idx (M,) sample index of each update, R (M,3) [unit^2] adapted
+    measurement-noise diagonal (unit = m/s^2 without GNSS, m/s with), q_gyro (M,) [(rad/s)^2/Hz] adapted gyro
+    noise density² after each measurement (accepted or not), yaw (N,) [rad] heading estimate, bias (N,3) [rad/s] gyro-bias estimate."""
+
+    t_idx: np.ndarray
+    R: np.ndarray
+    q_gyro: np.ndarray
+    yaw: np.ndarray
+    bias: np.ndarray
+
+
+@njit(cache=True)
+def _skew(v):
+    m = np.zeros((3, 3))
+    m[0, 1], m[0, 2], m[1, 0], m[1, 2], m[2, 0], m[2, 1] = -v[2], v[1], v[2], -v[0], -v[1], v[0]
+    return m
+
+
+@njit(cache=True)
+def _rotvec_dcm(a):
+    """exp([a×]) (3,3) for a rotation vector a [rad]."""
+    th = np.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    K = _skew(a)
+    if th < 1e-12:
+        return np.eye(3) + K
+    return np.eye(3) + np.sin(th) / th * K + (1.0 - np.cos(th)) / (th * th) * (K @ K)
+
+
+@njit(cache=True)
+def _orthonormalise(C):
+    u, s, vt = np.linalg.svd(C)
+    return u @ vt
+
+
+@njit(cache=True)
+def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, adapt_q, adapt_r, r_floor,
+               use_gnss, gidx, gvel, p0_yaw, accel_gate, innov_gate, reject_timeout):
+    n = gyro.shape[0]
+    C = C0.copy()
+    b = b0.copy()
+    v = np.zeros(3)
+    if use_gnss and gidx.shape[0] > 0:
+        v = gvel[0].copy()
+    P = np.zeros((9, 9))
+    P[0, 0] = P[1, 1] = (1.0 * np.pi / 180.0) ** 2
+    P[2, 2] = p0_yaw
+    for i in range(3, 6):
+        P[i, i] = 0.1 ** 2
+    for i in range(6, 9):
+        P[i, i] = (0.05 * np.pi / 180.0) ** 2
+    gn = np.array([0.0, 0.0, g])
+    qg = qg0
+    R = np.full(3, r0)
+    Cv = np.zeros(3)
+    n_per = 1
+    if use_gnss and gidx.shape[0] > 1:
+        n_per = gidx[1] - gidx[0]
+    d = n_per * dt / memory_s  # fading weight per update: b = 1 - d
+    if d > 0.5:
+        d = 0.5
+    Hm = np.zeros(3)
+    m_max = gidx.shape[0] if use_gnss else n
+    out_C = np.empty((n, 3, 3))
+    out_b = np.empty((n, 3))
+    t_idx = np.empty(m_max, np.int64)
+    R_hist = np.empty((m_max, 3))
+    q_hist = np.empty(m_max)
+    used = np.zeros(n, np.bool_)
+    m = 0
+    rej_t = 0.0
+    fresh = True
+    n_since = 0
+    gk = 0
+    last_t = -1
+    last_m = -1
+    I9 = np.eye(9)
+    for k in range(n):
+        if k > 0:
+            w = 0.5 * (gyro[k - 1] + gyro[k]) - b
+            f = 0.5 * (accel[k - 1] + accel[k])
+            Cf = C @ f
+            C = C @ _rotvec_dcm(w * dt)
+            v = v + (Cf + gn) * dt
+            F = np.zeros((9, 9))
+            F[0:3, 6:9] = -C
+            F[3:6, 0:3] = -_skew(Cf)
+            Phi = I9 + F * dt
+            Qd = np.zeros((9, 9))
+            for i in range(3):
+                Qd[i, i] = qg * dt
+                Qd[3 + i, 3 + i] = qa * qa * dt
+                Qd[6 + i, 6 + i] = rbw * rbw * dt
+            P = Phi @ P @ Phi.T + Qd
+        if k % 50 == 0:
+            C = _orthonormalise(C)
+        meas = False
+        if use_gnss:
+            if gk < gidx.shape[0] and gidx[gk] == k:
+                H = np.zeros((3, 9))
+                H[0, 3] = H[1, 4] = H[2, 5] = 1.0
+                nu = gvel[gk] - v
+                gk += 1
+                meas = True
+        else:
+            fk = accel[k]
+            if abs(np.sqrt(fk[0] * fk[0] + fk[1] * fk[1] + fk[2] * fk[2]) - g) < accel_gate:
+                H = np.zeros((3, 9))
+                H[:, 0:3] = -(C.T @ _skew(gn))
+                nu = fk + C.T @ gn
+                meas = True
+        if meas:
+            HPH = H @ P @ H.T
+            if fresh:
+                for i in range(3):
+                    Cv[i] = R[i] + HPH[i, i]
+                    Hm[i] = HPH[i, i]
+                fresh = False
+                n_since = 0
+            steady = k - last_m == n_per  # consecutive measurements (after a gated gap P⁻ is not steady)
+            last_m = k
+            S = HPH.copy()
+            for i in range(3):
+                S[i, i] += R[i]
+            if adapt_r and steady:  # Sage-Husa on every measurement, each term clipped at innov_gate S_ii
+                for i in range(3):
+                    c = nu[i] * nu[i]
+                    cmax = innov_gate * S[i, i]
+                    Cv[i] = (1.0 - d) * Cv[i] + d * (c if c < cmax else cmax)
+                    Hm[i] = (1.0 - d) * Hm[i] + d * HPH[i, i]
+                    ri = Cv[i] - Hm[i]
+                    R[i] = ri if ri > r_floor else r_floor
+            accept = True
+            if not use_gnss:  # innovation test (chi-square, 3 dof); re-level after reject_timeout
+                nis = nu @ np.linalg.solve(S, nu)
+                if nis > innov_gate:
+                    rej_t += dt
+                    if rej_t < reject_timeout:
+                        accept = False
+                    else:
+                        for i in range(3):
+                            for j in range(9):
+                                P[i, j] = 0.0
+                                P[j, i] = 0.0
+                        P[0, 0] = P[1, 1] = (10.0 * np.pi / 180.0) ** 2
+                        P[2, 2] = p0_yaw
+                        HPH = H @ P @ H.T
+                        S = HPH.copy()
+                        for i in range(3):
+                            S[i, i] += R[i]
+                        rej_t = 0.0
+                        n_since = 0
+                else:
+                    rej_t = 0.0
+            if accept:
+                K = P @ H.T @ np.linalg.inv(S)
+                dx = K @ nu
+                n_since += 1
+                if adapt_q and steady and k - last_t == n_per and n_since * d > 1.0:
+                    # covariance matching after one memory time (P0's transient is not process noise)
+                    na = 3 if use_gnss else 2
+                    acc = 0.0
+                    for i in range(na):
+                        acc += dx[i] * dx[i]
+                    qg = (1.0 - d) * qg + d * (acc / na) / (n_per * dt)
+                IKH = I9 - K @ H
+                P = IKH @ P @ IKH.T + K @ np.diag(R) @ K.T
+                P = 0.5 * (P + P.T)
+                C = _rotvec_dcm(dx[0:3]) @ C
+                v = v + dx[3:6]
+                b = b + dx[6:9]
+                last_t = k
+                used[k] = True
+            t_idx[m] = k
+            R_hist[m] = R
+            q_hist[m] = qg
+            m += 1
+        out_C[k] = C
+        out_b[k] = b
+    return out_C, out_b, used, t_idx[:m], R_hist[:m], q_hist[:m]
+
+
+def run_aekf(gyro, accel, dt: float, params: AEKFParams = AEKFParams(), *, gnss=None, init_s: float = 10.0,
+             name: str | None = None, return_trace: bool = False):
+    """Run the adaptive EKF over a record.
+
+    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]; gnss : :class:`imutherm.imu.gnss.GnssVelocity` or None
+    (no aiding); the first ``init_s`` [s] must be at rest. Returns an :class:`AttitudeEstimate` named
+    ``aekf`` / ``aekf_gnss`` (or ``name``), and with ``return_trace`` also an :class:`AEKFTrace`.
+    """
+    from imutherm.imu.attitude_math import quat_to_dcm, roll_pitch_from_gravity
+
+    gyro, accel = check_samples(gyro, accel, dt)
+    t0 = time.perf_counter()
+    n0 = max(2, int(round(init_s / dt)))
+    C0 = quat_to_dcm(initial_quat(accel, dt, init_s))
+    b0 = initial_bias(gyro, dt, init_s)
+    g_ref = float(np.mean(np.linalg.norm(accel[:n0], axis=1)))
+    fs = 1.0 / dt
+    qg0 = (params.gyro_density0 if params.gyro_density0 is not None
+           else float(np.mean(np.std(gyro[:n0], axis=0))) / np.sqrt(fs)) ** 2
+    if gnss is None:
+        r0 = (params.accel_std0 if params.accel_std0 is not None else float(np.mean(np.std(accel[:n0], axis=0)))) ** 2
+        gidx, gvel = np.zeros(0, np.int64), np.zeros((0, 3))
+    else:
+        r0 = params.gnss_std0 ** 2
+        gidx = np.asarray(gnss.idx, np.int64)
+        gvel = np.asarray(gnss.vel_n, float)
+        if gidx.size == 0 or np.any(np.diff(gidx) <= 0) or gidx[-1] >= len(gyro) or gvel.shape != (gidx.size, 3):
+            raise InputError("aekf: GNSS fixes must have increasing sample indices within the record and (M,3) "
+                             "velocities")
+    C, bias, used, t_idx, R, q = _aekf_loop(gyro, accel, float(dt), C0, b0, g_ref, float(qg0), float(r0),
+                                            params.bias_rw, params.accel_density, params.memory_s,
+                                            params.adapt_q, params.adapt_r, params.r_floor, gnss is not None,
+                                            gidx, gvel, float(np.radians(5.0) ** 2), params.accel_gate,
+                                            params.innov_gate, params.reject_timeout_s)
+    r = C[:, 2, :]  # gravity direction in body axes = third row of C_nb
+    roll, pitch = roll_pitch_from_gravity(r)
+    yaw = np.arctan2(C[:, 1, 0], C[:, 0, 0])
+    label = name or ("aekf" if gnss is None else "aekf_gnss")
+    est = AttitudeEstimate(label, roll, pitch, r, used, time.perf_counter() - t0, yaw=yaw)
+    if return_trace:
+        return est, AEKFTrace(t_idx=t_idx, R=R, q_gyro=q, yaw=yaw, bias=bias)
+    return est

@@ -1,0 +1,281 @@
+"""Users' own recorded IMU logs (CSV): reading, unit and axis conversion, and the checks that refuse a bad log.
+
+Format: a header row naming the columns, optional ``# key: value`` comment lines above it declaring
+units and axes, one row per sample::
+
+    # gyro_units: deg/s
+    # accel_units: g
+    # axes: FLU
+    time_s,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z,roll_deg,pitch_deg
+    0.000,0.12,-0.05,0.02,0.001,-0.002,1.000,0.1,-0.2
+    ...
+
+* ``time_s`` [s], strictly increasing, any rate (the filters take the median step; the step may vary by
+  up to :data:`MAX_STEP_SPREAD` of it, more is a gap and refused);
+* ``gyro_x..z`` in ``gyro_units`` (:data:`GYRO_UNITS`, default rad/s), ``accel_x..z`` the *specific force*
+  (what an accelerometer reads: +1 g upward at rest) in ``accel_units`` (:data:`ACCEL_UNITS`, default m/s2);
+* ``axes`` (:data:`AXES`, default FRD): the sensor's body axes, converted to FRD;
+* optional reference ``roll_deg``, ``pitch_deg`` [deg]: ZYX Euler angles of the FRD body in NED.
+
+Checks (each a one-line :class:`imutherm.InputError` naming the file and what would be valid): missing
+columns, non-numeric or non-finite values, non-monotonic time, gaps, a log shorter than the leveling
+window, an accelerometer whose magnitude at rest is not g in the declared unit (the typical mistake, g
+declared as m/s² or the reverse, is named as such), a gyro declared rad/s whose values exceed any MEMS
+range (deg/s declared as rad/s), a gyro off by 180/π either way (:func:`scale_check`), and a first
+window that is not at rest (the filters level and measure the gyro bias there).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.imu.attitude_math import G0
+
+GYRO_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0}
+ACCEL_UNITS = {"m/s2": 1.0, "g": G0}
+_ALIASES = {"m/s^2": "m/s2", "m/s²": "m/s2", "mps2": "m/s2", "dps": "deg/s", "°/s": "deg/s", "rad/sec": "rad/s",
+            "deg/sec": "deg/s"}
+#: body axes conventions -> rotation matrix taking that frame's components to FRD
+AXES = {
+    "FRD": np.eye(3),
+    "FLU": np.diag([1.0, -1.0, -1.0]),                                  # x forward, y left, z up
+    "RFU": np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]),  # x right, y forward, z up
+}
+COLUMNS = ("time_s", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+REFERENCE = ("roll_deg", "pitch_deg")
+#: largest allowed deviation of a time step from the median step, as a fraction of it
+MAX_STEP_SPREAD = 0.5
+#: fastest MEMS gyro full scale [rad/s] (±4000 °/s parts exist; beyond it a "rad/s" log is in deg/s)
+MAX_GYRO_RADPS = math.radians(4000.0)
+#: largest log read [bytes] (a 1 h log at 200 Hz is ~65 MB)
+MAX_LOG_BYTES = 512 * 2**20
+
+
+@dataclass(frozen=True)
+class ImuLog:
+    """A checked, converted log.
+
+    path : str; t : (N,) [s]; gyro : (N,3) [rad/s] FRD; accel : (N,3) [m/s^2] FRD specific force;
+    ref_roll, ref_pitch : (N,) [rad] or None; dt : float [s] median step; rate_hz : float [Hz];
+    units : {"gyro": ..., "accel": ..., "axes": ...} as declared; g_rest : float [m/s^2] |f| over the rest window;
+    step_spread : float [-] max |step − dt| / dt
+    """
+
+    path: str
+    t: np.ndarray = field(repr=False)
+    gyro: np.ndarray = field(repr=False)
+    accel: np.ndarray = field(repr=False)
+    ref_roll: np.ndarray | None = field(repr=False)
+    ref_pitch: np.ndarray | None = field(repr=False)
+    dt: float
+    rate_hz: float
+    units: dict
+    g_rest: float
+    step_spread: float
+
+    @property
+    def has_reference(self) -> bool:
+        return self.ref_roll is not None
+
+
+def _norm_unit(value: str, table: dict, what: str, where: str) -> str:
+    v = value.strip()
+    v = _ALIASES.get(v, _ALIASES.get(v.lower(), v))
+    if v not in table:
+        v2 = v.upper() if table is AXES else v.lower()
+        if v2 not in table:
+            raise InputError(f"{where}: {what} {value!r} is unknown; valid: {', '.join(table)}")
+        v = v2
+    return v
+
+
+def read_imu_csv(path, *, gyro_units: str | None = None, accel_units: str | None = None, axes: str | None = None,
+                 init_s: float = 8.0) -> ImuLog:
+    """Read and check a recorded log (module docstring). Options override nothing silently: a unit given both
+    in the header and as an option must agree. init_s [s] is the leveling window that must be at rest."""
+    from imutherm.textio import read_text
+
+    path = Path(path)
+    text = read_text(path, "IMU CSV", max_bytes=MAX_LOG_BYTES)
+    meta, lines = {}, []
+    for line in text.splitlines():
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            if ":" in s and not lines:
+                k, v = s[1:].split(":", 1)
+                meta[k.strip().lower()] = v.strip()
+            continue
+        lines.append(line)
+    declared = {}
+    for key, opt, table, default in (("gyro_units", gyro_units, GYRO_UNITS, "rad/s"),
+                                     ("accel_units", accel_units, ACCEL_UNITS, "m/s2"), ("axes", axes, AXES, "FRD")):
+        hv = None if key not in meta else _norm_unit(meta[key], table, key, f"{path} header")
+        ov = None if opt is None else _norm_unit(opt, table, key, f"--{key.replace('_', '-')}")
+        if hv is not None and ov is not None and hv != ov:
+            raise InputError(f"{path}: the header declares {key} {hv!r} but the option says {ov!r}; "
+                             "valid: give one, or the same in both")
+        declared[key] = ov or hv or default
+    try:
+        rows = list(csv.reader(io.StringIO("\n".join(lines))))
+    except csv.Error as exc:
+        raise InputError(f"{path}: not a valid CSV file ({exc})") from None
+    if len(rows) < 3:
+        raise InputError(f"{path}: an IMU log needs a header row and at least two samples")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in COLUMNS if c not in header]
+    if missing:
+        raise InputError(f"{path}: column(s) {', '.join(missing)} missing; valid header: {','.join(COLUMNS)}"
+                         f"[,{','.join(REFERENCE)}]")
+    ref_present = [c for c in REFERENCE if c in header]
+    if len(ref_present) == 1:
+        raise InputError(f"{path}: reference column {ref_present[0]!r} without its pair; valid: both "
+                         f"{' and '.join(REFERENCE)} or neither")
+    cols = list(COLUMNS) + (list(REFERENCE) if ref_present else [])
+    idx = [header.index(c) for c in cols]
+    data = np.empty((len(rows) - 1, len(cols)))
+    for i, r in enumerate(rows[1:]):
+        try:
+            data[i] = [float(r[j]) for j in idx]
+        except (ValueError, IndexError):
+            raise InputError(f"{path}: row {i + 2} is short or not numeric; valid: {len(header)} numbers per "
+                             "row") from None
+    if not np.all(np.isfinite(data)):
+        i, j = np.argwhere(~np.isfinite(data))[0]
+        raise InputError(f"{path}: {cols[j]} is not finite in row {i + 2}; valid: finite numbers")
+    t = data[:, 0]
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        i = int(np.flatnonzero(steps <= 0)[0])
+        raise InputError(f"{path}: time_s is not strictly increasing at row {i + 3} ({t[i]:.6g} then "
+                         f"{t[i + 1]:.6g} s); valid: strictly increasing times [s]")
+    dt = float(np.median(steps))
+    spread = float(np.max(np.abs(steps - dt)) / dt)
+    if spread > MAX_STEP_SPREAD:
+        i = int(np.argmax(np.abs(steps - dt)))
+        raise InputError(f"{path}: the time step at row {i + 3} is {steps[i]:.6g} s against a median of {dt:.6g} s "
+                         f"(a gap or a rate change); valid: steps within ±{MAX_STEP_SPREAD:.0%} of the median")
+    R = AXES[declared["axes"]]
+    gyro = data[:, 1:4] @ R.T * GYRO_UNITS[declared["gyro_units"]]
+    accel = data[:, 4:7] @ R.T * ACCEL_UNITS[declared["accel_units"]]
+    n0 = int(round(init_s / dt))
+    if n0 < 10 or n0 > len(t):
+        raise InputError(f"{path}: {len(t)} samples at {1 / dt:.4g} Hz do not cover the {init_s:g} s leveling "
+                         "window at rest with at least 10 samples; valid: a longer log or --init-s")
+    g_rest = float(np.mean(np.linalg.norm(accel[:n0], axis=1)))
+    unit = declared["accel_units"]
+    if not (0.8 * G0 < g_rest < 1.2 * G0):
+        raw = g_rest / ACCEL_UNITS[unit]
+        hint = ""
+        if unit == "m/s2" and 0.8 < raw < 1.2:
+            hint = " — it looks like the accelerometer is in g: declare accel_units g"
+        elif unit == "g" and 0.8 * G0 < raw < 1.2 * G0:
+            hint = " — it looks like the accelerometer is in m/s²: declare accel_units m/s2"
+        raise InputError(f"{path}: the accelerometer reads |f| = {raw:.4g} {unit} at rest (first {init_s:g} s), "
+                         f"not g (9.81 m/s², 1 g){hint}; valid: specific force in the declared accel_units "
+                         f"({', '.join(ACCEL_UNITS)})")
+    if declared["gyro_units"] == "rad/s" and np.max(np.abs(gyro)) > MAX_GYRO_RADPS:
+        raise InputError(f"{path}: the gyro reaches {np.max(np.abs(gyro)):.4g} rad/s, beyond any MEMS range "
+                         f"({MAX_GYRO_RADPS:.1f} rad/s) — it looks like deg/s: declare gyro_units deg/s")
+    # at rest: the specific-force direction over 0.5 s blocks of the window stays within 2°
+    nb = max(1, int(round(0.5 / dt)))
+    blocks = accel[: (n0 // nb) * nb].reshape(-1, nb, 3).mean(axis=1)
+    mean = accel[:n0].mean(axis=0)
+    cosang = blocks @ mean / (np.linalg.norm(blocks, axis=1) * np.linalg.norm(mean))
+    tilt = float(np.degrees(np.arccos(np.clip(np.min(cosang), -1.0, 1.0))))
+    if tilt > 2.0:
+        raise InputError(f"{path}: the unit is not at rest over the first {init_s:g} s (the specific force turns "
+                         f"by {tilt:.1f}°); valid: a log that starts with {init_s:g} s at rest, or a shorter "
+                         "--init-s")
+    scale_check(path, gyro, accel, dt, n0, declared["gyro_units"])
+    rr = rp = None
+    if ref_present:
+        rr, rp = np.radians(data[:, 7]), np.radians(data[:, 8])
+    return ImuLog(str(path), t - t[0], gyro, accel, rr, rp, dt, 1.0 / dt,
+                  {"gyro": declared["gyro_units"], "accel": declared["accel_units"], "axes": declared["axes"]},
+                  g_rest, spread)
+
+
+def _integrate_down(gyro, r0, dt):
+    """Down direction in body axes (N,3) from r0 [-] by the gyro (N,3) [rad/s]: dr/dt = −ω × r, exact per step."""
+    out = np.empty((len(gyro), 3))
+    x, y, z = (float(v) for v in r0)
+    for k, (wx, wy, wz) in enumerate(gyro.tolist()):
+        out[k] = (x, y, z)
+        a = math.sqrt(wx * wx + wy * wy + wz * wz) * dt
+        if a > 0:  # rotate r by −a about ω (Rodrigues)
+            ux, uy, uz = wx * dt / a, wy * dt / a, wz * dt / a
+            c, s_ = math.cos(a), -math.sin(a)
+            d = (ux * x + uy * y + uz * z) * (1 - c)
+            x, y, z = (x * c + (uy * z - uz * y) * s_ + ux * d, y * c + (uz * x - ux * z) * s_ + uy * d,
+                       z * c + (ux * y - uy * x) * s_ + uz * d)
+    return out
+
+
+#: gyro-unit check: quasi-static 0.5 s blocks tilted at least this much from the start are compared [deg]
+CHECK_TILT_DEG = 15.0
+
+
+def scale_check(path, gyro, accel, dt: float, n0: int, unit: str) -> None:
+    """Refuse a gyro whose declared unit is off by 180/π either way.
+
+    The down direction integrated from the rest window with the gyro (bias = its rest mean) must follow the
+    accelerometer's down direction at the quasi-static moments (0.5 s blocks, |f| within 5 % of its rest
+    value, per-axis std < 0.5 m/s^2) that are tilted by more than :data:`CHECK_TILT_DEG` from the start.
+    The median angle between the two is computed for the gyro read as declared, ×(π/180) and ×(180/π);
+    if the declared reading is off by more than 10° and another is three times closer, the log is refused.
+    No such moments (a log that never comes to rest tilted): no check.
+    """
+    nb = max(1, int(round(0.5 / dt)))
+    m = (len(accel) // nb) * nb
+    blk = accel[:m].reshape(-1, nb, 3)
+    mean, std = blk.mean(axis=1), blk.std(axis=1)
+    g0 = float(np.mean(np.linalg.norm(accel[:n0], axis=1)))
+    down = -mean / np.linalg.norm(mean, axis=1)[:, None]
+    r0 = -accel[:n0].mean(axis=0)
+    r0 /= np.linalg.norm(r0)
+    tilt = np.degrees(np.arccos(np.clip(down @ r0, -1, 1)))
+    ok = (np.abs(np.linalg.norm(mean, axis=1) - g0) < 0.05 * g0) & np.all(std < 0.5, axis=1) & (tilt > CHECK_TILT_DEG)
+    if not np.any(ok):
+        return
+    centre = np.flatnonzero(ok) * nb + nb // 2
+    bias = gyro[:n0].mean(axis=0)
+    err = {}
+    for label, f in (("declared", 1.0), ("x pi/180", math.pi / 180), ("x 180/pi", 180 / math.pi)):
+        r = _integrate_down((gyro[: centre[-1] + 1] - bias) * f, r0, dt)[centre]
+        err[label] = float(np.median(np.degrees(np.arccos(np.clip(np.sum(r * down[ok], axis=1), -1, 1)))))
+    best = min(err, key=err.get)
+    if best != "declared" and err["declared"] > 10.0 and err[best] < err["declared"] / 3:
+        other = {"rad/s": "deg/s", "deg/s": "rad/s"}[unit]
+        raise InputError(f"{path}: read as {unit}, the gyro turns the down direction {err['declared']:.0f}° away "
+                         f"from the accelerometer's at rest after rotating (read as {other}: {err[best]:.1f}°) — "
+                         f"it looks like the gyro is in {other}: declare gyro_units {other}")
+
+
+def write_imu_csv(path, t, gyro, accel, *, roll=None, pitch=None, gyro_units: str = "rad/s",
+                  accel_units: str = "m/s2", axes: str = "FRD") -> Path:
+    """Write a log in the format above: t (N,) [s], gyro (N,3) [rad/s] and accel (N,3) [m/s^2] in FRD,
+    converted to the stated units and axes; roll, pitch (N,) [rad] optional reference."""
+    R = AXES[axes]
+    g = np.asarray(gyro, float) @ R / GYRO_UNITS[gyro_units]  # R orthogonal: FRD -> axes is R^T, rows @ R
+    a = np.asarray(accel, float) @ R / ACCEL_UNITS[accel_units]
+    cols = [np.asarray(t, float)[:, None], g, a]
+    head = list(COLUMNS)
+    if roll is not None:
+        cols += [np.degrees(np.asarray(roll))[:, None], np.degrees(np.asarray(pitch))[:, None]]
+        head += list(REFERENCE)
+    arr = np.hstack(cols)
+    path = Path(path)
+    with path.open("w", encoding="utf-8") as fh:
+        fh.write(f"# gyro_units: {gyro_units}\n# accel_units: {accel_units}\n# axes: {axes}\n")
+        fh.write(",".join(head) + "\n")
+        np.savetxt(fh, arr, delimiter=",", fmt="%.10g")
+    return path

@@ -1,0 +1,101 @@
+"""Every attitude filter on a user's recorded log (:mod:`imutherm.imu.imu_log`), scored against its reference.
+
+The gates' design inputs that depend on the platform (lever arm d from the rotation centre, turn radius L)
+come from :data:`PLATFORMS` unless given; everything else is the filters' defaults
+(:class:`~imutherm.studies.attitude_study.GateConfig`), with the leveling window ``init_s`` at the start of
+the log. The |f| reference, gyro bias and gate widening are measured on the log's own rest window at its
+own sample rate (:func:`~imutherm.studies.attitude_study.run_filters`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.imu.filters import ALL_FILTERS
+from imutherm.studies.attitude_study import GateConfig, error_metrics, run_filters
+
+#: platform defaults of the gate design inputs: lever arm d (3,) [m] and turn radius L [m].
+#: handheld: sensor 8 cm from the wrist, arm swing radius 0.5 m [ASSUMED]; vehicle: dashboard mount
+#: 0.5 m ahead / 0.3 m above the reference point, town-corner radius 50 m [ASSUMED]; aircraft: the flight
+#: profile's 0.3 m lever arm and the 1146 m standard-rate turn radius at 60 m/s (GateConfig).
+PLATFORMS = {
+    "handheld": ((0.08, 0.0, 0.0), 0.5),
+    "vehicle": ((0.5, 0.0, -0.3), 50.0),
+    "aircraft": ((0.3, 0.0, 0.05), GateConfig.L),
+}
+
+
+@dataclass(frozen=True)
+class RecordedResult:
+    """Result of :func:`run_recorded`.
+
+    source : str; rate_hz [Hz]; n_samples; duration_s [s]; units : dict; platform : str; lever_arm (3,) [m];
+    turn_radius_m [m]; init_s [s]; g_rest_mps2 [m/s^2];
+    metrics : {filter: {roll_rms_deg, pitch_rms_deg, roll_max_deg, pitch_max_deg (None without a reference),
+               accel_used_fraction [-], runtime_s [s]}}
+    series : dict  t [s], per filter <name>_roll_deg / _pitch_deg / _accel_used, reference truth_*_deg if present
+    """
+
+    source: str
+    rate_hz: float
+    n_samples: int
+    duration_s: float
+    units: dict
+    platform: str
+    lever_arm: tuple
+    turn_radius_m: float
+    init_s: float
+    g_rest_mps2: float
+    has_reference: bool
+    metrics: dict
+    series: dict = field(repr=False)
+
+    def to_json(self) -> dict:
+        return {"source": self.source, "rate_hz": self.rate_hz, "n_samples": self.n_samples,
+                "duration_s": self.duration_s, "units": self.units, "platform": self.platform,
+                "lever_arm_m": list(self.lever_arm), "turn_radius_m": self.turn_radius_m, "init_s": self.init_s,
+                "g_rest_mps2": self.g_rest_mps2, "reference": self.has_reference,
+                "frames": "FRD body, NED navigation, ZYX Euler; errors are estimate - reference [deg]",
+                "filters": self.metrics}
+
+
+def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius_m: float | None = None,
+                 init_s: float = GateConfig.init_s, names=ALL_FILTERS) -> RecordedResult:
+    """Run ``names`` on ``log`` (an :class:`~imutherm.imu.imu_log.ImuLog`); platform in :data:`PLATFORMS`,
+    lever_arm (3,) [m] and turn_radius_m [m] override its defaults; init_s [s] the rest window."""
+    if platform not in PLATFORMS:
+        raise InputError(f"--platform: {platform!r} is unknown; valid: {', '.join(PLATFORMS)}")
+    d0, L0 = PLATFORMS[platform]
+    d = tuple(float(v) for v in (d0 if lever_arm is None else lever_arm))
+    if len(d) != 3 or not np.all(np.isfinite(d)):
+        raise InputError(f"--lever-arm: {lever_arm!r} is invalid; valid: three finite lengths x,y,z [m]")
+    L = float(L0 if turn_radius_m is None else turn_radius_m)
+    if not (np.isfinite(L) and L > 0):
+        raise InputError(f"--turn-radius: {turn_radius_m!r} is invalid; valid: a positive length [m]")
+    unknown = [n for n in names if n not in ALL_FILTERS]
+    if unknown:
+        raise InputError(f"filters: {unknown} unknown; valid: {', '.join(ALL_FILTERS)}")
+    gate = replace(GateConfig(), L=L, init_s=float(init_s))
+    est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, names=tuple(names))
+    metrics = {}
+    series = {"t": log.t}
+    if log.has_reference:
+        series["truth_roll_deg"] = np.degrees(log.ref_roll)
+        series["truth_pitch_deg"] = np.degrees(log.ref_pitch)
+        series["phase"] = np.full(log.t.size, "stable")
+    for n, e in est.items():
+        if log.has_reference:
+            m = error_metrics(e.roll - log.ref_roll, e.pitch - log.ref_pitch, {"all": np.ones(log.t.size, bool)})["all"]
+        else:
+            m = {k: None for k in ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")}
+        m["accel_used_fraction"] = float(np.mean(e.accel_used))
+        m["runtime_s"] = e.runtime_s
+        metrics[n] = m
+        series[f"{n}_roll_deg"] = np.degrees(e.roll)
+        series[f"{n}_pitch_deg"] = np.degrees(e.pitch)
+        series[f"{n}_accel_used"] = e.accel_used
+    return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
+                          L, float(init_s), log.g_rest, log.has_reference, metrics, series)
