@@ -39,6 +39,7 @@ import scipy.sparse.linalg as spla
 
 from imutherm import ConvergenceError, InputError  # noqa: F401  (ConvergenceError re-exported)
 from imutherm.thermal.assembly import Assembly, assemble
+from imutherm.thermal.guards import MAX_STEPS, check_step
 from imutherm.thermal.problem import ThermalProblem
 
 #: Below this many unknowns ``solver='auto'`` factorises (SuperLU), above it uses AMG-CG.
@@ -1042,6 +1043,7 @@ def _run_theta(ctx: _Ctx, steps, theta):
         E_out += h * q_out
         T_prev = T
         T = T + dT
+        check_step(T, tb, s_i + 1, start_C=ctx.T0, t_end=ctx.t_end, power_W=sumFq + flux_in, h=h, max_steps=None)
         if bar is not None:
             bar.update(1)
         if rec.step(ta, tb, T_prev, T):
@@ -1186,6 +1188,8 @@ def _run_trbdf2(ctx: _Ctx, steps, tol_K, dt_first, dt_max, control):
         T_prev, T = T, T1
         t = tb
         k += 1
+        check_step(T, t, k, start_C=ctx.T0, t_end=t_end, power_W=sumFq + flux_in, rejected=rejected, h=h,
+                   max_steps=MAX_STEPS if adaptive else None)
         if bar is not None:
             bar.update(round(h, 6))
         if rec.step(ta, tb, T_prev, T):
