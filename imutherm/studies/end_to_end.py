@@ -356,6 +356,20 @@ def _imu_jobs(pool, config: StudyConfig, seeds, bare, args):
     return [pool.submit(imu_case, config.grade, s, *args, config, bare[s]) for s in seeds]
 
 
+def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, progress: bool = False,
+                 **thermal_kwargs):
+    """The thermal side of one scheme: (SchemeResult, chamber (k,) [°C], rise (k, 6) [K]).
+
+    Steady field, power-on transient (always run) and the oven self-heating table; a pure function of its
+    arguments, so schemes can run in separate processes.
+    """
+    from imutherm.studies.thermal_study import run_scheme
+
+    res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, **thermal_kwargs)
+    chamber, rise = self_heating_table(res, chamber_C)
+    return res, chamber, rise
+
+
 def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: StudyConfig = StudyConfig(),
               options: ModelOptions | None = None, jobs: int | None = None, progress: bool = False,
               **thermal_kwargs) -> StudyResult:
@@ -367,13 +381,15 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     schemes : scheme names of the layout
     config : StudyConfig (IMU side)
     options : ModelOptions (thermal laws; default :class:`ModelOptions`)
-    jobs : int, processes for the IMU side (default: min(2, CPUs)); 1 runs everything in this process
+    jobs : int, worker processes (default: min(2, CPUs)); 1 runs everything in this process. With
+        ``jobs`` > 1 the schemes' thermal solves run side by side in the workers, and each scheme's IMU
+        cases (one per seed) are queued as soon as its thermal result is in.
     progress : bool, print one line per stage
     **thermal_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme` (mesh_size_mm, min_cells,
         transient time settings); the transient is always run
     """
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.thermal_study import result_summary, run_scheme
+    from imutherm.studies.thermal_study import result_summary
 
     start = time.perf_counter()
     layout = layout if isinstance(layout, LayoutSpec) else load_layout(layout)
@@ -387,33 +403,43 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     if jobs < 1:
         raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
     seeds = tuple(range(config.seed0, config.seed0 + config.seeds))
-    thermal_kwargs["transient"] = True
+    thermal_kwargs.pop("transient", None)
+    need_bare = "bare" in config.calibrations
     pool = None
     if jobs > 1:
         import multiprocessing
 
         # fork (where there is one) before any solve starts: user scripts need no __main__ guard
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-        pool = ProcessPoolExecutor(max_workers=jobs - 1, mp_context=multiprocessing.get_context(method))
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context(method))
     try:
-        need_bare = "bare" in config.calibrations
-        if pool is None or not need_bare:
+        if pool is None:
+            thermal_futs = None
             bare = {s: bare_calibration(config.grade, s) if need_bare else None for s in seeds}
         else:
-            futs = {s: pool.submit(bare_calibration, config.grade, s) for s in seeds}
+            if progress:
+                print(f"thermal (steady, power-on transient, oven self-heating) of {', '.join(schemes)} "
+                      f"in {jobs} processes ...", flush=True)
+            thermal_futs = {sch: pool.submit(thermal_case, layout, sch, options, config.chamber_C,
+                                             **thermal_kwargs) for sch in schemes}
+            bare_futs = {s: pool.submit(bare_calibration, config.grade, s) if need_bare else None for s in seeds}
         pending, thermal = {}, {}
         for sch in schemes:
-            if progress:
-                print(f"scheme {sch}: thermal (steady, power-on transient, oven self-heating) ...", flush=True)
-            res = run_scheme(layout, sch, options=options, progress=progress, **thermal_kwargs)
-            chamber, rise = self_heating_table(res, config.chamber_C)
+            if thermal_futs is None:
+                if progress:
+                    print(f"scheme {sch}: thermal (steady, power-on transient, oven self-heating) ...", flush=True)
+                res, chamber, rise = thermal_case(layout, sch, options, config.chamber_C, progress=progress,
+                                                  **thermal_kwargs)
+            else:
+                res, chamber, rise = thermal_futs[sch].result()
+                if sch == schemes[0]:
+                    bare = {s: f.result() if f is not None else None for s, f in bare_futs.items()}
             t, T = site_curves(res)
             idx = [res.steady.probe_names.index(s) for s in SITES]
             steady_T = np.asarray(res.steady.probe_C)[idx]
-            if pool is not None and need_bare and sch == schemes[0]:
-                bare = {s: f.result() for s, f in futs.items()}  # computed while the first thermal run ran
             if progress:
-                print(f"scheme {sch}: IMU and attitude, {len(seeds)} seeds ...", flush=True)
+                print(f"scheme {sch}: thermal done ({res.wall_s:.0f} s); IMU and attitude, {len(seeds)} seeds ...",
+                      flush=True)
             pending[sch] = _imu_jobs(pool, config, seeds, bare, (t, T, steady_T, chamber, rise))
             thermal[sch] = (res, chamber, rise)
         out = {}

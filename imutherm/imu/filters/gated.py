@@ -48,6 +48,7 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numba import njit
 
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0
@@ -244,7 +245,7 @@ class ComplementaryFilter(GatedStrapdown):
 
 
 def _loop(gyro, accel, gate, dt, kp, ki, q0, b0, rate_gate=None):
-    """Tight batch loop of :func:`_update` (inlined); returns (gravity (N,3), used (N,) bool).
+    """Tight batch loop of :func:`_update` (inlined, compiled with numba); returns (gravity (N,3), used (N,) bool).
 
     gate (N,) bool: the accelerometer is used where True. ``rate_gate`` = (lp_w (N,3) [rad/s],
     ok_aw (N,) bool, sigma_w [rad/s], n_hold, n_recover): the gate is instead decided inside the loop
@@ -256,32 +257,43 @@ def _loop(gyro, accel, gate, dt, kp, ki, q0, b0, rate_gate=None):
     wbar[1:] = 0.5 * (gyro[:-1] + gyro[1:])
     fn = np.sqrt(accel[:, 0] * accel[:, 0] + accel[:, 1] * accel[:, 1] + accel[:, 2] * accel[:, 2])
     m = -accel / fn[:, None]
-    gxl, gyl, gzl = wbar[:, 0].tolist(), wbar[:, 1].tolist(), wbar[:, 2].tolist()
-    mxl, myl, mzl = m[:, 0].tolist(), m[:, 1].tolist(), m[:, 2].tolist()
-    gl = gate.tolist() if rate_gate is None else [False] * n
-    if rate_gate is not None:
+    if rate_gate is None:
+        lpw, ok_aw, sig_w, n_hold, n_rec = np.zeros((1, 3)), np.zeros(1, bool), 0.0, 0, 0
+        gate_in = np.ascontiguousarray(gate, dtype=bool)
+    else:
         lpw, ok_aw, sig_w, n_hold, n_rec = rate_gate
-        lwx, lwy, lwz = lpw[:, 0].tolist(), lpw[:, 1].tolist(), lpw[:, 2].tolist()
-        okl = ok_aw.tolist()
-        sw2 = sig_w * sig_w
-        run = quiet = 0
-    w, x, y, z = (float(v) for v in q0)
-    bx, by, bz = (float(v) for v in b0)
-    rxo, ryo, rzo = [0.0] * n, [0.0] * n, [0.0] * n
+        gate_in = np.zeros(n, bool)
+    return _loop_core(np.ascontiguousarray(wbar, float), np.ascontiguousarray(m, float), gate_in,
+                      rate_gate is not None, np.ascontiguousarray(lpw, float), np.ascontiguousarray(ok_aw, bool),
+                      float(sig_w), int(n_hold), int(n_rec), float(dt), float(kp), float(ki),
+                      np.asarray(q0, float), np.asarray(b0, float))
+
+
+@njit(cache=True)
+def _loop_core(wbar, m, gate_in, use_rate, lpw, ok_aw, sig_w, n_hold, n_rec, dt, kp, ki, q0, b0):
+    """The per-sample loop of :func:`_loop` (scalar arithmetic in the order of :func:`_update`)."""
+    n = wbar.shape[0]
+    gl = gate_in.copy()
+    sw2 = sig_w * sig_w
+    run = 0
+    quiet = 0
+    w, x, y, z = q0[0], q0[1], q0[2], q0[3]
+    bx, by, bz = b0[0], b0[1], b0[2]
+    out = np.empty((n, 3))
     hdt = 0.5 * dt
-    sqrt, sin, cos = math.sqrt, math.sin, math.cos
     for k in range(n):
-        wx, wy, wz = gxl[k] - bx, gyl[k] - by, gzl[k] - bz
-        if rate_gate is not None:
-            if okl[k]:
+        wx, wy, wz = wbar[k, 0] - bx, wbar[k, 1] - by, wbar[k, 2] - bz
+        if use_rate:
+            if ok_aw[k]:
                 quiet += 1
-                c0, c1, c2 = lwx[k] - bx, lwy[k] - by, lwz[k] - bz
+                c0, c1, c2 = lpw[k, 0] - bx, lpw[k, 1] - by, lpw[k, 2] - bz
                 run = run + 1 if c0 * c0 + c1 * c1 + c2 * c2 < sw2 else 0
             else:
-                quiet = run = 0
+                quiet = 0
+                run = 0
             gl[k] = run > n_hold or quiet > n_rec
         if gl[k]:
-            mx, my, mz = mxl[k], myl[k], mzl[k]
+            mx, my, mz = m[k, 0], m[k, 1], m[k, 2]
             rx = 2 * (x * z - w * y)
             ry = 2 * (y * z + w * x)
             rz = 1 - 2 * (x * x + y * y)
@@ -297,21 +309,21 @@ def _loop(gyro, accel, gate, dt, kp, ki, q0, b0, rate_gate=None):
         hx, hy, hz = hdt * wx, hdt * wy, hdt * wz
         n2 = hx * hx + hy * hy + hz * hz
         if n2 > 1e-24:
-            nn = sqrt(n2)
-            s = sin(nn) / nn
-            c = cos(nn)
+            nn = math.sqrt(n2)
+            s = math.sin(nn) / nn
+            c = math.cos(nn)
         else:
             s = 1.0 - n2 / 6.0
             c = 1.0 - n2 / 2.0
         dx, dy, dz = hx * s, hy * s, hz * s
         w, x, y, z = (w * c - x * dx - y * dy - z * dz, w * dx + x * c + y * dz - z * dy,
                       w * dy - x * dz + y * c + z * dx, w * dz + x * dy - y * dx + z * c)
-        inv = 1.0 / sqrt(w * w + x * x + y * y + z * z)
+        inv = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
         w, x, y, z = w * inv, x * inv, y * inv, z * inv
-        rxo[k] = 2 * (x * z - w * y)
-        ryo[k] = 2 * (y * z + w * x)
-        rzo[k] = 1 - 2 * (x * x + y * y)
-    return np.column_stack([rxo, ryo, rzo]), np.array(gl, bool)
+        out[k, 0] = 2 * (x * z - w * y)
+        out[k, 1] = 2 * (y * z + w * x)
+        out[k, 2] = 1 - 2 * (x * x + y * y)
+    return out, gl
 
 
 def default_thresholds(gyro, accel, dt: float, *, xi_a: float, xi_w: float, d, L: float, tau: float,

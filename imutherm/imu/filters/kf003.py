@@ -40,6 +40,7 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numba import njit
 
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0
@@ -240,30 +241,37 @@ def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
     r0 = r0 / np.linalg.norm(r0)
     if bias0 is None:
         bias0 = initial_bias(gyro, dt, init_s)
-    n = len(gyro)
     wbar = np.empty_like(gyro)
     wbar[0] = gyro[0]
     wbar[1:] = 0.5 * (gyro[:-1] + gyro[1:])
-    gxl, gyl, gzl = wbar[:, 0].tolist(), wbar[:, 1].tolist(), wbar[:, 2].tolist()
-    fxl, fyl, fzl = accel[:, 0].tolist(), accel[:, 1].tolist(), accel[:, 2].tolist()
-    nw, a, g = params.n_window, params.a, params.g
-    qdt, R, imax = params.q * dt, params.R, params.innov_max
-    period, timeout, kb, p0 = nw * dt, params.reject_timeout_s, params.kb, params.p0
-    b = tuple(float(v) for v in bias0)
-    rx, ry, rz = (float(v) for v in r0)
-    p = params.p0
+    r, used = _kf_loop(np.ascontiguousarray(wbar, float), np.ascontiguousarray(accel, float), float(dt),
+                       int(params.n_window), float(params.a), float(params.g), float(params.q * dt), float(params.R),
+                       float(params.innov_max), float(params.reject_timeout_s), float(params.kb), float(params.p0),
+                       np.asarray(bias0, float), float(r0[0]), float(r0[1]), float(r0[2]))
+    return estimate_from_gravity("kf", r, used, time.perf_counter() - t0)
+
+
+_measure_compiled = njit(cache=True)(_measure)
+
+
+@njit(cache=True)
+def _kf_loop(wbar, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, bias0, rx, ry, rz):
+    """The per-sample loop of :func:`run_kf` (compiled; the arithmetic of :func:`kf_step`)."""
+    n = wbar.shape[0]
+    period = nw * dt
+    b = (bias0[0], bias0[1], bias0[2])
+    p = p0
     sx = sy = sz = 0.0
     wmax, wn, reject_t = 0.0, 0, 0.0
-    out_x, out_y, out_z = [0.0] * n, [0.0] * n, [0.0] * n
-    used = np.zeros(n, bool)
-    sqrt, sin, cos = math.sqrt, math.sin, math.cos
+    out = np.empty((n, 3))
+    used = np.zeros(n, np.bool_)
     for k in range(n):
-        ax, ay, az = -(gxl[k] - b[0]) * dt, -(gyl[k] - b[1]) * dt, -(gzl[k] - b[2]) * dt
+        ax, ay, az = -(wbar[k, 0] - b[0]) * dt, -(wbar[k, 1] - b[1]) * dt, -(wbar[k, 2] - b[2]) * dt
         th2 = ax * ax + ay * ay + az * az
         if th2 > 1e-24:
-            th = sqrt(th2)
-            s = sin(th) / th
-            c1 = (1.0 - cos(th)) / th2
+            th = math.sqrt(th2)
+            s = math.sin(th) / th
+            c1 = (1.0 - math.cos(th)) / th2
         else:
             s = 1.0 - th2 / 6.0
             c1 = 0.5 - th2 / 24.0
@@ -273,19 +281,18 @@ def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
         rx, ry, rz = (rx * c + s * cx + c1 * dot * ax, ry * c + s * cy + c1 * dot * ay,
                       rz * c + s * cz + c1 * dot * az)
         p = p + qdt
-        fx, fy, fz = fxl[k], fyl[k], fzl[k]
-        ea = abs(sqrt(fx * fx + fy * fy + fz * fz) - g)
+        fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
+        ea = abs(math.sqrt(fx * fx + fy * fy + fz * fz) - g)
         sx, sy, sz = sx + fx, sy + fy, sz + fz
         if wn == 0 or ea > wmax:
             wmax = ea
         wn += 1
         if wn == nw:
             if wmax < a:
-                rx, ry, rz, p, b, reject_t, u = _measure(rx, ry, rz, p, b, sx, sy, sz, R, imax, reject_t, period,
-                                                         timeout, kb, p0)
+                rx, ry, rz, p, b, reject_t, u = _measure_compiled(rx, ry, rz, p, b, sx, sy, sz, R, imax, reject_t,
+                                                                  period, timeout, kb, p0)
                 used[k] = u
             sx = sy = sz = 0.0
             wmax, wn = 0.0, 0
-        out_x[k], out_y[k], out_z[k] = rx, ry, rz
-    r = np.column_stack([out_x, out_y, out_z])
-    return estimate_from_gravity("kf", r, used, time.perf_counter() - t0)
+        out[k, 0], out[k, 1], out[k, 2] = rx, ry, rz
+    return out, used
