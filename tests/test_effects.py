@@ -31,7 +31,7 @@ def test_parse_and_refuse():
 
 
 def test_list_effects_cli(capsys):
-    assert main(["correlate", "--list-effects"]) == 0
+    assert main(["solve", "--list-effects"]) == 0
     out = capsys.readouterr().out
     for name in ("contact@{bond,standoff,lid,board}", "emissivity", "cavity_emissivity", "power@{", "fixture_leak",
                  "probe_lag", "ambient_drift"):

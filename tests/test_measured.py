@@ -67,20 +67,3 @@ def test_refusals_name_file_and_line(tmp_path, change, message):
     with pytest.raises(InputError, match=message):
         read_measured(_write(tmp_path, change(GOOD)), SITES, SCHEMES)
 
-
-def test_correlate_cli_refuses_bad_files_before_any_solve(tmp_path, capsys, monkeypatch):
-    from imutherm.cli import main
-    import imutherm.studies.correlation as corr
-
-    def boom(*a, **k):
-        raise AssertionError("nothing may be solved for a bad file")
-    monkeypatch.setattr(corr, "correlate", boom)
-    bad = _write(tmp_path, GOOD.replace("310,85.0,", "5,85.0,"), "bad.csv")
-    good = _write(tmp_path, GOOD, "good.csv")
-    out = tmp_path / "out"
-    assert main(["correlate", "--measured", str(good), str(bad), "--out", str(out)]) == 2
-    err = capsys.readouterr().err
-    assert "bad.csv:8: time_s is not increasing" in err and "Traceback" not in err
-    assert not out.exists()
-    assert main(["correlate", "--out", str(out)]) == 2
-    assert "--measured" in capsys.readouterr().err

@@ -18,7 +18,6 @@ COMMANDS = {
     "verify": "run the thermal verification suite against analytic solutions and benchmarks",
     "calibrate": "simulate the IMU calibration rig and fit conventional / improved models",
     "attitude": "run the attitude filters on a motion profile and report roll/pitch errors",
-    "correlate": "correlate the model with measured site temperatures: localise, re-tune, name the missing effect",
     "sweep": "parameter sweep of one scheme (grid, LHS, Morris): results.csv, sensitivity ranking, sweep.pdf",
 }
 

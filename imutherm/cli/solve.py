@@ -28,7 +28,7 @@ from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.thermal_study import check_time_arguments, probe_table, result_summary, run_scheme
-from imutherm.thermal.effects import parse_effect
+from imutherm.thermal.effects import list_effects, parse_effect
 from imutherm.thermal.model import ModelOptions
 from imutherm.thermal.output import write_result
 
@@ -50,7 +50,7 @@ def add_effect_argument(parser: argparse.ArgumentParser) -> None:
     """``--effect``: candidate effects of :mod:`imutherm.thermal.effects` switched on."""
     parser.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET]:PARAM=VALUE",
                         help="switch on a candidate effect of the correlation library (repeatable; "
-                             "`imutherm correlate --list-effects` lists them), e.g. contact@bond:h_W_m2K=500")
+                             "`--list-effects` lists them), e.g. contact@bond:h_W_m2K=500")
 
 
 def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_stop: bool = False) -> None:
@@ -120,8 +120,15 @@ def main(argv=None) -> int:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_model_arguments(parser)
     add_effect_argument(parser)
-    parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument("--list-effects", action="store_true",
+                        help="print the library of candidate effects (parameters, bounds, sources) and exit")
+    parser.add_argument("--out", default=None, help="output directory (required unless --list-effects)")
     args = parser.parse_args(argv)
+    if args.list_effects:
+        print(list_effects())
+        return 0
+    if not args.out:
+        raise InputError("--out: give the output directory")
 
     # everything that can be checked is checked before meshing and solving
     check_outdir(args.out)

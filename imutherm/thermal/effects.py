@@ -1,7 +1,7 @@
 """Candidate effects: optional extensions of the unit model, each with one or two physical parameters.
 
-The correlation workflow (``imutherm correlate``) names the effect a measurement shows and the
-model lacks; ``imutherm solve --effect NAME[@TARGET]:PARAM=VALUE`` switches the same effects on in a
+A correlation workflow (issue 11) is to name the effect a measurement shows and the model
+lacks; ``imutherm solve --effect NAME[@TARGET]:PARAM=VALUE`` switches the same effects on in a
 forward run (which is also how hidden-effect test data are made). Every parameter has a unit,
 physical bounds and a source for them.
 
@@ -197,7 +197,7 @@ def parse_effect(text: str) -> EffectSetting:
 
 
 def list_effects() -> str:
-    """The library as text, one block per effect (``imutherm correlate --list-effects``)."""
+    """The library as text, one block per effect (``imutherm solve --list-effects``)."""
     lines = []
     for e in EFFECTS.values():
         name = e.name + (f"@{{{','.join(e.targets)}}}" if e.targets else "")
