@@ -7,6 +7,8 @@ import meshio
 import numpy as np
 import pytest
 
+from imutherm.studies.thermal_study import STUDY_CG_RTOL
+
 from imutherm.cli import _common, main
 from imutherm.cli import solve as solve_cli
 
@@ -41,7 +43,8 @@ def test_transient_result_json(transient):
     # 1.8e-10, steady 2.5e-12), so check 4 (transient) and 6 (steady) orders of magnitude below that limit.
     assert r["energy_balance_rel_error"] < 1e-7
     assert r["steady_energy_balance_rel_error"] < 1e-9
-    assert 0 <= r["transient_residual"] < 1e-6  # largest relative linear residual of any step
+    # largest relative linear residual of any step: within the study's per-stage CG tolerance (1e-5)
+    assert 0 <= r["transient_residual"] <= STUDY_CG_RTOL
     assert r["time_scheme"] == "trbdf2" and r["time_tol_K"] == 0.01 and r["theta"] is None
     assert r["linear_solves"] == 3 * (r["steps"] + r["rejected_steps"]) and not r["settled"]
 
