@@ -27,6 +27,7 @@ from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.thermal_study import check_time_arguments, probe_table, result_summary, run_scheme
+from imutherm.thermal.effects import list_effects, parse_effect
 from imutherm.thermal.model import ModelOptions
 from imutherm.site_table import write_site_table
 from imutherm.thermal.output import write_result
@@ -43,6 +44,13 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--mount-conductance", type=float, default=None, metavar="W/m2K",
                    help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
+
+
+def add_effect_argument(parser: argparse.ArgumentParser) -> None:
+    """``--effect``: candidate effects of :mod:`imutherm.thermal.effects` switched on."""
+    parser.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET]:PARAM=VALUE",
+                        help="switch on a candidate effect of the correlation library (repeatable; "
+                             "`--list-effects` lists them), e.g. contact@bond:h_W_m2K=500")
 
 
 def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_stop: bool = False) -> None:
@@ -120,8 +128,16 @@ def main(argv=None) -> int:
                         help="report only these sites (repeatable; default all)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_model_arguments(parser)
-    parser.add_argument("--out", required=True, help="output directory")
+    add_effect_argument(parser)
+    parser.add_argument("--list-effects", action="store_true",
+                        help="print the library of candidate effects (parameters, bounds, sources) and exit")
+    parser.add_argument("--out", default=None, help="output directory (required unless --list-effects)")
     args = parser.parse_args(argv)
+    if args.list_effects:
+        print(list_effects())
+        return 0
+    if not args.out:
+        raise InputError("--out: give the output directory")
 
     # everything that can be checked is checked before meshing and solving
     check_outdir(args.out)
@@ -139,6 +155,9 @@ def main(argv=None) -> int:
         reject_time_options(args, "without --transient")
         tkw = {}
     options = model_options(args)
+    effects = tuple(parse_effect(e) for e in args.effect)
+    if len({e.name for e in effects}) != len(effects):
+        raise InputError("--effect: an effect is given twice")
     layout = load_layout(args.layout)
     geometry = build_geometry(layout, args.scheme)
     check_thermal_cost(geometry, args, steps=transient_steps(tkw) if args.transient else 0,
@@ -151,8 +170,9 @@ def main(argv=None) -> int:
 
     res = run_scheme(layout, args.scheme, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                      options=options, transient=args.transient, save_times=save_times,
-                     progress=args.transient and not args.no_progress, **tkw)
+                     progress=args.transient and not args.no_progress, effects=effects, **tkw)
     summary = result_summary(res)
+    summary["effects"] = [e.text() for e in effects]
     header, rows = probe_table(res)
     if args.site:
         keep = [0] + [header.index(s) for s in args.site]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -20,8 +20,10 @@ from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build
 from imutherm.thermal.metrics import ThermalMetrics, thermal_metrics
 from imutherm.thermal.model import ModelOptions, build_problem
 from imutherm.thermal.assembly import assemble
-from imutherm.thermal.solve import solve_steady, solve_transient, time_steps
 from imutherm.site_table import ACCEL_SITES, GYRO_SITES
+from imutherm.thermal.effects import EFFECTS, apply_model_effects, apply_signal_effects, effect_problem
+from imutherm.thermal.reduced import lag_field, linearised
+from imutherm.thermal.solve import probe_matrix, solve_steady, solve_transient, time_steps
 
 
 
@@ -92,7 +94,7 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
                options: ModelOptions | None = None, transient: bool = False, t_end: float = 1200.0,
                time_scheme: str = "trbdf2", tol_K: float | None = None, dt: float | None = None,
                dt_max: float | None = None, theta: float = 1.0, until_settled: bool = False, save_times=None,
-               progress: bool = False) -> SchemeResult:
+               progress: bool = False, effects=()) -> SchemeResult:
     """Solve one cooling scheme of a layout.
 
     Parameters
@@ -113,7 +115,13 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     until_settled : bool, stop the transient once every site is within 0.5 % of its steady rise
         (and past its t95): the steady solution is computed first
     save_times : sequence [s], times at which the transient keeps the whole field
+    effects : sequence of :class:`~imutherm.thermal.effects.EffectSetting`, candidate effects switched
+        on (model effects change the problem; signal effects, probe lag and ambient drift, change the
+        sites' curves of the transient, and its metrics; an ambient drift needs ``transient``)
     """
+    effects = tuple(effects)
+    if not transient and any(e.base == "ambient_drift" for e in effects):
+        raise InputError("effect ambient_drift needs a transient run (a drifting ambient has no steady state)")
     start = time.perf_counter()
     if transient:
         if time_scheme == "theta" and dt is None:
@@ -129,7 +137,12 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     options = options or ModelOptions()
     geometry = build_geometry(layout, scheme)
     grid = build_mesh(geometry, mesh_size_mm, min_cells)
-    problem = build_problem(geometry, grid, options)
+    if effects:
+        variant = apply_model_effects(geometry, options, effects)
+        geometry, options = variant.geometry, variant.options
+        problem = effect_problem(variant, grid)
+    else:
+        problem = build_problem(geometry, grid, options)
     probes = dict(geometry.sites)
     asm = assemble(problem)  # shared by the steady and the transient solve
     steady = solve_steady(problem, probes=probes, assembly=asm)
@@ -143,11 +156,25 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         if steps is None:
             kw.update(tol_K=tol_K, dt_max=dt_max, error_control="probes")
         tr = solve_transient(problem, t_end, steps, **kw)
+        if any(EFFECTS[e.base].kind == "signal" for e in effects):
+            tr = _with_signal_effects(tr, steady, asm, effects, probes)
         final = {n: v - problem.ambient_C for n, v in final_C.items()}
         metrics = thermal_metrics(tr, final_rise_K=final)
     else:
         metrics = thermal_metrics(steady)
     return SchemeResult(geometry, grid, steady, tr, metrics, options, time.perf_counter() - start)
+
+
+def _with_signal_effects(tr, steady, asm, effects, sites: dict):
+    """The transient with its site curves as read under the signal effects (probe lag, ambient drift)."""
+    lag = None
+    if any(e.base == "ambient_drift" for e in effects):
+        A, _ = linearised(asm, steady.T_C)
+        P = probe_matrix(tr.grid, np.array([sites[n] for n in tr.probe_names]))
+        lag = P @ lag_field(A, asm.M)
+    amb = tr.problem.ambient_C
+    rise = apply_signal_effects(tr.times, np.asarray(tr.probe_C) - amb, effects, lag)
+    return replace(tr, probe_C=rise + amb)
 
 
 def _spread(rises: dict, names) -> float:

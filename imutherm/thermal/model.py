@@ -20,7 +20,7 @@ from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 from imutherm.geometry.layout import AXES
 from imutherm.geometry.materials import Material, get_material
 from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Contact, Convection, NaturalConvection, Radiation,
-                                      ThermalProblem)
+                                      ThermalProblem, natural_convection_h)
 
 #: Al/Al interface with air, 10 um roughness, 1e5 N/m^2: R'' = 2.75e-4 m^2 K/W
 #: (Incropera & DeWitt, 6th ed., Table 3.1b) -> h = 3636 W/m^2 K. Used for the lid joint.
@@ -57,6 +57,8 @@ class ModelOptions:
     exterior : ``natural`` (face-orientation correlations, h depends on the
         surface rise), ``fixed`` (h = ``h_fixed_W_m2K`` on every free face) or ``none``
     h_fixed_W_m2K : float [W/m^2 K]
+    convection_scale : float [-], factor on the natural-convection coefficient C of every
+        exterior face (1: the handbook correlation; a correlation's scatter is ~±25 %)
     radiation : bool, exterior radiation eps sigma (T^4 - T_amb^4)
     emissivity : float or None [-], override of the housing material's emissivity
     mounting_conductance_W_m2K : float or None [W/m^2 K], override of the layout's
@@ -75,6 +77,7 @@ class ModelOptions:
 
     exterior: str = "natural"
     h_fixed_W_m2K: float = 10.0
+    convection_scale: float = 1.0
     radiation: bool = True
     emissivity: float | None = None
     mounting_conductance_W_m2K: float | None = None
@@ -92,6 +95,8 @@ class ModelOptions:
     def __post_init__(self):
         if self.exterior not in ("natural", "fixed", "none"):
             raise InputError(f"model option 'exterior': unknown value {self.exterior!r}; valid: natural, fixed, none")
+        if not (np.isfinite(self.convection_scale) and self.convection_scale > 0):
+            raise InputError(f"model option 'convection_scale' must be a finite number > 0, got {self.convection_scale!r}")
         for name in ("h_fixed_W_m2K", "mounting_conductance_W_m2K"):
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):
@@ -268,7 +273,10 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
         laws = []
         if options.exterior == "natural":
             orient = _FACE_ORIENTATION[face]
-            laws.append(NaturalConvection(orient, lengths[orient], ambient))
+            # a scaled correlation: C of the heated face (the housing runs above ambient)
+            C = (None if options.convection_scale == 1.0 else
+                 options.convection_scale * float(natural_convection_h(1.0, 1.0, orient)))
+            laws.append(NaturalConvection(orient, lengths[orient], ambient, C=C))
         elif options.exterior == "fixed":
             laws.append(Convection(options.h_fixed_W_m2K, ambient))
         if options.radiation and eps > 0:

@@ -1,0 +1,91 @@
+"""The scalar parameters a correlation varies: the model's uncertain parameters and the library's effects.
+
+*Re-tune* knobs are parameters the model already has, each bounded by what its source allows
+(:data:`RETUNE`); *effect* knobs are the one-parameter effects of :mod:`imutherm.thermal.effects`
+(``contact@bond:h_W_m2K`` ...), over their physical bounds. :func:`variant` turns a dict of knob
+values into the model (:class:`~imutherm.thermal.effects.ModelVariant`); the reduced model and the
+full model are built from the same function, so they cannot disagree on what a knob means.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from imutherm import InputError
+from imutherm.geometry.build import Geometry
+from imutherm.geometry.materials import with_properties
+from imutherm.thermal.effects import EFFECTS, ModelVariant, apply_model_effects, candidate_names, effect_of, setting
+from imutherm.thermal.model import ModelOptions
+from imutherm.thermal.reduced import Knob
+
+#: the model's uncertain parameters and the range their sources allow
+RETUNE = (
+    (Knob("power_scale", "-", 0.85, 1.15, scale_power=True),
+     "every power x p: datasheet typical vs worst-case currents and the assumed 9 V input (layout power budget)"),
+    (Knob("mount_h_W_m2K", "W/m^2 K", 150.0, 3000.0, nodes=2),
+     "base-to-fixture contact (layout: 500 assumed, 'to be calibrated'); lightly bolted dry Al joints "
+     "~1e2..3e3, Incropera Table 3.1"),
+    (Knob("convection_scale", "-", 0.75, 1.25, nodes=2),
+     "factor on the natural-convection correlation C: laminar correlations scatter by ~±25 % "
+     "(Holman Table 7-2 vs Churchill-Chu)"),
+    (Knob("emissivity_ext", "-", 0.75, 0.90, nodes=2),
+     "anodised aluminium 0.82-0.84 (Incropera Table A.11), widened for finish and batch"),
+    (Knob("k_board_W_mK", "W/m K", 10.0, 40.0, nodes=3),
+     "in-plane conductivity of the 4-layer board: measured 10-40 W/m K (Azar & Graebner, SEMI-THERM 1996)"),
+)
+RETUNE_SOURCES = {k.name: src for k, src in RETUNE}
+RETUNE_NOMINAL = {"power_scale": 1.0, "convection_scale": 1.0}
+
+#: Chebyshev nodes of the knobs whose law is not linear in the parameter (contacts: series resistance)
+CONTACT_NODES = 6
+
+
+def effect_knob(name: str) -> Knob:
+    """The :class:`Knob` of a one-parameter model effect ``name`` (``name@target``)."""
+    e = effect_of(name)
+    if e.kind != "model" or len(e.params) != 1:
+        raise InputError(f"effect {name!r} is not a one-parameter model effect")
+    p = e.params[0]
+    if e.name == "power":
+        return Knob(name, p.unit, p.lo, p.hi, part=name.split("@", 1)[1])
+    if e.name == "contact":
+        return Knob(name, p.unit, p.lo, p.hi, log=True, nodes=CONTACT_NODES)
+    return Knob(name, p.unit, p.lo, p.hi, nodes=2)  # linear in the parameter
+
+
+def model_effect_names() -> tuple:
+    return tuple(n for n in candidate_names() if EFFECTS[n.split("@")[0]].kind == "model")
+
+
+def applicable(name: str, geometry: Geometry) -> bool:
+    """False if the effect's target is missing in this scheme (``contact@bond`` without bond lines)."""
+    try:
+        e = effect_of(name)
+        if e.kind == "model":
+            p = e.params[0]
+            apply_model_effects(geometry, ModelOptions(), (setting(name, **{p.name: (p.lo + p.hi) / 2}),))
+        return True
+    except InputError:
+        return False
+
+
+def variant(geometry: Geometry, options: ModelOptions, values: dict) -> ModelVariant:
+    """The model with re-tune and effect knobs set (``values``: knob name -> value; absent: nominal/off)."""
+    geo, opts, effects = geometry, options, []
+    for name, v in values.items():
+        if name == "power_scale":
+            geo = replace(geo, parts=tuple(replace(p, power_W=p.power_W * v) for p in geo.parts))
+        elif name == "mount_h_W_m2K":
+            opts = opts.with_(mounting_conductance_W_m2K=v)
+        elif name == "convection_scale":
+            opts = opts.with_(convection_scale=v)
+        elif name == "emissivity_ext":
+            opts = opts.with_(emissivity=v)
+        elif name == "k_board_W_mK":
+            mats = {p.material for p in geo.parts if p.kind == "board"}
+            over = tuple(with_properties(opts.material(m), "knob k_board_W_mK", k_in_plane=v) for m in sorted(mats))
+            opts = opts.with_(materials=tuple(m for m in opts.materials if m.name not in mats) + over)
+        else:
+            e = effect_of(name)
+            effects.append(setting(name, **{e.params[0].name: v}))
+    return apply_model_effects(geo, opts, effects)

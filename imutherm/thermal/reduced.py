@@ -1,0 +1,298 @@
+"""A reduced-order forward model of one scheme for the hundreds of runs a correlation needs.
+
+The full model is a nonlinear FEM of ~2e5 unknowns (6 s steady, tens of seconds per transient).
+The correlation varies a dozen one-dimensional *knobs* (a contact conductance, an emissivity, a
+power, ...) and asks for site curves at a few times. Here:
+
+1. **Linearise** the exterior laws (natural convection, radiation) about the nominal steady field by
+   their secant q / (T - T_amb), so the model in rise variables is M dθ/dt + A θ = b (A = conduction +
+   boundary, M heat capacity, b the die powers). The secant reproduces the nominal steady state
+   exactly; away from it the neglected curvature is the linearisation error (measured in the tests).
+2. **Project** on a basis V built from the nominal operator's block Krylov space
+   (A^-1 B, (A^-1 M) A^-1 B, ... for the inputs B: each targeted part's power, the remaining power
+   and the ambient coupling A 1, i.e. moment matching at s = 0, which fits step responses) plus the
+   steady solutions with each knob at its bounds (the parametric directions). Solves are
+   AMG-preconditioned CG on the nominal operator.
+3. **Interpolate** each knob's change of the reduced operator, ΔA_r(p) = V^T (A(p) - A_nom) V, by a
+   Chebyshev polynomial in the knob's (log) coordinate from a few full assemblies, and add the
+   knobs' changes (exact when the knobs touch different cells or faces, which they do here).
+   Power knobs enter b only and are exact.
+4. **Solve** the r x r system in closed form: with A_r Φ = M_r Φ Λ, a power step plus an ambient
+   ramp of rate r gives each mode y(t) = g0 (1 - e^{-λt}) / λ + g1 (t/λ - (1 - e^{-λt}) / λ^2),
+   g = Φ^T (b + r t A_r 1), so a forward run at any times costs microseconds.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from imutherm import InputError
+from imutherm.thermal.assembly import assemble, volume_load
+from imutherm.thermal.effects import ModelVariant, effect_problem
+from imutherm.thermal.solve import amg_preconditioner, probe_matrix, solve_steady
+
+#: relative CG tolerance of the basis solves
+BASIS_RTOL = 1e-6
+_STATS = {}
+#: Krylov orders per input column
+KRYLOV_ORDER = 2
+#: singular values below this fraction of the largest are dropped from the basis
+SVD_DROP = 1e-9
+
+
+@dataclass(frozen=True)
+class Knob:
+    """One scalar parameter of the model the reduced model can vary.
+
+    name : str, unit : str, lo, hi : float bounds [unit], log : bool (interpolate in log p)
+    nodes : int, Chebyshev nodes of the interpolation (2 for a law linear in p)
+    part : str or None, a power knob: the component whose power changes by p [W] (b only, exact)
+    scale_power : bool, a power-scale knob: every power times p [-] (b only, exact)
+    """
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    log: bool = False
+    nodes: int = 3
+    part: str | None = None
+    scale_power: bool = False
+
+    def to_u(self, p):
+        f = np.log if self.log else (lambda x: x)
+        return (2 * f(np.asarray(p, float)) - f(self.lo) - f(self.hi)) / (f(self.hi) - f(self.lo))
+
+    def from_u(self, u):
+        f, g = (np.log, np.exp) if self.log else ((lambda x: x), (lambda x: x))
+        return np.clip(g(f(self.lo) + (np.asarray(u, float) + 1) / 2 * (f(self.hi) - f(self.lo))), self.lo, self.hi)
+
+    @property
+    def is_load(self) -> bool:
+        return self.part is not None or self.scale_power
+
+
+def linearised(asm, T_C: np.ndarray):
+    """(A, b): the secant linearisation of an assembled problem about the field ``T_C`` [°C].
+
+    A [W/K] = K + H + diag(secant conductances of the nonlinear laws), b [W] = nodal power; valid
+    in rise variables θ = T - T_amb when every law's reference temperature is the ambient.
+    """
+    pb = asm.problem
+    if asm.dirichlet:
+        raise InputError("reduced model: fixed-temperature faces are not supported (use a contact law)")
+    for bc in list(asm.linear) + list(asm.nonlinear):
+        if abs(bc.T_ref - pb.ambient_C) > 1e-9:
+            raise InputError(f"reduced model: a law on face {bc.face!r} refers to {bc.T_ref:g} C, not the ambient "
+                             f"{pb.ambient_C:g} C (a fixture away from ambient is not supported)")
+    D = np.zeros(asm.n)
+    for bc in asm.nonlinear:
+        dT = T_C[bc.nodes] - bc.T_ref
+        q, dq = bc.law.flux_out(T_C[bc.nodes], bc.T_ref)
+        small = np.abs(dT) < 1e-3
+        sec = np.where(small, dq, q / np.where(small, 1.0, dT))
+        np.add.at(D, bc.nodes, bc.weights * sec)
+    A = (asm.K + asm.H + sp.diags(D)).tocsr()
+    return A, asm.F_q.copy()
+
+
+def lag_field(A, M, pc=None, rtol: float = BASIS_RTOL) -> np.ndarray:
+    """tau = A^-1 M 1 [s]: each node's lag behind a ramp of the surroundings (linear model)."""
+    pc = pc if pc is not None else amg_preconditioner(A)
+    x, info = spla.cg(A, M @ np.ones(A.shape[0]), rtol=rtol, M=pc, maxiter=5000)
+    if info:
+        raise InputError(f"lag field: CG did not converge (info {info})")
+    return x
+
+
+@dataclass(frozen=True)
+class ReducedModel:
+    """The reduced model of one scheme (see the module docstring).
+
+    site_names : tuple, P : (m, r) sites of the basis, M, A0 : (r, r) [J/K], [W/K]
+    b0 : (r,) nominal power [W], c0 : (r,) ambient coupling A 1 [W/K]
+    part_b : dict component -> (r,) load of 1 W in its die
+    knobs : dict name -> Knob; cheb : dict name -> ((N, r, r) ΔA, (N, r) Δc) Chebyshev coefficients
+    nominal_rise_K : (m,) steady site rises of the full nonlinear nominal model [K]
+    basis_size : int, unknowns : int, build_s : float [s], solves : int
+    """
+
+    site_names: tuple
+    P: np.ndarray
+    M: np.ndarray
+    A0: np.ndarray
+    b0: np.ndarray
+    c0: np.ndarray
+    part_b: dict
+    knobs: dict
+    cheb: dict
+    nominal_rise_K: np.ndarray
+    basis_size: int
+    unknowns: int
+    build_s: float
+    solves: int
+    M1: np.ndarray
+    ambient_C: float = 0.0
+    timings: dict = field(default_factory=dict)
+
+    def operators(self, values: dict) -> tuple:
+        """(A_r, c_r, b_r) with the knobs of ``values`` (name -> value [unit]); others nominal."""
+        A, c, b = self.A0.copy(), self.c0.copy(), self.b0.copy()
+        scale = 1.0
+        extra = 0.0 * b
+        for name, v in values.items():
+            k = self.knobs.get(name)
+            if k is None:
+                raise InputError(f"reduced model: unknown knob {name!r}; valid: {', '.join(self.knobs)}")
+            if k.scale_power:
+                scale = v
+            elif k.part is not None:
+                extra = extra + v * self.part_b[k.part]
+            else:
+                u = float(np.clip(k.to_u(v), -1.0, 1.0))
+                T = np.polynomial.chebyshev.chebvander(np.array([u]), k.nodes - 1)[0]
+                dA, dc = self.cheb[name]
+                A += np.tensordot(T, dA, axes=1)
+                c += T @ dc
+        return A, c, scale * b + extra
+
+    def rise(self, values: dict, times, drift_K_s: float = 0.0) -> np.ndarray:
+        """Site rises [K] (len(times), m) after power-on at t = 0 (time inf: steady, no drift)."""
+        A, c, b = self.operators(values)
+        lam, Phi = sla.eigh(0.5 * (A + A.T), self.M)
+        lam = np.maximum(lam, 1e-12)
+        g0 = Phi.T @ b
+        g1 = drift_K_s * (Phi.T @ c)
+        t = np.asarray(times, float)
+        out = np.empty((len(t), len(self.site_names)))
+        fin = np.isfinite(t)
+        PP = self.P @ Phi
+        if fin.any():
+            tt = t[fin][:, None]
+            e = -np.expm1(-lam[None, :] * tt)
+            y = g0 * e / lam + g1 * (tt / lam - e / lam**2)
+            out[fin] = y @ PP.T
+        if (~fin).any():
+            out[~fin] = PP @ (g0 / lam)
+        return out
+
+    def lag_s(self, values: dict) -> np.ndarray:
+        """Sites' lag behind an ambient ramp [s]: the reduced A^-1 M 1 at the sites."""
+        A, _, _ = self.operators(values)
+        return self.P @ np.linalg.solve(A, self.M1)
+
+
+def _cg(A, b, pc, rtol=BASIS_RTOL):
+    its = [0]
+
+    def count(_):
+        its[0] += 1
+    x, info = spla.cg(A, b, rtol=rtol, M=pc, maxiter=5000, callback=count)
+    _STATS["cg_its"] = _STATS.get("cg_its", 0) + its[0]
+    if info:
+        raise InputError(f"reduced model: CG did not converge (info {info})")
+    return x
+
+
+def _part_load(variant: ModelVariant, grid, component: str) -> np.ndarray:
+    """Nodal load [W] of 1 W spread over the die (or body) of ``component``."""
+    from imutherm.thermal.effects import _power_part
+    g = variant.geometry
+    part = _power_part(g, component)
+    pb = effect_problem(variant, grid)
+    q = np.where(grid.cell_part.ravel() == grid.part_names.index(part.name), 1.0 / g.volumes[part.name], 0.0)
+    from dataclasses import replace
+    return volume_load(replace(pb, q=q))
+
+
+def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_ORDER,
+                  progress=None) -> ReducedModel:
+    """Build the :class:`ReducedModel` of a scheme.
+
+    variant_fn : callable, ``variant_fn(values: dict) -> ModelVariant`` (values: knob name -> value;
+        {} is the nominal model)
+    grid : TensorGrid of the variants' geometry
+    knobs : sequence of Knob
+    sites : dict name -> point [m]
+    """
+    t0 = time.perf_counter()
+    timings = {}
+    nominal = variant_fn({})
+    pb = effect_problem(nominal, grid)
+    asm = assemble(pb)
+    st = solve_steady(pb, probes=sites, assembly=asm)
+    timings["steady_s"] = time.perf_counter() - t0
+    A0, b0 = linearised(asm, st.T_C)
+    M = asm.M
+    pc = amg_preconditioner(A0)
+    solves = 0
+    parts = [k.part for k in knobs if k.part is not None]
+    B = [_part_load(nominal, grid, p) for p in parts]
+    rest = b0 - sum(pw * Bi for pw, Bi in zip([_power_part_W(nominal, p) for p in parts], B)) if B else b0
+    B.append(rest)
+    B.append(A0 @ np.ones(A0.shape[0]))
+    cols = []
+    for Bi in B:
+        x = Bi
+        for _ in range(order):
+            x = _cg(A0, x if x is Bi else M @ x, pc)
+            if progress:
+                progress(f"basis solve {solves + 1}")
+            solves += 1
+            cols.append(x / (np.linalg.norm(x) or 1.0))
+    timings["krylov_s"] = time.perf_counter() - t0 - timings["steady_s"]
+    # parametric directions: the steady solution with each knob at its bounds
+    ops = {}
+    t1 = time.perf_counter()
+    for k in knobs:
+        if k.is_load:
+            continue
+        us = -np.cos(np.pi * np.arange(k.nodes) / (k.nodes - 1))  # Chebyshev-Lobatto points, -1..1
+        mats = []
+        for u in us:
+            v = variant_fn({k.name: float(k.from_u(u))})
+            a = assemble(effect_problem(v, grid))
+            Ak, _ = linearised(a, st.T_C)
+            mats.append(Ak)
+        ops[k.name] = (us, mats)
+        for Ak in (mats[0], mats[-1]):
+            x = _cg(Ak, b0, pc)
+            solves += 1
+            cols.append(x / (np.linalg.norm(x) or 1.0))
+    timings["parametric_s"] = time.perf_counter() - t1
+    X = np.column_stack(cols)
+    U, s, _ = np.linalg.svd(X, full_matrices=False)
+    V = U[:, s > SVD_DROP * s[0]]
+    one = np.ones(A0.shape[0])
+    A0V = A0 @ V
+    A0r = V.T @ A0V
+    c0 = V.T @ (A0 @ one)
+    cheb = {}
+    for name, (us, mats) in ops.items():
+        k = next(kk for kk in knobs if kk.name == name)
+        dA = np.stack([V.T @ (Ak @ V) - A0r for Ak in mats])
+        dc = np.stack([V.T @ (Ak @ one) - c0 for Ak in mats])
+        deg = len(us) - 1
+        van = np.polynomial.chebyshev.chebvander(us, deg)
+        coef = np.linalg.solve(van, dA.reshape(len(us), -1)).reshape(dA.shape)
+        coefc = np.linalg.solve(van, dc)
+        cheb[name] = (coef, coefc)
+    names = tuple(sites)
+    P = probe_matrix(grid, np.array([sites[n] for n in names]))
+    part_b = {p: V.T @ Bi for p, Bi in zip(parts, B)}
+    rom = ReducedModel(names, np.asarray(P @ V), V.T @ (M @ V), A0r, V.T @ b0, c0, part_b,
+                       {k.name: k for k in knobs}, cheb, np.asarray(st.probe_C) - pb.ambient_C,
+                       V.shape[1], A0.shape[0], time.perf_counter() - t0, solves, V.T @ (M @ one), pb.ambient_C,
+                       timings)
+    return rom
+
+
+def _power_part_W(variant: ModelVariant, component: str) -> float:
+    from imutherm.thermal.effects import _power_part
+    return _power_part(variant.geometry, component).power_W

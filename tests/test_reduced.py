@@ -1,0 +1,78 @@
+"""The reduced forward model against the full nonlinear FEM (coarse mesh), and its closed-form time response."""
+
+import numpy as np
+import pytest
+
+from imutherm.geometry.build import build_geometry
+from imutherm.geometry.layout import load_layout
+from imutherm.geometry.mesh import build_mesh
+from imutherm.thermal import knobs as K
+from imutherm.thermal.assembly import assemble
+from imutherm.thermal.effects import effect_problem
+from imutherm.thermal.model import ModelOptions
+from imutherm.thermal.reduced import build_reduced
+from imutherm.thermal.solve import solve_steady, solve_transient
+
+MESH = dict(max_cell_mm=6.0, min_cells=1)
+TIMES = np.array([30.0, 120.0, 300.0, 600.0, 1200.0])
+#: stated tolerance of the reduced model against the full nonlinear model, anywhere in the knobs'
+#: bounds: 4 % of the largest site rise (the secant linearisation about the nominal field is the
+#: main part; the projection error alone is < 0.5 %, see test_projection_error)
+TOL_FRACTION = 0.04
+
+
+@pytest.fixture(scope="module")
+def grease():
+    g = build_geometry(load_layout(None), "grease")
+    grid = build_mesh(g, **MESH)
+    knobs = [k for k, _ in K.RETUNE] + [K.effect_knob(n) for n in ("contact@bond", "power@reg_5v", "emissivity")]
+    rom = build_reduced(lambda v: K.variant(g, ModelOptions(), v), grid, knobs, dict(g.sites))
+    return g, grid, rom
+
+
+def _full(g, grid, values):
+    pb = effect_problem(K.variant(g, ModelOptions(), values), grid)
+    asm = assemble(pb)
+    st = solve_steady(pb, probes=dict(g.sites), assembly=asm)
+    tr = solve_transient(pb, TIMES[-1], scheme="trbdf2", probes=dict(g.sites), assembly=asm,
+                         error_control="probes", tol_K=1e-3)
+    curves = np.column_stack([np.interp(TIMES, tr.times, tr.probe_C[:, j]) for j in range(len(st.probe_names))])
+    return np.vstack([curves, st.probe_C[None, :]]) - pb.ambient_C, asm, st
+
+
+@pytest.mark.slow
+def test_reduced_matches_full_model_across_the_knobs(grease):
+    g, grid, rom = grease
+    rng = np.random.default_rng(7)
+    cases = [{}, {"contact@bond": 150.0, "mount_h_W_m2K": 2000.0},
+             {"power@reg_5v": -0.4, "emissivity": 0.1, "k_board_W_mK": 12.0, "convection_scale": 1.2}]
+    for values in cases + [{k.name: float(k.from_u(rng.uniform(-1, 1))) for k, _ in K.RETUNE}]:
+        full, _, _ = _full(g, grid, values)
+        red = rom.rise(values, np.append(TIMES, np.inf))
+        err = np.abs(red - full).max()
+        assert err <= TOL_FRACTION * full.max(), (values, err, full.max())
+
+
+@pytest.mark.slow
+def test_projection_error(grease):
+    """At the nominal knobs the reduced model's steady state is the linearised full model's (<0.5 %)."""
+    g, grid, rom = grease
+    pb = effect_problem(K.variant(g, ModelOptions(), {}), grid)
+    st = solve_steady(pb, probes=dict(g.sites))
+    full = st.probe_C - pb.ambient_C
+    np.testing.assert_allclose(rom.rise({}, [np.inf])[0], full, rtol=0, atol=0.005 * full.max())
+
+
+def test_closed_form_step_response_of_one_mode():
+    """One mode: M y' + a y = b from 0 gives y = b/a (1 - e^{-a t / M}); with a ramp input the lag solution."""
+    from imutherm.thermal.reduced import ReducedModel
+    m, a, b, c = 2.0, 0.5, 1.0, 0.5
+    rom = ReducedModel(("s",), np.eye(1), np.array([[m]]), np.array([[a]]), np.array([b]), np.array([c]), {}, {}, {},
+                       np.zeros(1), 1, 1, 0.0, 0, np.array([m]))
+    t = np.array([0.0, 1.0, 10.0, np.inf])
+    np.testing.assert_allclose(rom.rise({}, t)[:, 0], [0, 2 * (1 - np.exp(-0.25)), 2 * (1 - np.exp(-2.5)), 2.0])
+    r = 0.1  # ambient ramp: y' = (-a y + r c t)/m -> y = r c/a (t - tau (1 - e^{-t/tau})), tau = m/a
+    tau = m / a
+    y = rom.rise({}, [50.0], drift_K_s=r)[0, 0] - 2 * (1 - np.exp(-50.0 / tau))
+    assert y == pytest.approx(r * c / a * (50.0 - tau * (1 - np.exp(-50.0 / tau))), rel=1e-12)
+    assert rom.lag_s({})[0] == pytest.approx(tau)
