@@ -212,9 +212,9 @@ def _exchange(a: Path, b: Path) -> bool:
 
 
 def _test_pause(stage: str) -> None:
-    """Test-only hook: with ``IMUTHERM_TEST_PAUSE=STAGE`` (``written``, ``swap``, ``swapped``, ``old-moved``)
+    """Test-only hook: with ``IMUTHERM_TEST_PAUSE=STAGE`` (``solving``, ``written``, ``swap``, ``swapped``, ``old-moved``)
     say so on stderr and sleep ``IMUTHERM_TEST_PAUSE_S`` seconds (default 30) there, so a test can kill the
-    process at that point of the final move. Unset in normal use."""
+    process at that point (before the solve, or in the final move). Unset in normal use."""
     if os.environ.get("IMUTHERM_TEST_PAUSE") == stage:
         print(f"imutherm: test pause at {stage}", file=sys.stderr, flush=True)
         time.sleep(float(os.environ.get("IMUTHERM_TEST_PAUSE_S", "30")))

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from imutherm import InputError
-from imutherm.cli._common import FIELD_FILES, atomic_outdir, check_outdir, run_guarded, write_json
+from imutherm.cli._common import FIELD_FILES, _test_pause, atomic_outdir, check_outdir, run_guarded, write_json
 from imutherm.budget import MAX_SAVED_FIELDS, transient_steps
 from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
 from imutherm.geometry.build import build_geometry
@@ -136,7 +136,7 @@ def main(argv=None) -> int:
     if args.list_effects:
         print(list_effects())
         return 0
-    if not args.out:
+    if args.out is None:
         raise InputError("--out: give the output directory")
 
     # everything that can be checked is checked before meshing and solving
@@ -168,6 +168,7 @@ def main(argv=None) -> int:
         if unknown:
             raise InputError(f"--site: unknown site(s) {', '.join(unknown)}; valid: {', '.join(sites)}")
 
+    _test_pause("solving")
     res = run_scheme(layout, args.scheme, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                      options=options, transient=args.transient, save_times=save_times,
                      progress=args.transient and not args.no_progress, effects=effects, **tkw)

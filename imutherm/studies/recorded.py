@@ -62,8 +62,13 @@ class RecordedResult:
                 "filters": self.metrics}
 
 
+#: the filters a recorded log runs: every filter but ``aekf_gnss``, which needs GNSS velocity fixes a
+#: CSV log of gyro and accelerometer samples does not carry
+LOG_FILTERS = tuple(n for n in ALL_FILTERS if n != "aekf_gnss")
+
+
 def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius_m: float | None = None,
-                 init_s: float = GateConfig.init_s, names=ALL_FILTERS) -> RecordedResult:
+                 init_s: float = GateConfig.init_s, names=LOG_FILTERS) -> RecordedResult:
     """Run ``names`` on ``log`` (an :class:`~imutherm.imu.imu_log.ImuLog`); platform in :data:`PLATFORMS`,
     lever_arm (3,) [m] and turn_radius_m [m] override its defaults; init_s [s] the rest window."""
     if platform not in PLATFORMS:
@@ -75,9 +80,10 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
     L = float(L0 if turn_radius_m is None else turn_radius_m)
     if not (np.isfinite(L) and L > 0):
         raise InputError(f"--turn-radius: {turn_radius_m!r} is invalid; valid: a positive length [m]")
-    unknown = [n for n in names if n not in ALL_FILTERS]
+    unknown = [n for n in names if n not in LOG_FILTERS]
     if unknown:
-        raise InputError(f"filters: {unknown} unknown; valid: {', '.join(ALL_FILTERS)}")
+        raise InputError(f"filters: {unknown} unknown or not runnable on a recorded log (aekf_gnss needs GNSS "
+                         f"fixes); valid: {', '.join(LOG_FILTERS)}")
     gate = replace(GateConfig(), L=L, init_s=float(init_s))
     est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, names=tuple(names))
     metrics = {}
