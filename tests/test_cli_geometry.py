@@ -110,3 +110,13 @@ def test_layout_figure_names_every_board_component_and_site(scheme):
         assert drawn == {swatch["board"].get_alpha()}
     finally:
         plt.close(fig)
+
+
+def test_version_and_unknown_command(capsys):
+    import imutherm
+    from imutherm.cli import main
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"imutherm {imutherm.__version__}"
+    assert main(["nonsense"]) == 2
+    assert "valid: compare" in capsys.readouterr().err

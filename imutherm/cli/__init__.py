@@ -23,7 +23,8 @@ COMMANDS = {
 
 
 def _usage() -> str:
-    lines = ["usage: imutherm COMMAND [options]   (imutherm COMMAND --help for more)", "", "commands:"]
+    lines = ["usage: imutherm COMMAND [options]   (imutherm COMMAND --help for more; imutherm --version)", "",
+             "commands:"]
     lines += [f"  {name:<10} {text}" for name, text in COMMANDS.items()]
     return "\n".join(lines)
 
@@ -33,6 +34,11 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help"):
         print(_usage())
+        return 0
+    if argv[0] in ("-V", "--version"):
+        from imutherm import __version__
+
+        print(f"imutherm {__version__}")
         return 0
     name, rest = argv[0], argv[1:]
     if name not in COMMANDS:

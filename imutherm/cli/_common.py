@@ -350,3 +350,9 @@ def _move_in(tmp: Path, real: Path, stale: str | None) -> None:
         for old in real.iterdir():
             if old.name not in new and re.fullmatch(stale, old.name) and (old.is_file() or old.is_symlink()):
                 old.unlink()
+
+
+def help_text(doc: str | None) -> str:
+    """A module docstring as ``--help`` text: without the reStructuredText markup (double backquotes, roles)."""
+    text = re.sub(r":(?:func|class|mod|data|meth|attr):`~?([^`]+)`", r"\1", doc or "")
+    return text.replace("``", "")

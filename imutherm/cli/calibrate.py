@@ -30,7 +30,7 @@ import argparse
 import numpy as np
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json, help_text
 from imutherm.imu.calibration import RigConfig
 from imutherm.imu.compensation import INTERPS
 from imutherm.imu.grades import GRADES
@@ -77,7 +77,7 @@ def _overload(args) -> int:
 
 @run_guarded("imutherm calibrate")
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm calibrate", description=__doc__,
+    parser = argparse.ArgumentParser(prog="imutherm calibrate", description=help_text(__doc__),
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--grade", default="adis16355", help=f"sensor grade: {', '.join(GRADES)} (default adis16355)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (unit draw, rig, noise); default 0")

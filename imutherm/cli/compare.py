@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, help_text
 from imutherm.budget import check_study_cost, transient_steps
 from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
 from imutherm.cli.solve import (add_model_arguments, add_time_arguments, model_options, reject_time_options,
@@ -31,9 +31,9 @@ from imutherm.studies.compare import compare_schemes, write_comparison
 
 @run_guarded("imutherm compare")
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm compare", description=__doc__,
+    parser = argparse.ArgumentParser(prog="imutherm compare", description=help_text(__doc__),
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_layout_arguments(parser)
+    add_layout_arguments(parser, scheme=False)
     parser.add_argument("--schemes", default="air,grease,potted", help="comma-separated schemes (default all three)")
     add_time_arguments(parser, t_end=2400.0, settle_stop=True)
     parser.add_argument("--steady-only", action="store_true", help="thermal steady states only (implies --thermal-only)")
@@ -56,8 +56,6 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True, help="output directory")
     args = parser.parse_args(argv)
     check_outdir(args.out)
-    if args.scheme:
-        parser.error("use --schemes with compare")
     if args.steady_only:
         reject_time_options(args, "with --steady-only")
     args.time_kwargs = {} if args.steady_only else time_kwargs(args)

@@ -11,19 +11,22 @@ import argparse
 import math
 
 from imutherm.budget import add_memory_argument, check_cost, thermal_cost
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json, help_text
 from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.export import material_names, write_glb, write_stl, write_vtu
 from imutherm.geometry.layout import builtin_layouts, load_layout
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh, grid_shape, mesh_info
 
 
-def add_layout_arguments(parser: argparse.ArgumentParser) -> None:
-    """LAYOUT, --scheme, --mesh-size, --min-cells: shared by the commands that mesh a layout."""
+def add_layout_arguments(parser: argparse.ArgumentParser, scheme: bool = True) -> None:
+    """LAYOUT, --scheme (unless ``scheme`` is False: ``compare`` takes ``--schemes``), --mesh-size,
+    --min-cells: shared by the commands that mesh a layout."""
     parser.add_argument("layout", nargs="?", default=None,
                         help="layout: a TOML file or a built-in layout name "
                              f"({', '.join(builtin_layouts())}; default: imu_reference, the paper's unit)")
-    parser.add_argument("--scheme", default=None, help="cooling scheme: air, grease or potted (default: the layout's)")
+    if scheme:
+        parser.add_argument("--scheme", default=None,
+                            help="cooling scheme: air, grease or potted (default: the layout's)")
     parser.add_argument("--mesh-size", type=float, default=DEFAULT_MAX_CELL_MM, metavar="MM",
                         help=f"largest cell edge [mm] (default {DEFAULT_MAX_CELL_MM})")
     parser.add_argument("--min-cells", type=int, default=DEFAULT_MIN_CELLS,
@@ -66,7 +69,7 @@ def geometry_summary(geometry, grid) -> dict:
 
 @run_guarded("imutherm geometry")
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm geometry", description=__doc__,
+    parser = argparse.ArgumentParser(prog="imutherm geometry", description=help_text(__doc__),
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     add_layout_arguments(parser)
     parser.add_argument("--out", required=True, help="output directory")

@@ -21,7 +21,8 @@ import math
 import numpy as np
 
 from imutherm import InputError
-from imutherm.cli._common import FIELD_FILES, _test_pause, atomic_outdir, check_outdir, run_guarded, write_json
+from imutherm.cli._common import (FIELD_FILES, _test_pause, atomic_outdir, check_outdir, help_text, run_guarded,
+                                  write_json)
 from imutherm.budget import MAX_SAVED_FIELDS, transient_steps
 from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
 from imutherm.geometry.build import build_geometry
@@ -117,7 +118,7 @@ def model_options(args) -> ModelOptions:
 
 @run_guarded("imutherm solve")
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm solve", description=__doc__,
+    parser = argparse.ArgumentParser(prog="imutherm solve", description=help_text(__doc__),
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     add_layout_arguments(parser)
     parser.add_argument("--transient", action="store_true", help="power-on transient from ambient")

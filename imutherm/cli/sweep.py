@@ -21,7 +21,7 @@ from __future__ import annotations
 import argparse
 
 from imutherm import InputError
-from imutherm.cli._common import check_outdir, run_guarded
+from imutherm.cli._common import check_outdir, run_guarded, help_text
 from imutherm.cli.geometry import add_layout_arguments
 from imutherm.cli.solve import add_model_arguments, model_options
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
@@ -33,7 +33,7 @@ def _duration(seconds: float) -> str:
 
 @run_guarded("imutherm sweep")
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm sweep", description=__doc__,
+    parser = argparse.ArgumentParser(prog="imutherm sweep", description=help_text(__doc__),
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     add_layout_arguments(parser)
     parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUES",

@@ -12,7 +12,7 @@ import argparse
 import math
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json, help_text
 
 
 def _clean(value):
@@ -25,7 +25,7 @@ def _clean(value):
 def main(argv=None) -> int:
     from imutherm.thermal.verification import CASES, run_all
 
-    parser = argparse.ArgumentParser(prog="imutherm verify", description=__doc__,
+    parser = argparse.ArgumentParser(prog="imutherm verify", description=help_text(__doc__),
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default=None, help="output directory for verify.json")
     parser.add_argument("--case", action="append", default=None, metavar="NAME",
