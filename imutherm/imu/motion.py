@@ -396,6 +396,22 @@ _LANDING = [
 ]
 
 
+def _plan_schedules(plan, t: np.ndarray):
+    """Speed, flight-path angle and heading-rate schedules of a plan [(name, phase, T [s], dv [m/s],
+    dγ [deg], dψ̇ [deg/s]), ...] ramped segment by segment, and the segments (name, phase, start, end [s])
+    (the last one open to the end of ``t``)."""
+    acc, gam, psid = _Schedule(0.0), _Schedule(0.0), _Schedule(0.0)
+    segs, t0 = [], 0.0
+    for name, phase, T, dv, dg, dw in plan:
+        acc.ramp(t0, T, dv)
+        gam.ramp(t0, T, np.radians(dg))
+        psid.ramp(t0, T, np.radians(dw))
+        segs.append((name, phase, t0, t0 + T))
+        t0 += T
+    segs[-1] = (segs[-1][0], segs[-1][1], segs[-1][2], t[-1] + 1)
+    return acc, gam, psid, segs
+
+
 def flight_plan(duration: float) -> list[tuple[str, str, float, float, float, float]]:
     """Segments of the flight profile filling ``duration`` [s].
 
@@ -443,16 +459,7 @@ def flight_profile(duration: float = 400.0, rate_hz: float = 100.0, *, lever_arm
     """
     d = _check_common(duration, rate_hz, lever_arm, 60.0)
     t = _time(duration, rate_hz)
-    acc, gam, psid = _Schedule(0.0), _Schedule(0.0), _Schedule(0.0)
-    segs = []
-    t0 = 0.0
-    for name, phase, T, dv, dg, dw in flight_plan(duration):
-        acc.ramp(t0, T, dv)
-        gam.ramp(t0, T, np.radians(dg))
-        psid.ramp(t0, T, np.radians(dw))
-        segs.append((name, phase, t0, t0 + T))
-        t0 += T
-    segs[-1] = (segs[-1][0], segs[-1][1], segs[-1][2], t[-1] + 1)
+    acc, gam, psid, segs = _plan_schedules(flight_plan(duration), t)
     aj, _, v_int = acc.jets(t)
     Vj = Jet(v_int, aj.v, aj.d1)
     Vdj = aj
@@ -556,15 +563,7 @@ def vehicle_profile(duration: float = 240.0, rate_hz: float = 100.0, *, lever_ar
     """
     d = _check_common(duration, rate_hz, lever_arm, 60.0)
     t = _time(duration, rate_hz)
-    acc, gam, psid = _Schedule(0.0), _Schedule(0.0), _Schedule(0.0)
-    segs, t0 = [], 0.0
-    for name, phase, T, dv, dg, dw in _fill(_DRIVE, duration, "cruise"):
-        acc.ramp(t0, T, dv)
-        gam.ramp(t0, T, np.radians(dg))
-        psid.ramp(t0, T, np.radians(dw))
-        segs.append((name, phase, t0, t0 + T))
-        t0 += T
-    segs[-1] = (segs[-1][0], segs[-1][1], segs[-1][2], t[-1] + 1)
+    acc, gam, psid, segs = _plan_schedules(_fill(_DRIVE, duration, "cruise"), t)
     aj, _, v_int = acc.jets(t)
     Vj = Jet(np.maximum(v_int, 0.0), aj.v, aj.d1)
     gj, gdj, _ = gam.jets(t)
