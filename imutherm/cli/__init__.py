@@ -18,6 +18,7 @@ COMMANDS = {
     "verify": "run the thermal verification suite against analytic solutions and benchmarks",
     "calibrate": "simulate the IMU calibration rig and fit conventional / improved models",
     "attitude": "run the attitude filters on a motion profile and report roll/pitch errors",
+    "correlate": "compare measured site temperatures with the model: localise, re-tune, name the missing effect, correlation.pdf",
     "sweep": "parameter sweep of one scheme (grid, LHS, Morris): results.csv, sensitivity ranking, sweep.pdf",
 }
 

@@ -1,0 +1,143 @@
+"""Campaign: the correlation workflow on generated data with one effect hidden (issue 11, "proven blind").
+
+For each hidden effect (and null cases with none, and an effect outside the library) it generates
+``--cases`` cases (:func:`imutherm.studies.hidden_effect.make_case`: full model on a finer mesh,
+±10 % nuisance on board conductivity, convection and mount, probe noise and offsets), runs
+:func:`imutherm.studies.correlation.correlate` on each, and reports top-1 accuracy (on cases
+whose signature, the RMS change the effect makes at the sites, is >= 5x the noise), the confusion
+matrix, the false-positive rate on null cases, abstention on the out-of-library cases and the
+held-out RMS after/before. Writes ``--out``/campaign.json and prints the summary.
+
+    python benchmarks/bench_correlation.py --cases 3 --out /tmp/campaign
+
+A campaign is split with --kinds (one process per core); generated cases are kept in --out and
+re-inverted, not re-generated, on a second run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import zlib
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from imutherm.io import write_json
+from imutherm.measured import read_measured
+from imutherm.studies.correlation import _Forward, build_models, correlate, result_json
+from imutherm.studies.hidden_effect import OUT_OF_LIBRARY, HiddenCase, make_case
+
+DEFAULT_EFFECTS = ("contact@bond", "emissivity", "cavity_emissivity", "power@reg_5v", "fixture_leak",
+                   "probe_lag", "contact@standoff")
+
+
+def _seed(base: int, hidden: str, c: int) -> int:
+    """A case's seed: stable across runs, shards and effect lists."""
+    return base * 100000 + zlib.crc32(hidden.encode()) % 1000 * 100 + c
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cases", type=int, default=3, help="cases per hidden effect (and null, out-of-library)")
+    ap.add_argument("--effects", nargs="*", default=list(DEFAULT_EFFECTS))
+    ap.add_argument("--kinds", nargs="*", default=None,
+                    help="run only these hidden kinds (effects, none, lid_heat_load): to split a campaign")
+    ap.add_argument("--mesh-size", type=float, default=4.0, help="inversion mesh [mm]")
+    ap.add_argument("--min-cells", type=int, default=1, help="inversion: cells across the thinnest part")
+    ap.add_argument("--gen-mesh-size", type=float, default=2.0, help="generator mesh [mm] (finer)")
+    ap.add_argument("--gen-min-cells", type=int, default=1, help="generator: cells across the thinnest part")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", required=True)
+    args = ap.parse_args(argv)
+    if args.gen_mesh_size >= args.mesh_size:
+        ap.error("--gen-mesh-size must be finer (smaller) than --mesh-size: the data come from a finer model")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    kinds = args.kinds or (list(args.effects) + ["none", OUT_OF_LIBRARY])
+    experiments = (("air", 70.0), ("grease", 70.0))
+    n_cases = len(kinds) * args.cases
+    print(f"campaign: {n_cases} cases; each generates {len(experiments)} full transients on a {args.gen_mesh_size:g} mm "
+          f"mesh (~1-3 min per case on one core); inversion on {args.mesh_size:g} mm", flush=True)
+    t0 = time.perf_counter()
+    # the inversion's reduced models depend only on the layout, mesh and experiments: built once, reused
+    models = build_models(experiments, mesh_size_mm=args.mesh_size, min_cells=args.min_cells, progress=print)
+    print(f"reduced models built in {time.perf_counter() - t0:.0f} s", flush=True)
+    rows_path = out / ("campaign_rows.json" if args.kinds is None else f"campaign_rows_{'_'.join(kinds)}.json")
+    rows = []
+    for hidden in kinds:
+        for c in range(args.cases):
+            seed = _seed(args.seed, hidden, c)
+            d = out / f"{hidden.replace('@', '_')}_{c}"
+            t0 = time.perf_counter()
+            meta = d / "case.json"
+            if meta.exists():  # generated before: re-invert only
+                m = json.loads(meta.read_text())
+                case = HiddenCase(m["hidden"], m["value"], m["nuisance"], tuple(m["files"]), m["seed"])
+            else:
+                case = make_case(d, hidden, np.random.default_rng(seed), experiments=experiments,
+                                 mesh_size_mm=args.gen_mesh_size, min_cells=args.gen_min_cells, seed=seed)
+                write_json(meta, {"hidden": case.hidden, "value": case.value, "nuisance": case.nuisance,
+                                  "files": list(case.files), "seed": seed})
+            t_gen = time.perf_counter() - t0
+            runs = [read_measured(f) for f in case.files]
+            res = correlate(runs, models=models, rerun=False)  # held-out figures come from the reduced model
+            j = result_json(res)
+            called = res.named_effect if res.verdict == "effect" else res.verdict
+            sig = signature(models, runs, case, res.noise_K)
+            rows.append({"hidden": hidden, "value": case.value, "seed": seed, "verdict": res.verdict,
+                         "called": called, "ambiguous_set": list(res.ambiguous_set), "signature_over_noise": sig,
+                         "heldout_before_K": j["heldout_rms_before_K"], "heldout_after_K": j["heldout_rms_after_K"],
+                         "rms_before_K": j["rms_before_K"], "rms_after_K": j["rms_after_K"], "noise_K": res.noise_K,
+                         "gen_s": t_gen, "correlate_s": res.timings["total_s"]})
+            print(f"{hidden:<20} {case.value!s:<12.8} sig {sig if sig is None else round(sig, 1)!s:<6} -> "
+                  f"{called:<20} ({time.perf_counter() - t0:.0f} s)", flush=True)
+            write_json(rows_path, rows)
+    summary = summarise(rows, args.effects)
+    write_json(out / ("campaign.json" if args.kinds is None else f"campaign_{'_'.join(kinds)}.json"),
+               {"rows": rows, "summary": summary, "args": vars(args)})
+    print(json.dumps(summary, indent=1))
+    return 0
+
+
+def signature(models, runs, case, noise_K: float) -> float | None:
+    """RMS [K] over the readings of what the hidden effect changes (reduced model, at the case's nuisance
+    values, with and without it), over the noise: how visible the effect is. None: not in the library."""
+    if case.hidden in ("none", OUT_OF_LIBRARY) or not noise_K:
+        return None
+    fwd = _Forward(tuple(runs), models.roms, models.geometries)
+    base = dict(case.nuisance)
+    d = [fwd.rise(i, {**base, case.hidden: case.value}) - fwd.rise(i, base) for i in range(len(runs))]
+    d = np.concatenate([x.ravel() for x in d])
+    return float(np.sqrt(np.mean(d**2)) / noise_K)
+
+
+def summarise(rows, effects) -> dict:
+    eff_rows = [r for r in rows if r["hidden"] in effects]
+    strong = [r for r in eff_rows if (r["signature_over_noise"] or 0) >= 5]
+    conf = {}
+    for r in rows:
+        conf.setdefault(r["hidden"], Counter())[r["called"]] += 1
+    nulls = [r for r in rows if r["hidden"] == "none"]
+    ool = [r for r in rows if r["hidden"] == OUT_OF_LIBRARY]
+    ratios = [r["heldout_after_K"] / r["heldout_before_K"] for r in eff_rows
+              if r["called"] == r["hidden"] and r["heldout_before_K"]]
+    return {
+        "top1_accuracy_strong": (sum(r["called"] == r["hidden"] for r in strong) / len(strong)) if strong else None,
+        "strong_cases": len(strong),
+        "top1_accuracy_all": (sum(r["called"] == r["hidden"] for r in eff_rows) / len(eff_rows)) if eff_rows else None,
+        "false_positive_rate_null": (sum(r["verdict"] == "effect" for r in nulls) / len(nulls)) if nulls else None,
+        "abstention_out_of_library": (sum(r["verdict"] in ("not_in_library", "ambiguous") for r in ool) / len(ool))
+        if ool else None,
+        "heldout_after_over_before_median": float(np.median(ratios)) if ratios else None,
+        "confusion": {k: dict(v) for k, v in conf.items()},
+        "median_correlate_s": float(np.median([r["correlate_s"] for r in rows])) if rows else None,
+    }
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,76 @@
+"""``imutherm correlate``: find where the model and measured site temperatures disagree and name the missing effect.
+
+Reads one or more measured CSV files (``time_s`` then one column per site in degC, metadata as
+``# key = value`` lines: ``scheme``, ``ambient_C``; optional ``power_scale``, ``t_power_on_s``,
+``probe``; see ``imutherm.measured``), localises the residuals, re-tunes the model's uncertain
+parameters within their sources' ranges, fits every candidate effect of the library
+(``--list-effects``) on top, ranks them by held-out prediction and AICc with an effective sample
+size, and writes in ``--out DIR``: ``correlation.json`` (verdict, named effect, parameters with
+95 % intervals, ranking, RMS/max before and after, held-out RMS before and after, per-site
+residuals, fingerprints), ``updated_model.toml`` (the fitted re-tune values and effect, as
+``imutherm solve --effect`` takes them) and ``correlation.pdf``.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from imutherm import InputError
+from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
+from imutherm.io import write_json
+from imutherm.cli.geometry import add_layout_arguments
+from imutherm.geometry.build import build_geometry
+from imutherm.geometry.layout import load_layout
+from imutherm.measured import read_measured
+from imutherm.thermal.effects import list_effects
+
+
+@run_guarded("imutherm correlate")
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="imutherm correlate", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_layout_arguments(parser, scheme=False)  # the schemes come from the measured files
+    parser.add_argument("--measured", nargs="+", default=None, metavar="CSV", help="measured files (one per experiment)")
+    parser.add_argument("--holdout", default="auto", metavar="auto|FILE",
+                        help="held-out data: auto (leave one file out; one file: fit the first 60 %% of its "
+                             "time, predict the rest) or the file to hold out")
+    parser.add_argument("--list-effects", action="store_true", help="print the library of candidate effects and exit")
+    parser.add_argument("--no-rerun", action="store_true",
+                        help="report the corrected model from the reduced model's fit only (default: re-run it on "
+                             "the full FEM, one transient per file)")
+    parser.add_argument("--no-report", action="store_true", help="no correlation.pdf")
+    parser.add_argument("--out", default=None, help="output directory")
+    args = parser.parse_args(argv)
+    if args.list_effects:
+        print(list_effects())
+        return 0
+    if not args.measured:
+        raise InputError("--measured: give at least one measured CSV file")
+    if not args.out:
+        raise InputError("--out: give the output directory")
+    check_outdir(args.out)
+    layout = load_layout(args.layout)
+    sites = tuple(build_geometry(layout, None).sites)
+    runs = [read_measured(p, sites=sites, schemes=tuple(layout.schemes)) for p in args.measured]
+    from imutherm.studies.correlation import correlate, result_json, updated_model_toml
+    res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
+                    rerun=not args.no_rerun, progress=lambda s: print(f"  {s}", flush=True))
+    data = result_json(res)
+    with atomic_outdir(args.out) as tmp:
+        write_json(tmp / "correlation.json", data)
+        (tmp / "updated_model.toml").write_text(updated_model_toml(res))
+        if not args.no_report:
+            from imutherm.reports.correlation_report import write_report
+            write_report(tmp / "correlation.pdf", res)
+    print(f"verdict: {res.verdict}" + (f" ({res.named_effect})" if res.named_effect else "")
+          + (f" {', '.join(res.ambiguous_set)}" if res.ambiguous_set else ""))
+    print(f"  {res.words}")
+    print(f"  RMS {data['rms_before_K']:.2f} -> {data['rms_after_K']:.2f} K, max {data['max_before_K']:.2f} -> "
+          f"{data['max_after_K']:.2f} K ({data['after_from']}), held-out RMS {data['heldout_rms_before_K'] or float('nan'):.2f} -> "
+          f"{data['heldout_rms_after_K'] or float('nan'):.2f} K; noise {res.noise_K:.2f} K")
+    for f in data["ranking"][:6]:
+        print(f"  {f['name']:<22} dAICc {f['delta_aicc_vs_none']:8.1f}  RMS {f['rms_K']:.3f} K  "
+              f"held-out {f['heldout_rms_K'] if f['heldout_rms_K'] is not None else float('nan'):.3f} K")
+    print(f"  {res.timings['total_s']:.0f} s; wrote {args.out}/correlation.json updated_model.toml"
+          + ("" if args.no_report else " correlation.pdf"))
+    return 0

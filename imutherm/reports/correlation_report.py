@@ -1,0 +1,123 @@
+"""``correlation.pdf`` of ``imutherm correlate``.
+
+Page 1: the verdict and the named effect in words, before/after figures, the ranking (ΔAICc over
+the re-tuned model, held-out RMS). Page 2: residuals per site and phase of the nominal model.
+Then one page per measured file: measured, before and after curves per site. A4 landscape.
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.backends.backend_pdf import PdfPages
+
+from imutherm.studies.correlation import MARGIN_NONE, SPARSE_FRACTION
+
+A4_LANDSCAPE = (11.69, 8.27)
+
+
+def _fmt(v, unit="K"):
+    return "n/a" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.2f} {unit}"
+
+
+def _summary_page(pdf, res):
+    fig = plt.figure(figsize=A4_LANDSCAPE)
+    head = f"Correlation verdict: {res.verdict}" + (f" — {res.named_effect}" if res.named_effect else "")
+    if res.ambiguous_set:
+        head += f" — one of {', '.join(res.ambiguous_set)}"
+    fig.text(0.05, 0.94, head, fontsize=15, weight="bold")
+    body = [res.words, res.timings.get("reason", ""),
+            f"RMS {_fmt(res.before['rms_K'])} before -> {_fmt(res.after.rms_K)} after; "
+            f"max {_fmt(res.before['max_K'])} -> {_fmt(res.after.max_K)} (reduced model); "
+            + (f"the corrected model re-run on the full FEM: RMS {_fmt(res.full['rms_K'])}, max {_fmt(res.full['max_K'])}; "
+               if res.full else "") + "held-out RMS "
+            f"{_fmt(res.before['heldout_rms_K'])} -> {_fmt(res.after.heldout_rms_K)}; noise {_fmt(res.noise_K)}; "
+            f"{res.after.n} readings, effective sample size {res.after.n_eff:.1f}.",
+            "Files: " + ", ".join(f"{r.name} ({r.scheme}, {r.ambient_C:g} °C)" for r in res.runs)]
+    y = 0.88
+    for para in body:
+        for line in textwrap.wrap(para, 150):
+            fig.text(0.05, y, line, fontsize=9)
+            y -= 0.028
+    ax = fig.add_axes([0.3, 0.08, 0.65, 0.5])
+    fits = list(res.ranking)[:15]
+    names = [f.name for f in fits][::-1]
+    colors = ["tab:green" if n == res.named_effect else "tab:gray" for n in names]
+    if math.isfinite(res.retune.aicc):
+        ax.barh(names, [res.retune.aicc - f.aicc for f in fits][::-1], color=colors)
+        ax.axvline(MARGIN_NONE, color="k", lw=0.8, ls="--")
+        ax.set_xlabel("ΔAICc over the re-tuned model (dashed: required margin) [-]")
+    else:  # sparse data: no information criterion, ranked by held-out RMS
+        ax.barh(names, [f.heldout_rms_K for f in fits][::-1], color=colors)
+        ax.axvline(res.retune.heldout_rms_K, color="k", lw=0.8, ls="--")
+        ax.axvline(SPARSE_FRACTION * res.retune.heldout_rms_K, color="k", lw=0.8, ls=":")
+        ax.set_xlabel("held-out RMS, leave one reading out [K] (dashed: re-tuned model; dotted: half of it, "
+                      "the bar to clear)")
+    for i, f in enumerate(fits[::-1]):
+        ax.text(ax.get_xlim()[1], i, f"  held-out {_fmt(f.heldout_rms_K)}", va="center", fontsize=7)
+    pdf.savefig(fig)
+    plt.close(fig)
+
+
+def _residual_page(pdf, res):
+    rows = [(run, s, st) for run, sites in res.localise.items() for s, st in sites.items()]
+    if not rows:
+        return
+    fig, ax = plt.subplots(figsize=A4_LANDSCAPE)
+    labels = [f"{run}:{s}" for run, s, _ in rows]
+    x = np.arange(len(rows))
+    for off, phase, col in ((-0.2, "rise", "tab:orange"), (0.2, "plateau", "tab:blue")):
+        v = [st["phases"][phase]["mean_K"] if st["phases"][phase]["mean_K"] is not None else np.nan for _, _, st in rows]
+        ax.bar(x + off, v, width=0.4, color=col, label=f"mean residual, {phase}")
+    ax.plot(x, [st["rms_K"] for _, _, st in rows], "k_", ms=14, label="RMS (all)")
+    ax.set_xticks(x, labels, rotation=60, fontsize=7, ha="right")
+    ax.set_ylabel("model − measured [K]")
+    ax.set_title("Nominal model: residuals per site and phase (rise: before t63; plateau: after t95)")
+    fp = ", ".join(f"{k}: {v:+.2f}" for k, v in res.fingerprints.items() if v is not None)
+    ax.text(0.01, 0.97, "correlation of the residual with " + fp, transform=ax.transAxes, fontsize=8, va="top")
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    pdf.savefig(fig)
+    plt.close(fig)
+
+
+def _curve_pages(pdf, res):
+    for name, c in res.curves.items():
+        sites = c["sites"]
+        n = len(sites)
+        cols = min(3, n)
+        rows = int(math.ceil(n / cols))
+        fig, axes = plt.subplots(rows, cols, figsize=A4_LANDSCAPE, squeeze=False)
+        t = np.asarray(c["times_s"], float)
+        fin = np.isfinite(t)
+        tplot = np.where(fin, t, (t[fin].max() * 1.15 if fin.any() else 1.0))
+        for j, s in enumerate(sites):
+            ax = axes[j // cols][j % cols]
+            ax.plot(tplot, c["measured_K"][:, j], "k.", ms=3, label="measured")
+            ax.plot(tplot, c["before_K"][:, j], "-", color="tab:red", label="before")
+            ax.plot(tplot, c["after_K"][:, j], "-", color="tab:green", label="after (reduced model fit)")
+            if "after_full_K" in c:
+                ax.plot(tplot, c["after_full_K"][:, j], "s", mfc="none", color="tab:green", ms=5,
+                        label="after, full-model re-run")
+            ax.set_title(s, fontsize=9)
+            ax.set_xlabel("time since power-on [s] (last point right of the axis: steady)", fontsize=7)
+            ax.set_ylabel("rise [K]", fontsize=8)
+            ax.tick_params(labelsize=7)
+        for j in range(n, rows * cols):
+            axes[j // cols][j % cols].axis("off")
+        axes[0][0].legend(fontsize=7)
+        fig.suptitle(f"{name}: measured, nominal model (before) and corrected model (after)")
+        fig.tight_layout()
+        pdf.savefig(fig)
+        plt.close(fig)
+
+
+def write_report(path, res) -> None:
+    """Write ``correlation.pdf`` for a :class:`~imutherm.studies.correlation.CorrelationResult`."""
+    with PdfPages(path) as pdf:
+        _summary_page(pdf, res)
+        _residual_page(pdf, res)
+        _curve_pages(pdf, res)

@@ -1,0 +1,699 @@
+"""Correlation of the unit model with measured site temperatures: localise, re-tune, name the missing effect.
+
+``correlate(runs, layout)`` with one or more :class:`~imutherm.measured.MeasuredRun`:
+
+1. **Localise**: residuals of the nominal model per site and phase (rise: before the site's t63;
+   plateau: after its t95), the lag (time shift that best aligns the curves) and the correlation
+   of the residual with physical fingerprints (the site's rise = power map / ΔT, its dT/dt, its
+   T^4 - T_amb^4, its distance to the mount face).
+2. **Re-tune**: a bounded least-squares fit of the model's uncertain parameters
+   (:data:`imutherm.thermal.knobs.RETUNE`, each within its source's range).
+3. **Candidates**: each effect of the library (:mod:`imutherm.thermal.effects`) fitted on top of
+   the re-tune parameters.
+4. **Rank**: held-out RMS (leave one experiment out; a single experiment: fit the first 60 % of
+   its time, predict the rest; sparse files only: leave one reading out) and AICc with an effective sample size n_eff = Σ over series of
+   n (1 - ρ1) / (1 + ρ1) (ρ1: lag-1 autocorrelation of the re-tuned model's residuals; a
+   series of three or fewer points counts fully).
+5. **Verdict** (:func:`verdict`): ``none`` if the re-tuned model predicts held-out data within
+   the noise, ``effect`` for a candidate with a clear margin (ΔAICc >= :data:`MARGIN_NONE` over
+   ``none`` and >= :data:`MARGIN_RUNNER_UP` over the runner-up, held-out RMS better than
+   ``none``), ``ambiguous`` (several within the margin) or ``not_in_library`` (the best candidate
+   leaves a held-out residual well above the noise).
+
+Forward runs use the reduced model of each (scheme, ambient) (:mod:`imutherm.thermal.reduced`),
+built once per correlation.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from imutherm import InputError
+from imutherm.geometry.build import MM, build_geometry
+from imutherm.geometry.layout import LayoutSpec, load_layout
+from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
+from imutherm.measured import MeasuredRun
+from imutherm.thermal import knobs as K
+from imutherm.thermal.effects import EFFECTS, apply_signal_effects, effect_of, setting
+from imutherm.thermal.model import ModelOptions
+from imutherm.thermal.reduced import Knob, build_reduced
+
+#: ΔAICc a candidate must gain over the re-tuned model (Burnham & Anderson 2002: > 10, essentially
+#: no support for the worse model)
+MARGIN_NONE = 10.0
+#: ΔAICc between the best candidate and the runner-up for a named effect (B&A: 4-7 "considerably less")
+MARGIN_RUNNER_UP = 6.0
+#: the re-tuned model "closes the gap" when its held-out RMS is below this many noise sigmas
+NONE_NOISE_FACTOR = 2.0
+#: the best candidate "explains" the data when its held-out RMS is below this many noise sigmas,
+#: or below this fraction of the re-tuned model's
+EXPLAIN_NOISE_FACTOR = 3.0
+EXPLAIN_FRACTION = 0.5
+#: noise assumed for sparse series (fewer than 8 points) where it cannot be estimated [K]
+SPARSE_NOISE_K = 0.5
+#: signal effects handled outside the reduced model
+SIGNAL = ("probe_lag", "ambient_drift")
+#: the times at which the model curve is evaluated for a probe lag (plus the measured ones) [s]
+_DENSE = np.concatenate([[0.0], np.geomspace(0.5, 2.0e4, 240)])
+
+
+@dataclass(frozen=True)
+class Fit:
+    """One fitted model: ``name`` ('none' or an effect), parameter values, training and held-out scores.
+
+    values : dict knob -> value [unit] (re-tune knobs and the effect's parameter)
+    rms_K : training RMS [K], n : points, n_eff : effective sample size, k : fitted parameters
+    aicc : float, heldout_rms_K : float [K] (NaN if no hold-out), heldout_max_K : float [K]
+    at_bound : tuple of knob names that ended at a bound
+    """
+
+    name: str
+    values: dict
+    rms_K: float
+    max_K: float
+    n: int
+    n_eff: float
+    k: int
+    aicc: float
+    heldout_rms_K: float
+    heldout_max_K: float
+    at_bound: tuple = ()
+    ci: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class CorrelationResult:
+    """What ``correlate`` found.
+
+    verdict : 'effect' | 'none' | 'ambiguous' | 'not_in_library'
+    named_effect : str or None, ambiguous_set : tuple
+    before : dict (rms/max over all data, nominal model), after : Fit of the chosen model on all data
+    retune : Fit ('none'), ranking : tuple of Fit (candidates, best first)
+    localise : dict per run -> per site statistics; fingerprints : dict
+    noise_K : float, curves : dict run -> {times, measured, before, after}
+    timings : dict [s]
+    """
+
+    verdict: str
+    named_effect: str | None
+    ambiguous_set: tuple
+    before: dict
+    after: Fit
+    retune: Fit
+    ranking: tuple
+    localise: dict
+    fingerprints: dict
+    noise_K: float
+    curves: dict
+    runs: tuple
+    reduced: dict
+    timings: dict
+    words: str
+    full: dict = field(default_factory=dict)
+
+
+# --------------------------------------------------------------------------- forward model
+
+class _Forward:
+    """Site rises of every run from knob values, through the runs' reduced models."""
+
+    def __init__(self, runs, roms, geometries):
+        self.runs, self.roms, self.geometries = runs, roms, geometries
+
+    def rise(self, i: int, values: dict, times=None) -> np.ndarray:
+        """Model rise [K] of run ``i`` at its times (or ``times``), its sites (n, m)."""
+        run = self.runs[i]
+        rom = self.roms[(run.scheme, run.ambient_C)]
+        t = run.times_s if times is None else np.asarray(times, float)
+        model_vals = {k: v for k, v in values.items() if k.split("@")[0] not in SIGNAL and k in rom.knobs}
+        model_vals["power_scale"] = values.get("power_scale", 1.0) * run.power_scale
+        effects = [setting(k, **{effect_of(k).params[0].name: v}) for k, v in values.items()
+                   if k.split("@")[0] in SIGNAL]
+        cols = [rom.site_names.index(s) for s in run.sites]
+        drift = next((s.value("rate_K_per_h") / 3600 for s in effects if s.base == "ambient_drift"), 0.0)
+        lag = next((s.value("tau_s") for s in effects if s.base == "probe_lag"), None)
+        if lag is None:
+            return rom.rise(model_vals, t, drift)[:, cols]
+        fin = np.isfinite(t)
+        dense = np.union1d(_DENSE[_DENSE <= (t[fin].max() if fin.any() else 0.0)], t[fin])
+        y = rom.rise(model_vals, dense, drift)[:, cols]
+        y = apply_signal_effects(dense, y, [s for s in effects if s.base == "probe_lag"])
+        out = np.empty((len(t), len(cols)))
+        for j in range(len(cols)):
+            out[fin, j] = np.interp(t[fin], dense, y[:, j])
+        if (~fin).any():
+            out[~fin] = rom.rise(model_vals, [np.inf])[:, cols]
+        return out
+
+
+def _residuals(fwd: _Forward, values: dict, mask: dict) -> np.ndarray:
+    """Model minus measured rise [K] over the selected points (mask: run index -> bool (n, m))."""
+    out = []
+    for i, m in mask.items():
+        if not m.any():
+            continue
+        r = fwd.rise(i, values) - fwd.runs[i].rise_K
+        out.append(r[m])
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def _knobs_for(name: str) -> list:
+    """Re-tune knobs plus the candidate's (none: re-tune only); an emissivity effect replaces the re-tune."""
+    ks = [k for k, _ in K.RETUNE]
+    if name == "none":
+        return ks
+    e = effect_of(name)
+    p = e.params[0]
+    if e.name == "emissivity":
+        ks = [k for k in ks if k.name != "emissivity_ext"]
+    if e.kind == "signal":
+        return ks + [Knob(name, p.unit, p.lo, p.hi, log=p.log)]
+    return ks + [K.effect_knob(name)]
+
+
+def _fit(fwd: _Forward, name: str, train: dict, test: dict | None, n_eff_ratio: float, prior_K: float) -> Fit:
+    """Bounded fit of the re-tune knobs plus candidate ``name`` on ``train``; scored on ``test``.
+
+    The re-tune knobs carry a weak prior towards their nominal values: a residual ``prior_K`` (u - u0)
+    per knob (u in [-1, 1] across the source's range), so a knob at its bound costs one noise
+    sigma squared. It decides only where the data do not (sparse files); the effect's own parameter
+    has none (uniform within its bounds).
+    """
+    ks = _knobs_for(name)
+    # start at the nominal (re-tune) / mid-range (effect) in the knob coordinate u in [-1, 1]
+    u0 = np.array([float(k.to_u(K.RETUNE_NOMINAL[k.name])) if k.name in K.RETUNE_NOMINAL else 0.0 for k in ks])
+    base = _nominal_values()
+    for k in ks:
+        if k.name in base:
+            u0[ks.index(k)] = float(np.clip(k.to_u(base[k.name]), -1, 1))
+
+    def vals(u):
+        return {k.name: float(k.from_u(x)) for k, x in zip(ks, u)}
+
+    n_retune = len(ks) if name == "none" else len(ks) - 1
+
+    def fun(u):
+        return np.concatenate([_residuals(fwd, vals(u), train), prior_K * (u[:n_retune] - u0[:n_retune])])
+
+    starts = [u0] if name == "none" else [np.where(np.arange(len(ks)) == len(ks) - 1, s, u0)
+                                         for s in (-0.6, 0.0, 0.6)]
+    best = None
+    for s in starts:
+        try:
+            r = least_squares(fun, s, bounds=(-1.0, 1.0), x_scale=1.0, xtol=1e-6, ftol=1e-8, max_nfev=200)
+        except (np.linalg.LinAlgError, ValueError):
+            continue
+        if best is None or r.cost < best.cost:
+            best = r
+    if best is None:
+        raise InputError(f"correlate: the fit of {name!r} failed")
+    res = best.fun[:len(best.fun) - n_retune]
+    n = len(res)
+    rss = float(res @ res)
+    k_par = len(ks) + 1  # + the noise variance
+    ne = min(n * n_eff_ratio, n)
+    # AICc is defined for n_eff > k + 1; sparse data (a paper's few figures) rank by held-out prediction only
+    aicc = (ne * math.log(max(rss / n, 1e-12)) + 2 * k_par + 2 * k_par * (k_par + 1) / (ne - k_par - 1)
+            if ne > k_par + 1 else math.nan)
+    v = vals(best.x)
+    hr, hm = math.nan, math.nan
+    if test is not None and any(m.any() for m in test.values()):
+        rt = _residuals(fwd, v, test)
+        hr, hm = float(np.sqrt(np.mean(rt**2))), float(np.abs(rt).max())
+    at_bound = tuple(k.name for k, x in zip(ks, best.x) if abs(x) > 0.995)
+    ci = {}
+    J = best.jac[:n]
+    try:
+        cov = np.linalg.pinv(J.T @ J) * rss / max(n - len(ks), 1) * (n / max(ne, 1.0))
+        sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        for j, (k, x) in enumerate(zip(ks, best.x)):
+            lo, hi = float(k.from_u(max(x - 1.96 * sd[j], -1))), float(k.from_u(min(x + 1.96 * sd[j], 1)))
+            ci[k.name] = (lo, hi)
+    except np.linalg.LinAlgError:
+        pass
+    return Fit(name, v, float(np.sqrt(rss / n)), float(np.abs(res).max()), n, float(ne), k_par, float(aicc),
+               hr, hm, at_bound, ci)
+
+
+def _nominal_values() -> dict:
+    """Re-tune knobs at the reference model's nominal values (the layout and library numbers)."""
+    return {"power_scale": 1.0, "convection_scale": 1.0, "mount_h_W_m2K": 500.0,
+            "emissivity_ext": 0.84, "k_board_W_mK": 17.7}
+
+
+# --------------------------------------------------------------------------- statistics
+
+def noise_sigma(run: MeasuredRun) -> float:
+    """Probe noise [K] of a run: MAD of second differences of each dense series / sqrt(6) (median over sites).
+
+    Series with fewer than 8 readings: :data:`SPARSE_NOISE_K` (stated, not estimated).
+    """
+    sig = []
+    for j in range(len(run.sites)):
+        y = run.values_C[:, j]
+        t = run.times_s
+        ok = np.isfinite(y) & np.isfinite(t)
+        if ok.sum() < 8:
+            continue
+        d2 = np.diff(y[ok], 2)
+        sig.append(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6))
+    return float(np.median(sig)) if sig else SPARSE_NOISE_K
+
+
+def n_eff_ratio(fwd: _Forward, values: dict) -> float:
+    """n_eff / n from the lag-1 autocorrelation of the residuals of each series (>= 4 points)."""
+    n_tot, ne_tot = 0, 0.0
+    for i, run in enumerate(fwd.runs):
+        r = fwd.rise(i, values) - run.rise_K
+        for j in range(len(run.sites)):
+            x = r[np.isfinite(r[:, j]) & np.isfinite(run.times_s), j]
+            n = len(x)
+            if n == 0:
+                continue
+            n_tot += n
+            if n <= 3:
+                ne_tot += n
+                continue
+            x = x - x.mean()
+            den = float(x @ x)
+            rho = float(x[1:] @ x[:-1]) / den if den > 0 else 0.0
+            rho = min(max(rho, 0.0), 0.99)
+            ne_tot += max(n * (1 - rho) / (1 + rho), 1.0)
+    return ne_tot / n_tot if n_tot else 1.0
+
+
+def _phase_stats(r: np.ndarray, t: np.ndarray, t63: float, t95: float) -> dict:
+    out = {}
+    for phase, sel in (("rise", t <= t63), ("plateau", t >= t95)):
+        x = r[sel & np.isfinite(r)]
+        out[phase] = {"n": int(len(x)), "mean_K": float(x.mean()) if len(x) else None,
+                      "rms_K": float(np.sqrt(np.mean(x**2))) if len(x) else None}
+    return out
+
+
+def _lag_s(t, model, meas) -> float | None:
+    """Shift [s] of the model curve that best matches the measured one (positive: measured lags)."""
+    ok = np.isfinite(t) & np.isfinite(meas)
+    if ok.sum() < 6:
+        return None
+    tt, mm, yy = t[ok], model[ok], meas[ok]
+    shifts = np.linspace(-0.3 * tt.max(), 0.3 * tt.max(), 121)
+    err = [np.mean((np.interp(tt - s, tt, mm, left=0.0) - yy) ** 2) for s in shifts]
+    return float(shifts[int(np.argmin(err))])
+
+
+def localise(fwd: _Forward, values: dict) -> tuple:
+    """Per run and site: residual mean/RMS/max, per phase, lag; and the fingerprint correlations."""
+    out, rows = {}, []
+    for i, run in enumerate(fwd.runs):
+        rom = fwd.roms[(run.scheme, run.ambient_C)]
+        model = fwd.rise(i, values)
+        r = model - run.rise_K
+        geo = fwd.geometries[run.scheme]
+        z0 = geo.outer[0][2]
+        site_stats = {}
+        for j, s in enumerate(run.sites):
+            x = r[:, j]
+            ok = np.isfinite(x)
+            if not ok.any():
+                continue
+            steady = float(rom.nominal_rise_K[rom.site_names.index(s)])
+            t = run.times_s
+            fine = np.geomspace(1.0, 2.0e4, 400)
+            curve = fwd.rise(i, values, fine)[:, j]
+            fin = curve[-1] if curve[-1] > 0 else steady
+            t63 = float(np.interp(0.632 * fin, curve, fine)) if fin > 0 else math.nan
+            t95 = float(np.interp(0.95 * fin, curve, fine)) if fin > 0 else math.nan
+            site_stats[s] = {"n": int(ok.sum()), "mean_K": float(x[ok].mean()),
+                             "rms_K": float(np.sqrt(np.mean(x[ok] ** 2))), "max_abs_K": float(np.abs(x[ok]).max()),
+                             "phases": _phase_stats(x, t, t63, t95), "lag_s": _lag_s(t, model[:, j], run.rise_K[:, j]),
+                             "model_t63_s": t63, "model_t95_s": t95}
+            pos = np.asarray(geo.sites[s])
+            Tm = model[ok, j] + run.ambient_C + 273.15
+            Ta = run.ambient_C + 273.15
+            tt = np.where(np.isfinite(t[ok]), t[ok], 1e9)
+            dTdt = np.gradient(model[ok, j], tt) if ok.sum() > 1 else np.zeros(ok.sum())
+            for k in range(int(ok.sum())):
+                rows.append((x[ok][k], model[ok, j][k], Tm[k] ** 4 - Ta**4, dTdt[k], (pos[2] - z0) / MM))
+        out[run.name] = site_stats
+    fp = {}
+    if len(rows) >= 3:
+        R = np.array(rows)
+        for col, name in ((1, "rise (power map, dT)"), (2, "T^4 - T_amb^4 (radiation)"), (3, "dT/dt (heat capacity, lag)"),
+                          (4, "height above the mount face")):
+            a, b = R[:, 0], R[:, col]
+            fp[name] = float(np.corrcoef(a, b)[0, 1]) if a.std() > 0 and b.std() > 0 else None
+    return out, fp
+
+
+# --------------------------------------------------------------------------- the workflow
+
+@dataclass(frozen=True)
+class Models:
+    """The reduced models a correlation runs on: ``roms`` (scheme, ambient_C) -> ReducedModel,
+    ``geometries`` scheme -> Geometry, ``build_s`` [s] to build them all."""
+
+    roms: dict
+    geometries: dict
+    build_s: float
+    keyed_geometries: dict = field(default_factory=dict)
+    mesh_size_mm: float = DEFAULT_MAX_CELL_MM
+    min_cells: int = DEFAULT_MIN_CELLS
+    options: ModelOptions | None = None
+
+
+def build_models(keys, layout: LayoutSpec | str | None = None, *, mesh_size_mm: float = DEFAULT_MAX_CELL_MM,
+                 min_cells: int = DEFAULT_MIN_CELLS, options: ModelOptions | None = None,
+                 progress=None) -> Models:
+    """The reduced model of each (scheme, ambient [degC]) in ``keys``, with every re-tune knob and every
+    model effect that applies to the scheme (:func:`imutherm.thermal.reduced.build_reduced`).
+
+    Each costs one nonlinear steady solve, ~35 preconditioned CG solves and ~60 assemblies of the full
+    model: about a minute at the default 2 mm mesh on one core.
+    """
+    from dataclasses import replace
+    t0 = time.perf_counter()
+    say = progress or (lambda s: None)
+    if not isinstance(layout, LayoutSpec):
+        layout = load_layout(layout)
+    options = options or ModelOptions()
+    roms, geometries, keyed = {}, {}, {}
+    for scheme, amb in keys:
+        if scheme not in layout.schemes:
+            raise InputError(f"correlate: scheme {scheme!r} is not in layout {layout.name!r}; "
+                             f"valid: {', '.join(layout.schemes)}")
+        lay = replace(layout, ambient_C=amb, mounting=replace(layout.mounting, temperature_C=amb))
+        geo = build_geometry(lay, scheme)
+        geometries.setdefault(scheme, geo)
+        keyed[(scheme, amb)] = geo
+        grid = build_mesh(geo, mesh_size_mm, min_cells)
+        ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n) for n in K.model_effect_names() if K.applicable(n, geo)]
+        say(f"reduced model of {scheme} at {amb:g} C: {grid.n_nodes} unknowns, {len(ks)} knobs "
+            f"(about {grid.n_nodes / 175e3 * (40 + 1.5 * len(ks)):.0f} s)")
+        roms[(scheme, amb)] = build_reduced(lambda v, g=geo: K.variant(g, options, v), grid, ks, dict(geo.sites))
+    return Models(roms, geometries, time.perf_counter() - t0, keyed, mesh_size_mm, min_cells, options)
+
+
+def rerun_full(runs, values: dict, models: Models, progress=None) -> list:
+    """The corrected model re-run on the full FEM: site rises [K] of each run at its times (n, m).
+
+    values : knob name -> value (re-tune knobs and the named effect), as fitted; the runs' own
+    ``power_scale`` multiplies the fitted one; a model effect whose target a scheme lacks is off there.
+    """
+    from imutherm.studies.forward import full_rise
+    say = progress or (lambda s: None)
+    out = []
+    for run in runs:
+        geo = models.keyed_geometries[(run.scheme, run.ambient_C)]
+        model_vals, signal = {}, []
+        for k, v in values.items():
+            if k in SIGNAL:
+                signal.append(setting(k, **{effect_of(k).params[0].name: v}))
+            elif k in K.RETUNE_SOURCES or K.applicable(k, geo):
+                model_vals[k] = v
+        model_vals["power_scale"] = values.get("power_scale", 1.0) * run.power_scale
+        variant = K.variant(geo, models.options or ModelOptions(), model_vals)
+        grid = build_mesh(variant.geometry, models.mesh_size_mm, models.min_cells)
+        say(f"full-model re-run of {run.name} ({grid.n_nodes} unknowns)")
+        out.append(full_rise(variant, grid, {s: geo.sites[s] for s in run.sites}, run.times_s, signal))
+    return out
+
+
+
+#: a run with fewer readings than this is sparse (a paper's or a notebook's few figures)
+SPARSE_READINGS = 8
+
+
+def _masks(runs, holdout: str | None):
+    """[(train, test)] folds. holdout None/'auto': leave one run out (one run: first 60 % of its time);
+    when every run is sparse (< :data:`SPARSE_READINGS` readings): leave one reading out."""
+    full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
+    if holdout not in (None, "auto"):
+        names = [r.path for r in runs]
+        idx = [i for i, r in enumerate(runs) if r.path == holdout or r.name == holdout]
+        if not idx:
+            raise InputError(f"--holdout {holdout!r}: not one of the measured files ({', '.join(names)})")
+        h = idx[0]
+        return [({i: m if i != h else np.zeros_like(m) for i, m in full.items()},
+                 {i: m if i == h else np.zeros_like(m) for i, m in full.items()})]
+    if all(r.n_values < SPARSE_READINGS for r in runs) and sum(r.n_values for r in runs) >= 3:
+        folds = []
+        for i, m in full.items():
+            for a, b in zip(*np.nonzero(m)):
+                one = np.zeros_like(m)
+                one[a, b] = True
+                folds.append(({j: (mm & ~one if j == i else mm) for j, mm in full.items()},
+                              {j: (one if j == i else np.zeros_like(mm)) for j, mm in full.items()}))
+        return folds
+    if len(runs) >= 2:
+        return [({i: m if i != h else np.zeros_like(m) for i, m in full.items()},
+                 {i: m if i == h else np.zeros_like(m) for i, m in full.items()}) for h in range(len(runs))]
+    t = runs[0].times_s
+    fin = t[np.isfinite(t)]
+    cut = 0.6 * (fin.max() if len(fin) else 0.0)
+    early = (t <= cut)[:, None] & full[0]
+    late = (~(t <= cut))[:, None] & full[0]
+    if early.sum() < 3 or late.sum() < 1:
+        return [(full, None)]
+    return [({0: early}, {0: late})]
+
+
+def _pooled(fwd, name, folds, ratio, prior) -> tuple:
+    """Held-out RMS and max over the folds (each fold fitted on its training set)."""
+    errs = []
+    for train, test in folds:
+        if test is None:
+            return math.nan, math.nan
+        f = _fit(fwd, name, train, None, ratio, prior)
+        errs.append(_residuals(fwd, f.values, test))
+    e = np.concatenate(errs)
+    return float(np.sqrt(np.mean(e**2))), float(np.abs(e).max())
+
+
+#: without AICc (sparse data): a candidate must cut the re-tuned model's held-out RMS to this fraction,
+#: and the runner-up's must be at least this factor above the best's
+SPARSE_FRACTION = 0.5
+SPARSE_RUNNER_UP = 1.5
+
+
+def verdict(none: Fit, ranking, noise_K: float) -> tuple:
+    """(verdict, named effect or None, ambiguous set, reason) from the fits (see the module docstring)."""
+    if not math.isfinite(none.aicc):
+        return _verdict_sparse(none, ranking, noise_K)
+    gap = none.heldout_rms_K if math.isfinite(none.heldout_rms_K) else none.rms_K
+    good = [f for f in ranking if none.aicc - f.aicc >= MARGIN_NONE and
+            (not math.isfinite(f.heldout_rms_K) or f.heldout_rms_K < gap)]
+    if gap <= NONE_NOISE_FACTOR * noise_K and not [f for f in good if none.aicc - f.aicc >= 3 * MARGIN_NONE]:
+        return "none", None, (), (f"the re-tuned model predicts held-out data within {gap:.2f} K "
+                                  f"(noise {noise_K:.2f} K)")
+    if not good:
+        return "not_in_library", None, (), "no candidate improves on the re-tuned model by the required margin"
+    best = good[0]
+    bgap = best.heldout_rms_K if math.isfinite(best.heldout_rms_K) else best.rms_K
+    if bgap > EXPLAIN_NOISE_FACTOR * noise_K and bgap > EXPLAIN_FRACTION * gap:
+        return "not_in_library", None, (), (f"the best candidate {best.name} leaves {bgap:.2f} K held out "
+                                            f"(noise {noise_K:.2f} K, re-tuned {gap:.2f} K)")
+    close = [f for f in ranking if f is not best and f.aicc - best.aicc < MARGIN_RUNNER_UP]
+    if close:
+        return "ambiguous", None, tuple([best.name] + [f.name for f in close]), \
+            f"{len(close) + 1} candidates within ΔAICc {MARGIN_RUNNER_UP:g}"
+    return "effect", best.name, (), (f"{best.name}: ΔAICc {none.aicc - best.aicc:.1f} over none, "
+                                     f"{(ranking[1].aicc - best.aicc) if len(ranking) > 1 else math.inf:.1f} over "
+                                     f"the runner-up")
+
+
+def _verdict_sparse(none: Fit, ranking, noise_K: float) -> tuple:
+    """Verdict by held-out RMS alone (too few readings for an information criterion)."""
+    gap = none.heldout_rms_K
+    if not math.isfinite(gap):
+        return "ambiguous", None, tuple(f.name for f in ranking), "too few readings for a held-out test or AICc"
+    if gap <= NONE_NOISE_FACTOR * noise_K:
+        return "none", None, (), f"the re-tuned model predicts the held-out experiment within {gap:.2f} K"
+    order = sorted([f for f in ranking if math.isfinite(f.heldout_rms_K)], key=lambda f: f.heldout_rms_K)
+    good = [f for f in order if f.heldout_rms_K <= SPARSE_FRACTION * gap]
+    if not good:
+        return "not_in_library", None, (), (f"no candidate halves the re-tuned model's held-out error {gap:.2f} K "
+                                            f"(best {order[0].name}: {order[0].heldout_rms_K:.2f} K)" if order else "")
+    best = good[0]
+    close = [f for f in order if f is not best and f.heldout_rms_K < SPARSE_RUNNER_UP * max(best.heldout_rms_K,
+                                                                                            noise_K)]
+    if close:
+        return "ambiguous", None, tuple([best.name] + [f.name for f in close]), (
+            f"held-out RMS (no AICc: too few readings): {best.name} {best.heldout_rms_K:.2f} K, "
+            + ", ".join(f"{f.name} {f.heldout_rms_K:.2f} K" for f in close) + f"; re-tuned {gap:.2f} K")
+    return "effect", best.name, (), (f"held-out RMS {best.heldout_rms_K:.2f} K against {gap:.2f} K re-tuned "
+                                     f"(no AICc: too few readings)")
+
+
+def effect_words(name: str | None, values: dict) -> str:
+    """The named effect in words, with its fitted value."""
+    if name is None:
+        return ""
+    e = effect_of(name)
+    p = e.params[0]
+    v = values.get(name)
+    where = f" at {name.split('@')[1]}" if "@" in name else ""
+    return f"{e.name}{where}: {e.words}; fitted {p.name} = {v:.4g} {p.unit}"
+
+
+def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | None = "auto",
+              mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
+              candidates=None, options: ModelOptions | None = None, models: "Models | None" = None,
+              rerun: bool = True, progress=None) -> CorrelationResult:
+    """Run the correlation workflow on measured runs (see the module docstring).
+
+    candidates : names to consider (default: every effect applicable to at least one run's scheme)
+    rerun : re-run the corrected model on the full FEM (:func:`rerun_full`) for the after figures
+    models : :class:`Models` built beforehand (:func:`build_models`; a campaign reuses them across
+        cases); default: built here for the runs' (scheme, ambient) pairs
+    progress : callable(str) or None, told what is being done
+    """
+    t0 = time.perf_counter()
+    say = progress or (lambda s: None)
+    runs = tuple(runs)
+    if not runs:
+        raise InputError("correlate: no measured files")
+    if not isinstance(layout, LayoutSpec):
+        layout = load_layout(layout)
+    options = options or ModelOptions()
+    if models is None:
+        models = build_models(sorted({(r.scheme, r.ambient_C) for r in runs}), layout, mesh_size_mm=mesh_size_mm,
+                              min_cells=min_cells, options=options, progress=say)
+    missing = sorted({(r.scheme, r.ambient_C) for r in runs} - set(models.roms))
+    if missing:
+        raise InputError(f"correlate: no reduced model for {', '.join(f'{s} at {a:g} C' for s, a in missing)}")
+    roms, geometries = models.roms, models.geometries
+    t_rom = time.perf_counter() - t0
+    fwd = _Forward(runs, roms, geometries)
+    for i, run in enumerate(runs):  # a file must reach the model's time constant (or give a steady row)
+        if not np.isinf(run.times_s).any():
+            loc, _ = localise(_Forward((run,), roms, geometries), {})
+            t63 = max(s["model_t63_s"] for s in loc[run.name].values())
+            last = float(run.times_s[np.isfinite(run.times_s)].max())
+            if last < t63:
+                raise InputError(f"{run.path}:{run.lines[-1]}: the file ends at {last:g} s, before the model's "
+                                 f"time constant ({t63:.0f} s, t63 of its slowest site): nothing to correlate "
+                                 f"the plateau with; add later readings or a steady row (time_s = inf)")
+    noise = float(np.median([noise_sigma(r) for r in runs]))
+    nominal = {k: v for k, v in _nominal_values().items()}
+    before_res = _residuals(fwd, nominal, {i: np.isfinite(r.values_C) for i, r in enumerate(runs)})
+    loc, fp = localise(fwd, nominal)
+    say("re-tune")
+    full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
+    folds = _masks(runs, holdout)
+    none0 = _fit(fwd, "none", full, None, 1.0, noise)
+    ratio = n_eff_ratio(fwd, none0.values)
+    none_fit = _fit(fwd, "none", full, None, ratio, noise)
+    h = _pooled(fwd, "none", folds, ratio, noise)
+    none_fit = _with(none_fit, heldout_rms_K=h[0], heldout_max_K=h[1])
+    if candidates is None:
+        candidates = [n for n in K.model_effect_names() if any(n in rom.knobs for rom in roms.values())]
+        candidates += [n for n in SIGNAL]
+    ranking = []
+    for name in candidates:
+        effect_of(name)
+        if EFFECTS[name.split("@")[0]].kind == "model" and not any(name in rom.knobs for rom in roms.values()):
+            continue
+        say(f"candidate {name}")
+        f = _fit(fwd, name, full, None, ratio, noise)
+        h = _pooled(fwd, name, folds, ratio, noise)
+        ranking.append(_with(f, heldout_rms_K=h[0], heldout_max_K=h[1]))
+    ranking.sort(key=lambda f: (f.aicc if math.isfinite(f.aicc) else math.inf,
+                                f.heldout_rms_K if math.isfinite(f.heldout_rms_K) else math.inf))
+    v, named, amb_set, reason = verdict(none_fit, ranking, noise)
+    after = next(f for f in ranking if f.name == named) if named else none_fit
+    curves = {}
+    for i, run in enumerate(runs):
+        curves[run.name] = {"sites": run.sites, "times_s": run.times_s, "measured_K": run.rise_K,
+                            "before_K": fwd.rise(i, nominal), "after_K": fwd.rise(i, after.values)}
+    before = {"rms_K": float(np.sqrt(np.mean(before_res**2))), "max_K": float(np.abs(before_res).max()),
+              "heldout_rms_K": _heldout_nominal(fwd, folds, nominal)}
+    words = effect_words(named, after.values) if named else reason
+    full = {}
+    if rerun:
+        t1 = time.perf_counter()
+        rises = rerun_full(runs, after.values, models, say)
+        res_full = np.concatenate([(y - r.rise_K)[np.isfinite(r.values_C)] for y, r in zip(rises, runs)])
+        full = {"rms_K": float(np.sqrt(np.mean(res_full**2))), "max_K": float(np.abs(res_full).max()),
+                "seconds": time.perf_counter() - t1}
+        for y, r in zip(rises, runs):
+            curves[r.name]["after_full_K"] = y
+    return CorrelationResult(v, named, amb_set, before, after, none_fit, tuple(ranking), loc, fp, noise, curves,
+                             runs, {f"{s}@{a:g}C": {"basis": r.basis_size, "unknowns": r.unknowns,
+                                                    "build_s": r.build_s, "solves": r.solves}
+                                    for (s, a), r in roms.items()},
+                             {"reduced_models_s": t_rom, "total_s": time.perf_counter() - t0, "reason": reason},
+                             words, full)
+
+
+def _heldout_nominal(fwd, folds, nominal) -> float:
+    errs = [_residuals(fwd, nominal, test) for _, test in folds if test is not None]
+    if not errs:
+        return math.nan
+    e = np.concatenate(errs)
+    return float(np.sqrt(np.mean(e**2))) if len(e) else math.nan
+
+
+def _with(f: Fit, **changes) -> Fit:
+    from dataclasses import replace
+    return replace(f, **changes)
+
+
+def result_json(res: CorrelationResult) -> dict:
+    """The ``correlation.json`` content."""
+    def params(f: Fit):
+        out = {}
+        for name, v in f.values.items():
+            k = next((kk for kk, _ in K.RETUNE if kk.name == name), None)
+            unit = k.unit if k is not None else effect_of(name).params[0].unit
+            out[name] = {"value": v, "unit": unit, "ci95": list(f.ci.get(name, (None, None))),
+                         "kind": "retune" if k is not None else "effect",
+                         "source": K.RETUNE_SOURCES.get(name) or effect_of(name).params[0].source,
+                         "at_bound": name in f.at_bound}
+        return out
+
+    return {
+        "verdict": res.verdict, "named_effect": res.named_effect, "ambiguous_set": list(res.ambiguous_set),
+        "reason": res.timings["reason"], "in_words": res.words,
+        "parameters": params(res.after),
+        "retuned_parameters": params(res.retune),
+        "ranking": [{"name": f.name, "aicc": f.aicc, "delta_aicc_vs_none": res.retune.aicc - f.aicc,
+                     "rms_K": f.rms_K, "heldout_rms_K": f.heldout_rms_K, "heldout_max_K": f.heldout_max_K,
+                     "n": f.n, "n_eff": f.n_eff, "k": f.k, "at_bound": list(f.at_bound),
+                     "values": f.values} for f in (res.retune,) + res.ranking],
+        # after: the corrected model re-run on the full FEM (if it was), else the reduced model's fit
+        "rms_before_K": res.before["rms_K"], "rms_after_K": res.full.get("rms_K", res.after.rms_K),
+        "max_before_K": res.before["max_K"], "max_after_K": res.full.get("max_K", res.after.max_K),
+        "after_from": "full model re-run" if res.full else "reduced model",
+        "rms_after_reduced_K": res.after.rms_K, "max_after_reduced_K": res.after.max_K,
+        "heldout_rms_before_K": res.before["heldout_rms_K"], "heldout_rms_after_K": res.after.heldout_rms_K,
+        "noise_K": res.noise_K, "n_points": res.after.n, "n_eff": res.after.n_eff,
+        "localise": res.localise, "fingerprints": res.fingerprints,
+        "runs": [{"file": r.path, "scheme": r.scheme, "ambient_C": r.ambient_C, "power_scale": r.power_scale,
+                  "probe": r.probe, "sites": list(r.sites), "readings": r.n_values} for r in res.runs],
+        "reduced_models": res.reduced, "timings_s": {k: v for k, v in res.timings.items() if k != "reason"},
+        "thresholds": {"margin_vs_none_aicc": MARGIN_NONE, "margin_vs_runner_up_aicc": MARGIN_RUNNER_UP,
+                       "none_noise_factor": NONE_NOISE_FACTOR, "explain_noise_factor": EXPLAIN_NOISE_FACTOR,
+                       "explain_fraction": EXPLAIN_FRACTION, "sparse_noise_K": SPARSE_NOISE_K},
+    }
+
+
+def updated_model_toml(res: CorrelationResult) -> str:
+    """``updated_model.toml``: the fitted re-tune values and the named effect, as ``imutherm solve`` takes them."""
+    lines = ["# imutherm correlate: the model after correlation", f"# verdict = {res.verdict}",
+             f"# {res.words}", "", "[retune]"]
+    for k, _ in K.RETUNE:
+        if k.name in res.after.values:
+            lines.append(f"{k.name} = {res.after.values[k.name]:.6g}   # {K.RETUNE_SOURCES[k.name]}")
+    lines += ["", "[effects]"]
+    if res.named_effect:
+        e = effect_of(res.named_effect)
+        lines.append(f'"{res.named_effect}" = {{ {e.params[0].name} = {res.after.values[res.named_effect]:.6g} }}')
+        lines.append(f"# imutherm solve --effect {res.named_effect}:{e.params[0].name}="
+                     f"{res.after.values[res.named_effect]:.6g}")
+    return "\n".join(lines) + "\n"
