@@ -14,6 +14,7 @@ residuals, fingerprints), ``updated_model.toml`` (the fitted re-tune values and 
 from __future__ import annotations
 
 import argparse
+import os
 
 from imutherm import InputError
 from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
@@ -38,6 +39,8 @@ def main(argv=None) -> int:
     parser.add_argument("--no-rerun", action="store_true",
                         help="report the corrected model from the reduced model's fit only (default: re-run it on "
                              "the full FEM, one transient per file)")
+    parser.add_argument("--jobs", type=int, default=None, metavar="N",
+                        help="worker processes for the reduced models and the re-runs (default: 2, or 1 on one core)")
     parser.add_argument("--no-report", action="store_true", help="no correlation.pdf")
     parser.add_argument("--out", default=None, help="output directory")
     args = parser.parse_args(argv)
@@ -48,13 +51,16 @@ def main(argv=None) -> int:
         raise InputError("--measured: give at least one measured CSV file")
     if not args.out:
         raise InputError("--out: give the output directory")
+    jobs = min(2, os.cpu_count() or 1) if args.jobs is None else args.jobs
+    if jobs < 1:
+        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
     check_outdir(args.out)
     layout = load_layout(args.layout)
     sites = tuple(build_geometry(layout, None).sites)
     runs = [read_measured(p, sites=sites, schemes=tuple(layout.schemes)) for p in args.measured]
     from imutherm.studies.correlation import correlate, result_json, updated_model_toml
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                    rerun=not args.no_rerun, progress=lambda s: print(f"  {s}", flush=True))
+                    rerun=not args.no_rerun, jobs=jobs, progress=lambda s: print(f"  {s}", flush=True))
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "correlation.json", data)
