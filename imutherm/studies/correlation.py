@@ -394,7 +394,9 @@ def _build_one(layout: LayoutSpec, scheme: str, amb: float, mesh_size_mm: float,
     geo = build_geometry(lay, scheme)
     grid = build_mesh(geo, mesh_size_mm, min_cells)
     ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n) for n in K.model_effect_names() if K.applicable(n, geo)]
-    return geo, build_reduced(lambda v: K.variant(geo, options, v), grid, ks, dict(geo.sites))
+    names = {k.name for k in ks}
+    pairs = [p for p in K.COUPLED if set(p) <= names]
+    return geo, build_reduced(lambda v: K.variant(geo, options, v), grid, ks, dict(geo.sites), pairs=pairs)
 
 
 def build_models(keys, layout: LayoutSpec | str | None = None, *, mesh_size_mm: float = DEFAULT_MAX_CELL_MM,

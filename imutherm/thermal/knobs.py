@@ -36,6 +36,12 @@ RETUNE = (
 RETUNE_SOURCES = {k.name: src for k, src in RETUNE}
 RETUNE_NOMINAL = {"power_scale": 1.0, "convection_scale": 1.0}
 
+#: knob pairs whose changes of the operator do not add: both change the same conductances (a contact's
+#: series resistance 1/h + d/k includes the board's half-cell conductance), so the reduced model
+#: interpolates each pair jointly (found when a fit with a low board conductivity and a board-joint
+#: contact made the summed reduced operator indefinite)
+COUPLED = (("k_board_W_mK", "contact@board"), ("k_board_W_mK", "contact@standoff"))
+
 #: Chebyshev nodes of the knobs whose law is not linear in the parameter (contacts: series resistance)
 CONTACT_NODES = 6
 

@@ -119,6 +119,8 @@ class ReducedModel:
     b0 : (r,) nominal power [W], c0 : (r,) ambient coupling A 1 [W/K]
     part_b : dict component -> (r,) load of 1 W in its die
     knobs : dict name -> Knob; cheb : dict name -> ((N, r, r) ΔA, (N, r) Δc) Chebyshev coefficients
+    cheb2 : coupled pairs (two knobs changing the same conductances, e.g. the board's conductivity and
+        a contact on the board: their changes do not add), interpolated jointly on a tensor grid
     nominal_rise_K : (m,) steady site rises of the full nonlinear nominal model [K]
     basis_size : int, unknowns : int, build_s : float [s], solves : int
     """
@@ -140,27 +142,41 @@ class ReducedModel:
     M1: np.ndarray
     ambient_C: float = 0.0
     timings: dict = field(default_factory=dict)
+    #: (a, b) -> (N_a, N_b, r, r) ΔA and (N_a, N_b, r) Δc 2-D Chebyshev coefficients of coupled knob pairs
+    cheb2: dict = field(default_factory=dict)
 
     def operators(self, values: dict) -> tuple:
         """(A_r, c_r, b_r) with the knobs of ``values`` (name -> value [unit]); others nominal."""
         A, c, b = self.A0.copy(), self.c0.copy(), self.b0.copy()
         scale = 1.0
         extra = 0.0 * b
-        for name, v in values.items():
-            k = self.knobs.get(name)
-            if k is None:
+        for name in values:
+            if name not in self.knobs:
                 raise InputError(f"reduced model: unknown knob {name!r}; valid: {', '.join(self.knobs)}")
+        joint = set()
+        for (a, bb), (dA, dc) in self.cheb2.items():
+            if a in values and bb in values:
+                Ta, Tb = (self._cheb_row(k, values[k]) for k in (a, bb))
+                A += np.einsum("i,j,ijkl->kl", Ta, Tb, dA)
+                c += np.einsum("i,j,ijk->k", Ta, Tb, dc)
+                joint |= {a, bb}
+        for name, v in values.items():
+            k = self.knobs[name]
             if k.scale_power:
                 scale = v
             elif k.part is not None:
                 extra = extra + v * self.part_b[k.part]
-            else:
-                u = float(np.clip(k.to_u(v), -1.0, 1.0))
-                T = np.polynomial.chebyshev.chebvander(np.array([u]), k.nodes - 1)[0]
+            elif name not in joint:
+                T = self._cheb_row(name, v)
                 dA, dc = self.cheb[name]
                 A += np.tensordot(T, dA, axes=1)
                 c += T @ dc
         return A, c, scale * b + extra
+
+    def _cheb_row(self, name: str, v: float) -> np.ndarray:
+        k = self.knobs[name]
+        u = float(np.clip(k.to_u(v), -1.0, 1.0))
+        return np.polynomial.chebyshev.chebvander(np.array([u]), k.nodes - 1)[0]
 
     def rise(self, values: dict, times, drift_K_s: float = 0.0) -> np.ndarray:
         """Site rises [K] (len(times), m) after power-on at t = 0 (time inf: steady, no drift)."""
@@ -211,7 +227,7 @@ def _part_load(variant: ModelVariant, grid, component: str) -> np.ndarray:
     return volume_load(replace(pb, q=q))
 
 
-def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_ORDER,
+def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_ORDER, pairs=(),
                   progress=None) -> ReducedModel:
     """Build the :class:`ReducedModel` of a scheme.
 
@@ -220,6 +236,8 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
     grid : TensorGrid of the variants' geometry
     knobs : sequence of Knob
     sites : dict name -> point [m]
+    pairs : (a, b) knob names whose changes do not add (they change the same conductances): each pair
+        is interpolated jointly on the tensor grid of their Chebyshev nodes
     """
     t0 = time.perf_counter()
     timings = {}
@@ -265,6 +283,19 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
             x = _cg(Ak, b0, pc)
             solves += 1
             cols.append(x / (np.linalg.norm(x) or 1.0))
+    pair_ops = {}
+    by_name = {k.name: k for k in knobs}
+    for a, b in pairs:
+        ka, kb = by_name[a], by_name[b]
+        ua = -np.cos(np.pi * np.arange(ka.nodes) / (ka.nodes - 1))
+        ub = -np.cos(np.pi * np.arange(kb.nodes) / (kb.nodes - 1))
+        grid_mats = [[linearised(assemble(effect_problem(variant_fn({a: float(ka.from_u(x)), b: float(kb.from_u(y))}),
+                                                         grid)), st.T_C)[0] for y in ub] for x in ua]
+        pair_ops[(a, b)] = (ua, ub, grid_mats)
+        for Ak in (grid_mats[0][0], grid_mats[0][-1], grid_mats[-1][0], grid_mats[-1][-1]):  # corners
+            x = _cg(Ak, b0, pc)
+            solves += 1
+            cols.append(x / (np.linalg.norm(x) or 1.0))
     timings["parametric_s"] = time.perf_counter() - t1
     X = np.column_stack(cols)
     U, s, _ = np.linalg.svd(X, full_matrices=False)
@@ -283,13 +314,20 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
         coef = np.linalg.solve(van, dA.reshape(len(us), -1)).reshape(dA.shape)
         coefc = np.linalg.solve(van, dc)
         cheb[name] = (coef, coefc)
+    cheb2 = {}
+    for (a, b), (ua, ub, grid_mats) in pair_ops.items():
+        dA = np.stack([np.stack([V.T @ (Ak @ V) - A0r for Ak in row]) for row in grid_mats])
+        dc = np.stack([np.stack([V.T @ (Ak @ one) - c0 for Ak in row]) for row in grid_mats])
+        Va = np.linalg.inv(np.polynomial.chebyshev.chebvander(ua, len(ua) - 1))
+        Vb = np.linalg.inv(np.polynomial.chebyshev.chebvander(ub, len(ub) - 1))
+        cheb2[(a, b)] = (np.einsum("ia,jb,abkl->ijkl", Va, Vb, dA), np.einsum("ia,jb,abk->ijk", Va, Vb, dc))
     names = tuple(sites)
     P = probe_matrix(grid, np.array([sites[n] for n in names]))
     part_b = {p: V.T @ Bi for p, Bi in zip(parts, B)}
     rom = ReducedModel(names, np.asarray(P @ V), V.T @ (M @ V), A0r, V.T @ b0, c0, part_b,
                        {k.name: k for k in knobs}, cheb, np.asarray(st.probe_C) - pb.ambient_C,
                        V.shape[1], A0.shape[0], time.perf_counter() - t0, solves, V.T @ (M @ one), pb.ambient_C,
-                       timings)
+                       timings, cheb2)
     return rom
 
 
