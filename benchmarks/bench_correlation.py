@@ -44,6 +44,7 @@ def _seed(base: int, hidden: str, c: int) -> int:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cases", type=int, default=3, help="cases per hidden effect (and null, out-of-library)")
+    ap.add_argument("--first-case", type=int, default=0, help="index of the first case (to add cases to a campaign)")
     ap.add_argument("--effects", nargs="*", default=list(DEFAULT_EFFECTS))
     ap.add_argument("--kinds", nargs="*", default=None,
                     help="run only these hidden kinds (effects, none, lid_heat_load): to split a campaign")
@@ -67,10 +68,11 @@ def main(argv=None) -> int:
     # the inversion's reduced models depend only on the layout, mesh and experiments: built once, reused
     models = build_models(experiments, mesh_size_mm=args.mesh_size, min_cells=args.min_cells, progress=print)
     print(f"reduced models built in {time.perf_counter() - t0:.0f} s", flush=True)
-    rows_path = out / ("campaign_rows.json" if args.kinds is None else f"campaign_rows_{'_'.join(kinds)}.json")
+    tag = "" if args.kinds is None and not args.first_case else f"_{'_'.join(kinds)}_from{args.first_case}"
+    rows_path = out / f"campaign_rows{tag}.json"
     rows = []
     for hidden in kinds:
-        for c in range(args.cases):
+        for c in range(args.first_case, args.first_case + args.cases):
             seed = _seed(args.seed, hidden, c)
             d = out / f"{hidden.replace('@', '_')}_{c}"
             t0 = time.perf_counter()
@@ -98,7 +100,7 @@ def main(argv=None) -> int:
                   f"{called:<20} ({time.perf_counter() - t0:.0f} s)", flush=True)
             write_json(rows_path, rows)
     summary = summarise(rows, args.effects)
-    write_json(out / ("campaign.json" if args.kinds is None else f"campaign_{'_'.join(kinds)}.json"),
+    write_json(out / f"campaign{tag}.json",
                {"rows": rows, "summary": summary, "args": vars(args)})
     print(json.dumps(summary, indent=1))
     return 0

@@ -76,3 +76,21 @@ def test_closed_form_step_response_of_one_mode():
     y = rom.rise({}, [50.0], drift_K_s=r)[0, 0] - 2 * (1 - np.exp(-50.0 / tau))
     assert y == pytest.approx(r * c / a * (50.0 - tau * (1 - np.exp(-50.0 / tau))), rel=1e-12)
     assert rom.lag_s({})[0] == pytest.approx(tau)
+
+
+@pytest.mark.slow
+def test_coupled_knobs_are_interpolated_jointly():
+    """The board's conductivity and a contact on the board change the same conductances, so their changes do
+    not add: summed, a low conductivity with a board-joint contact made the reduced operator indefinite
+    (a 4e10 K rise at 2 mm). Interpolated jointly, the steady rises match the full model within 0.5 %."""
+    g = build_geometry(load_layout(None), "air")
+    grid = build_mesh(g, **MESH)
+    knobs = [k for k, _ in K.RETUNE] + [K.effect_knob(n) for n in ("contact@board", "contact@standoff")]
+    rom = build_reduced(lambda v: K.variant(g, ModelOptions(), v), grid, knobs, dict(g.sites), pairs=K.COUPLED)
+    for values in ({"k_board_W_mK": 12.0, "contact@board": 100.0}, {"k_board_W_mK": 17.28, "contact@board": 3614.0},
+                   {"k_board_W_mK": 30.0, "contact@board": 300.0}, {"k_board_W_mK": 11.0, "contact@standoff": 50.0},
+                   {"power_scale": 0.85, "mount_h_W_m2K": 1529.0, "k_board_W_mK": 15.0, "contact@board": 3614.0}):
+        pb = effect_problem(K.variant(g, ModelOptions(), values), grid)
+        full = solve_steady(pb, probes=dict(g.sites)).probe_C - pb.ambient_C
+        red = rom.rise(values, [np.inf])[0]
+        np.testing.assert_allclose(red, full, rtol=0, atol=0.005 * full.max(), err_msg=str(values))

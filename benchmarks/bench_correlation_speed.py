@@ -1,0 +1,65 @@
+"""Benchmark of ``imutherm correlate``: three measured files at the default mesh, end to end (target <= 5 min).
+
+The three files are made once (kept in ``--data``) by the hidden-effect generator: air, grease and potted
+at 70 degC, a poor board-joint contact hidden (h = 300 W/m^2 K), ±10 % nuisance, 0.05 K noise, six sites,
+40 readings over 1500 s, from the full model at the default mesh (this benchmark times the workflow; the
+campaign, ``bench_correlation.py``, measures its accuracy on data from a finer mesh). Then the command is
+run as a user would, through the CLI with ``--jobs 2``: three reduced models, the re-tune, 15 candidates,
+the hold-out fits, the full-model re-run of the corrected model (three transients) and the PDF. Reports
+the wall time, the time of each stage, the CPU seconds of all processes (the load-independent cost), the
+peak memory and the load average before and after (the machine may be shared).
+
+    python benchmarks/bench_correlation_speed.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--jobs", type=int, default=2)
+    p.add_argument("--data", default=str(Path(tempfile.gettempdir()) / "imutherm_bench_correlation_data"))
+    p.add_argument("--out", default=None)
+    args = p.parse_args()
+    from imutherm.cli import main as cli
+    from imutherm.studies.hidden_effect import make_case
+
+    data = Path(args.data)
+    files = sorted(data.glob("*.csv"))
+    if len(files) != 3:
+        t0 = time.perf_counter()
+        case = make_case(data, "contact@board", np.random.default_rng(2026), value=300.0,
+                         experiments=(("air", 70.0), ("grease", 70.0), ("potted", 70.0)), mesh_size_mm=2.0)
+        files = [Path(f) for f in case.files]
+        print(f"generated {len(files)} files in {time.perf_counter() - t0:.0f} s (kept in {data})", flush=True)
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_corr_")) / "corr"
+    load0 = os.getloadavg()[0]
+    cpu0 = sum(resource.getrusage(w).ru_utime + resource.getrusage(w).ru_stime
+               for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    t0 = time.perf_counter()
+    rc = cli(["correlate", "--measured", *map(str, files), "--jobs", str(args.jobs), "--out", str(out)])
+    wall = time.perf_counter() - t0
+    cpu = sum(resource.getrusage(w).ru_utime + resource.getrusage(w).ru_stime
+              for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)) - cpu0
+    peak = max(resource.getrusage(w).ru_maxrss for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)) / 1024
+    j = json.loads((out / "correlation.json").read_text())
+    print(json.dumps({"exit": rc, "wall_s": round(wall, 1), "target_s": 300, "cpu_s": round(cpu, 1),
+                      "peak_rss_MB_one_process": round(peak), "load_before": load0, "load_after": os.getloadavg()[0],
+                      "stages_s": j["timings_s"], "verdict": j["verdict"], "named_effect": j["named_effect"],
+                      "rms_before_K": j["rms_before_K"], "rms_after_K": j["rms_after_K"]}, indent=1))
+    return 0 if rc == 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
