@@ -285,17 +285,19 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
             cols.append(x / (np.linalg.norm(x) or 1.0))
     pair_ops = {}
     by_name = {k.name: k for k in knobs}
+
+    def pair_matrix(a, b, x, y):
+        v = {a: float(by_name[a].from_u(x)), b: float(by_name[b].from_u(y))}
+        return linearised(assemble(effect_problem(variant_fn(v), grid)), st.T_C)[0]
+
     for a, b in pairs:
-        ka, kb = by_name[a], by_name[b]
-        ua = -np.cos(np.pi * np.arange(ka.nodes) / (ka.nodes - 1))
-        ub = -np.cos(np.pi * np.arange(kb.nodes) / (kb.nodes - 1))
-        grid_mats = [[linearised(assemble(effect_problem(variant_fn({a: float(ka.from_u(x)), b: float(kb.from_u(y))}),
-                                                         grid)), st.T_C)[0] for y in ub] for x in ua]
-        pair_ops[(a, b)] = (ua, ub, grid_mats)
-        for Ak in (grid_mats[0][0], grid_mats[0][-1], grid_mats[-1][0], grid_mats[-1][-1]):  # corners
-            x = _cg(Ak, b0, pc)
+        ua = -np.cos(np.pi * np.arange(by_name[a].nodes) / (by_name[a].nodes - 1))
+        ub = -np.cos(np.pi * np.arange(by_name[b].nodes) / (by_name[b].nodes - 1))
+        pair_ops[(a, b)] = (ua, ub)
+        for x, y in ((-1, -1), (-1, 1), (1, -1), (1, 1)):  # the corners' steady solutions join the basis
+            xs = _cg(pair_matrix(a, b, x, y), b0, pc)
             solves += 1
-            cols.append(x / (np.linalg.norm(x) or 1.0))
+            cols.append(xs / (np.linalg.norm(xs) or 1.0))
     timings["parametric_s"] = time.perf_counter() - t1
     X = np.column_stack(cols)
     U, s, _ = np.linalg.svd(X, full_matrices=False)
@@ -315,9 +317,13 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
         coefc = np.linalg.solve(van, dc)
         cheb[name] = (coef, coefc)
     cheb2 = {}
-    for (a, b), (ua, ub, grid_mats) in pair_ops.items():
-        dA = np.stack([np.stack([V.T @ (Ak @ V) - A0r for Ak in row]) for row in grid_mats])
-        dc = np.stack([np.stack([V.T @ (Ak @ one) - c0 for Ak in row]) for row in grid_mats])
+    for (a, b), (ua, ub) in pair_ops.items():  # assembled now and projected at once: not kept in memory
+        dA = np.empty((len(ua), len(ub)) + A0r.shape)
+        dc = np.empty((len(ua), len(ub), len(c0)))
+        for i, x in enumerate(ua):
+            for j, y in enumerate(ub):
+                Ak = pair_matrix(a, b, x, y)
+                dA[i, j], dc[i, j] = V.T @ (Ak @ V) - A0r, V.T @ (Ak @ one) - c0
         Va = np.linalg.inv(np.polynomial.chebyshev.chebvander(ua, len(ua) - 1))
         Vb = np.linalg.inv(np.polynomial.chebyshev.chebvander(ub, len(ub) - 1))
         cheb2[(a, b)] = (np.einsum("ia,jb,abkl->ijkl", Va, Vb, dA), np.einsum("ia,jb,abk->ijk", Va, Vb, dc))
