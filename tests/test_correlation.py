@@ -38,7 +38,7 @@ def test_verdict_rules():
     # nothing clears the margin over none
     assert verdict(none, [_fit("a", -4, 0.9)], 0.05)[0] == "not_in_library"
     # a large ΔAICc from a change far below the noise (hundreds of readings fitting the model's own
-    # discretisation error) is not an effect: sqrt(0.08^2 - 0.075^2) = 0.028 K < 2 x 0.05 K
+    # discretisation error) is not an effect: sqrt(0.08^2 - 0.075^2) = 0.028 K < 1 x 0.05 K
     assert verdict(_fit("none", 0.0, 0.09, rms=0.08), [_fit("a", -30, 0.08, rms=0.075)], 0.05)[0] == "none"
     # sparse data (no AICc): by held-out RMS, a candidate must halve it
     nan = float("nan")
