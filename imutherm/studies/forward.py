@@ -15,7 +15,7 @@ from imutherm.thermal.reduced import lag_field, linearised
 from imutherm.thermal.solve import probe_matrix, solve_steady, solve_transient
 
 
-def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=()) -> np.ndarray:
+def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol: float | None = None) -> np.ndarray:
     """Site rises [K] (len(times), len(probes)) over the ambient after power-on at t = 0.
 
     variant : the model (:func:`imutherm.thermal.knobs.variant`), grid : its mesh
@@ -23,7 +23,8 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=()) -> np
     signal : ``signal`` effect settings (probe lag, ambient drift) applied to the readings
 
     Steady: the nonlinear steady solve; transient: adaptive TR-BDF2 with error control on the probes
-    (the library default tolerance) to the last finite time.
+    (the library default tolerance) to the last finite time; ``rtol``: the CG tolerance of its stage
+    solves (default: the library's).
     """
     t = np.asarray(times, float)
     fin = np.isfinite(t)
@@ -37,7 +38,9 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=()) -> np
     if not fin.any():
         return out
     t_end = float(t[fin].max())
-    tr = solve_transient(pb, max(t_end, 1.0), scheme="trbdf2", probes=probes, assembly=asm, error_control="probes")
+    kw = {} if rtol is None else {"rtol": rtol}
+    tr = solve_transient(pb, max(t_end, 1.0), scheme="trbdf2", probes=probes, assembly=asm, error_control="probes",
+                         **kw)
     fine = np.union1d(np.asarray(tr.times), t[fin])
     rf = np.column_stack([np.interp(fine, tr.times, tr.probe_C[:, j] - amb) for j in range(m)])
     if signal:
