@@ -52,6 +52,8 @@ def main(argv=None) -> int:
     ap.add_argument("--min-cells", type=int, default=1, help="inversion: cells across the thinnest part")
     ap.add_argument("--gen-mesh-size", type=float, default=2.0, help="generator mesh [mm] (finer)")
     ap.add_argument("--gen-min-cells", type=int, default=1, help="generator: cells across the thinnest part")
+    ap.add_argument("--no-generate", action="store_true",
+                    help="re-invert the cases already generated in --out, skip the others")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
@@ -77,6 +79,8 @@ def main(argv=None) -> int:
             d = out / f"{hidden.replace('@', '_')}_{c}"
             t0 = time.perf_counter()
             meta = d / "case.json"
+            if not meta.exists() and args.no_generate:
+                continue
             if meta.exists():  # generated before: re-invert only
                 m = json.loads(meta.read_text())
                 case = HiddenCase(m["hidden"], m["value"], m["nuisance"], tuple(m["files"]), m["seed"])

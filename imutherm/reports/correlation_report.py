@@ -29,7 +29,8 @@ def _summary_page(pdf, res):
     if res.ambiguous_set:
         head += f" — one of {', '.join(res.ambiguous_set)}"
     fig.text(0.05, 0.94, head, fontsize=15, weight="bold")
-    body = [res.words, res.timings.get("reason", ""),
+    reason = res.timings.get("reason", "")
+    body = [res.words] + ([reason] if reason != res.words else []) + [
             f"RMS {_fmt(res.before['rms_K'])} before -> {_fmt(res.after.rms_K)} after; "
             f"max {_fmt(res.before['max_K'])} -> {_fmt(res.after.max_K)} (reduced model); "
             + (f"the corrected model re-run on the full FEM: RMS {_fmt(res.full['rms_K'])}, max {_fmt(res.full['max_K'])}; "
