@@ -370,7 +370,7 @@ def case_radiation_1d() -> VerificationRecord:
     TL = r.probe_C[0] + ZERO_C_K
     exact = brentq(lambda T: k * (T0 - T) / L - eps * SIGMA * (T ** 4 - Ts ** 4), Ts, T0, xtol=1e-13)
     return _record("radiation_1d", "T at the radiating end [K]", TL, exact, abs(TL - exact), 1e-6,
-                   f"Linear exact field: Q1 exact, Newton to tol 1e-8 ({r.iterations} iterations); "
+                   f"Linear exact field: Q1 exact, Newton to tol 1e-8 ({r.newton_iterations} iterations); "
                    f"published 927 K, |T − 927| = {abs(TL - 927):.2f} K (σ = {SIGMA}).", t0)
 
 
@@ -640,7 +640,7 @@ def case_natural_convection_1d() -> VerificationRecord:
                        xtol=1e-13)
         err = max(err, abs(Ts - exact))
         flux_err = max(flux_err, abs(r.heat_out_W["xmax"] / area - q_out(exact)) / abs(q_out(exact)))
-        iters.append(r.iterations)
+        iters.append(r.newton_iterations)
         if name == "b":
             Ts_b = (Ts, exact)
     return _record("natural_convection_1d", "end temperature Ts of (b) [°C]; error = max over (a), (b), (c) of "
