@@ -160,7 +160,8 @@ def test_notes_state_the_figures_of_this_run():
 
 
 #: notation that carries digits but states no figure (element names, dimensions, powers, exponents)
-_NOTATION = (r"Q1", r"\bL2\b", r"TR-BDF2", r"\b[123]-D\b", r"\^\(?[0-9/]+\)?", r"\(5/4\)", r"O\(1\)", r"m\^2K", r"\bt63\b", r"\bt95\b",
+_NOTATION = (r"Q1", r"\bL2\b", r"TR-BDF2", r"\b[123]-D\b", r"\^\(?[0-9/]+\)?", r"\(5/4\)", r"O\(1\)", r"m\^2K",
+             r"\bt63\b", r"\bt95\b",
              r"\(dt/τ\)", r"dt/\(2eτ\)", r"\(dt/2τ\)")
 
 

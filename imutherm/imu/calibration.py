@@ -259,7 +259,8 @@ class CalibrationRecord:
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - known)
         if unknown:
-            raise InputError(f"calibration: meta: unknown field(s) {', '.join(unknown)}; valid: {', '.join(sorted(known))}")
+            raise InputError(f"calibration: meta: unknown field(s) {', '.join(unknown)}; "
+                             f"valid: {', '.join(sorted(known))}")
         try:
             rig_d = d["rig"]
             if not isinstance(rig_d, dict):

@@ -18,6 +18,6 @@ __all__ = [
     "Assembly", "assemble", "ThermalMetrics", "settle_time", "thermal_metrics", "write_pvd", "write_result",
     "write_vtu", "SIGMA", "Contact", "Convection", "FixedTemperature", "HeatFlux", "NaturalConvection",
     "Radiation", "ThermalProblem", "contact_layer_conductivity", "fields_from_parts", "natural_convection_h",
-    "natural_convection_C", "radiation_flux", "ConvergenceError", "ThermalResult", "SteadyResult", "TransientResult", "probe_matrix",
-    "solve_steady", "solve_transient", "time_steps",
+    "natural_convection_C", "radiation_flux", "ConvergenceError", "ThermalResult", "SteadyResult", "TransientResult",
+    "probe_matrix", "solve_steady", "solve_transient", "time_steps",
 ]
