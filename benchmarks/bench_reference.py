@@ -46,7 +46,8 @@ def one_scheme(scheme: str, mesh_mm: float, min_cells: int, transient: bool, ccx
     t_steady = time.perf_counter() - t0
     m = thermal_metrics(st)
     out = {"scheme": scheme, "mesh_mm": mesh_mm, "min_cells": min_cells, "unknowns": st.unknowns,
-           "mesh_and_model_s": t_model, "assembly_s": t_asm, "steady_s": t_steady, "newton_iterations": st.iterations,
+           "mesh_and_model_s": t_model, "assembly_s": t_asm, "steady_s": t_steady,
+           "newton_iterations": st.newton_iterations,
            "max_rise_K": m.max_rise_K, "hottest_part": m.max_part,
            "steady_energy_balance": st.energy_balance_rel_error}
     if transient:

@@ -74,8 +74,9 @@ def run(g, k, rc, q, label):
     rt = solve_transient(pr, 600.0, 60.0, assembly=asm)
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"{label:<22} unknowns {r.unknowns:>8d}  assembly {ta:6.2f} s  steady {r.solve_s:6.2f} s "
-          f"({r.iterations} Newton, {r.linear_iterations} CG, {r.solver})  transient 10 steps {rt.solve_s:6.2f} s "
-          f"({rt.iterations} CG)  max rise {r.T_C.max() - 25:6.2f} K  ebal {r.energy_balance_rel_error:.1e}  "
+          f"({r.newton_iterations} Newton, {r.linear_iterations} CG, {r.solver})  "
+          f"transient 10 steps {rt.solve_s:6.2f} s "
+          f"({rt.linear_iterations} CG)  max rise {r.T_C.max() - 25:6.2f} K  ebal {r.energy_balance_rel_error:.1e}  "
           f"peak RSS {rss:6.0f} MB")
 
 

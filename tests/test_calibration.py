@@ -51,11 +51,11 @@ def test_room_fit_recovers_K_and_bias_within_noise():
     dwell, fs = 1.0, unit.grade.sample_rate_hz
     cal = calibrate_unit(unit, np.random.default_rng(4), dwell_s=dwell, settle_s=0.0)
     m = dwell * fs
-    R_table = Rotation.from_rotvec(np.radians(cal.meta["table_mount_rotvec_deg"])).as_matrix()
+    R_table = Rotation.from_rotvec(np.radians(cal.meta.table_mount_rotvec_deg)).as_matrix()
     from imutherm.imu.calibration import _gyro_runs
 
     designs = {"accel": G0 * accel_positions_18(),
-               "gyro": _gyro_runs(cal.meta["rig"]["room_rates_dps"])[0]}
+               "gyro": _gyro_runs(cal.meta.rig.room_rates_dps)[0]}
     for name, E in designs.items():
         spec, truth, fit = getattr(unit.grade, name), getattr(unit, name), getattr(cal, name)
         A = np.hstack([E, np.ones((len(E), 1))])
@@ -75,7 +75,7 @@ def test_noise_free_conventional_absorbs_oven_mounting_improved_cancels_it():
     unit = _linear_unit(seed=5, quiet=False)
     cal = calibrate_unit(unit, np.random.default_rng(6), noise=False, dwell_s=0.2, settle_s=0.0, oven_mount_deg=1.0,
                          table_mount_deg=0.0)  # a perfect step-1 fixture: the fits do not know it (issue 12)
-    R = Rotation.from_rotvec(np.radians(cal.meta["oven_mount_rotvec_deg"])).as_matrix()
+    R = Rotation.from_rotvec(np.radians(cal.meta.oven_mount_rotvec_deg)).as_matrix()
     assert np.degrees(np.linalg.norm(Rotation.from_matrix(R).as_rotvec())) == pytest.approx(1.0)
     centres = 0.5 * (cal.segment_edges_C[:-1] + cal.segment_edges_C[1:])
     for k in (0, 9, 21):
@@ -253,6 +253,21 @@ def test_calibration_json_round_trip(tmp_path, ideal_cal):
     bad.write_text(json.dumps({"grade": "adis16355"}))
     with pytest.raises(InputError, match="missing field 'segment_edges_C'"):
         Calibration.load_json(bad)
+    # the record of how it was made survives the round trip as a dataclass (rig settings, drawn mountings)
+    assert back.meta == cal.meta and back.meta.rig.dwell_s == 0.3 and len(back.meta.oven_mount_rotvec_deg) == 3
+    with pytest.raises(TypeError, match="use meta.rig"):
+        cal.meta["rig"]
+    d = cal.to_dict()
+    d["meta"]["oven_mount_deg"] = 1.0
+    with pytest.raises(InputError, match="meta: unknown field.*oven_mount_deg"):
+        Calibration.from_dict(d)
+    d = cal.to_dict()
+    d["meta"]["rig"]["dwell_s"] = -1.0
+    with pytest.raises(InputError, match="rig.dwell_s"):
+        Calibration.from_dict(d)
+    d = cal.to_dict()
+    del d["meta"]
+    assert Calibration.from_dict(d).meta is None
 
 
 def test_cli_calibrate_writes_json_and_plot_and_reproduces_pattern(tmp_path):

@@ -157,3 +157,68 @@ def test_notes_state_the_figures_of_this_run():
     assert f"error {t3.error:.4f} K" in t3.note
     assert f"give {t4.computed:.4f} °C" in t4.note and "18.214" not in t4.note
     assert f"Observed {semi.error:.1e}" in semi.note
+
+
+#: notation that carries digits but states no figure (element names, dimensions, powers, exponents)
+_NOTATION = (r"Q1", r"\bL2\b", r"TR-BDF2", r"\b[123]-D\b", r"\^\(?[0-9/]+\)?", r"\(5/4\)", r"O\(1\)", r"m\^2K",
+             r"\bt63\b", r"\bt95\b",
+             r"\(dt/τ\)", r"dt/\(2eτ\)", r"\(dt/2τ\)")
+
+
+def _note_literals():
+    """(case function, literal text) of every note written in verification.py: the parts of the note
+    arguments that are not formatted from a value at run time."""
+    import ast
+    import inspect
+
+    tree = ast.parse(inspect.getsource(V))
+    out = []
+    for fn in ast.walk(tree):
+        if not isinstance(fn, ast.FunctionDef):
+            continue
+        for call in ast.walk(fn):
+            if not (isinstance(call, ast.Call) and getattr(call.func, "id", None) in ("_record", "VerificationRecord")):
+                continue
+            note = call.args[6] if len(call.args) > 6 else next(k.value for k in call.keywords if k.arg == "note")
+            out += [(fn.name, text) for text in _literal_parts(note)]
+    return out
+
+
+def _literal_parts(node):
+    """The string constants of an expression, f-strings' format specs (``.3f``) left out."""
+    import ast
+
+    if isinstance(node, ast.Constant):
+        return [node.value] if isinstance(node.value, str) else []
+    if isinstance(node, ast.FormattedValue):
+        return _literal_parts(node.value)
+    return [t for child in ast.iter_child_nodes(node) for t in _literal_parts(child)]
+
+
+def test_no_note_types_in_a_figure():
+    """Issue 13 §4: every figure in a note is formatted from the run (computed, or an input the case used),
+    so verify.json cannot carry a stale one. Checked on the source: the literal text of every note holds no
+    digit but notation."""
+    import re
+
+    lits = _note_literals()
+    assert {f for f, _ in lits} >= {f.__name__ for f in V.CASES.values()} | {"run_case"}
+    bad = []
+    for fn, text in lits:
+        stripped = text
+        for pat in _NOTATION:
+            stripped = re.sub(pat, "", stripped)
+        if re.search(r"\d", stripped):
+            bad.append((fn, text))
+    assert not bad, f"figures typed into notes: {bad}"
+
+
+def test_the_note_check_catches_a_typed_figure():
+    """The check above is not vacuous: the phrases it exists for are caught."""
+    import re
+
+    for phrase in ("gives 18.214, 18.244, 18.251", "error 0.0075 K", "~30 % for"):
+        stripped = phrase
+        for pat in _NOTATION:
+            stripped = re.sub(pat, "", stripped)
+        assert re.search(r"\d", stripped), phrase

@@ -347,13 +347,53 @@ def load_layout(path: str | Path | None = None) -> LayoutSpec:
 
 
 def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
-    """Check a layout already read into a dict (see :func:`load_layout`)."""
+    """Check a layout already read into a dict (see :func:`load_layout`); one parser per table, in file order."""
     mats = load_library()
     top = _Table(path, "layout", data, _TOP)
+    ambient = _parse_environment(path, top)
+    housing = _parse_housing(path, top, mats)
+    mounting = _parse_mounting(path, top, ambient)
+    names = _Names(path)
+    boards = _parse_boards(path, top, mats, names)
+    parts = _parse_parts(path, top, mats, names)
+    components = _parse_components(path, top, mats, names, boards)
+    sites = _parse_sites(path, top, names, boards)
+    schemes = _parse_schemes(path, top, mats, components)
+    default = top.string("default_scheme", next(iter(schemes)))
+    if default not in schemes:
+        top.fail("default_scheme", f"unknown scheme {default!r}; valid: {', '.join(schemes)}")
+    return LayoutSpec(top.string("name", Path(path).stem), path, top.string("description", ""), default,
+                      ambient, housing, mounting, tuple(boards), tuple(parts), tuple(components),
+                      tuple(sites), schemes)
 
+
+class _Names:
+    """The one namespace of boards, parts and components (and their derived ``_die``/``_pad``/``_vias``)."""
+
+    def __init__(self, path: str):
+        self.path = path
+        self.where = {r: "the housing (reserved name)" for r in ("housing", "lid", "fill")}
+
+    def claim(self, name, where):
+        if name in self.where:
+            raise InputError(f"{self.path}: {where}: duplicate name {name!r} (also used by {self.where[name]})")
+        self.where[name] = where
+
+    def __contains__(self, name):
+        return name in self.where
+
+    def __iter__(self):
+        return iter(self.where)
+
+
+def _parse_environment(path, top) -> float:
+    """``[environment]``: the ambient temperature [°C]."""
     env = _Table(path, "[environment]", top.get("environment"), {"ambient_C": "degC"})
-    ambient = env.number("ambient_C", bounds=TEMPERATURE_BOUNDS)
+    return env.number("ambient_C", bounds=TEMPERATURE_BOUNDS)
 
+
+def _parse_housing(path, top, mats) -> HousingSpec:
+    """``[housing]``: outer size, wall/base/lid thicknesses [mm] and material; they must leave a cavity."""
     h = _Table(path, "[housing]", top.get("housing"),
                {"outer_mm": "3 lengths", "wall_mm": "mm", "base_mm": "mm", "lid_mm": "mm", "material": "name"})
     housing = HousingSpec(h.vector("outer_mm", 3, positive=True), h.number("wall_mm", positive=True, bounds=SIZE_BOUNDS),
@@ -363,27 +403,24 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     ox, oy, oz = housing.outer_mm
     if 2 * housing.wall_mm >= min(ox, oy) or housing.base_mm + housing.lid_mm >= oz:
         h.fail("wall_mm", "walls, base and lid leave no cavity inside outer_mm")
+    return housing
 
+
+def _parse_mounting(path, top, ambient) -> MountingSpec:
+    """``[mounting]``: fixture (contact conductance, temperature; default the ambient) or free."""
     m = _Table(path, "[mounting]", top.get("mounting"),
                {"kind": "fixture|free", "face": "bottom|top", "contact_conductance_W_m2K": "W/m^2 K",
                 "temperature_C": "degC"})
     kind = m.string("kind", choices=("fixture", "free"))
-    mounting = MountingSpec(kind, m.string("face", "bottom", choices=("bottom", "top")),
-                            m.number("contact_conductance_W_m2K", 0.0 if kind == "free" else ...,
-                                     positive=kind == "fixture", nonneg=True,
-                                     bounds=(0.0, MAX_CONDUCTANCE_W_M2K, "W/m^2 K")),
-                            m.number("temperature_C", ambient, bounds=TEMPERATURE_BOUNDS))
+    return MountingSpec(kind, m.string("face", "bottom", choices=("bottom", "top")),
+                        m.number("contact_conductance_W_m2K", 0.0 if kind == "free" else ...,
+                                 positive=kind == "fixture", nonneg=True,
+                                 bounds=(0.0, MAX_CONDUCTANCE_W_M2K, "W/m^2 K")),
+                        m.number("temperature_C", ambient, bounds=TEMPERATURE_BOUNDS))
 
-    names: dict = {}
 
-    def claim(name, where):
-        if name in names:
-            raise InputError(f"{path}: {where}: duplicate name {name!r} (also used by {names[name]})")
-        names[name] = where
-
-    for reserved in ("housing", "lid", "fill"):
-        names[reserved] = "the housing (reserved name)"
-
+def _parse_boards(path, top, mats, names: _Names) -> list:
+    """``[[boards]]``: name, normal axis, corner and size [mm] (thinnest along the normal), material."""
     boards = []
     for i, t in enumerate(_table_array(top, "boards")):
         b = _Table(path, f"boards[{i}]", t, {"name": "str", "normal": "x|y|z", "min_mm": "3 numbers",
@@ -394,10 +431,13 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         b.where = f"board {quote(spec.name, 60)}"
         if spec.size_mm[AXES.index(spec.normal)] != min(spec.size_mm):
             b.fail("size_mm", f"the size along the normal {spec.normal!r} must be the board thickness (smallest size)")
-        claim(spec.name, b.where)
+        names.claim(spec.name, b.where)
         boards.append(spec)
-    board_by_name = {b.name: b for b in boards}
+    return boards
 
+
+def _parse_parts(path, top, mats, names: _Names) -> list:
+    """``[[parts]]``: free boxes (name, corner and size [mm], material, power [W], optional board contact)."""
     parts = []
     for i, t in enumerate(_table_array(top, "parts")):
         p = _Table(path, f"parts[{i}]", t, {"name": "str", "min_mm": "3 numbers", "size_mm": "3 sizes",
@@ -406,9 +446,14 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         spec = BoxSpec(p.string("name"), p.vector("min_mm", 3), p.vector("size_mm", 3, positive=True),
                        p.material("material", mats), p.number("power_W", 0.0, nonneg=True, bounds=POWER_BOUNDS),
                        p.number("board_contact_W_m2K", None, positive=True))
-        claim(spec.name, f"part {quote(spec.name, 60)}")
+        names.claim(spec.name, f"part {quote(spec.name, 60)}")
         parts.append(spec)
+    return parts
 
+
+def _parse_components(path, top, mats, names: _Names, boards) -> list:
+    """``[[components]]``: packages on a board side, with optional die, exposed pad and via field."""
+    board_by_name = {b.name: b for b in boards}
     components = []
     for i, t in enumerate(_table_array(top, "components")):
         c = _Table(path, f"components[{i}]", t,
@@ -446,12 +491,16 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
                              (pad_mm or (die[:2] if pad else None)), vias,
                              c.number("power_W", nonneg=True, bounds=POWER_BOUNDS),
                              c.string("axis", None, choices=AXES))
-        claim(name, c.where)
+        names.claim(name, c.where)
         for sub in ("_die", "_pad", "_vias"):
-            claim(name + sub, c.where)
+            names.claim(name + sub, c.where)
         components.append(spec)
-    comp_by_name = {c.name: c for c in components}
+    return components
 
+
+def _parse_sites(path, top, names: _Names, boards) -> list:
+    """``[sites]``: each a part's centroid (``part``) or a point on a board face (``board``, ``side``, ``at_mm``)."""
+    board_by_name = {b.name: b for b in boards}
     sites = []
     for name, t in _named_tables(top, "sites", "[sites] with name = { ... } lines").items():
         s = _Table(path, f"site {quote(name, 60)}", t, {"part": "part name", "board": "board name",
@@ -473,7 +522,12 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
                 s.fail("board", f"unknown board {board!r}; valid: {', '.join(board_by_name)}")
             sites.append(SiteSpec(name, board=board, side=s.string("side", "top", choices=("top", "bottom")),
                                   at_mm=s.vector("at_mm", 2)))
+    return sites
 
+
+def _parse_schemes(path, top, mats, components) -> dict:
+    """``[schemes.<name>]``: fill material, components moved to the back, bond material and gap; at least one."""
+    comp_by_name = {c.name: c for c in components}
     schemes = {}
     for name, t in _named_tables(top, "schemes", "[schemes.<name>] tables").items():
         s = _Table(path, f"scheme {quote(name, 60)}", t, {"description": "text", "fill": "material",
@@ -494,10 +548,4 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
                                    s.number("max_bond_gap_mm", 2.0, positive=True, bounds=SIZE_BOUNDS))
     if not schemes:
         top.fail("schemes", f"at least one scheme is required; valid names: {', '.join(SCHEME_NAMES)}")
-    default = top.string("default_scheme", next(iter(schemes)))
-    if default not in schemes:
-        top.fail("default_scheme", f"unknown scheme {default!r}; valid: {', '.join(schemes)}")
-
-    return LayoutSpec(top.string("name", Path(path).stem), path, top.string("description", ""), default,
-                      ambient, housing, mounting, tuple(boards), tuple(parts), tuple(components),
-                      tuple(sites), schemes)
+    return schemes

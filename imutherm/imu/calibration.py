@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -220,6 +220,62 @@ class TriadCalibration:
 
 
 @dataclass(frozen=True)
+class CalibrationRecord:
+    """How a calibration was made (``Calibration.meta``).
+
+    Attributes
+    ----------
+    rig : RigConfig                      the rig settings
+    oven_mount_rotvec_deg : tuple (3,) [°]   the unknown oven mounting (rotation vector), as drawn
+    table_mount_rotvec_deg : tuple (3,) [°]  the unknown misalignment of the room-temperature table fixture
+    noise : bool                         sensor noise and random power-ons simulated
+    self_heating : bool                  sensors calibrated assembled and powered (die above chamber)
+    notes : str                          what the two models fit
+    """
+
+    rig: RigConfig
+    oven_mount_rotvec_deg: tuple
+    table_mount_rotvec_deg: tuple
+    noise: bool
+    self_heating: bool
+    notes: str = ""
+
+    def __getitem__(self, key):   # the former dict: name the attribute instead of a bare "not subscriptable"
+        raise TypeError(f"Calibration.meta is a CalibrationRecord, not a dict: use meta.{key} "
+                        f"(fields: {', '.join(f.name for f in fields(self))})")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (the ``meta`` of calibration.json)."""
+        return {"rig": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self.rig).items()},
+                "oven_mount_rotvec_deg": list(self.oven_mount_rotvec_deg),
+                "table_mount_rotvec_deg": list(self.table_mount_rotvec_deg),
+                "noise": bool(self.noise), "self_heating": bool(self.self_heating), "notes": self.notes}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "CalibrationRecord":
+        """Inverse of :meth:`to_dict`; InputError names a missing, unknown or malformed field."""
+        if not isinstance(d, dict):
+            raise InputError(f"calibration: meta must be a table, got {type(d).__name__}")
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise InputError(f"calibration: meta: unknown field(s) {', '.join(unknown)}; "
+                             f"valid: {', '.join(sorted(known))}")
+        try:
+            rig_d = d["rig"]
+            if not isinstance(rig_d, dict):
+                raise TypeError("meta.rig must be a table")
+            rig = RigConfig(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in rig_d.items()})
+            return cls(rig=rig, oven_mount_rotvec_deg=tuple(float(x) for x in d["oven_mount_rotvec_deg"]),
+                       table_mount_rotvec_deg=tuple(float(x) for x in d["table_mount_rotvec_deg"]),
+                       noise=bool(d["noise"]), self_heating=bool(d["self_heating"]), notes=str(d.get("notes", "")))
+        except KeyError as exc:
+            raise InputError(f"calibration: meta: missing field {exc.args[0]!r}") from None
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"calibration: meta: malformed field ({exc})") from None
+
+
+@dataclass(frozen=True)
 class Calibration:
     """Result of :func:`calibrate_unit`: both fitted models, JSON-serialisable.
 
@@ -232,7 +288,7 @@ class Calibration:
     room_temp_C : ndarray (6,) [°C]         mean reported temperature of the room-temperature data
     gyro : TriadCalibration                 [rad/s]
     accel : TriadCalibration                [m/s^2]
-    meta : dict                             rig settings, mounting angles, notes
+    meta : CalibrationRecord | None         rig settings, mounting angles, notes (None: not recorded)
     site_edges_C : ndarray (S+1,6) [°C] | None  each site's segment edges in its own *reported*
                                             temperature (what compensation looks up); None: segment_edges_C
     """
@@ -243,7 +299,7 @@ class Calibration:
     room_temp_C: np.ndarray
     gyro: TriadCalibration
     accel: TriadCalibration
-    meta: dict = field(default_factory=dict)
+    meta: CalibrationRecord | None = None
     site_edges_C: np.ndarray | None = None
 
     @property
@@ -277,7 +333,7 @@ class Calibration:
             "site_edges_C": self.site_edges().tolist(),
             "gyro": triad(self.gyro),
             "accel": triad(self.accel),
-            "meta": plain(self.meta, finite=False),
+            "meta": None if self.meta is None else plain(self.meta.to_dict(), finite=False),
         }
 
     @classmethod
@@ -289,7 +345,8 @@ class Calibration:
             cal = cls(grade=str(d["grade"]), segment_edges_C=np.asarray(d["segment_edges_C"], float),
                       segment_nodes_C=np.asarray(d["segment_nodes_C"], float),
                       room_temp_C=np.asarray(d["room_temp_C"], float),
-                      gyro=triad(d["gyro"]), accel=triad(d["accel"]), meta=dict(d.get("meta", {})),
+                      gyro=triad(d["gyro"]), accel=triad(d["accel"]),
+                      meta=None if d.get("meta") is None else CalibrationRecord.from_dict(d["meta"]),
                       site_edges_C=None if d.get("site_edges_C") is None else np.asarray(d["site_edges_C"], float))
         except KeyError as exc:
             raise InputError(f"calibration: missing field {exc.args[0]!r}") from None
@@ -321,6 +378,10 @@ class Calibration:
 
 
 # --------------------------------------------------------------------------- calibrate
+#: power-on offsets of a noise-free run (none)
+_NO_POWER_ON = PowerOn(gyro=np.zeros((3, 3)), accel=np.zeros((3, 3)))
+
+
 def _small_rotation(rng, angle_deg: float) -> np.ndarray:
     axis = rng.normal(size=3)
     axis /= np.linalg.norm(axis)
@@ -368,73 +429,120 @@ def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | 
             return T + rise
     R_table = _small_rotation(rng, rig.table_mount_deg)  # table axes -> body axes, unknown to the fits
     R_oven = _small_rotation(rng, rig.oven_mount_deg)  # unknown to the fits
-    zero = PowerOn(gyro=np.zeros((3, 3)), accel=np.zeros((3, 3)))
-
-    # ---- step 1: room temperature, two-axis table, one mounting
-    pos = accel_positions_18()
-    f_pos = G0 * pos
-    om_room, f_room = _gyro_runs(rig.room_rates_dps)
-    om_all = np.vstack([np.zeros_like(f_pos), om_room])
-    f_all = np.vstack([f_pos, f_room])
-    p_room = draw_power_on(unit, rng) if noise else zero
-    g_m, a_m, T_m = _run_session(unit, rng, om_all @ R_table.T, f_all @ R_table.T, die(rig.room_temp_C), rig, p_room,
-                               noise)
-    P = len(pos)
-    Ka, Da, ra = _lsq_KD(f_pos, a_m[:P])  # table input: the fixture's small misalignment is not known
-    Kg, Dg, rg = _lsq_KD(om_room, g_m[P:])
-    room_temp = T_m.mean(axis=0)
-
-    # ---- step 2: oven table, second mounting (unknown R_oven), one power-on for the whole oven run
+    room = _room_step(unit, rng, rig, R_table, die, noise)
+    oven = _oven_step(unit, rng, rig, R_oven, die, noise)
     edges = rig.edges_C
     centres = 0.5 * (edges[:-1] + edges[1:])
-    S = centres.size
-    om_ov, f_ov = _gyro_runs(rig.oven_rates_dps)
-    om_all = np.vstack([np.zeros_like(f_pos), om_ov])
-    f_all = np.vstack([f_pos, f_ov])
-    p_oven = draw_power_on(unit, rng) if noise else zero
-
-    def oven(T):
-        return _run_session(unit, rng, om_all @ R_oven.T, f_all @ R_oven.T, die(T), rig, p_oven, noise)
-
-    g_ref, a_ref, _ = oven(rig.room_temp_C)
-    out = {k: [] for k in ("Kc_a", "Dc_a", "rc_a", "Kc_g", "Dc_g", "rc_g", "s_a", "rs_a", "s_g", "rs_g", "nodes")}
-    for Tc in centres:
-        g_k, a_k, T_k = oven(Tc)
-        out["nodes"].append(T_k.mean(axis=0))
-        K, D, r = _lsq_KD(f_pos, a_k[:P])  # table input: the mounting error is not known
-        out["Kc_a"].append(K), out["Dc_a"].append(D), out["rc_a"].append(r)
-        K, D, r = _lsq_KD(om_ov, g_k[P:])
-        out["Kc_g"].append(K), out["Dc_g"].append(D), out["rc_g"].append(r)
-        s, r = _fit_sigma(a_k[:P], a_k[:P] - a_ref[:P])  # same position, same mounting: R_oven cancels
-        out["s_a"].append(s), out["rs_a"].append(r)
-        s, r = _fit_sigma(g_k[P:], g_k[P:] - g_ref[P:])
-        out["s_g"].append(s), out["rs_g"].append(r)
-    A = {k: np.array(v) for k, v in out.items()}
-    nodes = A["nodes"]
+    nodes = oven.nodes_C
     # reported temperature at each rig edge, per site: linear through the nodes, extrapolated at the ends
     site_edges = np.empty((edges.size, 6))
     for j in range(6):
         x, y = centres, nodes[:, j]
         k = np.clip(np.searchsorted(x, edges), 1, x.size - 1)
         site_edges[:, j] = y[k - 1] + (edges - x[k - 1]) * (y[k] - y[k - 1]) / (x[k] - x[k - 1])
-    meta = {
-        "rig": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(rig).items()},
-        "oven_mount_rotvec_deg": Rotation.from_matrix(R_oven).as_rotvec(degrees=True).tolist(),
-        "table_mount_rotvec_deg": Rotation.from_matrix(R_table).as_rotvec(degrees=True).tolist(),
-        "noise": bool(noise),
-        "self_heating": self_heating is not None,
-        "notes": "conventional: eq. 1 per segment on oven data (table input, unknown 2nd mounting); "
-                 "improved: eq. 2-3, K/D from the one-mounting room-temperature fit, sigma fitted to "
-                 "N(T)-N(25 degC) at the same oven position/rate; segments keyed by reported temperature",
-    }
+    meta = CalibrationRecord(
+        rig=rig,
+        oven_mount_rotvec_deg=tuple(Rotation.from_matrix(R_oven).as_rotvec(degrees=True).tolist()),
+        table_mount_rotvec_deg=tuple(Rotation.from_matrix(R_table).as_rotvec(degrees=True).tolist()),
+        noise=bool(noise), self_heating=self_heating is not None,
+        notes="conventional: eq. 1 per segment on oven data (table input, unknown 2nd mounting); "
+              "improved: eq. 2-3, K/D from the one-mounting room-temperature fit, sigma fitted to "
+              "N(T)-N(25 degC) at the same oven position/rate; segments keyed by reported temperature")
     return Calibration(
-        grade=unit.grade.name, segment_edges_C=edges, segment_nodes_C=nodes, room_temp_C=room_temp,
-        gyro=TriadCalibration(K_room=Kg, D_room=Dg, K_conv=A["Kc_g"], D_conv=A["Dc_g"], sigma=A["s_g"],
-                              room_fit_rms=rg, conv_fit_rms=A["rc_g"], sigma_fit_rms=A["rs_g"]),
-        accel=TriadCalibration(K_room=Ka, D_room=Da, K_conv=A["Kc_a"], D_conv=A["Dc_a"], sigma=A["s_a"],
-                               room_fit_rms=ra, conv_fit_rms=A["rc_a"], sigma_fit_rms=A["rs_a"]),
+        grade=unit.grade.name, segment_edges_C=edges, segment_nodes_C=nodes, room_temp_C=room.temp_C,
+        gyro=TriadCalibration(K_room=room.gyro.K, D_room=room.gyro.D, K_conv=oven.gyro.K, D_conv=oven.gyro.D,
+                              sigma=oven.gyro_sigma.sigma, room_fit_rms=room.gyro.rms, conv_fit_rms=oven.gyro.rms,
+                              sigma_fit_rms=oven.gyro_sigma.rms),
+        accel=TriadCalibration(K_room=room.accel.K, D_room=room.accel.D, K_conv=oven.accel.K, D_conv=oven.accel.D,
+                               sigma=oven.accel_sigma.sigma, room_fit_rms=room.accel.rms, conv_fit_rms=oven.accel.rms,
+                               sigma_fit_rms=oven.accel_sigma.rms),
         meta=meta, site_edges_C=site_edges,
     )
+
+
+@dataclass(frozen=True)
+class _KDFit:
+    """A fit N = K E + D of one triad (per segment: arrays with a leading segment axis)."""
+
+    K: np.ndarray     # (3,3) or (S,3,3) [-]
+    D: np.ndarray     # (3,) or (S,3) [unit]
+    rms: np.ndarray   # (3,) or (S,3) [unit]
+
+
+@dataclass(frozen=True)
+class _SigmaFit:
+    """The improved model's per-segment fit d = a N^2 + b N + c of one triad (seed 000 eq. 3)."""
+
+    sigma: np.ndarray  # (S,3,3) [a, b, c] per axis
+    rms: np.ndarray    # (S,3) [unit]
+
+
+@dataclass(frozen=True)
+class _RoomStep:
+    """Step 1: room temperature, two-axis table, one mounting (table input; its misalignment unknown)."""
+
+    accel: _KDFit
+    gyro: _KDFit
+    temp_C: np.ndarray   # (6,) [°C] mean reported temperature
+
+
+@dataclass(frozen=True)
+class _OvenStep:
+    """Step 2: oven table, second (unknown) mounting, one power-on; one fit per temperature segment."""
+
+    nodes_C: np.ndarray   # (S,6) [°C] mean reported temperature of each segment
+    accel: _KDFit         # conventional (eq. 1) per segment
+    gyro: _KDFit
+    accel_sigma: _SigmaFit
+    gyro_sigma: _SigmaFit
+
+
+def _room_step(unit, rng, rig: RigConfig, R_table, die, noise) -> _RoomStep:
+    """Step 1 of the rig: 18 accelerometer positions and the rate-table runs at room temperature."""
+    pos = accel_positions_18()
+    f_pos = G0 * pos
+    om_room, f_room = _gyro_runs(rig.room_rates_dps)
+    om_all = np.vstack([np.zeros_like(f_pos), om_room])
+    f_all = np.vstack([f_pos, f_room])
+    p_room = draw_power_on(unit, rng) if noise else _NO_POWER_ON
+    g_m, a_m, T_m = _run_session(unit, rng, om_all @ R_table.T, f_all @ R_table.T, die(rig.room_temp_C), rig, p_room,
+                                 noise)
+    P = len(pos)
+    accel = _KDFit(*_lsq_KD(f_pos, a_m[:P]))  # table input: the fixture's small misalignment is not known
+    gyro = _KDFit(*_lsq_KD(om_room, g_m[P:]))
+    return _RoomStep(accel=accel, gyro=gyro, temp_C=T_m.mean(axis=0))
+
+
+def _oven_step(unit, rng, rig: RigConfig, R_oven, die, noise) -> _OvenStep:
+    """Step 2 of the rig: the same positions and oven rates at the room reference and each segment centre."""
+    pos = accel_positions_18()
+    f_pos = G0 * pos
+    P = len(pos)
+    edges = rig.edges_C
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    om_ov, f_ov = _gyro_runs(rig.oven_rates_dps)
+    om_all = np.vstack([np.zeros_like(f_pos), om_ov])
+    f_all = np.vstack([f_pos, f_ov])
+    p_oven = draw_power_on(unit, rng) if noise else _NO_POWER_ON
+
+    def oven(T):
+        return _run_session(unit, rng, om_all @ R_oven.T, f_all @ R_oven.T, die(T), rig, p_oven, noise)
+
+    g_ref, a_ref, _ = oven(rig.room_temp_C)
+    nodes, acc, gyr, acc_s, gyr_s = [], [], [], [], []
+    for Tc in centres:
+        g_k, a_k, T_k = oven(Tc)
+        nodes.append(T_k.mean(axis=0))
+        acc.append(_lsq_KD(f_pos, a_k[:P]))  # table input: the mounting error is not known
+        gyr.append(_lsq_KD(om_ov, g_k[P:]))
+        acc_s.append(_fit_sigma(a_k[:P], a_k[:P] - a_ref[:P]))  # same position, same mounting: R_oven cancels
+        gyr_s.append(_fit_sigma(g_k[P:], g_k[P:] - g_ref[P:]))
+
+    def stack(fits, cls):
+        return cls(*(np.array(col) for col in zip(*fits)))
+
+    return _OvenStep(nodes_C=np.array(nodes), accel=stack(acc, _KDFit), gyro=stack(gyr, _KDFit),
+                     accel_sigma=stack(acc_s, _SigmaFit), gyro_sigma=stack(gyr_s, _SigmaFit))
 
 
 # --------------------------------------------------------------------------- evaluate

@@ -68,7 +68,7 @@ def run_calibration(grade: str = "adis16355", seed: int = 0, *, oven_mount_deg: 
         "grade": unit.grade.name,
         "seed": int(seed),
         "interp": interp,
-        "oven_mount_deg": cal.meta["rig"]["oven_mount_deg"],
+        "oven_mount_deg": cal.meta.rig.oven_mount_deg,
         "accel_max_residual_mg": acc,
         "gyro_max_residual_dps": gyr,
         "ratio_conventional_over_improved": {"accel": acc["conventional"] / acc["improved"],

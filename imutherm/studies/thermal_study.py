@@ -215,7 +215,8 @@ def result_summary(res: SchemeResult) -> dict:
         "steady_energy_balance_rel_error": st.energy_balance_rel_error,
         "heat_out_W": {k: float(v) for k, v in st.heat_out_W.items()},
         "unknowns": st.unknowns,
-        "steady_iterations": st.iterations, "steady_residual": st.residual,
+        "steady_newton_iterations": st.newton_iterations, "steady_linear_iterations": st.linear_iterations,
+        "steady_residual": st.residual,
         "solver": st.solver,
         "timings_s": {"steady_assembly": st.assembly_s, "steady_solve": st.solve_s, "wall": res.wall_s},
         "mesh": {"cells": res.grid.n_cells, "nodes": res.grid.n_nodes},
@@ -227,7 +228,8 @@ def result_summary(res: SchemeResult) -> dict:
                     "theta": tr.theta if tr.scheme == "theta" else None, "time_tol_K": tr.tol_K,
                     "rejected_steps": tr.rejected_steps, "linear_solves": tr.linear_solves,
                     "settled": tr.settled,
-                    "transient_iterations": tr.iterations, "transient_residual": tr.residual})
+                    "transient_newton_iterations": tr.newton_iterations,
+                    "transient_linear_iterations": tr.linear_iterations, "transient_residual": tr.residual})
         out["timings_s"].update({"transient_assembly": tr.assembly_s, "transient_solve": tr.solve_s})
     return out
 

@@ -11,13 +11,13 @@ from imutherm.thermal.output import write_pvd, write_result, write_vtu
 from imutherm.thermal.problem import (SIGMA, Contact, Convection, FixedTemperature, HeatFlux, NaturalConvection,
                                       Radiation, ThermalProblem, contact_layer_conductivity, fields_from_parts,
                                       natural_convection_C, natural_convection_h, radiation_flux)
-from imutherm.thermal.solve import (ConvergenceError, SteadyResult, TransientResult, probe_matrix, solve_steady,
-                                    solve_transient, time_steps)
+from imutherm.thermal.solve import (ConvergenceError, SteadyResult, ThermalResult, TransientResult, probe_matrix,
+                                    solve_steady, solve_transient, time_steps)
 
 __all__ = [
     "Assembly", "assemble", "ThermalMetrics", "settle_time", "thermal_metrics", "write_pvd", "write_result",
     "write_vtu", "SIGMA", "Contact", "Convection", "FixedTemperature", "HeatFlux", "NaturalConvection",
     "Radiation", "ThermalProblem", "contact_layer_conductivity", "fields_from_parts", "natural_convection_h",
-    "natural_convection_C", "radiation_flux", "ConvergenceError", "SteadyResult", "TransientResult", "probe_matrix",
-    "solve_steady", "solve_transient", "time_steps",
+    "natural_convection_C", "radiation_flux", "ConvergenceError", "ThermalResult", "SteadyResult", "TransientResult",
+    "probe_matrix", "solve_steady", "solve_transient", "time_steps",
 ]

@@ -57,31 +57,33 @@ TRANSIENT_CG_RTOL = 1e-6
 
 # --------------------------------------------------------------------------- results
 
+#: result fields renamed by issue 13: the old name -> what to read instead
+_RENAMED = {"iterations": "newton_iterations (Newton iterations; 0 for a transient, whose nonlinear laws are "
+                          "linearised once per step) or linear_iterations (inner linear-solver iterations)"}
+
+
 @dataclass(frozen=True)
-class SteadyResult:
-    """Steady temperature field.
+class ThermalResult:
+    """What every thermal solve returns (base of :class:`SteadyResult` and :class:`TransientResult`).
 
     Attributes
     ----------
     problem : ThermalProblem
     T_C : ndarray (n_nodes,) [°C]
-        Node temperatures (grid node order).
+        Node temperatures (grid node order); for a transient the field at ``t_end``.
     probe_names : tuple of str
-    probe_C : ndarray (n_probes,) [°C]
-        Trilinear interpolation of the field at the probe points.
-    iterations : int
-        Newton iterations (1 for a linear problem).
+    probe_C : ndarray [°C]
+        Trilinear interpolation of the field at the probe points: (n_probes,) for a steady
+        solve, (n_steps + 1, n_probes) for a transient (one row per step time).
+    newton_iterations : int
+        Newton iterations of a steady solve (1 for a linear problem); 0 for a transient
+        (nonlinear laws are linearised once per step, no inner iteration).
     linear_iterations : int
-        Total inner CG iterations (direct solves count 1).
+        Total inner linear-solver (CG) iterations over all solves (a direct solve counts 1).
     residual : float [-]
-        Final relative residual ``‖r‖ / (‖F‖ + ‖N(T)‖ + ‖L T‖)`` over free nodes.
+        Steady: final relative nonlinear residual; transient: largest relative linear
+        residual of any step.
     energy_balance_rel_error : float [-]
-        ``|P_in − Q_out| / max(P_in, ½ Σ|Q_face|)``, Q_out from the boundary laws
-        at the solution (fixed-temperature faces: consistent nodal reactions).
-    power_in_W : float [W]
-        Volumetric power plus HeatFlux input.
-    heat_out_W : dict [W]
-        Heat leaving per face name (``xmin`` .. ``zmax``).
     unknowns : int
         Number of free nodes.
     assembly_s, solve_s : float [s]
@@ -94,12 +96,10 @@ class SteadyResult:
     T_C: np.ndarray
     probe_names: tuple
     probe_C: np.ndarray
-    iterations: int
+    newton_iterations: int
     linear_iterations: int
     residual: float
     energy_balance_rel_error: float
-    power_in_W: float
-    heat_out_W: dict
     unknowns: int
     assembly_s: float
     solve_s: float
@@ -113,39 +113,52 @@ class SteadyResult:
     def ambient_C(self) -> float:
         return self.problem.ambient_C
 
+    def __getattr__(self, name):   # only reached when normal lookup fails: name the renamed fields
+        if name in _RENAMED:
+            raise AttributeError(f"{type(self).__name__}.{name} was renamed: use {_RENAMED[name]}")
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
 
 @dataclass(frozen=True)
-class TransientResult:
-    """Transient temperature history.
+class SteadyResult(ThermalResult):
+    """Steady temperature field (fields of :class:`ThermalResult`, and:)
 
     Attributes
     ----------
-    problem : ThermalProblem
+    residual : float [-]
+        Final relative residual ``‖r‖ / (‖F‖ + ‖N(T)‖ + ‖L T‖)`` over free nodes.
+    energy_balance_rel_error : float [-]
+        ``|P_in − Q_out| / max(P_in, ½ Σ|Q_face|)``, Q_out from the boundary laws
+        at the solution (fixed-temperature faces: consistent nodal reactions).
+    power_in_W : float [W]
+        Volumetric power plus HeatFlux input.
+    heat_out_W : dict [W]
+        Heat leaving per face name (``xmin`` .. ``zmax``).
+    """
+
+    power_in_W: float
+    heat_out_W: dict
+
+
+@dataclass(frozen=True)
+class TransientResult(ThermalResult):
+    """Transient temperature history (fields of :class:`ThermalResult`, and:)
+
+    Attributes
+    ----------
     times : ndarray (n_steps + 1,) [s]
         Step times, starting at 0.
-    T_C : ndarray (n_nodes,) [°C]
-        Field at ``t_end``.
     T0_C : ndarray (n_nodes,) [°C]
         Field at t = 0 (after applying fixed temperatures).
-    probe_names : tuple of str
-    probe_C : ndarray (n_steps + 1, n_probes) [°C]
-        Probe temperatures at every step.
     saved_times : ndarray (n_saved,) [s]
     saved_C : ndarray (n_saved, n_nodes) [°C]
         Fields at ``saved_times`` (linear in time between steps).
-    iterations : int
-        Total inner linear-solver iterations over all steps (direct solves count 1).
-    residual : float [-]
-        Largest relative linear residual of any step.
     energy_balance_rel_error : float [-]
         ``|E_in − (E_stored + E_out)| / max(|E_in|, |E_stored| + |E_out|)``; E_out
         integrated with the same weights as the scheme (θ, or TR-BDF2's b).
     energy_in_J, energy_stored_J, energy_out_J : float [J]
-    unknowns : int
     steps : int
     theta : float
-    assembly_s, solve_s : float [s]
-    solver : str
     lagged_nonlinear : bool
         True when nonlinear laws were linearised per step (no inner iteration).
     scheme : str
@@ -160,40 +173,21 @@ class TransientResult:
         True when the run stopped early because every probe had settled (``settle_C``).
     """
 
-    problem: ThermalProblem
     times: np.ndarray
-    T_C: np.ndarray
     T0_C: np.ndarray
-    probe_names: tuple
-    probe_C: np.ndarray
     saved_times: np.ndarray
     saved_C: np.ndarray
-    iterations: int
-    residual: float
-    energy_balance_rel_error: float
     energy_in_J: float
     energy_stored_J: float
     energy_out_J: float
-    unknowns: int
     steps: int
     theta: float
-    assembly_s: float
-    solve_s: float
-    solver: str
     lagged_nonlinear: bool
     scheme: str = "theta"
     linear_solves: int = 0
     rejected_steps: int = 0
     tol_K: float | None = None
     settled: bool = False
-
-    @property
-    def grid(self):
-        return self.problem.grid
-
-    @property
-    def ambient_C(self) -> float:
-        return self.problem.ambient_C
 
 
 # --------------------------------------------------------------------------- probes
@@ -245,6 +239,24 @@ def _probes(grid, probes):
 
 # --------------------------------------------------------------------------- linear algebra
 
+def _private_vcycle(ml):
+    """pyamg's own V-cycle ``(x, b) -> None`` (x updated in place), or None where this pyamg lacks it.
+
+    The one use of a pyamg private: ``MultilevelSolver.__solve(lvl, x, b, cycle, cycles)``
+    (name-mangled ``_MultilevelSolver__solve``, pyamg 4-5). It is what ``solve`` and
+    ``aspreconditioner`` call inside; called directly it saves their two residual evaluations
+    per application. :func:`amg_preconditioner` falls back to the public route without it.
+    """
+    cycle = getattr(ml, "_MultilevelSolver__solve", None)
+    if cycle is None:
+        return None
+
+    def vcycle(x, b):
+        cycle(0, x, b, "V", 1)
+
+    return vcycle
+
+
 def amg_preconditioner(A) -> spla.LinearOperator:
     """One smoothed-aggregation V-cycle (pyamg) as an SPD preconditioner for CG.
 
@@ -255,8 +267,9 @@ def amg_preconditioner(A) -> spla.LinearOperator:
     single precision (the V-cycle is memory-bound: ~35 % faster, the same CG
     iteration count; CG itself and its residuals stay in double precision, so
     the accuracy of the solve is unchanged). The V-cycle is called directly
-    (pyamg's ``aspreconditioner`` adds two residual evaluations per
-    application); the public route is the fallback.
+    (:func:`_private_vcycle`; pyamg's ``aspreconditioner`` adds two residual
+    evaluations per application); the public ``aspreconditioner`` of a double-precision
+    hierarchy is the fallback (one-level problems, or a pyamg without the private cycle).
     """
     import pyamg
 
@@ -270,14 +283,14 @@ def amg_preconditioner(A) -> spla.LinearOperator:
             M = getattr(lvl, name, None)
             if sp.issparse(M) and M.format == "bsr" and M.blocksize == (1, 1):
                 setattr(lvl, name, M.tocsr())
-    cycle = getattr(ml, "_MultilevelSolver__solve", None)
-    if cycle is None or len(ml.levels) < 2:  # small problem (one level: a dense solve) or another pyamg
+    vcycle = _private_vcycle(ml)
+    if vcycle is None or len(ml.levels) < 2:  # small problem (one level: a dense solve) or another pyamg
         return build(np.float64).aspreconditioner(cycle="V")
 
     def matvec(b):
         b = np.ravel(np.asarray(b, dtype=np.float32))
         x = np.zeros_like(b)
-        cycle(0, x, b, "V", 1)
+        vcycle(x, b)
         return x.astype(float)
 
     return spla.LinearOperator(A.shape, matvec=matvec, dtype=float)
@@ -516,10 +529,8 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
     lin = _LinSolver(method, rtol=_check_rtol(rtol))
     L = asm.pattern.csr(asm.K_data + asm.H_data)
     F = asm.F_q + asm.F_bc
-    base = D.eliminate(L.data)
     T = _initial_field(problem, initial_C, n)
     T[dnodes] = dvals
-    amb = problem.ambient_C
 
     def residual(T):
         N, J = asm.nonlinear_flux(T) if nonlinear else (0.0, None)
@@ -527,10 +538,36 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
         r[dnodes] = 0.0
         return r, N, J
 
+    T, it, lin_its = _newton(problem, asm, D, L, lin, residual, T, tol, max_iter)
+    r, N, _ = residual(T)
+    LT = L @ T
+    scale = np.linalg.norm(F[free]) + np.linalg.norm(np.asarray(N + 0 * T)[free]) + np.linalg.norm(LT[free])
+    res = float(np.linalg.norm(r[free]) / scale) if scale > 0 else 0.0
+    P_in, heat_bnd, ebal = _steady_balance(asm, T, dnodes, F, LT, N)
+    probe_C = P @ T
+    T.setflags(write=False)
+    probe_C.setflags(write=False)
+    return SteadyResult(problem=problem, T_C=T, probe_names=names, probe_C=probe_C, newton_iterations=it,
+                        linear_iterations=lin_its, residual=res, energy_balance_rel_error=float(ebal),
+                        power_in_W=P_in, heat_out_W=heat_bnd, unknowns=int(free.sum()),
+                        assembly_s=assembly_s, solve_s=time.perf_counter() - t1, solver=method)
+
+
+def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
+    """Newton's method with a backtracking line search on ``residual(T) -> (r, N, J)`` = 0.
+
+    A linear problem takes one solve with the matrix ``L`` (fixed nodes eliminated). Returns the
+    converged field, the Newton iterations and the total linear iterations; raises
+    :class:`ConvergenceError` when ``max_iter`` iterations do not bring max|ΔT| below
+    ``tol * max(1 K, max|T − ambient|)``, or when an iterate diverges.
+    """
+    nonlinear = bool(asm.nonlinear)
+    free = ~D.mask
+    amb = problem.ambient_C
+    base = D.eliminate(L.data)
     r, N, J = residual(T)
     A = asm.pattern.csr(base)
     lin_its = 0
-    converged = False
     it = 0
     for it in range(1, max_iter + 1):
         if nonlinear:
@@ -542,8 +579,7 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
         if not nonlinear:
             T += dT
             _check_diverging(problem, T, amb, it)
-            converged = True
-            break
+            return T, it, lin_its
         rn0 = np.linalg.norm(r)
         step = 1.0
         for _ in range(30):
@@ -559,20 +595,21 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
         _check_diverging(problem, T, amb, it)
         change = step * np.abs(dT).max()
         if change <= tol * max(1.0, float(np.abs(T - amb).max())):
-            converged = True
-            break
-    if not converged:
-        raise ConvergenceError(f"solve_steady: Newton did not converge in {max_iter} iterations "
-                               f"(last max|ΔT| = {change:.3g} K, residual norm {np.linalg.norm(r):.3g} W); "
-                               f"raise max_iter or check the boundary laws")
-    r, N, _ = residual(T)
-    LT = L @ T
-    scale = np.linalg.norm(F[free]) + np.linalg.norm(np.asarray(N + 0 * T)[free]) + np.linalg.norm(LT[free])
-    res = float(np.linalg.norm(r[free]) / scale) if scale > 0 else 0.0
-    # energy balance
+            return T, it, lin_its
+    raise ConvergenceError(f"solve_steady: Newton did not converge in {max_iter} iterations "
+                           f"(last max|ΔT| = {change:.3g} K, residual norm {np.linalg.norm(r):.3g} W); "
+                           f"raise max_iter or check the boundary laws")
+
+
+def _steady_balance(asm: Assembly, T, dnodes, F, LT, N):
+    """(power in [W], heat out per face [W], relative energy-balance error [-]) of the steady field ``T``.
+
+    ``F`` the load, ``LT`` the linear operator applied to ``T``, ``N`` the nonlinear flux there
+    (0.0 for a linear problem); fixed-temperature nodes count their consistent nodal reactions.
+    """
     heat = asm.face_heat_out(T)
     if len(dnodes):
-        Nd = (N if nonlinear else np.zeros(n))[dnodes]
+        Nd = (N if asm.nonlinear else np.zeros(asm.n))[dnodes]
         S_out = F[dnodes] - LT[dnodes] - Nd      # heat leaving through the fixed-T nodes
         _dirichlet_heat_by_face(asm, dnodes, S_out, heat)
     P_in = float(asm.F_q.sum()) + asm.flux_in_W
@@ -582,14 +619,7 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
         flux_by_face[bc.face] = flux_by_face.get(bc.face, 0.0) + bc.law.q * bc.weights.sum()
     Q_out = sum(heat_bnd.values()) + sum(flux_by_face.values())   # heat_out counts HeatFlux as negative
     denom = max(abs(P_in), 0.5 * sum(abs(v) for v in heat_bnd.values()), 1e-300)
-    ebal = abs(P_in - Q_out) / denom
-    probe_C = P @ T
-    T.setflags(write=False)
-    probe_C.setflags(write=False)
-    return SteadyResult(problem=problem, T_C=T, probe_names=names, probe_C=probe_C, iterations=it,
-                        linear_iterations=lin_its, residual=res, energy_balance_rel_error=float(ebal),
-                        power_in_W=P_in, heat_out_W=heat_bnd, unknowns=int(free.sum()),
-                        assembly_s=assembly_s, solve_s=time.perf_counter() - t1, solver=method)
+    return P_in, heat_bnd, abs(P_in - Q_out) / denom
 
 
 # --------------------------------------------------------------------------- transient
@@ -844,43 +874,43 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
     asm = assembly if assembly is not None else assemble(problem, lumped_mass=lumped_mass)
     assembly_s = time.perf_counter() - t0 if assembly is None else 0.0
     t1 = time.perf_counter()
-    n = asm.n
-    dnodes, g0 = asm.dirichlet_values(0.0)
-    D = _Dirichlet(asm, dnodes)
-    free = ~D.mask
-    method = _choose(solver, int(free.sum()))
-    lin = _LinSolver(method, rtol=_check_rtol(rtol))
-    T = _initial_field(problem, initial_C, n)
-    T[dnodes] = g0
-    ctx = _Ctx(asm=asm, P=P, D=D, dnodes=dnodes, free=free, method=method, lin=lin, T0=T,
-               scale=(lambda t: 1.0) if power_scale is None else (lambda t: float(power_scale(t))),
-               settle=settle, settle_fraction=float(settle_fraction), sv=sv, progress=progress, t_end=t_end)
+    ctx = _Ctx.start(problem, asm, P, solver, _check_rtol(rtol), initial_C, power_scale, t_end)
     if scheme == "theta":
-        out = _run_theta(ctx, steps, theta)
+        stepper = _theta_steps(ctx, steps, theta)
     else:
-        out = _run_trbdf2(ctx, steps, tol_K, dt_first, dt_max, error_control)
-    times, probe_hist, T, saved_C, E_in, E_out, its_total, res_max, solves, rejected, settled = out
-    cap = np.asarray(asm.pattern.csr(asm.M_data).sum(axis=1)).ravel()   # 1^T M (symmetric)
+        stepper = _trbdf2_steps(ctx, steps, tol_K, dt_first, dt_max, error_control)
+    history = _ProbeHistory(P, ctx.T0)
+    saved = _SavedFields(sv, ctx.T0)
+    energy = _EnergyAccount(asm)
+    watch = _SettleWatch(settle, float(settle_fraction), history) if settle is not None else None
+    T, settled = _run(ctx, stepper, (saved, history, energy), watch, MAX_STEPS if adaptive else None, progress)
+    E_stored, ebal = energy.close(ctx.T0, T)
+    times, probe_hist = history.arrays()
+    saved_C = saved.array(asm.n)
     T_start = ctx.T0
-    E_stored = float(cap @ (T - T_start))
-    denom = max(abs(E_in), abs(E_stored) + abs(E_out), 1e-300)
-    ebal = abs(E_in - E_stored - E_out) / denom
     sv_out = sv[:len(saved_C)]
     for arr in (T, T_start, probe_hist, saved_C, times, sv_out):
         arr.setflags(write=False)
     return TransientResult(problem=problem, times=times, T_C=T, T0_C=T_start, probe_names=names,
-                           probe_C=probe_hist, saved_times=sv_out, saved_C=saved_C, iterations=its_total,
-                           residual=res_max, energy_balance_rel_error=float(ebal), energy_in_J=E_in,
-                           energy_stored_J=E_stored, energy_out_J=E_out, unknowns=int(free.sum()),
-                           steps=len(times) - 1, theta=theta if scheme == "theta" else float("nan"),
-                           assembly_s=assembly_s, solve_s=time.perf_counter() - t1, solver=method,
-                           lagged_nonlinear=bool(asm.nonlinear), scheme=scheme, linear_solves=solves,
-                           rejected_steps=rejected, tol_K=tol_K if adaptive else None, settled=settled)
+                           probe_C=probe_hist, saved_times=sv_out, saved_C=saved_C, newton_iterations=0,
+                           linear_iterations=ctx.its, residual=ctx.res_max, energy_balance_rel_error=float(ebal),
+                           energy_in_J=energy.E_in, energy_stored_J=E_stored, energy_out_J=energy.E_out,
+                           unknowns=int(ctx.free.sum()), steps=len(times) - 1,
+                           theta=theta if scheme == "theta" else float("nan"),
+                           assembly_s=assembly_s, solve_s=time.perf_counter() - t1, solver=ctx.method,
+                           lagged_nonlinear=bool(asm.nonlinear), scheme=scheme, linear_solves=ctx.solves,
+                           rejected_steps=ctx.rejected, tol_K=tol_K if adaptive else None, settled=settled)
 
+
+# The transient is a step generator (one per scheme: :func:`_theta_steps`, :func:`_trbdf2_steps`) whose
+# accepted steps (:class:`_Step`) are handed to observers (probe history, saved fields, energy account,
+# settle stop), as scikit-fem's example 19 does; the schemes share the set-up (:class:`_Ctx`), the step
+# matrix with its cache and preconditioner policy (:class:`_StepMatrix`), the linearisation of the
+# nonlinear laws and the elimination of the fixed nodes.
 
 @dataclass
 class _Ctx:
-    """What both time loops share (set up once by :func:`solve_transient`)."""
+    """What both schemes share (set up once by :func:`solve_transient`), and the solve counters."""
 
     asm: Assembly
     P: sp.csr_matrix
@@ -891,76 +921,115 @@ class _Ctx:
     lin: _LinSolver
     T0: np.ndarray
     scale: object
-    settle: np.ndarray | None
-    settle_fraction: float
-    sv: np.ndarray
-    progress: bool
     t_end: float
+    L_data: np.ndarray
+    L: sp.csr_matrix
+    its: int = 0          # linear iterations, all solves
+    solves: int = 0       # linear solves, rejected steps and error estimates included
+    rejected: int = 0     # adaptive steps redone with a smaller step
+    res_max: float = 0.0  # largest relative linear residual of the accepted steps
+
+    @classmethod
+    def start(cls, problem, asm, P, solver, rtol, initial_C, power_scale, t_end):
+        dnodes, g0 = asm.dirichlet_values(0.0)
+        D = _Dirichlet(asm, dnodes)
+        free = ~D.mask
+        method = _choose(solver, int(free.sum()))
+        T = _initial_field(problem, initial_C, asm.n)
+        T[dnodes] = g0
+        L_data = asm.K_data + asm.H_data
+        return cls(asm=asm, P=P, D=D, dnodes=dnodes, free=free, method=method, lin=_LinSolver(method, rtol=rtol), T0=T,
+                   scale=(lambda t: 1.0) if power_scale is None else (lambda t: float(power_scale(t))),
+                   t_end=t_end, L_data=L_data, L=asm.pattern.csr(L_data))
+
+    @property
+    def nonlinear(self) -> bool:
+        return bool(self.asm.nonlinear)
+
+    @property
+    def power_W(self) -> float:
+        """Total power at full scale [W] (volumetric plus boundary heat flux)."""
+        return float(self.asm.F_q.sum()) + self.asm.flux_in_W
+
+    def linearise(self, T):
+        """``(N(T), N'(T))`` of the nonlinear laws (Jacobian zero on fixed nodes); ``(0.0, None)`` if none."""
+        if not self.nonlinear:
+            return 0.0, None
+        N0, J0 = self.asm.nonlinear_flux(T)
+        return N0, np.where(self.D.mask, 0.0, J0)
+
+    def fixed_increment(self, t, T):
+        """Increment of the fixed-node temperatures from ``T`` to their values at ``t`` [K] (None: no fixed nodes)."""
+        return self.asm.dirichlet_values(t)[1] - T[self.dnodes] if len(self.dnodes) else None
+
+    def eliminated_rhs(self, A_full, rhs, dd, x0=None):
+        """Right-hand side (and predictor) of the eliminated system for increments ``dd`` on the fixed nodes."""
+        if not len(self.dnodes):
+            return rhs, x0
+        b = rhs.copy()
+        if np.any(dd != 0):
+            dfull = np.zeros(len(rhs))
+            dfull[self.dnodes] = dd
+            b -= A_full @ dfull
+        b[self.dnodes] = dd
+        if x0 is not None:
+            x0 = x0.copy()
+            x0[self.dnodes] = dd
+        return b, x0
 
 
-class _Recorder:
-    """Step-end history: times, probes, saved fields (linear between steps) and the settle test."""
+class _StepMatrix:
+    """A scheme's step matrix ``form(h) + jac(h) diag(J)`` for step size ``h`` (J: the Jacobian of the
+    nonlinear laws), full and with the fixed nodes eliminated.
 
-    def __init__(self, ctx: _Ctx):
-        self.ctx = ctx
-        self.times = [0.0]
-        p0 = ctx.P @ ctx.T0
-        self.p0 = p0
-        self.probes = [p0]
-        self.saved = []
-        while len(self.saved) < ctx.sv.size and ctx.sv[len(self.saved)] <= 0.0:
-            self.saved.append(ctx.T0.copy())
-        if ctx.settle is not None:
-            self.rise = ctx.settle - p0
-            self.passed95 = self.rise == 0
+    Linear problems keep the last four step sizes' matrices. The preconditioner (AMG) is rebuilt when the
+    step leaves [0.5, 2] x the step it was built for; otherwise the linear solver reuses it, rebuilding
+    only when CG slows down (:class:`_LinSolver`).
+    """
 
-    def step(self, ta, tb, T_prev, T) -> bool:
-        """Record the step [ta, tb]; True when every probe has settled (settle stop requested)."""
-        sv = self.ctx.sv
-        while len(self.saved) < sv.size and sv[len(self.saved)] <= tb * (1 + 1e-12):
-            w = min(max((sv[len(self.saved)] - ta) / (tb - ta), 0.0), 1.0)
-            self.saved.append(T_prev + w * (T - T_prev))
-        p = self.ctx.P @ T
-        self.times.append(tb)
-        self.probes.append(p)
-        if self.ctx.settle is None:
-            return False
-        nz = self.rise != 0
-        frac = np.ones_like(self.rise)
-        frac[nz] = (p[nz] - self.p0[nz]) / self.rise[nz]
-        self.passed95 |= frac >= 0.95
-        gap = np.abs(self.ctx.settle - p)
-        return bool(np.all(self.passed95) and np.all(gap <= self.ctx.settle_fraction * np.abs(self.rise)))
+    def __init__(self, ctx: _Ctx, form, jac):
+        self.ctx, self.form, self.jac = ctx, form, jac
+        self.cache = {}
+        self.h_pc = None
 
-    def arrays(self, n_nodes):
-        times = np.array(self.times)
-        probes = np.array(self.probes).reshape(len(times), -1)
-        saved = np.array(self.saved).reshape(len(self.saved), n_nodes)
-        return times, probes, saved
+    def __call__(self, h: float, J):
+        ctx = self.ctx
+        key = float(h)
+        if not ctx.nonlinear and key in self.cache:
+            A_full, A = self.cache[key]
+        else:
+            pat = ctx.asm.pattern
+            full = self.form(h)
+            if ctx.nonlinear:
+                full[pat.diag_pos] += self.jac(h) * J
+            A_full = pat.csr(full)
+            A = pat.csr(ctx.D.eliminate(full)) if len(ctx.dnodes) else A_full
+            if not ctx.nonlinear:
+                if len(self.cache) >= 4:
+                    self.cache.pop(next(iter(self.cache)))
+                self.cache[key] = (A_full, A)
+        if self.h_pc is None:
+            self.h_pc = h
+        elif ctx.method == "amg" and not (0.5 <= h / self.h_pc <= 2.0):
+            ctx.lin.prepare(A)
+            self.h_pc = h
+        return A_full, A
 
 
-def _bar(ctx, total, unit):
-    if not ctx.progress:
-        return None
-    from tqdm import tqdm
+@dataclass(frozen=True)
+class _Step:
+    """One accepted step as the observers see it."""
 
-    return tqdm(total=total, desc="transient", unit=unit)
-
-
-def _dirichlet_rhs(ctx, A_full, rhs, dd, x0=None):
-    """Right-hand side (and predictor) of the eliminated system for increments ``dd`` on the fixed nodes."""
-    if not len(ctx.dnodes):
-        return rhs, x0
-    b = rhs.copy()
-    if np.any(dd != 0):
-        dfull = np.zeros(len(rhs))
-        dfull[ctx.dnodes] = dd
-        b -= A_full @ dfull
-    b[ctx.dnodes] = dd
-    if x0 is not None:
-        x0 = x0.copy()
-        x0[ctx.dnodes] = dd
-    return b, x0
+    k: int                 # steps accepted so far, this one included
+    ta: float              # [s]
+    tb: float              # [s]
+    h: float               # [s] the step size the scheme integrated with
+    T_prev: np.ndarray     # [°C] field at ta
+    T: np.ndarray          # [°C] field at tb
+    power_scale: float     # [-] the scheme's weighted mean of the power scale s(t) over the step
+    heat_out_W: float      # [W] the scheme's weighted mean heat leaving through the boundary laws
+    #                        (θ-scheme: and through the fixed nodes)
+    fixed_in_J: float | None = None   # [J] heat entering through the fixed nodes (TR-BDF2)
 
 
 def _linear_heat_out(asm, T) -> float:
@@ -968,140 +1037,58 @@ def _linear_heat_out(asm, T) -> float:
     return sum(float(np.dot(bc.hA, T[bc.corners].mean(axis=1) - bc.T_ref)) for bc in asm.linear)
 
 
-def _run_theta(ctx: _Ctx, steps, theta):
-    asm, lin, dnodes, D = ctx.asm, ctx.lin, ctx.dnodes, ctx.D
-    pat = asm.pattern
-    n = asm.n
-    L_data = asm.K_data + asm.H_data
-    L = pat.csr(L_data)
+def _theta_steps(ctx: _Ctx, steps, theta):
+    """θ-scheme steps in increment form, one solve each; see :func:`solve_transient`."""
+    asm, lin, dnodes, L = ctx.asm, ctx.lin, ctx.dnodes, ctx.L
     Fq, Fbc = asm.F_q, asm.F_bc
-    sumFq, flux_in = float(Fq.sum()), asm.flux_in_W
-    nonlinear = bool(asm.nonlinear)
-    T = ctx.T0.copy()
+    matrix = _StepMatrix(ctx, lambda h: asm.M_data / h + theta * ctx.L_data, lambda h: theta)
     times = np.concatenate([[0.0], np.cumsum(steps)])
     times[-1] = ctx.t_end
-    rec = _Recorder(ctx)
-    cache = {}   # step size -> (A_full, A_elim) for linear problems
-
-    def matrices(h, J):
-        key = float(h)
-        if not nonlinear and key in cache:
-            return cache[key]
-        full = asm.M_data / h + theta * L_data
-        if nonlinear:
-            full = full.copy()
-            full[pat.diag_pos] += theta * J
-        A_full = pat.csr(full)
-        A = pat.csr(D.eliminate(full)) if len(dnodes) else A_full
-        if not nonlinear:
-            if len(cache) >= 4:
-                cache.pop(next(iter(cache)))
-            cache[key] = (A_full, A)
-        return A_full, A
-
-    E_in = E_out = 0.0
-    its_total = 0
-    res_max = 0.0
-    h_pc = None
+    T = ctx.T0.copy()
     dT_prev = h_prev = None
-    settled = False
-    bar = _bar(ctx, len(steps), "step")
     for s_i in range(len(steps)):
         h = float(steps[s_i])
         ta, tb = times[s_i], times[s_i + 1]
-        if nonlinear:
-            N0, J0 = asm.nonlinear_flux(T)
-            J0 = np.where(D.mask, 0.0, J0)
-        else:
-            N0, J0 = 0.0, None
-        A_full, A = matrices(h, J0)
-        if h_pc is not None and ctx.method == "amg" and not (0.5 <= h / h_pc <= 2.0):
-            lin.prepare(A)
-            h_pc = h
-        if h_pc is None:
-            h_pc = h
+        N0, J0 = ctx.linearise(T)
+        A_full, A = matrix(h, J0)
         sa, sb = ctx.scale(ta), ctx.scale(tb)
         rhs = (theta * sb + (1 - theta) * sa) * Fq + Fbc - L @ T - N0
-        dd = asm.dirichlet_values(tb)[1] - T[dnodes] if len(dnodes) else None
+        dd = ctx.fixed_increment(tb, T)
         x0 = None
         if dT_prev is not None and ctx.method == "amg":
             x0 = dT_prev * (h / h_prev)      # the last increment, rescaled: a cheap predictor
-        b, x0 = _dirichlet_rhs(ctx, A_full, rhs, dd, x0)
+        b, x0 = ctx.eliminated_rhs(A_full, rhs, dd, x0)
         dT, its, rel = lin.solve(A, b, x0=x0)
         dT_prev, h_prev = dT, h
-        its_total += its
-        res_max = max(res_max, rel)
+        ctx.its += its
+        ctx.solves += 1
+        ctx.res_max = max(ctx.res_max, rel)
         if len(dnodes):
             dT[dnodes] = dd
-        # energy bookkeeping (θ-consistent)
-        E_in += h * ((theta * sb + (1 - theta) * sa) * sumFq + flux_in)
+        # heat leaving, θ-weighted on the fluxes the step used (fixed nodes: the residual of their rows)
         q_out = theta * _linear_heat_out(asm, T + dT) + (1 - theta) * _linear_heat_out(asm, T)
-        if nonlinear:
+        if ctx.nonlinear:
             q_out += float(np.sum(N0 + theta * J0 * dT))
         if len(dnodes):
             q_out += float(np.sum((rhs - A_full @ dT)[dnodes]))
-        E_out += h * q_out
-        T_prev = T
-        T = T + dT
-        check_step(T, tb, s_i + 1, start_C=ctx.T0, t_end=ctx.t_end, power_W=sumFq + flux_in, h=h, max_steps=None)
-        if bar is not None:
-            bar.update(1)
-        if rec.step(ta, tb, T_prev, T):
-            settled = True
-            break
-    if bar is not None:
-        bar.close()
-    times, probes, saved = rec.arrays(n)
-    return times, probes, T, saved, E_in, E_out, its_total, res_max, len(times) - 1, 0, settled
+        T_prev, T = T, T + dT
+        yield _Step(s_i + 1, ta, tb, h, T_prev, T, theta * sb + (1 - theta) * sa, q_out)
 
 
-def _run_trbdf2(ctx: _Ctx, steps, tol_K, dt_first, dt_max, control):
-    """TR-BDF2 time loop (fixed ``steps``, or adaptive when ``steps`` is None); see :func:`solve_transient`."""
-    asm, lin, dnodes, D, free = ctx.asm, ctx.lin, ctx.dnodes, ctx.D, ctx.free
-    pat = asm.pattern
-    n = asm.n
-    L_data = asm.K_data + asm.H_data
-    L = pat.csr(L_data)
-    M = pat.csr(asm.M_data)
+def _trbdf2_steps(ctx: _Ctx, steps, tol_K, dt_first, dt_max, control):
+    """TR-BDF2 steps (fixed ``steps``, or adaptive when ``steps`` is None); see :func:`solve_transient`."""
+    asm, lin, dnodes, free, L = ctx.asm, ctx.lin, ctx.dnodes, ctx.free, ctx.L
+    M = asm.pattern.csr(asm.M_data)
     Fq, Fbc = asm.F_q, asm.F_bc
-    sumFq, flux_in = float(Fq.sum()), asm.flux_in_W
-    nonlinear = bool(asm.nonlinear)
     adaptive = steps is None
     g_, d_, w_ = TRBDF2_GAMMA, _D, _W
+    matrix = _StepMatrix(ctx, lambda h: asm.M_data + (d_ * h) * ctx.L_data, lambda h: d_ * h)
     T = ctx.T0.copy()
     t_end = ctx.t_end
-    rec = _Recorder(ctx)
-    cache = {}
-
-    def matrices(h, J):
-        key = float(h)
-        if not nonlinear and key in cache:
-            return cache[key]
-        full = asm.M_data + (d_ * h) * L_data
-        if nonlinear:
-            full = full.copy()
-            full[pat.diag_pos] += (d_ * h) * J
-        A_full = pat.csr(full)
-        A = pat.csr(D.eliminate(full)) if len(dnodes) else A_full
-        if not nonlinear:
-            if len(cache) >= 4:
-                cache.pop(next(iter(cache)))
-            cache[key] = (A_full, A)
-        return A_full, A
-
-    def dirichlet_increment(t, T):
-        return asm.dirichlet_values(t)[1] - T[dnodes] if len(dnodes) else None
-
-    E_in = E_out = 0.0
-    its_total = solves = rejected = 0
-    res_max = 0.0
-    h_pc = None
     X2_prev = h_prev = None
-    settled = False
     t = 0.0
     k = 0
     h = dt_first if adaptive else None
-    bar = _bar(ctx, round(t_end, 6), "s")
     while t < t_end * (1 - 1e-12) and (adaptive or k < len(steps)):
         if adaptive:
             h = min(h, dt_max)
@@ -1111,48 +1098,39 @@ def _run_trbdf2(ctx: _Ctx, steps, tol_K, dt_first, dt_max, control):
             h = float(steps[k])
         ta, tg, tb = t, t + g_ * h, (t + h if adaptive or k < len(steps) - 1 else t_end)
         h = tb - ta
-        if nonlinear:
-            N0, J0 = asm.nonlinear_flux(T)
-            J0 = np.where(D.mask, 0.0, J0)
-        else:
-            N0, J0 = 0.0, None
-        A_full, A = matrices(h, J0)
-        if h_pc is None:
-            h_pc = h
-        elif ctx.method == "amg" and not (0.5 <= h / h_pc <= 2.0):
-            lin.prepare(A)
-            h_pc = h
+        N0, J0 = ctx.linearise(T)
+        A_full, A = matrix(h, J0)
         sa, sg, sb = ctx.scale(ta), ctx.scale(tg), ctx.scale(tb)
         LT = L @ T
         fn = sa * Fq + Fbc - LT - N0
         # stage 1: trapezoidal rule over [t, t + γh]
         rhs1 = (d_ * h) * (2 * fn + (sg - sa) * Fq)
         x0 = X2_prev * (g_ * h / h_prev) if X2_prev is not None and ctx.method == "amg" else None
-        dd1 = dirichlet_increment(tg, T)
-        b, x0 = _dirichlet_rhs(ctx, A_full, rhs1, dd1, x0)
+        dd1 = ctx.fixed_increment(tg, T)
+        b, x0 = ctx.eliminated_rhs(A_full, rhs1, dd1, x0)
         X1, its, rel = lin.solve(A, b, x0=x0)
-        its_total += its
+        ctx.its += its
         res1 = rel
         if len(dnodes):
             X1[dnodes] = dd1
         Tg = T + X1
-        Ng = asm.nonlinear_flux(Tg)[0] if nonlinear else 0.0
+        Ng = asm.nonlinear_flux(Tg)[0] if ctx.nonlinear else 0.0
         fg = sg * Fq + Fbc - L @ Tg - Ng
         # stage 2: BDF2 from t, t + γh to t + h; f(t+h) ≈ g − L T1 − Ng − J0 (T1 − Tg)
         c2 = sb * Fq + Fbc - LT - Ng
-        if nonlinear:
+        if ctx.nonlinear:
             c2 = c2 + J0 * X1
         rhs2 = h * (w_ * fn + w_ * fg + d_ * c2)
-        dd2 = dirichlet_increment(tb, T)
-        b, x0 = _dirichlet_rhs(ctx, A_full, rhs2, dd2, X1 / g_ if ctx.method == "amg" else None)
+        dd2 = ctx.fixed_increment(tb, T)
+        b, x0 = ctx.eliminated_rhs(A_full, rhs2, dd2, X1 / g_ if ctx.method == "amg" else None)
         X2, its, rel = lin.solve(A, b, x0=x0)
-        its_total += its
-        solves += 2
+        ctx.its += its
+        ctx.solves += 2
         if len(dnodes):
             X2[dnodes] = dd2
         T1 = T + X2
         f1 = c2 - (L @ X2)
-        if nonlinear:
+        if ctx.nonlinear:
             f1 -= J0 * X2
         ratio = 0.0
         if adaptive:
@@ -1160,45 +1138,138 @@ def _run_trbdf2(ctx: _Ctx, steps, tol_K, dt_first, dt_max, control):
             if len(dnodes):
                 r_e[dnodes] = 0.0
             est, its, _ = lin.solve(A, r_e, rtol=ESTIMATE_CG_RTOL)
-            its_total += its
-            solves += 1
+            ctx.its += its
+            ctx.solves += 1
             e_c = ctx.P @ est if control == "probes" else est[free]
             err = float(np.abs(e_c).max()) if e_c.size else 0.0
             ratio = err / tol_K
             if ratio > 1.0 and h > 1e-9 * t_end:
-                rejected += 1
+                ctx.rejected += 1
                 h *= max(_CUT_MIN, _SAFETY * ratio ** (-1.0 / 3.0))
                 continue
-        res_max = max(res_max, res1, rel)
-        # energy bookkeeping with the scheme's weights b = (w, w, d) on the fluxes it used
-        E_in += h * ((w_ * sa + w_ * sg + d_ * sb) * sumFq + flux_in)
+        ctx.res_max = max(ctx.res_max, res1, rel)
+        # heat leaving, with the scheme's weights b = (w, w, d) on the fluxes it used
         q_n = _linear_heat_out(asm, T)
         q_g = _linear_heat_out(asm, Tg)
         q_1 = _linear_heat_out(asm, T1)
-        if nonlinear:
+        if ctx.nonlinear:
             q_n += float(np.sum(N0))
             q_g += float(np.sum(Ng))
             q_1 += float(np.sum(Ng + J0 * (X2 - X1)))
-        q_out = w_ * q_n + w_ * q_g + d_ * q_1
-        E_out += h * q_out
+        fixed_in = None
         if len(dnodes):   # heat entering through the fixed nodes: the residual of their rows
-            r_d = (M @ X2 - h * (w_ * fn + w_ * fg + d_ * f1))[dnodes]
-            E_out -= float(r_d.sum())
+            fixed_in = float((M @ X2 - h * (w_ * fn + w_ * fg + d_ * f1))[dnodes].sum())
         X2_prev, h_prev = X2, h
         T_prev, T = T, T1
         t = tb
         k += 1
-        check_step(T, t, k, start_C=ctx.T0, t_end=t_end, power_W=sumFq + flux_in, rejected=rejected, h=h,
-                   max_steps=MAX_STEPS if adaptive else None)
-        if bar is not None:
-            bar.update(round(h, 6))
-        if rec.step(ta, tb, T_prev, T):
-            settled = True
-            break
+        yield _Step(k, ta, tb, h, T_prev, T, w_ * sa + w_ * sg + d_ * sb, w_ * q_n + w_ * q_g + d_ * q_1, fixed_in)
         if adaptive:
             grow = _GROW_MAX if ratio == 0 else min(_GROW_MAX, max(_CUT_MIN, _SAFETY * ratio ** (-1.0 / 3.0)))
             h *= grow
-    if bar is not None:
-        bar.close()
-    times, probes, saved = rec.arrays(n)
-    return times, probes, T, saved, E_in, E_out, its_total, res_max, solves, rejected, settled
+
+
+def _run(ctx: _Ctx, stepper, observers, watch, max_steps, progress):
+    """Drive ``stepper``, hand each step to the observers, check it (guards) and stop on settle.
+
+    Returns the final field and whether the settle stop ended the run.
+    """
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=round(ctx.t_end, 6), desc="transient", unit="s")
+    T, settled = ctx.T0.copy(), False
+    try:
+        for st in stepper:
+            for obs in observers:
+                obs.observe(st)
+            T = st.T
+            check_step(T, st.tb, st.k, start_C=ctx.T0, t_end=ctx.t_end, power_W=ctx.power_W,
+                       rejected=ctx.rejected, h=st.h, max_steps=max_steps)
+            if bar is not None:
+                bar.update(round(st.h, 6))
+            if watch is not None and watch.observe(st):
+                settled = True
+                break
+    finally:
+        if bar is not None:
+            bar.close()
+    return T, settled
+
+
+class _ProbeHistory:
+    """Observer: the step times and the probe temperatures at each."""
+
+    def __init__(self, P, T0):
+        self.P = P
+        self.times = [0.0]
+        self.probes = [P @ T0]
+
+    def observe(self, st: _Step):
+        self.times.append(st.tb)
+        self.probes.append(self.P @ st.T)
+
+    def arrays(self):
+        times = np.array(self.times)
+        return times, np.array(self.probes).reshape(len(times), -1)
+
+
+class _SavedFields:
+    """Observer: whole fields at the requested times (linear in time within a step)."""
+
+    def __init__(self, sv, T0):
+        self.sv = sv
+        self.saved = []
+        while len(self.saved) < sv.size and sv[len(self.saved)] <= 0.0:
+            self.saved.append(T0.copy())
+
+    def observe(self, st: _Step):
+        sv, ta, tb = self.sv, st.ta, st.tb
+        while len(self.saved) < sv.size and sv[len(self.saved)] <= tb * (1 + 1e-12):
+            w = min(max((sv[len(self.saved)] - ta) / (tb - ta), 0.0), 1.0)
+            self.saved.append(st.T_prev + w * (st.T - st.T_prev))
+
+    def array(self, n_nodes):
+        return np.array(self.saved).reshape(len(self.saved), n_nodes)
+
+
+class _EnergyAccount:
+    """Observer: energy put in and let out [J], each integrated with the scheme's own weights."""
+
+    def __init__(self, asm: Assembly):
+        self.asm = asm
+        self.sumFq, self.flux_in = float(asm.F_q.sum()), asm.flux_in_W
+        self.E_in = self.E_out = 0.0
+
+    def observe(self, st: _Step):
+        self.E_in += st.h * (st.power_scale * self.sumFq + self.flux_in)
+        self.E_out += st.h * st.heat_out_W
+        if st.fixed_in_J is not None:
+            self.E_out -= st.fixed_in_J
+
+    def close(self, T_start, T):
+        """(energy stored [J], relative balance error [-]) from ``T_start`` to ``T``."""
+        cap = np.asarray(self.asm.pattern.csr(self.asm.M_data).sum(axis=1)).ravel()   # 1^T M (symmetric)
+        E_stored = float(cap @ (T - T_start))
+        denom = max(abs(self.E_in), abs(E_stored) + abs(self.E_out), 1e-300)
+        return E_stored, abs(self.E_in - E_stored - self.E_out) / denom
+
+
+class _SettleWatch:
+    """The settle stop: True once every probe has passed 95 % of its rise and is within ``fraction`` of it."""
+
+    def __init__(self, final, fraction, history: _ProbeHistory):
+        self.final, self.fraction, self.history = final, fraction, history
+        self.p0 = history.probes[0]
+        self.rise = final - self.p0
+        self.passed95 = self.rise == 0
+
+    def observe(self, st: _Step) -> bool:
+        p = self.history.probes[-1]
+        nz = self.rise != 0
+        frac = np.ones_like(self.rise)
+        frac[nz] = (p[nz] - self.p0[nz]) / self.rise[nz]
+        self.passed95 |= frac >= 0.95
+        gap = np.abs(self.final - p)
+        return bool(np.all(self.passed95) and np.all(gap <= self.fraction * np.abs(self.rise)))
