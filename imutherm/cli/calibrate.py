@@ -20,7 +20,10 @@ beside seed 001's figures, the fitted and true coefficients.
 ``--procedure overload`` (seed 004, :mod:`imutherm.studies.overload_study`) writes
 ``overload.json``: Ka, K2, D1 per load (1..10 g) and power-on, the joint
 values and the unit's truth, and the attitude filters on the ``shake`` profile
-(1.2 g and 5 g) with and without the recovered terms compensated.
+(1.2 g and 5 g) with and without the recovered terms compensated. With
+``--load-dependence`` the unit's Ka, K2, D1 follow seed 004's findings
+(:class:`imutherm.imu.overload.LoadDependence`) and ``overload.json`` adds
+``load_dependence`` (the truth per load and the recovered vs true trends).
 """
 
 from __future__ import annotations
@@ -59,7 +62,9 @@ def _roll_coupling(args) -> int:
 def _overload(args) -> int:
     from imutherm.studies.overload_study import run_overload_study
 
-    res = run_overload_study(args.grade, args.seed)
+    from imutherm.imu.overload import LoadDependence
+
+    res = run_overload_study(args.grade, args.seed, dependence=LoadDependence() if args.load_dependence else None)
     d = res.to_json()
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "overload.json", d)
@@ -72,6 +77,12 @@ def _overload(args) -> int:
           f"K2 [mg/g^2] {row('k2_mg_per_g2', '{:.3f}')}; D1 diag [deg/s/g] "
           + "/".join(f"{j['D1_dps_per_g'][i][i]:.4f}" for i in range(3)) + " (truth "
           + "/".join(f"{t['D1_dps_per_g'][i][i]:.4f}" for i in range(3)) + f") -> {args.out}")
+    if args.load_dependence:
+        tr = d["load_dependence"]["trends"]
+        print("load trend [%/g of the 1 g value] recovered (truth) x/y/z: "
+              + "; ".join(f"{k} " + "/".join(f"{100 * a:+.1f} ({100 * b:+.1f})" for a, b in
+                                             zip(tr[k]["recovered_rel_per_g"], tr[k]["truth_rel_per_g"]))
+                          for k in ("asym", "k2", "D1")))
     return 0
 
 
@@ -88,6 +99,9 @@ def main(argv=None) -> int:
     parser.add_argument("--procedure", default="temperature", choices=PROCEDURES,
                         help="temperature: seed 000 two-step rig (default); roll-coupling: seed 001 rate table "
                              "and roll-coupling compensation; overload: seed 004 sinusoidal overload table")
+    parser.add_argument("--load-dependence", action="store_true",
+                        help="overload: Ka grows and K2, D1 shrink with load and change per power-on (seed 004's "
+                             "findings as the truth model)")
     parser.add_argument("--out", required=True, help="output directory")
     args = parser.parse_args(argv)
     check_outdir(args.out)

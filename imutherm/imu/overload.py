@@ -33,18 +33,19 @@ each cycle, with the half periods from the ruler:
   itself: the rest's bias has drifted by the bias instability (0.7 mg) by then,
   which alone is the asymmetry term's size at 10 g.
 
-Checked against the unit's truth (:func:`truth_coefficients`). The truth
-model holds Ka, K2 and D1 constant with load and across power-ons: seed
-004's findings (Ka grows with load, K2 and D1 shrink with load, all drift
-from power-on to power-on) are what a unit would show if its coefficients
-did that; this simulation can only show whether the procedure recovers
-constants, and how the per-load scatter falls with load.
+Checked against the unit's truth (:func:`truth_coefficients`). By default the
+truth model holds Ka, K2 and D1 constant with load and across power-ons. With
+a :class:`LoadDependence` (``calibrate_overload(..., dependence=...)``,
+``imutherm calibrate --procedure overload --load-dependence``) the unit behaves
+as seed 004 reports its unit did: Ka grows with load, K2 and D1 shrink with
+load, and all three change from power-on to power-on; the procedure's per-load
+values are then checked against the truth's per-load values.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -77,6 +78,36 @@ class OverloadRig:
 
 
 @dataclass(frozen=True)
+class LoadDependence:
+    """Seed 004's findings as a truth model: the dynamic coefficients of a run at peak load A0.
+
+    Form (amplitude-dependent, as a describing function: the unit's response to a sinusoid of peak A0 is the
+    model ``y = b + K1 A + (Ka/2)|A| + K2 A²`` with coefficients that depend on A0), for each power-on p::
+
+        Ka(A0) = Ka (1 + asym_per_g (A0/g0 - 1)) (1 + power_on_rel ε_p)
+        K2(A0) = K2 (1 + k2_per_g  (A0/g0 - 1)) (1 + power_on_rel ε_p')
+        D1(A0) = D1 (1 + d1_per_g  (A0/g0 - 1)) (1 + power_on_rel ε_p'')
+
+    (Ka, K2, D1 the unit's 1 g values; ε ~ N(0, 1) per power-on, coefficient and axis / matrix term).
+    Sizes [ASSUMED]: seed 004 plots its results in normalised units (its figures 5-9), so it gives trends, not
+    sizes: Ka +6 %/g (x1.54 at 10 g), K2 and D1 -5 %/g (x0.55 at 10 g), power-on change 10 % (1 sigma).
+    asym_per_g, k2_per_g, d1_per_g [1/g]; power_on_rel [-].
+    """
+
+    asym_per_g: float = 0.06
+    k2_per_g: float = -0.05
+    d1_per_g: float = -0.05
+    power_on_rel: float = 0.10
+
+    def __post_init__(self):
+        for name in ("asym_per_g", "k2_per_g", "d1_per_g", "power_on_rel"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or abs(v) >= (0.5 if name == "power_on_rel" else 0.1):
+                raise InputError(f"LoadDependence: {name}={v!r} is invalid; valid: |value| < "
+                                 f"{0.5 if name == 'power_on_rel' else 0.1} (a coefficient must keep its sign to 10 g)")
+
+
+@dataclass(frozen=True)
 class OverloadCoefficients:
     """Dynamic error coefficients: asym (3,) [-] accelerometer scale-factor asymmetry Ka, k2 (3,) [1/(m/s^2)]
     quadratic term, D1 (3,3) [rad/s per m/s^2] gyro g-sensitivity (row: gyro, column: load axis)."""
@@ -106,8 +137,11 @@ class OverloadResult:
     per_load : dict   {"asym" | "k2" | "K1": (P,3,L), "D1": (P,3,3,L)} per power-on, axis (moved axis for D1's
                       last-but-one index), load; SI units as OverloadCoefficients (K1 [-])
     joint : OverloadCoefficients   all loads and power-ons together (least squares / mean)
-    truth : OverloadCoefficients
+    truth : OverloadCoefficients   the unit's 1 g values
     runtime_s : float [s]
+    truth_per_load : dict | None   with a :class:`LoadDependence`: the truth's "asym", "k2", "D1" per power-on,
+                                   axis and load (shapes as per_load)
+    dependence : LoadDependence | None
     """
 
     loads_g: np.ndarray
@@ -115,6 +149,8 @@ class OverloadResult:
     joint: OverloadCoefficients = None
     truth: OverloadCoefficients = None
     runtime_s: float = 0.0
+    truth_per_load: dict | None = field(default=None, repr=False)
+    dependence: LoadDependence | None = None
 
     def to_json(self) -> dict:
         """JSON-ready dict in datasheet units (ppm, mg/g², °/s/g)."""
@@ -128,7 +164,46 @@ class OverloadResult:
                          "D1_dps_per_g": np.degrees(pl["D1"] * G0).tolist(),
                          "index_order": "[power_on][axis][load] (D1: [power_on][gyro][load axis][load])"},
             "runtime_s": self.runtime_s,
+            **({} if self.truth_per_load is None else {
+                "load_dependence": {**{k: getattr(self.dependence, k) for k in
+                                       ("asym_per_g", "k2_per_g", "d1_per_g", "power_on_rel")},
+                                    "truth_per_load": {"asym_ppm": (self.truth_per_load["asym"] * 1e6).tolist(),
+                                                       "k2_mg_per_g2": (self.truth_per_load["k2"] * G0 * 1e3).tolist(),
+                                                       "D1_dps_per_g": np.degrees(self.truth_per_load["D1"] * G0).tolist()},
+                                    "trends": self.trends()}}),
         }
+
+    def trends(self) -> dict:
+        """Change per g of each coefficient, recovered vs truth: a weighted least-squares line through the per-load
+        values of every power-on (weights A0² for Ka and D1, A0⁴ for K2: the per-load noise falls as 1/A0 and
+        1/A0², the even and g-sensitive terms growing as A0 and A0² against a fixed noise), per axis; D1 over its
+        diagonal (each gyro's sensitivity to its own axis). Slopes in datasheet units per g (ppm/g, mg/g²/g,
+        °/s/g/g) and relative to the truth's 1 g value [1/g]. Needs truth_per_load."""
+        if self.truth_per_load is None:
+            raise InputError("overload trends: need a run with a load dependence")
+        out = {}
+        units = {"asym": 1e6, "k2": G0 * 1e3, "D1": np.degrees(G0)}
+        for key, wpow in (("asym", 2), ("k2", 4), ("D1", 2)):
+            rec, tru = self.per_load[key], self.truth_per_load[key]
+            if key == "D1":
+                rec = np.moveaxis(np.diagonal(rec, axis1=1, axis2=2), 1, 2)  # (P, 3, L)
+                tru = np.moveaxis(np.diagonal(tru, axis1=1, axis2=2), 1, 2)
+            row = {"recovered_per_g": [], "truth_per_g": [], "recovered_rel_per_g": [], "truth_rel_per_g": []}
+            for a in range(3):
+                x = np.broadcast_to(self.loads_g, rec[:, a, :].shape).ravel()
+                sw = x ** (wpow / 2)  # sqrt of the weight
+                fits = []
+                for v in (rec[:, a, :].ravel(), tru[:, a, :].ravel()):
+                    (slope, icpt), *_ = np.linalg.lstsq(np.column_stack([x, np.ones_like(x)]) * sw[:, None],
+                                                        v * sw, rcond=None)
+                    fits.append(slope)
+                t1 = float(np.mean(tru[:, a, 0]) - fits[1] * (self.loads_g[0] - 1.0))  # truth at 1 g
+                row["recovered_per_g"].append(float(fits[0] * units[key]))
+                row["truth_per_g"].append(float(fits[1] * units[key]))
+                row["recovered_rel_per_g"].append(float(fits[0] / t1))
+                row["truth_rel_per_g"].append(float(fits[1] / t1))
+            out[key] = row
+        return out
 
 
 def _half_sums(y, A, A0, dt, n_per, n_bands):
@@ -189,23 +264,47 @@ def _run_load(unit, rng, p_on, axis, up, A0, rig, noise=True):
     return bias, sums
 
 
+def _unit_at_load(unit: ImuUnit, dep: LoadDependence, gl: float, eps) -> tuple:
+    """(unit with the load-dependent Ka, K2, D1 at peak load gl [g], (Ka, K2, D1)); eps: the power-on draws."""
+    x = gl - 1.0
+    ka = np.asarray(unit.accel.asym, float) * (1 + dep.asym_per_g * x) * (1 + dep.power_on_rel * eps[0])
+    k2 = np.asarray(unit.accel.k2, float) * (1 + dep.k2_per_g * x) * (1 + dep.power_on_rel * eps[1])
+    d1 = np.asarray(unit.gyro.g_sens, float) * (1 + dep.d1_per_g * x) * (1 + dep.power_on_rel * eps[2])
+    u = replace(unit, accel=replace(unit.accel, asym=ka, k2=k2), gyro=replace(unit.gyro, g_sens=d1))
+    return u, (ka, k2, d1)
+
+
 def calibrate_overload(unit: ImuUnit, rng: np.random.Generator, rig: OverloadRig = OverloadRig(), *,
-                       noise: bool = True) -> OverloadResult:
+                       noise: bool = True, dependence: LoadDependence | None = None) -> OverloadResult:
     """Simulate the overload table on ``unit`` and recover Ka, K2 (accelerometers) and D1 (gyros).
 
     noise=False: deterministic sensor output and no power-on draw (a check of the estimators' algebra).
+    dependence: a :class:`LoadDependence` truth model (None: constant coefficients); its power-on draws come
+    from a generator seeded from ``rng`` (with noise=False none are drawn: the load trend alone).
     """
     t0 = time.perf_counter()
     loads = np.asarray(rig.loads_g, float)
     P, L = rig.power_ons, loads.size
     asym, k2, K1 = np.zeros((P, 3, L)), np.zeros((P, 3, L)), np.zeros((P, 3, L))
     D1 = np.zeros((P, 3, 3, L))
+    tpl = None
+    if dependence is not None:
+        dep_rng = np.random.default_rng(rng.integers(2**63))
+        tpl = {"asym": np.zeros((P, 3, L)), "k2": np.zeros((P, 3, L)), "D1": np.zeros((P, 3, 3, L))}
     rows = {a: [] for a in range(3)}  # joint least squares of (Ka/2, K2) per accelerometer axis
     for p in range(P):
         p_on = draw_power_on(unit, rng) if noise else zero_power_on()
+        if dependence is not None:
+            eps = ((dep_rng.standard_normal(3), dep_rng.standard_normal(3), dep_rng.standard_normal((3, 3)))
+                   if noise else (np.zeros(3), np.zeros(3), np.zeros((3, 3))))
         for axis, up in MOUNTINGS:
             for li, gl in enumerate(loads):
-                bias, s = _run_load(unit, rng, p_on, axis, up, gl * G0, rig, noise)
+                u = unit
+                if dependence is not None:
+                    u, (ka_t, k2_t, d1_t) = _unit_at_load(unit, dependence, gl, eps)
+                    tpl["asym"][p, axis, li], tpl["k2"][p, axis, li] = ka_t[axis], k2_t[axis]
+                    tpl["D1"][p, :, axis, li] = d1_t[:, axis]
+                bias, s = _run_load(u, rng, p_on, axis, up, gl * G0, rig, noise)
                 dA = s["A_pos"].sum() - s["A_neg"].sum()  # Σ over cycles of (V_max - V_min) - (V_min - V_max)
                 dS = s["S_pos"].sum(axis=0) - s["S_neg"].sum(axis=0)
                 D1[p, :, axis, li] = (dS[:3] - bias[:3] * (s["T_pos"].sum() - s["T_neg"].sum())) / dA
@@ -235,7 +334,8 @@ def calibrate_overload(unit: ImuUnit, rng: np.random.Generator, rig: OverloadRig
         ja[a], jk[a] = 2.0 * sol[0] / sc[0], sol[1] / sc[1]
     joint = OverloadCoefficients(asym=ja, k2=jk, D1=D1.mean(axis=(0, 3)))
     return OverloadResult(loads_g=loads, per_load={"asym": asym, "k2": k2, "K1": K1, "D1": D1}, joint=joint,
-                          truth=truth_coefficients(unit), runtime_s=time.perf_counter() - t0)
+                          truth=truth_coefficients(unit), runtime_s=time.perf_counter() - t0,
+                          truth_per_load=tpl, dependence=dependence)
 
 
 def compensate_overload(samples: ImuSamples, coeffs: OverloadCoefficients) -> ImuSamples:

@@ -37,6 +37,7 @@ from imutherm.imu.filters import (ALL_FILTERS, FILTERS, AEKFParams, EKFParams, F
                                   run_fusion, run_gated, run_kf, run_madgwick, run_mahony, run_ungated, run_vqf)
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.imu.filters.gate import rest_reference
+from imutherm.imu.filters.common import lever_arm_accel
 from imutherm.imu.filters.kf003 import kf_params_from_rest
 
 SEGMENTS = ("overall", "stable", "manoeuvre")
@@ -200,7 +201,7 @@ def _spread(values):
 
 def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig(),
                 fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=FILTERS, params=None,
-                gnss=None):
+                gnss=None, lever_comp: bool = False):
     """Run the named filters on one record; returns ({name: AttitudeEstimate}, thresholds).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
@@ -210,10 +211,17 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     ``names`` may include the PEERS (vqf, madgwick, mahony, ekf); ``params`` {name: their params object}
     (VQFParams, MadgwickParams, MahonyParams, EKFParams, AEKFParams for ``aekf`` / ``aekf_gnss``; default:
     published defaults). ``gnss`` (:class:`imutherm.imu.gnss.GnssVelocity`) feeds ``aekf_gnss``, which needs it.
+    ``aekf`` removes the accelerometer's lever-arm term itself; ``lever_comp=True`` removes it
+    (:func:`imutherm.imu.filters.common.lever_arm_accel`) for every gravity-referenced filter (all but
+    ``aekf_gnss``), so that they are compared on the same information.
     """
     params = {} if params is None else dict(params)
     init_s = gate.init_s
     g_ref, bias0 = rest_reference(gyro, accel, dt, init_s)
+    accel_raw, aekf_lever = accel, lever_arm
+    if lever_comp:
+        accel = accel - lever_arm_accel(gyro, dt, lever_arm, bias0)
+        aekf_lever = None
     th = default_thresholds(gyro, accel, dt, xi_a=gate.xi_a, xi_w=gate.xi_w, d=lever_arm, L=gate.L,
                             tau=gate.tau, init_s=init_s, g=g_ref, bias=bias0)
     gp = GatedParams(th, kp=gate.kp, ki=gate.ki, tau=gate.tau, hold_s=gate.hold_s, g=g_ref,
@@ -228,8 +236,9 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
         "madgwick": lambda: run_madgwick(gyro, accel, dt, params.get("madgwick", MadgwickParams()), init_s=init_s),
         "mahony": lambda: run_mahony(gyro, accel, dt, params.get("mahony", MahonyParams()), init_s=init_s),
         "ekf": lambda: run_ekf(gyro, accel, dt, params.get("ekf", EKFParams()), init_s=init_s),
-        "aekf": lambda: run_aekf(gyro, accel, dt, params.get("aekf", AEKFParams()), init_s=init_s),
-        "aekf_gnss": lambda: run_aekf(gyro, accel, dt, params.get("aekf_gnss", AEKFParams()), gnss=gnss,
+        "aekf": lambda: run_aekf(gyro, accel, dt, params.get("aekf", AEKFParams()), init_s=init_s,
+                                 lever_arm=aekf_lever),
+        "aekf_gnss": lambda: run_aekf(gyro, accel_raw, dt, params.get("aekf_gnss", AEKFParams()), gnss=gnss,
                                       init_s=init_s),
     }
     if "aekf_gnss" in names and gnss is None:

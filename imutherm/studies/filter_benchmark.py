@@ -73,7 +73,8 @@ class Record:
     (N,) [rad] (the truth, delayed by the sync error when disturbed), lever_arm (3,) [m], init_s [s] rest at
     the start, profile, seed, turn_radius [m] the gates' design turn radius L for the profile's platform
     (:data:`TURN_RADIUS`); gnss: the simulated GNSS velocity fixes (:class:`imutherm.imu.gnss.GnssVelocity`,
-    default receiver) for ``aekf_gnss``."""
+    default receiver) for ``aekf_gnss``; lever_comp: every gravity-referenced filter gets the accelerometer with
+    its lever-arm term removed (``run_filters(lever_comp=True)``; ``aekf`` removes it itself either way)."""
 
     profile: str
     seed: int
@@ -86,6 +87,7 @@ class Record:
     init_s: float
     turn_radius: float = GateConfig.L
     gnss: object = field(default=None, repr=False)
+    lever_comp: bool = False
 
 
 def check_split(train=TRAIN, held_out=HELD_OUT) -> None:
@@ -98,7 +100,7 @@ def check_split(train=TRAIN, held_out=HELD_OUT) -> None:
 
 
 def make_records(sets, grade: str = "adis16355", compensation: str = "improved", *,
-                 disturbances=True) -> list[Record]:
+                 disturbances=True, lever_comp: bool = False) -> list[Record]:
     """Records for [(profile, seeds), ...]; one unit + calibration per seed, 25 °C.
 
     disturbances : True (each profile's :data:`~imutherm.imu.disturbances.PRESETS`), False / None (idealised)
@@ -133,7 +135,7 @@ def make_records(sets, grade: str = "adis16355", compensation: str = "improved",
             fixes = simulate_gnss(traj, np.random.default_rng([s, motion.PROFILES.index(profile), 0x6E55]),
                                   GnssConfig())
             out.append(Record(profile, s, smp.gyro, smp.accel, 1.0 / rate, dr.ref_roll, dr.ref_pitch, d, init_s,
-                              TURN_RADIUS.get(profile, GateConfig.L), fixes))
+                              TURN_RADIUS.get(profile, GateConfig.L), fixes, lever_comp))
     return out
 
 
@@ -158,7 +160,8 @@ def run_one(name: str, rec: Record, values: dict | None = None):
         kw["gate"] = replace(kw["gate"], init_s=rec.init_s, L=rec.turn_radius)
     else:
         kw["gate"] = GateConfig(init_s=rec.init_s, L=rec.turn_radius)
-    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, names=(name,), gnss=rec.gnss, **kw)
+    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, names=(name,), gnss=rec.gnss,
+                         lever_comp=rec.lever_comp, **kw)
     return est[name]
 
 
