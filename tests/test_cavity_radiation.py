@@ -272,3 +272,19 @@ def test_linear_term_is_the_tangent_at_a_uniform_temperature():
     exact = ex.flux_out(60.0 + 1e-3 * dT)[0] * ex.weights / 1e-3       # (N(T_m + h dT) - N(T_m)) / h, N(T_m) = 0
     lin = Pn.T @ (G @ (Pn @ dT))
     assert np.abs(exact - lin).max() < 1e-4 * np.abs(lin).max()
+
+
+def test_calculix_export_refuses_the_exchange(tmp_path):
+    from imutherm.thermal.calculix import write_ccx_deck
+    pb, _ = _heated_box()
+    with pytest.raises(InputError, match="interior exchange"):
+        write_ccx_deck(pb, tmp_path / "job.inp")
+    assert not (tmp_path / "job.inp").exists()
+
+
+def test_ambient_drift_refused_with_s2s():
+    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.thermal.effects import parse_effect
+    with pytest.raises(InputError, match="ambient_drift"):
+        run_scheme(None, "air", options=ModelOptions(cavity_law="s2s"), transient=True, t_end=60.0,
+                   effects=[parse_effect("ambient_drift:rate_K_per_h=5")], mesh_size_mm=6.0, min_cells=1)
