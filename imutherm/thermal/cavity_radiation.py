@@ -11,8 +11,8 @@ occlusion by every part inside the region is exact. The estimate is then made
 reciprocal (A_i F_ij = A_j F_ji) and closed (sum_j F_ij = 1) by a symmetric
 scaling; both residuals are reported before and after (:class:`ViewFactors`).
 
-Radiosity of a grey, diffuse enclosure (Incropera & DeWitt, 6th ed., §13.3,
-eqs. 13.19-13.21): with ``E = diag(eps)``, the net heat leaving the patches is
+Radiosity of a grey, diffuse enclosure (Incropera & DeWitt, 6th ed., §13.3, the
+radiosity equations of an N-surface enclosure): with ``E = diag(eps)``, the net heat leaving the patches is
 
     Q = X Eb,   X = diag(A) (I - F) (I - (I - E) F)^-1 E,   Eb = sigma T^4,
 
@@ -28,8 +28,11 @@ every patch with every other and does not fit the solver's 27-point sparse
 pattern, so the law hands the solver a diagonal (Jacobi) slope instead:
 ``D_n = 1/2 sum_p P_pn sum_q |X_pq| 4 sigma T_q^3``, half the Gershgorin bound
 of the exact one. With D that large, ``L + 2D - B`` is positive semi-definite
-(``B`` the exact Jacobian, ``L`` conduction) so the fixed-point iteration of the
-steady Newton loop converges (iteration matrix eigenvalues in (-1, 1)); its
+(``B`` the exact Jacobian at a uniform temperature: X is a weighted graph Laplacian,
+so ``X <= 2 diag(X) <= diag(sum_q |X_pq|)``, and ``(P v)_p^2 <= sum_n P_pn v_n^2``
+as P averages, hence ``B <= 2D``; ``L`` conduction and boundary, positive definite), so the fixed-point iteration
+of the steady Newton loop converges for the linearised exchange (iteration matrix
+``(L + D)^-1 (D - B)``, eigenvalues in (-1, 1)); its
 rate is measured in the README. The transient linearises the law once per step
 about the start-of-step field like the other nonlinear laws: the diagonal part
 is implicit, the exchange between patches lags one step, which is

@@ -333,7 +333,7 @@ def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOpti
         eps = [options.material(p.material).emissivity for p in geometry.parts]
         eps = [DEFAULT_INTERIOR_EMISSIVITY if e is None else e for e in eps]
     h = hashlib.sha1()
-    for a in (grid.xs, grid.ys, grid.zs, air):
+    for a in (grid.xs, grid.ys, grid.zs, grid.cell_part, air):
         h.update(np.ascontiguousarray(a).tobytes())
     key = (h.hexdigest(), float(options.cavity_patch_mm), int(options.cavity_rays))
     law = cavity_exchange(grid, air, eps, patch_mm=options.cavity_patch_mm, rays=options.cavity_rays,
