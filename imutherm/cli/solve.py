@@ -29,7 +29,8 @@ from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.thermal_study import check_time_arguments, probe_table, result_summary, run_scheme
 from imutherm.thermal.effects import list_effects, parse_effect
-from imutherm.thermal.model import ModelOptions
+from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM
+from imutherm.thermal.model import CAVITY_LAWS, ModelOptions
 from imutherm.site_table import write_site_table
 from imutherm.thermal.output import write_result
 
@@ -45,6 +46,11 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--mount-conductance", type=float, default=None, metavar="W/m2K",
                    help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
+    g.add_argument("--cavity-law", choices=CAVITY_LAWS, default="effective",
+                   help="radiation inside the cavity: an effective conductivity of the air (default), s2s "
+                        "(surface-to-surface exchange: view factors and radiosity) or none")
+    g.add_argument("--cavity-patch-mm", type=float, default=DEFAULT_PATCH_MM, metavar="MM",
+                   help=f"patch edge of --cavity-law s2s [mm] (default {DEFAULT_PATCH_MM:g})")
 
 
 def add_effect_argument(parser: argparse.ArgumentParser) -> None:
@@ -113,7 +119,8 @@ def time_kwargs(args) -> dict:
 def model_options(args) -> ModelOptions:
     return ModelOptions(exterior=args.exterior, h_fixed_W_m2K=args.h, radiation=not args.no_radiation,
                         emissivity=args.emissivity, mounting_conductance_W_m2K=args.mount_conductance,
-                        cavity_radiation=not args.no_cavity_radiation)
+                        cavity_radiation=not args.no_cavity_radiation, cavity_law=args.cavity_law,
+                        cavity_patch_mm=args.cavity_patch_mm)
 
 
 @run_guarded("imutherm solve")

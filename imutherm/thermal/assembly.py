@@ -46,6 +46,9 @@ FACE_M_REF = np.kron(_M1, _M1)
 _LOCAL3 = [(a, b, c) for a in (0, 1) for b in (0, 1) for c in (0, 1)]
 _LOCAL2 = [(a, b) for a in (0, 1) for b in (0, 1)]
 _CENTRE = 13
+#: the ``face`` name under which an interior exchange law (cavity radiation) is listed in
+#: ``Assembly.nonlinear`` and in ``heat_out_W`` (its net heat is zero: it moves heat between surfaces)
+EXCHANGE_FACE = "cavity_s2s"
 
 
 def _offset_index(da: int, db: int, dc: int) -> int:
@@ -396,6 +399,11 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False) -> Assembly:
                     nonlinear.append(bc)
             else:  # pragma: no cover - ThermalProblem validates the laws
                 raise InputError(f"face {name!r}: unsupported law {law!r}")
+    if problem.exchanges and not (dirichlet or nonlinear or any(bc.law.coefficient > 0 for bc in linear)):
+        raise InputError("assemble: no boundary law removes heat (an interior exchange only moves it between "
+                         "surfaces): the steady state is undefined")
+    for ex in problem.exchanges:  # interior surface exchange: a nonlinear law of its own nodes (net heat 0)
+        nonlinear.append(NodalBC(EXCHANGE_FACE, ex, problem.ambient_C, np.asarray(ex.nodes), np.asarray(ex.weights)))
     H_data = pattern.data(Hs) if Hs is not None else np.zeros(pattern.nnz)
     return Assembly(problem=problem, pattern=pattern, K_data=K_data, H_data=H_data, M_data=M_data,
                     F_q=F_q, F_bc=F_bc, linear=linear, nonlinear=nonlinear, fluxes=fluxes,

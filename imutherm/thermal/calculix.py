@@ -71,6 +71,9 @@ def write_ccx_deck(problem: ThermalProblem, path) -> Path:
     Path of the deck.
     """
     g = problem.grid
+    if problem.exchanges:
+        raise InputError("write_ccx_deck: the problem has an interior exchange (s2s cavity radiation), which is "
+                         "not exported; use cavity_law 'effective' or 'none'")
     for face, laws in problem.boundary.items():
         for law in laws:
             if isinstance(law, NONLINEAR_LAWS):

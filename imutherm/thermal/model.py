@@ -19,6 +19,7 @@ from imutherm.geometry.build import Geometry
 from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 from imutherm.geometry.layout import AXES
 from imutherm.geometry.materials import Material, get_material
+from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM, DEFAULT_RAYS
 from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Contact, Convection, NaturalConvection, Radiation,
                                       ThermalProblem, natural_convection_h)
 
@@ -29,6 +30,9 @@ AL_AL_AIR_JOINT_W_M2K = 1.0 / 2.75e-4
 #: (Incropera & DeWitt, 6th ed., Table 3.1b) -> h = 19 048 W/m^2 K. Used on each face of a grease
 #: bond line (the grease wets the surface like the oil; its bulk is the bond part itself).
 GREASE_WETTED_JOINT_W_M2K = 1.0 / 0.525e-4
+
+#: radiation laws inside the cavity (``ModelOptions.cavity_law``)
+CAVITY_LAWS = ("effective", "s2s", "none")
 
 _FACE_ORIENTATION = {"xmin": "vertical", "xmax": "vertical", "ymin": "vertical", "ymax": "vertical",
                      "zmin": "down", "zmax": "up"}
@@ -62,9 +66,16 @@ class ModelOptions:
     radiation : bool, exterior radiation eps sigma (T^4 - T_amb^4)
     emissivity : float or None [-], override of the housing material's emissivity
     mounting_conductance_W_m2K : float or None [W/m^2 K], override of the layout's
-    cavity_radiation : bool, radiation across the air gaps of the cavity as an
-        effective conductivity (see :func:`cavity_radiation_conductivity`)
-    cavity_emissivity : float [-], effective pair emissivity of facing surfaces
+    cavity_radiation : bool, radiation inside the cavity air (False: none, whatever ``cavity_law``)
+    cavity_law : ``effective`` (an effective conductivity of the air across its gaps, see
+        :func:`cavity_radiation_conductivity`), ``s2s`` (surface-to-surface exchange between the faces
+        that bound each air region, view factors and radiosity: :mod:`imutherm.thermal.cavity_radiation`)
+        or ``none``
+    cavity_emissivity : float [-], effective pair emissivity of facing surfaces (``effective`` law)
+    cavity_surface_emissivity : float or None [-], emissivity of every interior surface (``s2s`` law);
+        None: each bounding part's material emissivity (``DEFAULT_INTERIOR_EMISSIVITY`` where it has none)
+    cavity_patch_mm : float [mm], patch edge of the ``s2s`` law
+    cavity_rays : int, rays per patch of the ``s2s`` view factors (seeded, reproducible)
     interfaces : tuple of Interface, contact conductances between named parts
     bond_contact_W_m2K : float or None [W/m^2 K], contact conductance on both faces
         of every grease bond line (package/bond and bond/wall); None: none
@@ -84,6 +95,10 @@ class ModelOptions:
     cavity_radiation: bool = True
     # boards and packages ~0.9, anodised housing 0.84: 1/(1/0.9 + 1/0.84 - 1) = 0.77
     cavity_emissivity: float = 0.77
+    cavity_law: str = "effective"
+    cavity_surface_emissivity: float | None = None
+    cavity_patch_mm: float = DEFAULT_PATCH_MM
+    cavity_rays: int = DEFAULT_RAYS
     interfaces: tuple = field(default_factory=lambda: (
         Interface("housing", "lid", AL_AL_AIR_JOINT_W_M2K, "screwed lid, Al/Al with air: Incropera Table 3.1b"),))
     bond_contact_W_m2K: float | None = GREASE_WETTED_JOINT_W_M2K
@@ -105,7 +120,15 @@ class ModelOptions:
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v > 0):
                 raise InputError(f"model option {name!r} must be a finite number > 0 or None (off), got {v!r}")
-        for name in ("emissivity", "cavity_emissivity"):
+        if self.cavity_law not in CAVITY_LAWS:
+            raise InputError(f"model option 'cavity_law': unknown value {self.cavity_law!r}; "
+                             f"valid: {', '.join(CAVITY_LAWS)}")
+        if not (np.isfinite(self.cavity_patch_mm) and self.cavity_patch_mm > 0):
+            raise InputError(f"model option 'cavity_patch_mm' must be a finite number > 0 [mm], "
+                             f"got {self.cavity_patch_mm!r}")
+        if not (isinstance(self.cavity_rays, (int, np.integer)) and self.cavity_rays >= 16):
+            raise InputError(f"model option 'cavity_rays' must be an integer >= 16, got {self.cavity_rays!r}")
+        for name in ("emissivity", "cavity_emissivity", "cavity_surface_emissivity"):
             v = getattr(self, name)
             if v is not None and not (0.0 <= v <= 1.0):
                 raise InputError(f"model option {name!r}: emissivity must be in [0, 1], got {v!r}")
@@ -247,7 +270,10 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
     k = k_part[cp]  # (nx, ny, nz, 3)
 
     fill = grid.part_names.index("fill")
-    if options.cavity_radiation and options.material(parts[fill].material).name == "air":
+    law = options.cavity_law if options.cavity_radiation else "none"
+    in_air = options.material(parts[fill].material).name == "air"
+    exchanges = (cavity_exchange_law(geometry, grid, options),) if law == "s2s" and in_air else ()
+    if law == "effective" and in_air:
         air = cp == fill
         mean_T = ambient + 10.0  # linearisation point [degC]: hot parts run ~0-30 K above ambient
         for axis, w in enumerate(grid.cell_sizes()):
@@ -282,4 +308,38 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
         if options.radiation and eps > 0:
             laws.append(Radiation(eps, ambient))
         boundary[face] = tuple(laws)
-    return ThermalProblem(grid, k.reshape(-1, 3), rc_part[cp].ravel(), q_part[cp].ravel(), ambient, boundary)
+    return ThermalProblem(grid, k.reshape(-1, 3), rc_part[cp].ravel(), q_part[cp].ravel(), ambient, boundary,
+                          exchanges)
+
+
+_VIEW_CACHE: dict = {}
+
+
+def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOptions):
+    """The ``s2s`` cavity law of the unit: :class:`~imutherm.thermal.cavity_radiation.CavityExchange`.
+
+    Emissivities from the bounding parts' materials (or ``cavity_surface_emissivity``); rays seeded with 0.
+    View factors depend only on the mesh, the air and the patch size and rays, so the last few are kept
+    (a correlation re-solves the same mesh with other emissivities or conductances).
+    """
+    import hashlib
+
+    from imutherm.thermal.cavity_radiation import DEFAULT_INTERIOR_EMISSIVITY, cavity_exchange
+
+    air = grid.cell_part == grid.part_names.index("fill")
+    if options.cavity_surface_emissivity is not None:
+        eps = [options.cavity_surface_emissivity] * len(geometry.parts)
+    else:
+        eps = [options.material(p.material).emissivity for p in geometry.parts]
+        eps = [DEFAULT_INTERIOR_EMISSIVITY if e is None else e for e in eps]
+    h = hashlib.sha1()
+    for a in (grid.xs, grid.ys, grid.zs, grid.cell_part, air):
+        h.update(np.ascontiguousarray(a).tobytes())
+    key = (h.hexdigest(), float(options.cavity_patch_mm), int(options.cavity_rays))
+    law = cavity_exchange(grid, air, eps, patch_mm=options.cavity_patch_mm, rays=options.cavity_rays,
+                          rng=np.random.default_rng(0), view=_VIEW_CACHE.get(key))
+    if key not in _VIEW_CACHE:
+        if len(_VIEW_CACHE) >= 4:
+            _VIEW_CACHE.pop(next(iter(_VIEW_CACHE)))
+        _VIEW_CACHE[key] = law.view
+    return law

@@ -480,6 +480,10 @@ class ThermalProblem:
         ``grid.face_names``, e.g. ``bottom``) -> tuple of laws applied on it
         (laws on one face add up; faces without laws are adiabatic). Stored
         keyed by ``xmin`` .. ``zmax``.
+    exchanges : tuple
+        Interior exchange laws between surfaces (e.g. the surface-to-surface cavity radiation,
+        :class:`~imutherm.thermal.cavity_radiation.CavityExchange`): objects with ``nodes``,
+        ``weights`` [m^2] and ``flux_out(T_nodes [°C], T_ref) -> (q [W/m^2], slope [W/m^2 K])``.
     """
 
     grid: TensorGrid
@@ -488,6 +492,7 @@ class ThermalProblem:
     q: np.ndarray
     ambient_C: float = 20.0
     boundary: dict = field(default_factory=dict)
+    exchanges: tuple = ()
 
     def __post_init__(self):
         g = self.grid
@@ -539,6 +544,13 @@ class ThermalProblem:
         object.__setattr__(self, "q", q)
         object.__setattr__(self, "ambient_C", amb)
         object.__setattr__(self, "boundary", bnd)
+        exchanges = tuple(self.exchanges)
+        for ex in exchanges:
+            if not (hasattr(ex, "flux_out") and hasattr(ex, "nodes") and hasattr(ex, "weights")):
+                raise InputError(f"ThermalProblem: exchange {ex!r} has no nodes, weights and flux_out")
+            if len(ex.nodes) and (np.min(ex.nodes) < 0 or np.max(ex.nodes) >= g.n_nodes):
+                raise InputError("ThermalProblem: an exchange law refers to nodes outside the grid")
+        object.__setattr__(self, "exchanges", exchanges)
 
     @property
     def power_W(self) -> float:

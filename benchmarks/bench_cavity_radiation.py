@@ -1,0 +1,98 @@
+"""Cost and effect of the cavity radiation laws on the reference unit (issue 11 §3).
+
+Usage::
+
+    python benchmarks/bench_cavity_radiation.py [--scheme air] [--mesh-size 2.0]
+        [--patch-mm 10 5 2.5] [--rays 100 400 1600] [--transient]
+
+For each law (``effective``, ``s2s``, ``none``) at the default patch size and rays: the
+steady rises of tp1 and the three gyros, the steady solve time and its Newton / CG
+iterations; for ``s2s`` also the patches, the view-factor time and the reciprocity and
+closure residuals before and after their enforcement. ``--patch-mm`` and ``--rays`` add the
+convergence of the s2s rises with the patch size and the rays per patch. ``--transient`` runs
+the power-on transient with s2s (adaptive TR-BDF2, default and 10x tighter tolerance): tp1's
+t63/t95 and the largest site difference between the two, which bounds the error of the lagged
+exchange together with the time discretisation.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from imutherm.geometry.build import build_geometry
+from imutherm.geometry.layout import load_layout
+from imutherm.geometry.mesh import build_mesh
+from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM, DEFAULT_RAYS
+from imutherm.thermal.metrics import thermal_metrics
+from imutherm.thermal.model import ModelOptions, build_problem
+from imutherm.thermal.solve import solve_steady, solve_transient
+
+SITES = ("tp1", "gyro_x", "gyro_y", "gyro_z")
+
+
+def steady(geometry, grid, options):
+    t0 = time.perf_counter()
+    pb = build_problem(geometry, grid, options)
+    build_s = time.perf_counter() - t0
+    r = solve_steady(pb, probes=dict(geometry.sites))
+    rise = dict(zip(r.probe_names, (float(v) - pb.ambient_C for v in r.probe_C)))
+    return pb, r, rise, build_s
+
+
+def line(label, pb, r, rise, build_s):
+    s = f"{label:<28s} " + " ".join(f"{n} {rise[n]:6.2f} K" for n in SITES)
+    s += f" | build {build_s:5.1f} s, steady {r.solve_s:5.1f} s, Newton {r.iterations}, CG {r.linear_iterations}"
+    if pb.exchanges:
+        ex = pb.exchanges[0]
+        v = ex.view
+        s += (f" | {ex.patches.n} patches, {v.rays} rays, view factors {v.seconds:.1f} s, reciprocity "
+              f"{v.raw_reciprocity:.2g} -> {v.reciprocity:.1g}, closure {v.raw_closure:.1g} -> {v.closure:.1g}, "
+              f"lost rays {v.lost}")
+    print(s, flush=True)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scheme", default="air")
+    ap.add_argument("--mesh-size", type=float, default=2.0)
+    ap.add_argument("--patch-mm", type=float, nargs="*", default=[])
+    ap.add_argument("--rays", type=int, nargs="*", default=[])
+    ap.add_argument("--transient", action="store_true")
+    a = ap.parse_args(argv)
+    lay = load_layout(None)
+    geometry = build_geometry(lay, a.scheme)
+    grid = build_mesh(geometry, a.mesh_size, 2)
+    print(f"reference unit, scheme {a.scheme}, mesh {a.mesh_size} mm: {grid.n_nodes} nodes")
+    for law in ("effective", "s2s", "none"):
+        line(law, *steady(geometry, grid, ModelOptions(cavity_law=law)))
+    for pm in a.patch_mm:
+        line(f"s2s patch {pm:g} mm", *steady(geometry, grid, ModelOptions(cavity_law="s2s", cavity_patch_mm=pm)))
+    for n in a.rays:
+        line(f"s2s {n} rays/patch", *steady(geometry, grid, ModelOptions(cavity_law="s2s", cavity_rays=n)))
+    if a.transient:
+        runs = {}
+        for law, tol in (("effective", 0.01), ("s2s", 0.01), ("s2s", 0.001)):
+            pb = build_problem(geometry, grid, ModelOptions(cavity_law=law))
+            st = solve_steady(pb, probes=dict(geometry.sites))
+            final = {n: float(v) - pb.ambient_C for n, v in zip(st.probe_names, st.probe_C)}
+            t0 = time.perf_counter()
+            tr = solve_transient(pb, 3000.0, None, scheme="trbdf2", error_control="probes", tol_K=tol,
+                                 probes=dict(geometry.sites))
+            m = thermal_metrics(tr, final_rise_K=final)
+            runs[(law, tol)] = tr
+            i = tr.probe_names.index("tp1")
+            print(f"{law} transient tol {tol:g} K: {time.perf_counter() - t0:.1f} s, {tr.steps} steps, "
+                  f"tp1 t63 {m.t63_s['tp1']:.0f} s, t95 {m.t95_s['tp1']:.0f} s, "
+                  f"tp1(3000 s) {tr.probe_C[-1, i] - pb.ambient_C:.3f} K", flush=True)
+        a_, b_ = runs[("s2s", 0.01)], runs[("s2s", 0.001)]
+        diff = max(float(np.max(np.abs(np.interp(b_.times, a_.times, a_.probe_C[:, j]) - b_.probe_C[:, j])))
+                   for j in range(len(a_.probe_names)))
+        print(f"s2s: largest site difference between the two tolerances over the run: {diff:.4f} K")
+    print(f"(defaults: patch {DEFAULT_PATCH_MM:g} mm, {DEFAULT_RAYS} rays per patch)")
+
+
+if __name__ == "__main__":
+    main()
