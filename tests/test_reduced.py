@@ -94,3 +94,14 @@ def test_coupled_knobs_are_interpolated_jointly():
         full = solve_steady(pb, probes=dict(g.sites)).probe_C - pb.ambient_C
         red = rom.rise(values, [np.inf])[0]
         np.testing.assert_allclose(red, full, rtol=0, atol=0.005 * full.max(), err_msg=str(values))
+
+
+def test_the_s2s_cavity_law_is_refused_not_linearised_wrongly():
+    """The s2s exchange is between surfaces, not to ambient: the secant linearisation must refuse it."""
+    from imutherm.thermal.reduced import linearised
+    g = build_geometry(load_layout(None), "air")
+    grid = build_mesh(g, **MESH)
+    pb = effect_problem(K.variant(g, ModelOptions(cavity_law="s2s", cavity_patch_mm=10.0), {}), grid)
+    asm = assemble(pb)
+    with pytest.raises(Exception, match="surface-to-surface cavity law"):
+        linearised(asm, np.full(asm.n, pb.ambient_C))

@@ -85,6 +85,10 @@ def linearised(asm, T_C: np.ndarray):
     in rise variables θ = T - T_amb when every law's reference temperature is the ambient.
     """
     pb = asm.problem
+    if getattr(pb, "exchanges", ()):
+        raise InputError("reduced model: the surface-to-surface cavity law (cavity_law 's2s') exchanges heat between "
+                         "surfaces, which this linearisation about the ambient cannot carry; use the 'effective' "
+                         "cavity law for a correlation")
     if asm.dirichlet:
         raise InputError("reduced model: fixed-temperature faces are not supported (use a contact law)")
     for bc in list(asm.linear) + list(asm.nonlinear):
