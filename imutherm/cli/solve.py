@@ -15,111 +15,27 @@ earlier run in DIR are removed, so DIR holds only this run's field.
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numpy as np
 
 from imutherm import InputError
-from imutherm.cli._common import (FIELD_FILES, _test_pause, atomic_outdir, check_outdir, help_text, run_guarded,
-                                  write_json)
 from imutherm.budget import MAX_SAVED_FIELDS, transient_steps
-from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
+from imutherm.cli import run_command
+from imutherm.cli._common import FIELD_FILES, _test_pause, atomic_outdir, check_outdir, write_json
+from imutherm.cli._options import (add_effect_argument, add_layout_arguments, add_model_arguments,
+                                   add_out_argument, add_progress_argument, add_time_arguments,
+                                   check_thermal_cost, model_options, reject_time_options, time_kwargs)
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
-from imutherm.studies.thermal_study import check_time_arguments, probe_table, result_summary, run_scheme
-from imutherm.thermal.effects import list_effects, parse_effect
-from imutherm.thermal.model import ModelOptions
 from imutherm.site_table import write_site_table
+from imutherm.studies.thermal_study import probe_table, result_summary, run_scheme
+from imutherm.thermal.effects import list_effects, parse_effect
 from imutherm.thermal.output import write_result
 
 
-def add_model_arguments(parser: argparse.ArgumentParser) -> None:
-    """Switches of the physical model (see ``imutherm.thermal.model.ModelOptions``)."""
-    g = parser.add_argument_group("model")
-    g.add_argument("--exterior", choices=("natural", "fixed", "none"), default="natural",
-                   help="exterior convection: face-orientation natural convection (default), fixed h, or none")
-    g.add_argument("--h", type=float, default=10.0, metavar="W/m2K", help="h of --exterior fixed [W/m^2 K]")
-    g.add_argument("--no-radiation", action="store_true", help="switch off exterior radiation")
-    g.add_argument("--emissivity", type=float, default=None, help="housing emissivity [-] (default: its material's)")
-    g.add_argument("--mount-conductance", type=float, default=None, metavar="W/m2K",
-                   help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
-    g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
-
-
-def add_effect_argument(parser: argparse.ArgumentParser) -> None:
-    """``--effect``: candidate effects of :mod:`imutherm.thermal.effects` switched on."""
-    parser.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET]:PARAM=VALUE",
-                        help="switch on a candidate effect of the correlation library (repeatable; "
-                             "`--list-effects` lists them), e.g. contact@bond:h_W_m2K=500")
-
-
-def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_stop: bool = False) -> None:
-    """Time stepping of the power-on transient (shared by ``solve`` and ``compare``)."""
-    g = parser.add_argument_group("time stepping")
-    g.add_argument("--t-end", type=float, default=None, metavar="SECONDS",
-                   help=f"transient end time [s] (default {t_end:g}; the latest end with --until-settled)")
-    # None above tells "not given" from the default (see reject_time_options); time_kwargs fills it in
-    parser.set_defaults(t_end_default=t_end, settle_flag="--full-length" if settle_stop else "--until-settled")
-    g.add_argument("--time-tol", type=float, default=None, metavar="K",
-                   help="local error tolerance of the adaptive TR-BDF2 steps at the sites [K] (default 0.01)")
-    g.add_argument("--dt", type=float, default=None, metavar="SECONDS",
-                   help="given steps instead of error control: first step [s], constant, or growing by 1.2 "
-                        "up to --dt-max (theta scheme default: 2 s up to 60 s)")
-    g.add_argument("--dt-max", type=float, default=None, metavar="SECONDS",
-                   help="largest step [s] (adaptive default 300)")
-    g.add_argument("--theta", type=float, default=None,
-                   help="use the theta scheme with given steps instead of TR-BDF2: 1 backward Euler, "
-                        "0.5 Crank-Nicolson (in [0.5, 1]; needs --transient)")
-    if settle_stop:
-        g.add_argument("--full-length", dest="until_settled", action="store_false",
-                       help="run every transient to --t-end (default: stop once every site is within 0.5 %% "
-                            "of its steady rise, past its t95)")
-    else:
-        g.add_argument("--until-settled", action="store_true",
-                       help="stop once every site is within 0.5 %% of its steady rise (past its t95)")
-
-
-def reject_time_options(args, why: str) -> None:
-    """InputError naming the options of :func:`add_time_arguments` (and ``--save-every``) that were given
-    although no transient runs (``why``): they would be silently ignored."""
-    given = [opt for opt, dest in (("--t-end", "t_end"), ("--time-tol", "time_tol"), ("--dt", "dt"),
-                                   ("--dt-max", "dt_max"), ("--theta", "theta"), ("--save-every", "save_every"))
-             if getattr(args, dest, None) is not None]
-    if args.until_settled == (args.settle_flag == "--until-settled"):
-        given.append(args.settle_flag)
-    if given:
-        raise InputError(f"{', '.join(given)}: time stepping given {why}; a steady solve has no time steps, "
-                         f"so drop {'it' if len(given) == 1 else 'them'} or run the transient")
-
-
-def time_kwargs(args) -> dict:
-    """``run_scheme`` time arguments from the options of :func:`add_time_arguments` (checked)."""
-    if args.t_end is None:
-        args.t_end = args.t_end_default
-    if args.theta is not None and not 0.5 <= args.theta <= 1.0:
-        raise InputError(f"--theta must be in [0.5, 1] (1 backward Euler, 0.5 Crank-Nicolson), got {args.theta}")
-    if args.time_tol is not None and (args.dt is not None or args.theta is not None):
-        raise InputError("--time-tol sets the error-controlled TR-BDF2 steps: not with --dt or --theta")
-    scheme = "trbdf2" if args.theta is None else "theta"
-    check_time_arguments(args.t_end, args.dt, args.dt_max, args.time_tol, scheme)
-    kw = dict(t_end=args.t_end, time_scheme=scheme, tol_K=args.time_tol, dt=args.dt, dt_max=args.dt_max,
-              until_settled=args.until_settled)
-    if args.theta is not None:
-        kw["theta"] = args.theta
-    return kw
-
-
-def model_options(args) -> ModelOptions:
-    return ModelOptions(exterior=args.exterior, h_fixed_W_m2K=args.h, radiation=not args.no_radiation,
-                        emissivity=args.emissivity, mounting_conductance_W_m2K=args.mount_conductance,
-                        cavity_radiation=not args.no_cavity_radiation)
-
-
-@run_guarded("imutherm solve")
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm solve", description=help_text(__doc__),
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_args(parser) -> None:
+    """The options of ``imutherm solve``."""
     add_layout_arguments(parser)
     parser.add_argument("--transient", action="store_true", help="power-on transient from ambient")
     add_time_arguments(parser, t_end=1200.0)
@@ -127,13 +43,21 @@ def main(argv=None) -> int:
                         help="keep the whole field every SECONDS for the PVD series (default: t_end/10)")
     parser.add_argument("--site", action="append", default=None, metavar="NAME",
                         help="report only these sites (repeatable; default all)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_progress_argument(parser)
     add_model_arguments(parser)
     add_effect_argument(parser)
     parser.add_argument("--list-effects", action="store_true",
                         help="print the library of candidate effects (parameters, bounds, sources) and exit")
-    parser.add_argument("--out", default=None, help="output directory (required unless --list-effects)")
-    args = parser.parse_args(argv)
+    add_out_argument(parser, required=False, help="output directory (required unless --list-effects)")
+
+
+def main(argv=None) -> int:
+    """``imutherm solve ARGV...``; returns the exit status."""
+    return run_command("solve", argv)
+
+
+def run(args) -> int:
+    """Check everything, solve and write the outputs of ``args``; returns 0."""
     if args.list_effects:
         print(list_effects())
         return 0
