@@ -6,6 +6,11 @@
 # branch merged after the move) are moved into <pkg>/ one by one. Left-over __pycache__ folders of the old
 # places are deleted: an imutherm/<pkg>/ folder holding only __pycache__ would be imported as an empty
 # namespace package in place of <pkg>/. Run from anywhere inside the repository; commit afterwards.
+#
+# Merging the branch that made the move into one that added files under imutherm/<pkg>/:
+#   git merge -X find-renames=25% <branch>   # a heavily edited file (cli/__init__.py) is still seen as moved
+#   git add <pkg>/<file> ...                  # git's "file location" conflicts: it already put them in <pkg>/
+#   bash tools/move_to_top_level.sh           # whatever is left under imutherm/<pkg>/, and the __pycache__
 set -euo pipefail
 cd "$(git rev-parse --show-toplevel)"
 
