@@ -4,6 +4,8 @@ Subpackages follow the flow of the design notes:
 ``geometry`` (layouts -> parts -> conforming mesh), ``thermal`` (FEM),
 ``imu`` (sensor error model, calibration, attitude filters),
 ``studies`` (the chains), ``reports`` (the only place that draws), ``cli``.
+Each lives in the repository's top-level folder of its name (``thermal/`` is ``imutherm.thermal``; the
+mapping is ``package-dir`` in pyproject.toml); this folder holds the small modules shared by them.
 """
 
 __version__ = "0.1.0"

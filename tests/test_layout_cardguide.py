@@ -1,5 +1,7 @@
 """The second built-in layout (imu_cardguide): name lookup, build, mesh, contacts."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -32,7 +34,8 @@ def test_builtin_names_resolve_to_the_packaged_files():
     assert resolve_layout("imu_reference") == default_layout_path()
     assert resolve_layout(None) == default_layout_path()
     lay = load_layout("imu_cardguide")
-    assert lay.name == "imu_cardguide" and lay.path.endswith("imutherm/layouts/imu_cardguide.toml")
+    assert lay.name == "imu_cardguide" and lay.path.endswith("layouts/imu_cardguide.toml")
+    assert Path(lay.path).parent == default_layout_path().parent  # beside the reference unit, installed or not
     assert load_layout(lay.path).name == "imu_cardguide"          # a path still works
 
 

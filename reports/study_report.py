@@ -362,8 +362,8 @@ def _parameters_page(pdf, data: dict) -> None:
               "Tamb^4); contact conductances: Incropera Table 3.1b; cavity radiation: Incropera eq. 13.24"]
     st = data["study"]
     lines += ["", "IMU study: " + ", ".join(f"{k}={v}" for k, v in st.items())]
-    lines += ["  sensor grade: imutherm/imu/grades.py (datasheet values tagged [DS], assumed ones [ASSUMED]); "
-              "calibration rig: seed 000 two-step procedure, imutherm/imu/calibration.py"]
+    lines += ["  sensor grade: imu/grades.py (datasheet values tagged [DS], assumed ones [ASSUMED]); "
+              "calibration rig: seed 000 two-step procedure, imu/calibration.py"]
     lines += ["  mesh: " + ", ".join(f"{s} {m['nodes']} nodes" for s, m in data["mesh"].items())
               + f"; study wall time {data['wall_s']:.0f} s"]
     fig.text(0.03, 0.9, "\n".join(lines), fontsize=6.8, va="top", family="monospace")

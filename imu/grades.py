@@ -51,7 +51,7 @@ GRADES: dict[str, dict] = {
             "seed 003: gyro bias stability 0.015 deg/s, noise 0.6 deg/s; accel bias stability 0.7 mg, noise 3.5 mg",
             "ADIS16350/ADIS16355 datasheet Rev. PrG (Analog Devices, 2007): 14-bit, +-300 deg/s, +-10 g; "
             "tempcos and misalignment recalled, not verified",
-            "assumed values marked in imutherm/imu/grades.py",
+            "assumed values marked in imu/grades.py",
         ],
         "sample_rate_hz": 100.0,                # [ASSUMED] attitude-system output rate (DS max 819.2 SPS)
         "temp_sensor_tau_s": 5.0,               # [ASSUMED] die-to-internal-sensor lag, same package
@@ -104,7 +104,7 @@ GRADES: dict[str, dict] = {
         "sources": [
             "ADIS16488A datasheet (Analog Devices): gyro in-run bias 5.1 deg/h, ARW 0.26 deg/sqrt(h); "
             "accel in-run bias 0.1 mg, VRW 0.029 m/s/sqrt(h); values recalled, not verified",
-            "assumed values marked in imutherm/imu/grades.py",
+            "assumed values marked in imu/grades.py",
         ],
         "sample_rate_hz": 100.0,                # [ASSUMED] decimated from 2460 SPS
         "temp_sensor_tau_s": 5.0,               # [ASSUMED]

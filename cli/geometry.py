@@ -7,39 +7,16 @@ cell data ``part`` / ``material``) and ``layout.png``.
 
 from __future__ import annotations
 
-import argparse
 import math
 
-from imutherm.budget import add_memory_argument, check_cost, thermal_cost
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json, help_text
+from imutherm import InputError
+from imutherm.cli import run_command
+from imutherm.cli._common import atomic_outdir, check_outdir, write_json
+from imutherm.cli._options import add_layout_arguments, add_out_argument, check_thermal_cost
 from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.export import material_names, write_glb, write_stl, write_vtu
-from imutherm.geometry.layout import builtin_layouts, load_layout
-from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh, grid_shape, mesh_info
-
-
-def add_layout_arguments(parser: argparse.ArgumentParser, scheme: bool = True) -> None:
-    """LAYOUT, --scheme (unless ``scheme`` is False: ``compare`` takes ``--schemes``), --mesh-size,
-    --min-cells: shared by the commands that mesh a layout."""
-    parser.add_argument("layout", nargs="?", default=None,
-                        help="layout: a TOML file or a built-in layout name "
-                             f"({', '.join(builtin_layouts())}; default: imu_reference, the paper's unit)")
-    if scheme:
-        parser.add_argument("--scheme", default=None,
-                            help="cooling scheme: air, grease or potted (default: the layout's)")
-    parser.add_argument("--mesh-size", type=float, default=DEFAULT_MAX_CELL_MM, metavar="MM",
-                        help=f"largest cell edge [mm] (default {DEFAULT_MAX_CELL_MM})")
-    parser.add_argument("--min-cells", type=int, default=DEFAULT_MIN_CELLS,
-                        help=f"fewest cells across any part's thinnest dimension (default {DEFAULT_MIN_CELLS})")
-    add_memory_argument(parser)
-
-
-def check_thermal_cost(geometry, args, *, steps: int = 0, saved: int = 1, geometry_only: bool = False):
-    """Estimate the mesh (from its grid lines only) and the run's memory; InputError beyond ``--max-memory``."""
-    shape = grid_shape(geometry, args.mesh_size, args.min_cells)
-    what = f"{'geometry' if geometry_only else 'solve'} of {geometry.layout.name} / {geometry.scheme.name}"
-    return check_cost(thermal_cost(what, shape, steps=steps, saved=saved, geometry_only=geometry_only),
-                      args.max_memory)
+from imutherm.geometry.layout import load_layout
+from imutherm.geometry.mesh import build_mesh, mesh_info
 
 
 def geometry_summary(geometry, grid) -> dict:
@@ -67,18 +44,23 @@ def geometry_summary(geometry, grid) -> dict:
     }
 
 
-@run_guarded("imutherm geometry")
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm geometry", description=help_text(__doc__),
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_args(parser) -> None:
+    """The options of ``imutherm geometry``."""
     add_layout_arguments(parser)
-    parser.add_argument("--out", required=True, help="output directory")
+    add_out_argument(parser)
     parser.add_argument("--no-png", action="store_true", help="skip layout.png")
-    args = parser.parse_args(argv)
-    check_outdir(args.out)
 
+
+def main(argv=None) -> int:
+    """``imutherm geometry ARGV...``; returns the exit status."""
+    return run_command("geometry", argv)
+
+
+def run(args) -> int:
+    """Build, mesh and write the outputs of ``args``; returns 0."""
+    check_outdir(args.out)
     if not math.isfinite(args.mesh_size) or args.mesh_size <= 0:
-        parser.error(f"--mesh-size must be a finite number > 0 [mm], got {args.mesh_size}")
+        raise InputError(f"--mesh-size must be a finite number > 0 [mm], got {args.mesh_size}")
     layout = load_layout(args.layout)
     geometry = build_geometry(layout, args.scheme)
     check_thermal_cost(geometry, args, geometry_only=True)

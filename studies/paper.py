@@ -16,7 +16,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 PAPER_FILE = Path(__file__).with_name("paper_targets.toml")
-SOURCE = "seed 000 (NUAA 2012), figures stated in its text: imutherm/studies/paper_targets.toml"
+SOURCE = "seed 000 (NUAA 2012), figures stated in its text: studies/paper_targets.toml"
 
 
 @lru_cache(maxsize=1)

@@ -16,23 +16,20 @@ every site has settled, past its t95 (``--full-length``: run to ``--t-end``).
 
 from __future__ import annotations
 
-import argparse
-
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, help_text
 from imutherm.budget import check_study_cost, transient_steps
-from imutherm.cli.geometry import add_layout_arguments, check_thermal_cost
-from imutherm.cli.solve import (add_model_arguments, add_time_arguments, model_options, reject_time_options,
-                                time_kwargs)
+from imutherm.cli import run_command
+from imutherm.cli._common import atomic_outdir, check_outdir
+from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
+                                   add_progress_argument, add_time_arguments, check_thermal_cost, model_options,
+                                   reject_time_options, time_kwargs)
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.compare import compare_schemes, write_comparison
 
 
-@run_guarded("imutherm compare")
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm compare", description=help_text(__doc__),
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_args(parser) -> None:
+    """The options of ``imutherm compare``."""
     add_layout_arguments(parser, scheme=False)
     parser.add_argument("--schemes", default="air,grease,potted", help="comma-separated schemes (default all three)")
     add_time_arguments(parser, t_end=2400.0, settle_stop=True)
@@ -49,19 +46,27 @@ def main(argv=None) -> int:
     g.add_argument("--out-of-range", default="linear", choices=("error", "hold", "linear"),
                    help="compensation beyond the calibrated range: linear (default: extrapolate the "
                         "calibration's temperature trend), hold (clamp), error (refuse)")
-    g.add_argument("--jobs", type=int, default=None, metavar="N",
-                   help="processes (default: min(2, CPUs)); the IMU side runs beside the thermal solves")
-    parser.add_argument("--no-progress", action="store_true")
+    add_jobs_argument(g, default=None,
+                      help="processes (default: min(2, CPUs)); the IMU side runs beside the thermal solves")
+    add_progress_argument(parser)
     add_model_arguments(parser)
-    parser.add_argument("--out", required=True, help="output directory")
-    args = parser.parse_args(argv)
+    add_out_argument(parser)
+
+
+def main(argv=None) -> int:
+    """``imutherm compare ARGV...``; returns the exit status."""
+    return run_command("compare", argv)
+
+
+def run(args) -> int:
+    """Check everything, run the study of ``args`` and write its outputs; returns 0."""
     check_outdir(args.out)
     if args.steady_only:
         reject_time_options(args, "with --steady-only")
     args.time_kwargs = {} if args.steady_only else time_kwargs(args)
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
     if not schemes:
-        parser.error(f"--schemes {args.schemes!r}: give at least one scheme, e.g. air,grease,potted")
+        raise InputError(f"--schemes {args.schemes!r}: give at least one scheme, e.g. air,grease,potted")
     if args.seeds < 1:
         raise InputError(f"--seeds: {args.seeds} is invalid; valid: an integer >= 1")
     if args.seed < 0:

@@ -53,7 +53,7 @@ def default_layout_path() -> Path:
 
 
 def builtin_layouts() -> tuple:
-    """Names of the layouts shipped in ``imutherm/layouts/`` (``imu_reference``, ``imu_cardguide``, ...)."""
+    """Names of the layouts shipped in ``layouts/`` (the package ``imutherm.layouts``) (``imu_reference``, ``imu_cardguide``, ...)."""
     folder = resources.files("imutherm.layouts")
     return tuple(sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml")))
 

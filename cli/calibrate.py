@@ -28,12 +28,12 @@ values and the unit's truth, and the attitude filters on the ``shake`` profile
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json, help_text
+from imutherm.cli import run_command
+from imutherm.cli._common import atomic_outdir, check_outdir, write_json
+from imutherm.cli._options import add_out_argument
 from imutherm.imu.calibration import RigConfig
 from imutherm.imu.compensation import INTERPS
 from imutherm.imu.grades import GRADES
@@ -86,10 +86,8 @@ def _overload(args) -> int:
     return 0
 
 
-@run_guarded("imutherm calibrate")
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm calibrate", description=help_text(__doc__),
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_args(parser) -> None:
+    """The options of ``imutherm calibrate``."""
     parser.add_argument("--grade", default="adis16355", help=f"sensor grade: {', '.join(GRADES)} (default adis16355)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (unit draw, rig, noise); default 0")
     parser.add_argument("--oven-mount-deg", type=float, default=None, metavar="DEG",
@@ -102,8 +100,16 @@ def main(argv=None) -> int:
     parser.add_argument("--load-dependence", action="store_true",
                         help="overload: Ka grows and K2, D1 shrink with load and change per power-on (seed 004's "
                              "findings as the truth model)")
-    parser.add_argument("--out", required=True, help="output directory")
-    args = parser.parse_args(argv)
+    add_out_argument(parser)
+
+
+def main(argv=None) -> int:
+    """``imutherm calibrate ARGV...``; returns the exit status."""
+    return run_command("calibrate", argv)
+
+
+def run(args) -> int:
+    """Run the procedure of ``args`` and write its outputs; returns 0."""
     check_outdir(args.out)
     if args.seed < 0:
         raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")

@@ -13,37 +13,44 @@ residuals, fingerprints), ``updated_model.toml`` (the fitted re-tune values and 
 
 from __future__ import annotations
 
-import argparse
 import os
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded
+from imutherm.cli import run_command
+from imutherm.cli._common import atomic_outdir, check_outdir
+from imutherm.cli._options import add_jobs_argument, add_layout_arguments, add_model_arguments, model_options
 from imutherm.io import write_json
-from imutherm.cli.geometry import add_layout_arguments
-from imutherm.geometry.build import build_geometry
-from imutherm.geometry.layout import load_layout
-from imutherm.measured import read_measured
-from imutherm.thermal.effects import list_effects
 
 
-@run_guarded("imutherm correlate")
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm correlate", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_args(parser) -> None:
+    """The options of ``imutherm correlate``."""
     add_layout_arguments(parser, scheme=False)  # the schemes come from the measured files
     parser.add_argument("--measured", nargs="+", default=None, metavar="CSV", help="measured files (one per experiment)")
     parser.add_argument("--holdout", default="auto", metavar="auto|FILE",
-                        help="held-out data: auto (leave one file out; one file: fit the first 60 %% of its "
-                             "time, predict the rest) or the file to hold out")
+                        help="held-out data: auto (each file's first 60 %% of its time fitted, the rest predicted; "
+                             "sparse files: one reading left out at a time) or a file to leave out whole")
     parser.add_argument("--list-effects", action="store_true", help="print the library of candidate effects and exit")
     parser.add_argument("--no-rerun", action="store_true",
                         help="report the corrected model from the reduced model's fit only (default: re-run it on "
                              "the full FEM, one transient per file)")
-    parser.add_argument("--jobs", type=int, default=None, metavar="N",
-                        help="worker processes for the reduced models and the re-runs (default: 2, or 1 on one core)")
+    add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
+                                    "(default: 2, or 1 on one core)")
     parser.add_argument("--no-report", action="store_true", help="no correlation.pdf")
     parser.add_argument("--out", default=None, help="output directory")
-    args = parser.parse_args(argv)
+    add_model_arguments(parser)
+
+
+def main(argv=None) -> int:
+    """``imutherm correlate ARGV...``; returns the exit status."""
+    return run_command("correlate", argv)
+
+
+def run(args) -> int:
+    """Correlate the measured files of ``args`` with the model and write the outputs; returns 0."""
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.measured import read_measured
+    from imutherm.thermal.effects import list_effects
     if args.list_effects:
         print(list_effects())
         return 0
@@ -60,7 +67,8 @@ def main(argv=None) -> int:
     runs = [read_measured(p, sites=sites, schemes=tuple(layout.schemes)) for p in args.measured]
     from imutherm.studies.correlation import correlate, result_json, updated_model_toml
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                    rerun=not args.no_rerun, jobs=jobs, progress=lambda s: print(f"  {s}", flush=True))
+                    options=model_options(args), rerun=not args.no_rerun, jobs=jobs,
+                    progress=lambda s: print(f"  {s}", flush=True))
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "correlation.json", data)

@@ -18,12 +18,11 @@ inputs' influence).
 
 from __future__ import annotations
 
-import argparse
-
 from imutherm import InputError
-from imutherm.cli._common import check_outdir, run_guarded, help_text
-from imutherm.cli.geometry import add_layout_arguments
-from imutherm.cli.solve import add_model_arguments, model_options
+from imutherm.cli import run_command
+from imutherm.cli._common import check_outdir
+from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
+                                   add_progress_argument, model_options)
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
 
 
@@ -31,10 +30,8 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
-@run_guarded("imutherm sweep")
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="imutherm sweep", description=help_text(__doc__),
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_args(parser) -> None:
+    """The options of ``imutherm sweep``."""
     add_layout_arguments(parser)
     parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUES",
                         help="an input and its values (repeatable): KEY=0.5,1,2 or KEY=lo:hi:n (grid), KEY=lo:hi (lhs, morris)")
@@ -51,15 +48,22 @@ def main(argv=None) -> int:
                              "oven, gated and kf filters, flight; warm-up phase with --transient)")
     parser.add_argument("--attitude-seeds", type=int, default=1, metavar="N",
                         help="IMU units / noise draws averaged per case, the same in every case (default 1)")
-    run = parser.add_mutually_exclusive_group()
-    run.add_argument("--jobs", type=int, default=1, metavar="N", help="local worker processes (default 1)")
-    run.add_argument("--dask", default=None, metavar="ADDRESS", help="run the cases on a Dask scheduler, tcp://host:port")
+    where = parser.add_mutually_exclusive_group()
+    add_jobs_argument(where, default=1, help="local worker processes (default 1)")
+    where.add_argument("--dask", default=None, metavar="ADDRESS", help="run the cases on a Dask scheduler, tcp://host:port")
     parser.add_argument("--resume", action="store_true", help="continue the sweep in --out: run only the missing cases")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_progress_argument(parser)
     add_model_arguments(parser)
-    parser.add_argument("--out", required=True, help="output directory")
-    args = parser.parse_args(argv)
+    add_out_argument(parser)
 
+
+def main(argv=None) -> int:
+    """``imutherm sweep ARGV...``; returns the exit status."""
+    return run_command("sweep", argv)
+
+
+def run(args) -> int:
+    """Plan, run (or resume) the sweep of ``args`` and write its outputs; returns 0, 1 if cases were lost."""
     check_outdir(args.out)
     if args.jobs < 1:
         raise InputError(f"--jobs must be >= 1, got {args.jobs}")

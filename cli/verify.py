@@ -8,11 +8,12 @@ seconds. Exit status 0 only if every case passes, 1 otherwise (2 for bad input).
 
 from __future__ import annotations
 
-import argparse
 import math
 
 from imutherm import InputError
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json, help_text
+from imutherm.cli import run_command
+from imutherm.cli._common import atomic_outdir, check_outdir, write_json
+from imutherm.cli._options import add_out_argument
 
 
 def _clean(value):
@@ -21,17 +22,25 @@ def _clean(value):
     return value
 
 
-@run_guarded("imutherm verify")
-def main(argv=None) -> int:
-    from imutherm.thermal.verification import CASES, run_all
+def add_args(parser) -> None:
+    """The options of ``imutherm verify``."""
+    from imutherm.thermal.verification import CASES
 
-    parser = argparse.ArgumentParser(prog="imutherm verify", description=help_text(__doc__),
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default=None, help="output directory for verify.json")
+    add_out_argument(parser, required=False, help="output directory for verify.json")
     parser.add_argument("--case", action="append", default=None, metavar="NAME",
                         help=f"run only this case (repeatable); one of: {', '.join(CASES)}")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
-    args = parser.parse_args(argv)
+
+
+def main(argv=None) -> int:
+    """``imutherm verify ARGV...``; returns the exit status."""
+    return run_command("verify", argv)
+
+
+def run(args) -> int:
+    """Run the cases of ``args`` and print / write their records; returns 0 if all pass, else 1."""
+    from imutherm.thermal.verification import CASES, run_all
+
     if args.out is not None:
         check_outdir(args.out)
     if args.list:

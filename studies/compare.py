@@ -35,7 +35,7 @@ def _paper() -> dict:
                          "grease": {"rise_K_at_most": meas["grease_rise_K_at_most"], "steady_s": meas["grease_steady_s"]}}}
 
 
-#: the paper's numbers (seed 000), read from imutherm/studies/paper_targets.toml
+#: the paper's numbers (seed 000), read from studies/paper_targets.toml
 PAPER = _paper()
 
 

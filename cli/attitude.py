@@ -20,18 +20,18 @@ Outputs in ``--out DIR``:
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
 
 from imutherm import InputError
 from imutherm.budget import add_memory_argument, check_attitude_cost
-from imutherm.cli._common import atomic_outdir, check_outdir, run_guarded, write_json
+from imutherm.cli import run_command
+from imutherm.cli._common import atomic_outdir, check_outdir, write_json
+from imutherm.cli._options import add_out_argument
 from imutherm.imu.motion import PROFILES
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="imutherm attitude", description=__doc__.split("\n")[0])
+def add_args(p) -> None:
+    """The options of ``imutherm attitude`` (those of a recorded log: :mod:`imutherm.cli._attitude_csv`)."""
     p.add_argument("--profile", default=None, help=f"motion profile: {', '.join(PROFILES)} (or --imu-csv)")
     p.add_argument("--grade", default="adis16355", help="sensor grade (default adis16355)")
     t = p.add_mutually_exclusive_group()
@@ -54,17 +54,19 @@ def _parser() -> argparse.ArgumentParser:
                    help="realistic: the profile's vibration, turbulence, wind, sync error and jitter "
                         "(imutherm.imu.disturbances.PRESETS); default none")
     add_memory_argument(p)
-    p.add_argument("--out", required=True, help="output directory")
+    add_out_argument(p)
     from imutherm.cli import _attitude_csv
 
     _attitude_csv.add_arguments(p)
-    return p
 
 
-@run_guarded("imutherm attitude")
 def main(argv=None) -> int:
-    """Entry point; returns the exit status (2 on bad input)."""
-    args = _parser().parse_args(argv)
+    """``imutherm attitude ARGV...``; returns the exit status (2 on bad input)."""
+    return run_command("attitude", argv)
+
+
+def run(args) -> int:
+    """Run the filters on the profile (or the recorded log) of ``args`` and write the outputs; returns 0."""
     check_outdir(args.out)
     if args.imu_csv is not None:  # a user's recorded log (imutherm.cli._attitude_csv)
         from imutherm.cli import _attitude_csv

@@ -1,0 +1,154 @@
+"""Option groups shared by the subcommands: each ``add_*`` adds its options to a command's parser (called from
+the command's ``add_args``), the helpers below turn the parsed values into the studies' arguments."""
+
+from __future__ import annotations
+
+import argparse
+
+from imutherm import InputError
+from imutherm.budget import add_memory_argument, check_cost, thermal_cost
+
+# the thermal modules are imported where used: commands that take only --out or --jobs do not load them
+
+
+# ------------------------------------------------------------------ layout and mesh
+def add_layout_arguments(parser: argparse.ArgumentParser, scheme: bool = True) -> None:
+    """LAYOUT, --scheme (unless ``scheme`` is False: ``compare`` takes ``--schemes``), --mesh-size,
+    --min-cells, --max-memory: shared by the commands that mesh a layout."""
+    from imutherm.geometry.layout import builtin_layouts
+    from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS
+
+    parser.add_argument("layout", nargs="?", default=None,
+                        help="layout: a TOML file or a built-in layout name "
+                             f"({', '.join(builtin_layouts())}; default: imu_reference, the paper's unit)")
+    if scheme:
+        parser.add_argument("--scheme", default=None,
+                            help="cooling scheme: air, grease or potted (default: the layout's)")
+    parser.add_argument("--mesh-size", type=float, default=DEFAULT_MAX_CELL_MM, metavar="MM",
+                        help=f"largest cell edge [mm] (default {DEFAULT_MAX_CELL_MM})")
+    parser.add_argument("--min-cells", type=int, default=DEFAULT_MIN_CELLS,
+                        help=f"fewest cells across any part's thinnest dimension (default {DEFAULT_MIN_CELLS})")
+    add_memory_argument(parser)
+
+
+def check_thermal_cost(geometry, args, *, steps: int = 0, saved: int = 1, geometry_only: bool = False):
+    """Estimate the mesh (from its grid lines only) and the run's memory; InputError beyond ``--max-memory``."""
+    from imutherm.geometry.mesh import grid_shape
+
+    shape = grid_shape(geometry, args.mesh_size, args.min_cells)
+    what = f"{'geometry' if geometry_only else 'solve'} of {geometry.layout.name} / {geometry.scheme.name}"
+    return check_cost(thermal_cost(what, shape, steps=steps, saved=saved, geometry_only=geometry_only),
+                      args.max_memory)
+
+
+# ------------------------------------------------------------------ the physical model
+def add_model_arguments(parser: argparse.ArgumentParser) -> None:
+    """Switches of the physical model (see ``imutherm.thermal.model.ModelOptions``)."""
+    g = parser.add_argument_group("model")
+    g.add_argument("--exterior", choices=("natural", "fixed", "none"), default="natural",
+                   help="exterior convection: face-orientation natural convection (default), fixed h, or none")
+    g.add_argument("--h", type=float, default=10.0, metavar="W/m2K", help="h of --exterior fixed [W/m^2 K]")
+    g.add_argument("--no-radiation", action="store_true", help="switch off exterior radiation")
+    g.add_argument("--emissivity", type=float, default=None, help="housing emissivity [-] (default: its material's)")
+    g.add_argument("--mount-conductance", type=float, default=None, metavar="W/m2K",
+                   help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
+    g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
+    from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM
+    from imutherm.thermal.model import CAVITY_LAWS
+    g.add_argument("--cavity-law", choices=CAVITY_LAWS, default="effective",
+                   help="radiation inside the cavity: an effective conductivity of the air (default), s2s "
+                        "(surface-to-surface exchange: view factors and radiosity) or none")
+    g.add_argument("--cavity-patch-mm", type=float, default=DEFAULT_PATCH_MM, metavar="MM",
+                   help=f"patch edge of --cavity-law s2s [mm] (default {DEFAULT_PATCH_MM:g})")
+
+
+def model_options(args):
+    """The :class:`imutherm.thermal.model.ModelOptions` of the options of :func:`add_model_arguments`."""
+    from imutherm.thermal.model import ModelOptions
+
+    return ModelOptions(exterior=args.exterior, h_fixed_W_m2K=args.h, radiation=not args.no_radiation,
+                        emissivity=args.emissivity, mounting_conductance_W_m2K=args.mount_conductance,
+                        cavity_radiation=not args.no_cavity_radiation, cavity_law=args.cavity_law,
+                        cavity_patch_mm=args.cavity_patch_mm)
+
+
+def add_effect_argument(parser: argparse.ArgumentParser) -> None:
+    """``--effect``: candidate effects of :mod:`imutherm.thermal.effects` switched on."""
+    parser.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET]:PARAM=VALUE",
+                        help="switch on a candidate effect of the correlation library (repeatable; "
+                             "`--list-effects` lists them), e.g. contact@bond:h_W_m2K=500")
+
+
+# ------------------------------------------------------------------ time stepping
+def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_stop: bool = False) -> None:
+    """Time stepping of the power-on transient (shared by ``solve`` and ``compare``)."""
+    g = parser.add_argument_group("time stepping")
+    g.add_argument("--t-end", type=float, default=None, metavar="SECONDS",
+                   help=f"transient end time [s] (default {t_end:g}; the latest end with --until-settled)")
+    # None above tells "not given" from the default (see reject_time_options); time_kwargs fills it in
+    parser.set_defaults(t_end_default=t_end, settle_flag="--full-length" if settle_stop else "--until-settled")
+    g.add_argument("--time-tol", type=float, default=None, metavar="K",
+                   help="local error tolerance of the adaptive TR-BDF2 steps at the sites [K] (default 0.01)")
+    g.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+                   help="given steps instead of error control: first step [s], constant, or growing by 1.2 "
+                        "up to --dt-max (theta scheme default: 2 s up to 60 s)")
+    g.add_argument("--dt-max", type=float, default=None, metavar="SECONDS",
+                   help="largest step [s] (adaptive default 300)")
+    g.add_argument("--theta", type=float, default=None,
+                   help="use the theta scheme with given steps instead of TR-BDF2: 1 backward Euler, "
+                        "0.5 Crank-Nicolson (in [0.5, 1]; needs --transient)")
+    if settle_stop:
+        g.add_argument("--full-length", dest="until_settled", action="store_false",
+                       help="run every transient to --t-end (default: stop once every site is within 0.5 %% "
+                            "of its steady rise, past its t95)")
+    else:
+        g.add_argument("--until-settled", action="store_true",
+                       help="stop once every site is within 0.5 %% of its steady rise (past its t95)")
+
+
+def reject_time_options(args, why: str) -> None:
+    """InputError naming the options of :func:`add_time_arguments` (and ``--save-every``) that were given
+    although no transient runs (``why``): they would be silently ignored."""
+    given = [opt for opt, dest in (("--t-end", "t_end"), ("--time-tol", "time_tol"), ("--dt", "dt"),
+                                   ("--dt-max", "dt_max"), ("--theta", "theta"), ("--save-every", "save_every"))
+             if getattr(args, dest, None) is not None]
+    if args.until_settled == (args.settle_flag == "--until-settled"):
+        given.append(args.settle_flag)
+    if given:
+        raise InputError(f"{', '.join(given)}: time stepping given {why}; a steady solve has no time steps, "
+                         f"so drop {'it' if len(given) == 1 else 'them'} or run the transient")
+
+
+def time_kwargs(args) -> dict:
+    """``run_scheme`` time arguments from the options of :func:`add_time_arguments` (checked)."""
+    from imutherm.studies.thermal_study import check_time_arguments
+
+    if args.t_end is None:
+        args.t_end = args.t_end_default
+    if args.theta is not None and not 0.5 <= args.theta <= 1.0:
+        raise InputError(f"--theta must be in [0.5, 1] (1 backward Euler, 0.5 Crank-Nicolson), got {args.theta}")
+    if args.time_tol is not None and (args.dt is not None or args.theta is not None):
+        raise InputError("--time-tol sets the error-controlled TR-BDF2 steps: not with --dt or --theta")
+    scheme = "trbdf2" if args.theta is None else "theta"
+    check_time_arguments(args.t_end, args.dt, args.dt_max, args.time_tol, scheme)
+    kw = dict(t_end=args.t_end, time_scheme=scheme, tol_K=args.time_tol, dt=args.dt, dt_max=args.dt_max,
+              until_settled=args.until_settled)
+    if args.theta is not None:
+        kw["theta"] = args.theta
+    return kw
+
+
+# ------------------------------------------------------------------ output and running
+def add_out_argument(parser, required: bool = True, help: str = "output directory") -> None:
+    """``--out DIR`` (checked and locked by the command with :func:`imutherm.cli._common.check_outdir`)."""
+    parser.add_argument("--out", required=required, default=None, help=help)
+
+
+def add_progress_argument(parser) -> None:
+    """``--no-progress``: no progress bar."""
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def add_jobs_argument(parser, default: int | None, help: str) -> None:
+    """``--jobs N``: worker processes (its default and meaning per command in ``help``)."""
+    parser.add_argument("--jobs", type=int, default=default, metavar="N", help=help)
