@@ -1,4 +1,4 @@
-"""The copyable study scripts in examples/ run end to end on a coarse mesh, one per built-in layout."""
+"""The copyable study scripts in studies/ (one per built-in layout) run end to end on a coarse mesh, one per built-in layout."""
 
 import contextlib
 import importlib.util
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[1] / "studies"
 SCHEMES = ("air", "grease", "potted")
 SENSORS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 #: coarse and short: 6 mm cells, one cell across thin parts, one seed, a 600 s power-on transient

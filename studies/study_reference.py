@@ -3,8 +3,8 @@
 Copy this file, set LAYOUT to your own layout file (or a built-in name: imu_reference,
 imu_cardguide) and run it with an output folder:
 
-    python examples/study_reference.py out/reference                            # default mesh, 3 seeds
-    python examples/study_reference.py out/quick --mesh-size 6 --min-cells 1 --seeds 1   # a coarse first look
+    python studies/study_reference.py out/reference                            # default mesh, 3 seeds
+    python studies/study_reference.py out/quick --mesh-size 6 --min-cells 1 --seeds 1   # a coarse first look
 
 For each cooling scheme (air, grease, potted) it solves the steady field and the power-on
 transient, calibrates the assembled unit in the oven with its own self-heating, and carries
