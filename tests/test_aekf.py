@@ -24,15 +24,18 @@ def _rest(duration, seed, roll_deg=0.0, pitch_deg=0.0):
 
 
 @pytest.mark.parametrize("factor", [0.1, 10.0])
-def test_measurement_noise_converges_at_rest(factor):
-    """Sage-Husa R started 10x too small or too large reaches the true accelerometer noise within 5 % (std)
-    after 120 s at rest (memory 5 s), on every axis."""
+@pytest.mark.parametrize("avg_s, memory_s, tol", [(0.01, 5.0, 0.05), (0.1, 10.0, 0.10)])
+def test_measurement_noise_converges_at_rest(factor, avg_s, memory_s, tol):
+    """Sage-Husa R started 10x too small or too large reaches the true accelerometer noise after 120 s at rest,
+    on every axis: per sample (accel_avg_s = dt, memory 5 s) within 5 % (std); for the default 0.1 s block means
+    the true value is the white noise's std / sqrt(10), within 10 % (memory 10 s = 100 block updates, so the
+    fading mean has a tenth of the per-sample case's samples to average)."""
     traj, s = _rest(120.0, 3, roll_deg=10.0, pitch_deg=-5.0)
-    est, tr = run_aekf(s.gyro, s.accel, 0.01, AEKFParams(accel_std0=factor * ACC_STD), init_s=8.0,
-                       return_trace=True)
+    est, tr = run_aekf(s.gyro, s.accel, 0.01, AEKFParams(accel_std0=factor * ACC_STD, accel_avg_s=avg_s,
+                                                         memory_s=memory_s), init_s=8.0, return_trace=True)
     late = tr.t_idx > 100 * 100  # the last 20 s
-    ratio = np.sqrt(tr.R[late].mean(axis=0)) / ACC_STD
-    assert np.all(np.abs(ratio - 1.0) < 0.05), ratio
+    ratio = np.sqrt(tr.R[late].mean(axis=0)) / (ACC_STD / np.sqrt(round(avg_s / 0.01)))
+    assert np.all(np.abs(ratio - 1.0) < tol), ratio
     assert np.degrees(np.max(np.abs(est.roll[-2000:] - traj.roll[-2000:]))) < 0.3
     assert np.degrees(np.max(np.abs(est.pitch[-2000:] - traj.pitch[-2000:]))) < 0.3
 
@@ -167,3 +170,25 @@ def test_swing_lever_arm_is_what_pulled_the_bias():
     assert rms["raw"] > 3 * rms["comp"], rms
     est, _ = run_filters(s.gyro, s.accel, 0.01, d, names=("aekf",))
     assert np.degrees(np.sqrt(np.mean((est["aekf"].roll - traj.roll) ** 2))) < 0.3
+
+
+def test_block_mean_keeps_the_vibrating_flight():
+    """Issue 15's open gap: on the benchmark's disturbed flight (aircraft vibration, 0.1 g lines; sigma |f| =
+    0.57 m/s^2 at rest) the per-sample |f| gate passed ~5 % of the samples, those pulled the bias state and
+    seeds 2 and 3 ended at 29 / 25 deg roll RMS. With the default 0.1 s rotation-compensated block mean before
+    the gate and the gravity update, both stay under 1 deg roll and pitch RMS (measured 0.53 / 0.32, 0.43 / 0.43);
+    per sample (accel_avg_s = dt) they still fail (> 10 deg), so the test sees the fix. On the static and swing
+    records (seed 0) the default is no worse than per sample by more than 0.02 deg RMS (measured +0.001 / -0.01)."""
+    from imutherm.studies import filter_benchmark as fb
+
+    recs = fb.make_records([("flight", (2, 3)), ("swing", (0,)), ("static", (0,))])
+    per_sample = {"accel_avg_s": 0.01}
+    for rec in recs:
+        m_def = fb.score(fb.run_one("aekf", rec), rec)
+        m_one = fb.score(fb.run_one("aekf", rec, per_sample), rec)
+        if rec.profile == "flight":
+            assert m_def["roll_rms_deg"] < 1.0 and m_def["pitch_rms_deg"] < 1.0, (rec.seed, m_def)
+            assert m_one["roll_rms_deg"] > 10.0, (rec.seed, m_one)
+        else:
+            for k in ("roll_rms_deg", "pitch_rms_deg"):
+                assert m_def[k] < m_one[k] + 0.02, (rec.profile, k, m_def[k], m_one[k])
