@@ -51,8 +51,8 @@ velocity ``δv`` [m/s] (NED), gyro bias ``δb`` [rad/s]::
   aircraft's 80 / 160 / 240 Hz lines read at 100 Hz alias to 20 / 40 Hz) and
   divides broadband noise variance by N; R is that of one block mean (measured
   on the rest window's blocks). Per sample, the aircraft vibration (σ|f| 0.57
-  m/s² at rest) kept ||f| - g| above the gate on ~95 % of the samples and the
-  few that passed pulled the bias state (flight seeds 2 / 3: 29 / 25° roll RMS;
+  m/s² at rest) kept ||f| - g| above the gate on most samples (3-6 % used on
+  the flight) and the few that passed pulled the bias state (flight seeds 2 / 3: 29 / 25° roll RMS;
   with the block mean 0.5 / 0.4°);
   ``H_φ = -C_bn [g_n×]``. Short accelerations raise the innovation and
   Sage-Husa raises R. A sustained one (a coordinated turn: the apparent
@@ -375,7 +375,7 @@ def run_aekf(gyro, accel, dt: float, params: AEKFParams = AEKFParams(), *, gnss=
     C0 = quat_to_dcm(initial_quat(accel, dt, init_s))
     b0 = initial_bias(gyro, dt, init_s)
     n_avg = 1 if gnss is not None else max(1, int(round(params.accel_avg_s / dt)))
-    n_avg = min(n_avg, n0 // 4)  # at least four blocks in the rest window
+    n_avg = max(1, min(n_avg, n0 // 4))  # at least four blocks in the rest window
     rest_blocks = accel[:n0 // n_avg * n_avg].reshape(-1, n_avg, 3).mean(axis=1)
     g_ref = float(np.mean(np.linalg.norm(rest_blocks, axis=1)))
     accel_rest = accel  # the ALS works on the raw accelerometer (at rest the lever-arm term is zero)
