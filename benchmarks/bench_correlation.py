@@ -99,11 +99,15 @@ def main(argv=None) -> int:
             j = result_json(res)
             called = res.named_effect if res.verdict == "effect" else res.verdict
             sig = signature(models, runs, case, res.noise_K)
+            shape = residual_shape(_Forward(tuple(runs), models.roms, models.geometries), res.retune.values)
             rows.append({"hidden": hidden, "value": case.value, "extra": case.extra, "seed": seed, "verdict": res.verdict,
                          "called": called, "ambiguous_set": list(res.ambiguous_set), "signature_over_noise": sig,
                          "heldout_before_K": j["heldout_rms_before_K"], "heldout_after_K": j["heldout_rms_after_K"],
                          "rms_before_K": j["rms_before_K"], "rms_after_K": j["rms_after_K"], "noise_K": res.noise_K,
-                         "gen_s": t_gen, "correlate_s": res.timings["total_s"]})
+                         "gen_s": t_gen, "correlate_s": res.timings["total_s"],
+                         "retune_values": dict(res.retune.values), "retune_rms_K": res.retune.rms_K,
+                         "retune_residual": shape,
+                         "named_values": dict(res.after.values) if res.verdict == "effect" else None})
             print(f"{hidden:<20} {case.value!s:<12.8} sig {sig if sig is None else round(sig, 1)!s:<6} -> "
                   f"{called:<20} ({time.perf_counter() - t0:.0f} s)", flush=True)
             write_json(rows_path, rows)
@@ -124,6 +128,35 @@ def signature(models, runs, case, noise_K: float) -> float | None:
     d = [fwd.rise(i, {**base, case.hidden: case.value}) - fwd.rise(i, base) for i in range(len(runs))]
     d = np.concatenate([x.ravel() for x in d])
     return float(np.sqrt(np.mean(d**2)) / noise_K)
+
+
+def residual_shape(fwd, values: dict) -> dict:
+    """What the re-tuned model leaves: the site-mean residual (model - measured) [K] of each dense run,
+    its RMS, its mean before and after mid-record, and the period (100-1500 s scan, one phase per run)
+    of the sinusoid that explains most of it, with the fraction explained."""
+    res, times = [], []
+    for i, run in enumerate(fwd.runs):
+        fin = np.isfinite(run.times_s)
+        r = fwd.rise(i, values) - run.rise_K
+        if fin.sum() >= 8:
+            res.append(np.nanmean(r[fin], axis=1))
+            times.append(run.times_s[fin])
+    if not res:
+        return {}
+    best = (None, 0.0)
+    tot = sum(float(np.sum((x - x.mean()) ** 2)) for x in res)
+    for period in np.geomspace(100.0, 1500.0, 120):
+        w = 2 * np.pi / period
+        expl = 0.0
+        for t, x in zip(times, res):
+            X = np.column_stack([np.ones_like(t), np.cos(w * t), np.sin(w * t)])
+            c, *_ = np.linalg.lstsq(X, x, rcond=None)
+            expl += float(np.sum((x - x.mean()) ** 2) - np.sum((X @ c - x) ** 2))
+        if expl > best[1]:
+            best = (float(period), expl)
+    half = [(float(np.mean(x[t <= t.max() / 2])), float(np.mean(x[t > t.max() / 2]))) for t, x in zip(times, res)]
+    return {"rms_K": [float(np.sqrt(np.mean(x ** 2))) for x in res], "mean_first_second_half_K": half,
+            "best_period_s": best[0], "period_explains": best[1] / tot if tot else None}
 
 
 def summarise(rows, effects) -> dict:
