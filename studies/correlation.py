@@ -606,6 +606,13 @@ def effect_words(name: str | None, values: dict) -> str:
     return f"{e.name}{where}: {e.words}; fitted {p.name} = {v:.4g} {p.unit}"
 
 
+def _fit_candidate(fwd, name: str, full, folds, ratio: float, noise: float):
+    """One candidate fitted on all data, with its pooled held-out figures (a pure function: run in a worker)."""
+    f = _fit(fwd, name, full, None, ratio, noise)
+    h = _pooled(fwd, name, folds, ratio, noise)
+    return _with(f, heldout_rms_K=h[0], heldout_max_K=h[1])
+
+
 def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | None = "auto",
               mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
               candidates=None, options: ModelOptions | None = None, models: "Models | None" = None,
@@ -614,7 +621,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
 
     candidates : names to consider (default: every effect applicable to at least one run's scheme)
     rerun : re-run the corrected model on the full FEM (:func:`rerun_full`) for the after figures
-    jobs : worker processes for the reduced models' builds and the re-runs
+    jobs : worker processes for the reduced models' builds, the candidates' fits and the re-runs
     models : :class:`Models` built beforehand (:func:`build_models`; a campaign reuses them across
         cases); default: built here for the runs' (scheme, ambient) pairs
     progress : callable(str) or None, told what is being done
@@ -660,15 +667,20 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     if candidates is None:
         candidates = [n for n in K.model_effect_names() if any(n in rom.knobs for rom in roms.values())]
         candidates += [n for n in SIGNAL]
-    ranking = []
     for name in candidates:
         effect_of(name)
-        if EFFECTS[name.split("@")[0]].kind == "model" and not any(name in rom.knobs for rom in roms.values()):
-            continue
-        say(f"candidate {name}")
-        f = _fit(fwd, name, full, None, ratio, noise)
-        h = _pooled(fwd, name, folds, ratio, noise)
-        ranking.append(_with(f, heldout_rms_K=h[0], heldout_max_K=h[1]))
+    candidates = [n for n in candidates if EFFECTS[n.split("@")[0]].kind != "model"
+                  or any(n in rom.knobs for rom in roms.values())]
+    say(f"{len(candidates)} candidates: fitted on all data and on each hold-out fold")
+    args = [(fwd, name, full, folds, ratio, noise) for name in candidates]
+    pool = _pool(jobs, len(args))
+    if pool is None:
+        ranking = [_fit_candidate(*a) for a in args]
+    else:
+        try:
+            ranking = [f.result() for f in [pool.submit(_fit_candidate, *a) for a in args]]
+        finally:
+            pool.shutdown(cancel_futures=True)
     ranking.sort(key=lambda f: (f.aicc if math.isfinite(f.aicc) else math.inf,
                                 f.heldout_rms_K if math.isfinite(f.heldout_rms_K) else math.inf))
     t_fits = time.perf_counter() - t0 - t_rom
