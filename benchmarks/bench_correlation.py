@@ -5,8 +5,10 @@ For each hidden effect (and null cases with none, and an effect outside the libr
 ±10 % nuisance on board conductivity, convection and mount, probe noise and offsets), runs
 :func:`imutherm.studies.correlation.correlate` on each, and reports top-1 accuracy (on cases
 whose signature, the RMS change the effect makes at the sites, is >= 5x the noise), the confusion
-matrix, the false-positive rate on null cases, abstention on the out-of-library cases and the
-held-out RMS after/before. Writes ``--out``/campaign.json and prints the summary.
+matrix, the false-positive rate on null cases, abstention on the out-of-library cases (per kind:
+a radiant lid load, the chamber cycling under its thermostat, an unlogged power-mode change;
+abstaining = ``not_in_library`` or ``ambiguous``, ``none`` counted apart) and the held-out RMS
+after/before. Writes ``--out``/campaign.json and prints the summary.
 
     python benchmarks/bench_correlation.py --cases 3 --out /tmp/campaign
 
@@ -30,7 +32,7 @@ import numpy as np
 from imutherm.io import write_json
 from imutherm.measured import read_measured
 from imutherm.studies.correlation import _Forward, build_models, correlate, result_json
-from imutherm.studies.hidden_effect import OUT_OF_LIBRARY, HiddenCase, make_case
+from imutherm.studies.hidden_effect import OUT_OF_LIBRARY, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case
 
 DEFAULT_EFFECTS = ("contact@bond", "emissivity", "cavity_emissivity", "power@reg_5v", "fixture_leak",
                    "probe_lag", "contact@standoff")
@@ -47,7 +49,8 @@ def main(argv=None) -> int:
     ap.add_argument("--first-case", type=int, default=0, help="index of the first case (to add cases to a campaign)")
     ap.add_argument("--effects", nargs="*", default=list(DEFAULT_EFFECTS))
     ap.add_argument("--kinds", nargs="*", default=None,
-                    help="run only these hidden kinds (effects, none, lid_heat_load): to split a campaign")
+                    help="run only these hidden kinds (effects, none, or the out-of-library kinds "
+                         f"{', '.join(OUT_OF_LIBRARY_KINDS)}): to split a campaign")
     ap.add_argument("--mesh-size", type=float, default=4.0, help="inversion mesh [mm]")
     ap.add_argument("--min-cells", type=int, default=1, help="inversion: cells across the thinnest part")
     ap.add_argument("--gen-mesh-size", type=float, default=2.0, help="generator mesh [mm] (finer)")
@@ -61,7 +64,7 @@ def main(argv=None) -> int:
         ap.error("--gen-mesh-size must be finer (smaller) than --mesh-size: the data come from a finer model")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    kinds = args.kinds or (list(args.effects) + ["none", OUT_OF_LIBRARY])
+    kinds = args.kinds or (list(args.effects) + ["none", *OUT_OF_LIBRARY_KINDS])
     experiments = (("air", 70.0), ("grease", 70.0))
     n_cases = len(kinds) * args.cases
     print(f"campaign: {n_cases} cases; each generates {len(experiments)} full transients on a {args.gen_mesh_size:g} mm "
@@ -83,23 +86,28 @@ def main(argv=None) -> int:
                 continue
             if meta.exists():  # generated before: re-invert only
                 m = json.loads(meta.read_text())
-                case = HiddenCase(m["hidden"], m["value"], m["nuisance"], tuple(m["files"]), m["seed"])
+                case = HiddenCase(m["hidden"], m["value"], m["nuisance"], tuple(m["files"]), m["seed"],
+                                  m.get("extra", {}))
             else:
                 case = make_case(d, hidden, np.random.default_rng(seed), experiments=experiments,
                                  mesh_size_mm=args.gen_mesh_size, min_cells=args.gen_min_cells, seed=seed)
                 write_json(meta, {"hidden": case.hidden, "value": case.value, "nuisance": case.nuisance,
-                                  "files": list(case.files), "seed": seed})
+                                  "files": list(case.files), "seed": seed, "extra": case.extra})
             t_gen = time.perf_counter() - t0
             runs = [read_measured(f) for f in case.files]
             res = correlate(runs, models=models, rerun=False)  # held-out figures come from the reduced model
             j = result_json(res)
             called = res.named_effect if res.verdict == "effect" else res.verdict
             sig = signature(models, runs, case, res.noise_K)
-            rows.append({"hidden": hidden, "value": case.value, "seed": seed, "verdict": res.verdict,
+            shape = residual_shape(_Forward(tuple(runs), models.roms, models.geometries), res.retune.values)
+            rows.append({"hidden": hidden, "value": case.value, "extra": case.extra, "seed": seed, "verdict": res.verdict,
                          "called": called, "ambiguous_set": list(res.ambiguous_set), "signature_over_noise": sig,
                          "heldout_before_K": j["heldout_rms_before_K"], "heldout_after_K": j["heldout_rms_after_K"],
                          "rms_before_K": j["rms_before_K"], "rms_after_K": j["rms_after_K"], "noise_K": res.noise_K,
-                         "gen_s": t_gen, "correlate_s": res.timings["total_s"]})
+                         "gen_s": t_gen, "correlate_s": res.timings["total_s"],
+                         "retune_values": dict(res.retune.values), "retune_rms_K": res.retune.rms_K,
+                         "retune_residual": shape,
+                         "named_values": dict(res.after.values) if res.verdict == "effect" else None})
             print(f"{hidden:<20} {case.value!s:<12.8} sig {sig if sig is None else round(sig, 1)!s:<6} -> "
                   f"{called:<20} ({time.perf_counter() - t0:.0f} s)", flush=True)
             write_json(rows_path, rows)
@@ -113,13 +121,42 @@ def main(argv=None) -> int:
 def signature(models, runs, case, noise_K: float) -> float | None:
     """RMS [K] over the readings of what the hidden effect changes (reduced model, at the case's nuisance
     values, with and without it), over the noise: how visible the effect is. None: not in the library."""
-    if case.hidden in ("none", OUT_OF_LIBRARY) or not noise_K:
+    if case.hidden in ("none", *OUT_OF_LIBRARY_KINDS) or not noise_K:
         return None
     fwd = _Forward(tuple(runs), models.roms, models.geometries)
     base = dict(case.nuisance)
     d = [fwd.rise(i, {**base, case.hidden: case.value}) - fwd.rise(i, base) for i in range(len(runs))]
     d = np.concatenate([x.ravel() for x in d])
     return float(np.sqrt(np.mean(d**2)) / noise_K)
+
+
+def residual_shape(fwd, values: dict) -> dict:
+    """What the re-tuned model leaves: the site-mean residual (model - measured) [K] of each dense run,
+    its RMS, its mean before and after mid-record, and the period (100-1500 s scan, one phase per run)
+    of the sinusoid that explains most of it, with the fraction explained."""
+    res, times = [], []
+    for i, run in enumerate(fwd.runs):
+        fin = np.isfinite(run.times_s)
+        r = fwd.rise(i, values) - run.rise_K
+        if fin.sum() >= 8:
+            res.append(np.nanmean(r[fin], axis=1))
+            times.append(run.times_s[fin])
+    if not res:
+        return {}
+    best = (None, 0.0)
+    tot = sum(float(np.sum((x - x.mean()) ** 2)) for x in res)
+    for period in np.geomspace(100.0, 1500.0, 120):
+        w = 2 * np.pi / period
+        expl = 0.0
+        for t, x in zip(times, res):
+            X = np.column_stack([np.ones_like(t), np.cos(w * t), np.sin(w * t)])
+            c, *_ = np.linalg.lstsq(X, x, rcond=None)
+            expl += float(np.sum((x - x.mean()) ** 2) - np.sum((X @ c - x) ** 2))
+        if expl > best[1]:
+            best = (float(period), expl)
+    half = [(float(np.mean(x[t <= t.max() / 2])), float(np.mean(x[t > t.max() / 2]))) for t, x in zip(times, res)]
+    return {"rms_K": [float(np.sqrt(np.mean(x ** 2))) for x in res], "mean_first_second_half_K": half,
+            "best_period_s": best[0], "period_explains": best[1] / tot if tot else None}
 
 
 def summarise(rows, effects) -> dict:
@@ -129,7 +166,15 @@ def summarise(rows, effects) -> dict:
     for r in rows:
         conf.setdefault(r["hidden"], Counter())[r["called"]] += 1
     nulls = [r for r in rows if r["hidden"] == "none"]
-    ool = [r for r in rows if r["hidden"] == OUT_OF_LIBRARY]
+    ool = [r for r in rows if r["hidden"] in OUT_OF_LIBRARY_KINDS]
+    abstain = {}
+    for kind in OUT_OF_LIBRARY_KINDS:
+        rk = [r for r in ool if r["hidden"] == kind]
+        if rk:
+            abstain[kind] = {"cases": len(rk),
+                             "abstained": sum(r["verdict"] in ("not_in_library", "ambiguous") for r in rk),
+                             "none": sum(r["verdict"] == "none" for r in rk),
+                             "named": dict(Counter(r["called"] for r in rk if r["verdict"] == "effect"))}
     ratios = [r["heldout_after_K"] / r["heldout_before_K"] for r in eff_rows
               if r["called"] == r["hidden"] and r["heldout_before_K"]]
     return {
@@ -139,6 +184,7 @@ def summarise(rows, effects) -> dict:
         "false_positive_rate_null": (sum(r["verdict"] == "effect" for r in nulls) / len(nulls)) if nulls else None,
         "abstention_out_of_library": (sum(r["verdict"] in ("not_in_library", "ambiguous") for r in ool) / len(ool))
         if ool else None,
+        "abstention_by_kind": abstain,
         "heldout_after_over_before_median": float(np.median(ratios)) if ratios else None,
         "confusion": {k: dict(v) for k, v in conf.items()},
         "median_correlate_s": float(np.median([r["correlate_s"] for r in rows])) if rows else None,

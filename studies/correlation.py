@@ -130,8 +130,10 @@ class CorrelationResult:
 class _Forward:
     """Site rises of every run from knob values, through the runs' reduced models."""
 
-    def __init__(self, runs, roms, geometries):
+    def __init__(self, runs, roms, geometries, options: ModelOptions | None = None):
         self.runs, self.roms, self.geometries = runs, roms, geometries
+        #: the re-tune knobs' nominal values, from the layout and materials (every scheme shares them)
+        self.nominal = K.nominal_values(next(iter(geometries.values())), options) if geometries else {}
 
     def rise(self, i: int, values: dict, times=None) -> np.ndarray:
         """Model rise [K] of run ``i`` at its times (or ``times``), its sites (n, m)."""
@@ -195,7 +197,7 @@ def _fit(fwd: _Forward, name: str, train: dict, test: dict | None, n_eff_ratio: 
     ks = _knobs_for(name)
     # start at the nominal (re-tune) / mid-range (effect) in the knob coordinate u in [-1, 1]
     u0 = np.array([float(k.to_u(K.RETUNE_NOMINAL[k.name])) if k.name in K.RETUNE_NOMINAL else 0.0 for k in ks])
-    base = _nominal_values()
+    base = fwd.nominal
     for k in ks:
         if k.name in base:
             u0[ks.index(k)] = float(np.clip(k.to_u(base[k.name]), -1, 1))
@@ -246,12 +248,6 @@ def _fit(fwd: _Forward, name: str, train: dict, test: dict | None, n_eff_ratio: 
         pass
     return Fit(name, v, float(np.sqrt(rss / n)), float(np.abs(res).max()), n, float(ne), k_par, float(aicc),
                hr, hm, at_bound, ci)
-
-
-def _nominal_values() -> dict:
-    """Re-tune knobs at the reference model's nominal values (the layout and library numbers)."""
-    return {"power_scale": 1.0, "convection_scale": 1.0, "mount_h_W_m2K": 500.0,
-            "emissivity_ext": 0.84, "k_board_W_mK": 17.7}
 
 
 # --------------------------------------------------------------------------- statistics
@@ -646,7 +642,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         raise InputError(f"correlate: no reduced model for {', '.join(f'{s} at {a:g} C' for s, a in missing)}")
     roms, geometries = models.roms, models.geometries
     t_rom = time.perf_counter() - t0
-    fwd = _Forward(runs, roms, geometries)
+    fwd = _Forward(runs, roms, geometries, models.options)
     for i, run in enumerate(runs):  # a file must reach the model's time constant (or give a steady row)
         if not np.isinf(run.times_s).any():
             loc, _ = localise(_Forward((run,), roms, geometries), {})
@@ -657,7 +653,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                                  f"time constant ({t63:.0f} s, t63 of its slowest site): nothing to correlate "
                                  f"the plateau with; add later readings or a steady row (time_s = inf)")
     noise = float(np.median([noise_sigma(r) for r in runs]))
-    nominal = {k: v for k, v in _nominal_values().items()}
+    nominal = dict(fwd.nominal)
     before_res = _residuals(fwd, nominal, {i: np.isfinite(r.values_C) for i, r in enumerate(runs)})
     loc, fp = localise(fwd, nominal)
     say("re-tune")

@@ -4,9 +4,11 @@
 adaptive time steps) for each experiment with
 
 - one hidden effect of the library at a random magnitude within its physical bounds (or none, or
-  an effect outside the library: a radiant heat load on the lid, :data:`OUT_OF_LIBRARY`),
+  an effect outside the library, :data:`OUT_OF_LIBRARY_KINDS`: a radiant heat load on the lid, the
+  test chamber cycling under its thermostat, an unlogged power-mode change part way through the test),
 - nuisance errors: the board conductivity, the convection coefficient and the mount conductance
-  each off by a uniform ±``nuisance`` (default 10 %),
+  each off by a uniform ±``nuisance`` (default 10 %) from the unit's nominal values
+  (:func:`imutherm.thermal.knobs.nominal_values`: its layout and materials),
 - probe noise (Gaussian, ``noise_K``) and a fixed offset per site (uniform ±``offset_K``),
 
 and writes one measured file per experiment. Everything is drawn from the ``numpy.random.Generator``
@@ -16,7 +18,7 @@ given, so a case is reproducible from its seed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,14 +28,41 @@ from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MIN_CELLS, build_mesh
 from imutherm.measured import write_measured
 from imutherm.thermal import knobs as K
-from imutherm.studies.forward import full_rise
+from imutherm.studies.forward import full_rise, switched_rise
 from imutherm.thermal.effects import EFFECTS, ModelVariant, effect_of, setting
 from imutherm.thermal.model import ModelOptions
 from imutherm.thermal.problem import HeatFlux
 
-#: the effect outside the library: a radiant load on the lid (a lamp or the sun), q [W/m^2]
+#: an effect outside the library: a radiant load on the lid (a lamp or the sun), q [W/m^2]
 OUT_OF_LIBRARY = "lid_heat_load"
 OUT_OF_LIBRARY_RANGE = (150.0, 400.0)
+
+#: outside the library: the chamber's air, walls and fixture cycle under its on/off thermostat,
+#: a cos(2 pi t / period + phase), the unit having cycled with them before power-on (periodic steady
+#: state). Assumed ranges: amplitude 0.5-1.5 K, period 200-600 s, the band of an oven or chamber
+#: under on/off (bang-bang) control; a PID-controlled climatic chamber holds ±0.1-0.5 K (the
+#: "temperature fluctuation" of chamber datasheets, measured as IEC 60068-3-5 describes). Period and
+#: amplitude belong to the chamber (the same in both experiments of a case), the phase to the test.
+#: The library has a linear ambient drift, not an oscillation.
+CHAMBER_CYCLING = "chamber_cycling"
+CHAMBER_AMPLITUDE_K = (0.5, 1.5)
+CHAMBER_PERIOD_S = (200.0, 600.0)
+
+#: outside the library: the DSP changes power mode (full rate <-> idle) at an unlogged time after
+#: power-on, and its core current change dI flows through the cascade of linear regulators, so each
+#: part's power changes by dI times its voltage drop [V = W/A] (the layout's power budget:
+#: 9 V -> 5 V -> 3.3 V -> 1.8 V, the core at 1.8 V): 9 dI in all. |dI| 40-100 mA, sign random
+#: (assumed: the order of a C28x-class DSP's run-vs-idle core current, ~150 mA at 100 MHz against a
+#: few tens of mA idle), i.e. 0.36-0.9 W in all; the switch time uniform in 300-1000 s of the
+#: 1500 s record (after the first time constant, before the last third), drawn per experiment.
+#: The library's power errors are constant from power-on.
+POWER_MODE_STEP = "power_mode_step"
+POWER_MODE_CHAIN_V = {"processor": 1.8, "reg_1v8": 3.3 - 1.8, "reg_3v3": 5.0 - 3.3, "reg_5v": 9.0 - 5.0}
+POWER_MODE_DI_A = (0.040, 0.100)
+POWER_MODE_T_S = (300.0, 1000.0)
+
+#: every kind of hidden effect outside the library the generator makes
+OUT_OF_LIBRARY_KINDS = (OUT_OF_LIBRARY, CHAMBER_CYCLING, POWER_MODE_STEP)
 #: the sites a generated file holds (the paper's IR points and the three gyros)
 DEFAULT_SITES = ("tp1", "tp2", "tp3", "gyro_x", "gyro_y", "gyro_z")
 
@@ -42,8 +71,11 @@ DEFAULT_SITES = ("tp1", "tp2", "tp3", "gyro_x", "gyro_y", "gyro_z")
 class HiddenCase:
     """One generated case: what was hidden and where its files are.
 
-    hidden : str ('none', an effect name, or OUT_OF_LIBRARY), value : float or None [unit]
+    hidden : str ('none', an effect name, or one of OUT_OF_LIBRARY_KINDS), value : float or None [unit]
+    (lid load [W/m^2], chamber amplitude [K], core current change [A])
     nuisance : dict knob -> value, files : tuple of paths
+    extra : dict, the out-of-library kinds' further draws (``period_s``, per-file ``phase_rad``,
+    per-file ``t_switch_s``)
     """
 
     hidden: str
@@ -51,6 +83,7 @@ class HiddenCase:
     nuisance: dict
     files: tuple
     seed: int
+    extra: dict = field(default_factory=dict)
 
 
 def draw_value(name: str, rng: np.random.Generator) -> float:
@@ -61,6 +94,10 @@ def draw_value(name: str, rng: np.random.Generator) -> float:
     """
     if name == OUT_OF_LIBRARY:
         return float(rng.uniform(*OUT_OF_LIBRARY_RANGE))
+    if name == CHAMBER_CYCLING:
+        return float(rng.uniform(*CHAMBER_AMPLITUDE_K))
+    if name == POWER_MODE_STEP:
+        return float(rng.choice([-1, 1]) * rng.uniform(*POWER_MODE_DI_A))
     p = effect_of(name).params[0]
     if name.startswith("contact@"):
         return float(np.exp(rng.uniform(math.log(p.lo * 2), math.log(p.lo * 100))))
@@ -85,18 +122,26 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
     out_dir.mkdir(parents=True, exist_ok=True)
     if not isinstance(layout, LayoutSpec):
         layout = load_layout(layout)
-    if hidden != "none" and hidden != OUT_OF_LIBRARY:
+    if hidden != "none" and hidden not in OUT_OF_LIBRARY_KINDS:
         effect_of(hidden)
     v = value if value is not None or hidden == "none" else draw_value(hidden, rng)
-    nz = {"k_board_W_mK": 17.7 * (1 + rng.uniform(-nuisance, nuisance)),
-          "convection_scale": 1 + rng.uniform(-nuisance, nuisance),
-          "mount_h_W_m2K": 500.0 * (1 + rng.uniform(-nuisance, nuisance))}
+    extra = {}
+    if hidden == CHAMBER_CYCLING:
+        extra = {"period_s": float(rng.uniform(*CHAMBER_PERIOD_S)),
+                 "phase_rad": [float(rng.uniform(0, 2 * np.pi)) for _ in experiments]}
+    elif hidden == POWER_MODE_STEP:
+        extra = {"t_switch_s": [float(rng.uniform(*POWER_MODE_T_S)) for _ in experiments]}
+    # nuisance about the unit's own nominal values (its layout and materials), not the reference's
+    nom = K.nominal_values(build_geometry(layout, experiments[0][0]), ModelOptions())
+    nz = {"k_board_W_mK": nom["k_board_W_mK"] * (1 + rng.uniform(-nuisance, nuisance)),
+          "convection_scale": nom["convection_scale"] * (1 + rng.uniform(-nuisance, nuisance)),
+          "mount_h_W_m2K": nom["mount_h_W_m2K"] * (1 + rng.uniform(-nuisance, nuisance))}
     files = []
-    for scheme, amb in experiments:
+    for e, (scheme, amb) in enumerate(experiments):
         lay = replace(layout, ambient_C=amb, mounting=replace(layout.mounting, temperature_C=amb))
         geo = build_geometry(lay, scheme)
         values = dict(nz)
-        is_model = hidden not in ("none", OUT_OF_LIBRARY) and EFFECTS[hidden.split("@")[0]].kind == "model"
+        is_model = hidden not in ("none", *OUT_OF_LIBRARY_KINDS) and EFFECTS[hidden.split("@")[0]].kind == "model"
         if is_model and K.applicable(hidden, geo):  # a bond contact exists only where there is a bond line
             values[hidden] = v
         variant = K.variant(geo, ModelOptions(), values)
@@ -106,11 +151,18 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
             variant = ModelVariant(variant.geometry, variant.options, extra)
         grid = build_mesh(variant.geometry, mesh_size_mm, min_cells)
         sig = [setting(hidden, **{effect_of(hidden).params[0].name: v})] if (
-            hidden not in ("none", OUT_OF_LIBRARY) and not is_model) else []
+            hidden not in ("none", *OUT_OF_LIBRARY_KINDS) and not is_model) else []
         times = np.linspace(0.0, t_end, samples)
-        rise = full_rise(variant, grid, {s: geo.sites[s] for s in sites}, times, sig)
+        probes = {s: geo.sites[s] for s in sites}
+        if hidden == POWER_MODE_STEP:
+            after = K.variant(geo, ModelOptions(), {**values, **{f"power@{p}": v * volts
+                                                                 for p, volts in POWER_MODE_CHAIN_V.items()}})
+            rise = switched_rise(variant, after, extra["t_switch_s"][e], grid, probes, times)
+        else:
+            cyc = (v, extra["period_s"], extra["phase_rad"][e]) if hidden == CHAMBER_CYCLING else None
+            rise = full_rise(variant, grid, probes, times, sig, ambient_cycle=cyc)
         meas = amb + rise + rng.normal(0.0, noise_K, rise.shape) + rng.uniform(-offset_K, offset_K, len(sites))
         path = out_dir / f"{scheme}_{amb:g}C.csv"
         write_measured(path, {"scheme": scheme, "ambient_C": amb}, sites, times, meas)
         files.append(str(path))
-    return HiddenCase(hidden, v, nz, tuple(files), seed)
+    return HiddenCase(hidden, v, nz, tuple(files), seed, extra)

@@ -46,6 +46,33 @@ COUPLED = (("k_board_W_mK", "contact@board"), ("k_board_W_mK", "contact@standoff
 CONTACT_NODES = 6
 
 
+def nominal_values(geometry: Geometry, options: ModelOptions | None = None) -> dict:
+    """The re-tune knobs' nominal values for a unit, read from its layout and materials.
+
+    ``power_scale``, ``convection_scale`` 1 [-] (factors on the layout's powers and the convection
+    correlation); ``mount_h_W_m2K`` [W/m^2 K] the layout's mounting contact conductance (or the
+    ``options`` override); ``emissivity_ext`` [-] the housing material's emissivity (or the override;
+    0 for a material without one, as the model takes it); ``k_board_W_mK`` [W/m K] the boards'
+    in-plane conductivity (volume-weighted mean if the boards' materials differ: the knob sets them
+    all to one value). Material overrides in ``options.materials`` are honoured.
+    """
+    options = options or ModelOptions()
+    mount = geometry.layout.mounting
+    h = options.mounting_conductance_W_m2K
+    eps = options.emissivity
+    if eps is None:
+        eps = options.material(geometry.part("housing").material).emissivity or 0.0
+    boards = [p for p in geometry.parts if p.kind == "board"]
+    if not boards:
+        raise InputError(f"layout {geometry.layout.name!r}: no board, so no board conductivity to re-tune")
+    ks = [options.material(p.material).k_in_plane for p in boards]
+    vol = [geometry.volumes.get(p.name, 0.0) or 1.0 for p in boards]
+    k = ks[0] if len(set(ks)) == 1 else sum(w * x for w, x in zip(vol, ks)) / sum(vol)
+    return {"power_scale": 1.0, "convection_scale": 1.0,
+            "mount_h_W_m2K": float(mount.contact_conductance_W_m2K if h is None else h),
+            "emissivity_ext": float(eps), "k_board_W_mK": float(k)}
+
+
 def effect_knob(name: str) -> Knob:
     """The :class:`Knob` of a one-parameter model effect ``name`` (``name@target``)."""
     e = effect_of(name)
