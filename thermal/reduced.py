@@ -33,7 +33,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from imutherm import InputError
-from imutherm.thermal.assembly import assemble, volume_load
+from imutherm.thermal.assembly import EXCHANGE_FACE, assemble, volume_load
 from imutherm.thermal.effects import ModelVariant, effect_problem
 from imutherm.thermal.solve import amg_preconditioner, probe_matrix, solve_steady
 
@@ -78,37 +78,92 @@ class Knob:
         return self.part is not None or self.scale_power
 
 
+class SparsePlusLowRank(spla.LinearOperator):
+    """A [W/K] = S + P^T G P: a sparse operator plus a low-rank symmetric term on a few nodes, never formed.
+
+    sparse : (n, n) sparse, P : (k, n) sparse (k << n), G : (k, k) dense symmetric. ``A @ V`` for a dense
+    (n, r) block costs the sparse product plus P V, a k x k product and P^T; CG takes it as is, and
+    :func:`sparse_part` gives the sparse operator the AMG preconditioner is built on.
+    """
+
+    def __init__(self, sparse, P, G):
+        super().__init__(float, sparse.shape)
+        self.sparse, self.P, self.G = sparse, P, G
+        self.PT = P.T.tocsr()
+
+    def _matvec(self, x):
+        x = np.ravel(x)
+        return self.sparse @ x + self.PT @ (self.G @ (self.P @ x))
+
+    def _matmat(self, X):
+        return self.sparse @ X + self.PT @ (self.G @ (self.P @ X))
+
+    def _adjoint(self):
+        return self
+
+
+def sparse_part(A):
+    """The sparse operator of ``A`` (itself, or the sparse part of a :class:`SparsePlusLowRank`)."""
+    return A.sparse if isinstance(A, SparsePlusLowRank) else A
+
+
+def exchange_secant(exchange, T_C: np.ndarray) -> tuple:
+    """(P, G): the secant of a surface-to-surface exchange about the field ``T_C`` [°C], exact there.
+
+    With the patch temperatures T_i [K] of the field, sigma (T_i^4 - T_j^4) = h_ij (T_i - T_j),
+    h_ij = sigma (T_i^2 + T_j^2)(T_i + T_j), so the net heat leaving the patches Q = X sigma T^4 (X:
+    zero row sums) is Q = G T_p with G_ij = X_ij h_ij (i != j) and zero row sums [W/K]: symmetric,
+    positive semi-definite (X_ij <= 0 off the diagonal: a weighted graph Laplacian), and it carries
+    no heat to the ambient, so it holds in rise variables. P (patches, n) [-] is the patch averaging
+    on all nodes; the nodal heat leaving is P^T G P T.
+    """
+    from imutherm.thermal.problem import SIGMA, ZERO_C_K
+    P = exchange.patches.P.tocsr()
+    Tp = P @ np.asarray(T_C, float) + ZERO_C_K
+    h = SIGMA * (Tp[:, None] ** 2 + Tp[None, :] ** 2) * (Tp[:, None] + Tp[None, :])
+    G = np.minimum(exchange.X, 0.0) * h  # off-diagonal couplings (round-off positives dropped)
+    np.fill_diagonal(G, 0.0)
+    G = 0.5 * (G + G.T)
+    G[np.diag_indices_from(G)] = -G.sum(axis=1)
+    return P, G
+
+
 def linearised(asm, T_C: np.ndarray):
     """(A, b): the secant linearisation of an assembled problem about the field ``T_C`` [°C].
 
     A [W/K] = K + H + diag(secant conductances of the nonlinear laws), b [W] = nodal power; valid
-    in rise variables θ = T - T_amb when every law's reference temperature is the ambient.
+    in rise variables θ = T - T_amb when every law's reference temperature is the ambient. With a
+    surface-to-surface cavity exchange (``cavity_law 's2s'``) A is a :class:`SparsePlusLowRank`
+    (its secant, :func:`exchange_secant`, is the low-rank term), else a sparse matrix.
     """
     pb = asm.problem
-    if getattr(pb, "exchanges", ()):
-        raise InputError("reduced model: the surface-to-surface cavity law (cavity_law 's2s') exchanges heat between "
-                         "surfaces, which this linearisation about the ambient cannot carry; use the 'effective' "
-                         "cavity law for a correlation")
     if asm.dirichlet:
         raise InputError("reduced model: fixed-temperature faces are not supported (use a contact law)")
+    exchanges = tuple(getattr(pb, "exchanges", ()))
+    if len(exchanges) > 1:
+        raise InputError("reduced model: more than one interior exchange law is not supported")
     for bc in list(asm.linear) + list(asm.nonlinear):
-        if abs(bc.T_ref - pb.ambient_C) > 1e-9:
+        if bc.face != EXCHANGE_FACE and abs(bc.T_ref - pb.ambient_C) > 1e-9:
             raise InputError(f"reduced model: a law on face {bc.face!r} refers to {bc.T_ref:g} C, not the ambient "
                              f"{pb.ambient_C:g} C (a fixture away from ambient is not supported)")
     D = np.zeros(asm.n)
     for bc in asm.nonlinear:
+        if bc.face == EXCHANGE_FACE:  # between surfaces, not to the ambient: the low-rank term below
+            continue
         dT = T_C[bc.nodes] - bc.T_ref
         q, dq = bc.law.flux_out(T_C[bc.nodes], bc.T_ref)
         small = np.abs(dT) < 1e-3
         sec = np.where(small, dq, q / np.where(small, 1.0, dT))
         np.add.at(D, bc.nodes, bc.weights * sec)
     A = (asm.K + asm.H + sp.diags(D)).tocsr()
+    if exchanges:
+        A = SparsePlusLowRank(A, *exchange_secant(exchanges[0], T_C))
     return A, asm.F_q.copy()
 
 
 def lag_field(A, M, pc=None, rtol: float = BASIS_RTOL) -> np.ndarray:
     """tau = A^-1 M 1 [s]: each node's lag behind a ramp of the surroundings (linear model)."""
-    pc = pc if pc is not None else amg_preconditioner(A)
+    pc = pc if pc is not None else amg_preconditioner(sparse_part(A))
     x, info = spla.cg(A, M @ np.ones(A.shape[0]), rtol=rtol, M=pc, maxiter=5000)
     if info:
         raise InputError(f"lag field: CG did not converge (info {info})")
@@ -252,7 +307,7 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
     timings["steady_s"] = time.perf_counter() - t0
     A0, b0 = linearised(asm, st.T_C)
     M = asm.M
-    pc = amg_preconditioner(A0)
+    pc = amg_preconditioner(sparse_part(A0))
     solves = 0
     parts = [k.part for k in knobs if k.part is not None]
     B = [_part_load(nominal, grid, p) for p in parts]
