@@ -316,6 +316,9 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
 
 
 _VIEW_CACHE: dict = {}
+#: the last few exchange laws (X costs a dense radiosity solve of the patches, ~1e9 flops at the default mesh,
+#: and a correlation's reduced model assembles ~80 variants that share the emissivities)
+_LAW_CACHE: dict = {}
 
 
 def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOptions):
@@ -324,7 +327,8 @@ def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOpti
     Emissivities from the bounding parts' materials (or ``cavity_surface_emissivity``; the housing's and
     lid's ``cavity_wall_emissivity`` if given); rays seeded with 0.
     View factors depend only on the mesh, the air and the patch size and rays, so the last few are kept
-    (a correlation re-solves the same mesh with other emissivities or conductances).
+    (a correlation re-solves the same mesh with other emissivities or conductances), and so are the last
+    few laws (the same view factors and emissivities: the same exchange matrix; laws are not changed after).
     """
     import hashlib
 
@@ -343,8 +347,14 @@ def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOpti
     for a in (grid.xs, grid.ys, grid.zs, grid.cell_part, air):
         h.update(np.ascontiguousarray(a).tobytes())
     key = (h.hexdigest(), float(options.cavity_patch_mm), int(options.cavity_rays))
+    law_key = key + (tuple(float(e) for e in eps),)
+    if law_key in _LAW_CACHE:  # the same enclosure and emissivities: the same radiosity solve (read-only law)
+        return _LAW_CACHE[law_key]
     law = cavity_exchange(grid, air, eps, patch_mm=options.cavity_patch_mm, rays=options.cavity_rays,
                           rng=np.random.default_rng(0), view=_VIEW_CACHE.get(key))
+    if len(_LAW_CACHE) >= 8:
+        _LAW_CACHE.pop(next(iter(_LAW_CACHE)))
+    _LAW_CACHE[law_key] = law
     if key not in _VIEW_CACHE:
         if len(_VIEW_CACHE) >= 4:
             _VIEW_CACHE.pop(next(iter(_VIEW_CACHE)))
