@@ -18,7 +18,8 @@ import os
 from imutherm import InputError
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir
-from imutherm.cli._options import add_jobs_argument, add_layout_arguments, add_model_arguments, model_options
+from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
+                                   model_options)
 from imutherm.io import write_json
 
 
@@ -36,7 +37,7 @@ def add_args(parser) -> None:
     add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
                                     "(default: 2, or 1 on one core)")
     parser.add_argument("--no-report", action="store_true", help="no correlation.pdf")
-    parser.add_argument("--out", default=None, help="output directory")
+    add_out_argument(parser, required=False, help="output directory (required unless --list-effects)")
     add_model_arguments(parser)
 
 

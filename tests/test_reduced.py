@@ -63,6 +63,42 @@ def test_projection_error(grease):
     np.testing.assert_allclose(rom.rise({}, [np.inf])[0], full, rtol=0, atol=0.005 * full.max())
 
 
+@pytest.mark.slow
+def test_knob_bound_solutions_are_in_the_basis(grease):
+    """Each knob's steady solution at its bounds joins the basis as its change from the nominal solution (a
+    warm-started solve of A_k d = b0 - A_k x_nom): at the bounds the reduced model's steady rises equal the
+    linearised full model's to the basis solves' tolerance (1e-4 of the load; 0.1 % of the largest rise
+    stated here), so the change solve put the right direction in the basis."""
+    import scipy.sparse.linalg as spla
+
+    from imutherm.thermal.reduced import linearised
+    from imutherm.thermal.solve import amg_preconditioner, probe_matrix
+    g, grid, rom = grease
+    pb = effect_problem(K.variant(g, ModelOptions(), {}), grid)
+    st = solve_steady(pb)
+    A0, b0 = linearised(assemble(pb), st.T_C)
+    pc = amg_preconditioner(A0)
+    P = probe_matrix(grid, np.array([g.sites[n] for n in rom.site_names]))
+    for k in (k for k in rom.knobs.values() if not k.is_load):
+        for bound in (k.lo, k.hi):
+            Ak, _ = linearised(assemble(effect_problem(K.variant(g, ModelOptions(), {k.name: bound}), grid)), st.T_C)
+            x, info = spla.cg(Ak, b0, rtol=1e-10, M=pc, maxiter=5000)
+            full = P @ x
+            np.testing.assert_allclose(rom.rise({k.name: bound}, [np.inf])[0], full, rtol=0,
+                                       atol=1e-3 * full.max(), err_msg=f"{k.name}={bound}")
+
+
+def test_an_assembly_without_heat_capacity_refuses_it_and_shares_the_read_only_pattern():
+    g = build_geometry(load_layout(None), "air")
+    grid = build_mesh(g, max_cell_mm=12.0, min_cells=1)
+    pb = effect_problem(K.variant(g, ModelOptions(), {}), grid)
+    a, b = assemble(pb), assemble(pb, mass=False)
+    assert a.pattern is b.pattern and not a.pattern.indices.flags.writeable
+    np.testing.assert_array_equal(a.K_data, b.K_data)
+    with pytest.raises(Exception, match="without the heat capacity"):
+        b.M
+
+
 def test_closed_form_step_response_of_one_mode():
     """One mode: M y' + a y = b from 0 gives y = b/a (1 - e^{-a t / M}); with a ramp input the lag solution."""
     from imutherm.thermal.reduced import ReducedModel

@@ -23,6 +23,7 @@ combinations such as ``M/dt + theta*K`` are plain operations on ``.data``.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -272,7 +273,7 @@ class Assembly:
     ----------
     K_data : conduction stiffness [W/K]
     H_data : linear boundary laws (Convection, Contact), consistent face mass [W/K]
-    M_data : heat capacity [J/K] (consistent or lumped)
+    M_data : heat capacity [J/K] (consistent or lumped); None if assembled with ``mass=False``
     F_q : nodal load of the volumetric power [W]
     F_bc : nodal load of the linear laws (h T_ref) and of HeatFlux [W]
     """
@@ -281,7 +282,7 @@ class Assembly:
     pattern: Pattern
     K_data: np.ndarray
     H_data: np.ndarray
-    M_data: np.ndarray
+    M_data: np.ndarray | None
     F_q: np.ndarray
     F_bc: np.ndarray
     linear: list = field(default_factory=list)
@@ -307,6 +308,8 @@ class Assembly:
     @property
     def M(self) -> sp.csr_matrix:
         """Heat-capacity matrix [J/K]."""
+        if self.M_data is None:
+            raise InputError("this assembly was made without the heat capacity (assemble(..., mass=False))")
         return self.pattern.csr(self.M_data)
 
     def dirichlet_values(self, t: float | None) -> tuple:
@@ -346,7 +349,17 @@ class Assembly:
         return float(sum(bc.law.q * bc.weights.sum() for bc in self.fluxes))
 
 
-def assemble(problem: ThermalProblem, *, lumped_mass: bool = False) -> Assembly:
+@functools.lru_cache(maxsize=4)
+def pattern_of(node_shape: tuple) -> Pattern:
+    """The (shared, read-only) :class:`Pattern` of a node grid: built once per shape (a correlation's reduced
+    model assembles ~80 variants of one grid; building the pattern was a tenth of that)."""
+    pattern = Pattern(tuple(node_shape))
+    for a in (pattern.valid, pattern.indices, pattern.indptr, pattern.rows, pattern.diag_pos):
+        a.setflags(write=False)   # shared by every assembly of the grid: an in-place change would leak
+    return pattern
+
+
+def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool = True) -> Assembly:
     """Assemble stiffness, heat capacity, boundary matrices and loads of ``problem``.
 
     Parameters
@@ -354,6 +367,8 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False) -> Assembly:
     problem : ThermalProblem
     lumped_mass : bool
         Row-sum lumped heat capacity instead of the consistent one.
+    mass : bool
+        False: skip the heat capacity (a steady operator only; a third of the assembly time).
 
     Returns
     -------
@@ -361,9 +376,9 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False) -> Assembly:
         Reusable across steady and transient solves of the same problem.
     """
     g = problem.grid
-    pattern = Pattern(tuple(s + 1 for s in g.shape))
+    pattern = pattern_of(tuple(s + 1 for s in g.shape))
     K_data = pattern.data(stiffness_stencil(problem))
-    M_data = pattern.data(mass_stencil(problem, lumped=lumped_mass))
+    M_data = pattern.data(mass_stencil(problem, lumped=lumped_mass)) if mass else None
     F_q = volume_load(problem)
     Hs = None
     F_bc = np.zeros(g.n_nodes)
