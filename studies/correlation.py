@@ -391,7 +391,7 @@ def _build_one(layout: LayoutSpec, scheme: str, amb: float, mesh_size_mm: float,
     lay = replace(layout, ambient_C=amb, mounting=replace(layout.mounting, temperature_C=amb))
     geo = build_geometry(lay, scheme)
     grid = build_mesh(geo, mesh_size_mm, min_cells)
-    ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n) for n in K.model_effect_names() if K.applicable(n, geo)]
+    ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n, options) for n in K.model_effect_names() if K.applicable(n, geo)]
     names = {k.name for k in ks}
     pairs = [p for p in K.COUPLED if set(p) <= names]
     return geo, build_reduced(lambda v: K.variant(geo, options, v), grid, ks, dict(geo.sites), pairs=pairs)

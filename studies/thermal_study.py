@@ -122,11 +122,6 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     effects = tuple(effects)
     if not transient and any(e.base == "ambient_drift" for e in effects):
         raise InputError("effect ambient_drift needs a transient run (a drifting ambient has no steady state)")
-    if (options is not None and options.cavity_radiation and options.cavity_law == "s2s"
-            and any(e.base == "ambient_drift" for e in effects)):
-        raise InputError("effect ambient_drift: its lag field comes from the linearised model "
-                         "(thermal/reduced.py), which does not carry the s2s cavity exchange; use --cavity-law "
-                         "effective or none with it")
     start = time.perf_counter()
     if transient:
         if time_scheme == "theta" and dt is None:

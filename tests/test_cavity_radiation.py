@@ -282,9 +282,14 @@ def test_calculix_export_refuses_the_exchange(tmp_path):
     assert not (tmp_path / "job.inp").exists()
 
 
-def test_ambient_drift_refused_with_s2s():
+@pytest.mark.slow
+def test_ambient_drift_with_s2s():
+    """The drift's lag field comes from the linearised model, which carries the s2s exchange as its secant
+    (thermal/reduced.py): a drift of r adds between 0 and r t to every site (a site lags its surroundings)."""
     from imutherm.studies.thermal_study import run_scheme
     from imutherm.thermal.effects import parse_effect
-    with pytest.raises(InputError, match="ambient_drift"):
-        run_scheme(None, "air", options=ModelOptions(cavity_law="s2s"), transient=True, t_end=60.0,
-                   effects=[parse_effect("ambient_drift:rate_K_per_h=5")], mesh_size_mm=6.0, min_cells=1)
+    kw = dict(options=ModelOptions(cavity_law="s2s"), transient=True, t_end=600.0, mesh_size_mm=6.0, min_cells=1)
+    base = run_scheme(None, "air", **kw)
+    drift = run_scheme(None, "air", effects=[parse_effect("ambient_drift:rate_K_per_h=18")], **kw)
+    add = drift.transient.probe_C[-1] - base.transient.probe_C[-1]
+    assert np.all(add > 0.1 * 18 / 3600 * 600) and np.all(add < 18 / 3600 * 600)

@@ -138,3 +138,29 @@ def test_solve_cli_with_effects(tmp_path):
     assert main(["solve", "--scheme", "air", "--effect", "contact@bond:h_W_m2K=100", "--mesh-size", "6",
                  "--out", str(tmp_path / "y")]) == 2  # air has no bond lines
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_cavity_emissivity_under_s2s_sets_the_housing_inner_emissivity():
+    """Under the s2s cavity law the effect changes the emissivity the radiosity exchange sees: the housing's and
+    lid's inner faces get the wall emissivity whose pair emissivity with the boards' 0.9 is the parameter (bare
+    Al 0.05 -> 0.05, anodised pair 0.77 -> 0.84); the other surfaces keep theirs, and the exchange weakens."""
+    from imutherm.thermal import knobs as K
+    from imutherm.thermal.effects import wall_emissivity_for_pair
+    from imutherm.thermal.model import cavity_exchange_law
+    assert wall_emissivity_for_pair(0.77) == pytest.approx(0.842, abs=1e-3)
+    assert wall_emissivity_for_pair(0.05) == pytest.approx(0.0503, abs=1e-4)
+    assert wall_emissivity_for_pair(0.9) == pytest.approx(1.0)
+    g = build_geometry(load_layout(None), "air")
+    grid = build_mesh(g, max_cell_mm=6.0, min_cells=1)
+    opts = ModelOptions(cavity_law="s2s", cavity_patch_mm=10.0)
+    nom = cavity_exchange_law(g, grid, opts)
+    v = apply_model_effects(g, opts, (setting("cavity_emissivity", eps=0.05),))
+    bare = cavity_exchange_law(v.geometry, grid, v.options)
+    walls = np.isin(nom.patches.part, [grid.part_names.index(n) for n in ("housing", "lid")])
+    assert walls.any() and (~walls).any()
+    np.testing.assert_allclose(bare.emissivity[walls], wall_emissivity_for_pair(0.05))
+    np.testing.assert_allclose(nom.emissivity[walls], 0.84)
+    np.testing.assert_array_equal(bare.emissivity[~walls], nom.emissivity[~walls])
+    assert np.abs(np.diag(bare.X)).sum() < 0.6 * np.abs(np.diag(nom.X)).sum()
+    assert K.effect_knob("cavity_emissivity", opts).nodes == K.S2S_EMISSIVITY_NODES
+    assert K.effect_knob("cavity_emissivity", ModelOptions()).nodes == 2

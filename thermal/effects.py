@@ -14,10 +14,13 @@ Two kinds of effect:
   (:func:`first_order_lag`) and an ambient that drifts during the test (:func:`ambient_drift_rise`,
   the linear response of the unit to a ramp of its surroundings).
 
-Not in the library (said here so nobody looks for it): surface-to-surface cavity radiation with view
-factors and radiosity (the cavity law stays the effective conductivity of
-:func:`imutherm.thermal.model.cavity_radiation_conductivity`; ``cavity_emissivity`` scales it), and a
-temperature-dependent conductivity (at the 10-20 K rises of this unit, FR-4 and aluminium change by
+``cavity_emissivity`` acts on whichever cavity law the model uses: with the effective conductivity
+(:func:`imutherm.thermal.model.cavity_radiation_conductivity`, the default) it is the pair emissivity
+that scales it; with surface-to-surface exchange (``cavity_law 's2s'``) it sets the emissivity of the
+housing's and lid's inner faces to the value whose pair emissivity with the boards' 0.9 is the
+parameter (:func:`wall_emissivity_for_pair`), and the radiosity exchange follows.
+
+Not in the library (said here so nobody looks for it): a temperature-dependent conductivity (at the 10-20 K rises of this unit, FR-4 and aluminium change by
 < 2 %, below what the workflow can separate from a conductivity re-tune).
 """
 
@@ -93,7 +96,7 @@ EFFECTS = {e.name: e for e in (
                                                 "bare Al wall (0.05) -> 0.05, anodised (0.84) -> 0.77"),),
            "radiation inside the cavity is weaker or stronger than assumed (e.g. a bare, shiny inside "
            "of the housing instead of an anodised one); scales the cavity's effective radiative "
-           "conductivity"),
+           "conductivity, or under the s2s cavity law sets the housing's inner emissivity"),
     Effect("power", "model", (Param("extra_W", "W", -1.0, 1.0, False,
                                     "a missing or wrong power at a part: from switched off (-its power) up "
                                     "to +1 W, a second regulator's worth of loss"),),
@@ -214,6 +217,18 @@ def list_effects() -> str:
 LEAK_FACE = "xmin"
 
 
+#: emissivity of the surfaces facing the housing's inside: boards and moulded packages (materials library,
+#: FR-4 solder mask and epoxy moulding compound 0.9; Incropera Table A.11 paints and plastics ~0.9)
+PAIR_PARTNER_EMISSIVITY = 0.9
+
+
+def wall_emissivity_for_pair(eps_pair: float) -> float:
+    """Emissivity [-] of a wall whose pair emissivity 1/(1/e1 + 1/e2 - 1) with a
+    :data:`PAIR_PARTNER_EMISSIVITY` surface is ``eps_pair`` [-] (Incropera eq. 13.24, parallel plates):
+    0.77 -> 0.84 (anodised), 0.05 -> 0.05 (bare Al), 0.9 -> 1."""
+    return float(min(1.0, 1.0 / (1.0 / eps_pair - 1.0 / PAIR_PARTNER_EMISSIVITY + 1.0)))
+
+
 @dataclass(frozen=True)
 class ModelVariant:
     """The unit model with some model effects switched on.
@@ -270,8 +285,9 @@ def apply_model_effects(geometry: Geometry, options: ModelOptions, settings=()) 
                 options = options.with_(interfaces=options.interfaces + tuple(joints))
         elif e.name == "emissivity":
             options = options.with_(emissivity=s.value("eps"))
-        elif e.name == "cavity_emissivity":
-            options = options.with_(cavity_emissivity=s.value("eps"))
+        elif e.name == "cavity_emissivity":  # each cavity law reads its own option
+            options = options.with_(cavity_emissivity=s.value("eps"),
+                                    cavity_wall_emissivity=wall_emissivity_for_pair(s.value("eps")))
         elif e.name == "power":
             part = _power_part(geometry, s.target)
             new = part.power_W + s.value("extra_W")

@@ -74,6 +74,8 @@ class ModelOptions:
     cavity_emissivity : float [-], effective pair emissivity of facing surfaces (``effective`` law)
     cavity_surface_emissivity : float or None [-], emissivity of every interior surface (``s2s`` law);
         None: each bounding part's material emissivity (``DEFAULT_INTERIOR_EMISSIVITY`` where it has none)
+    cavity_wall_emissivity : float or None [-], emissivity of the housing's and the lid's inner faces
+        (``s2s`` law; wins over ``cavity_surface_emissivity`` there); None: as the other surfaces
     cavity_patch_mm : float [mm], patch edge of the ``s2s`` law
     cavity_rays : int, rays per patch of the ``s2s`` view factors (seeded, reproducible)
     interfaces : tuple of Interface, contact conductances between named parts
@@ -97,6 +99,7 @@ class ModelOptions:
     cavity_emissivity: float = 0.77
     cavity_law: str = "effective"
     cavity_surface_emissivity: float | None = None
+    cavity_wall_emissivity: float | None = None
     cavity_patch_mm: float = DEFAULT_PATCH_MM
     cavity_rays: int = DEFAULT_RAYS
     interfaces: tuple = field(default_factory=lambda: (
@@ -128,7 +131,7 @@ class ModelOptions:
                              f"got {self.cavity_patch_mm!r}")
         if not (isinstance(self.cavity_rays, (int, np.integer)) and self.cavity_rays >= 16):
             raise InputError(f"model option 'cavity_rays' must be an integer >= 16, got {self.cavity_rays!r}")
-        for name in ("emissivity", "cavity_emissivity", "cavity_surface_emissivity"):
+        for name in ("emissivity", "cavity_emissivity", "cavity_surface_emissivity", "cavity_wall_emissivity"):
             v = getattr(self, name)
             if v is not None and not (0.0 <= v <= 1.0):
                 raise InputError(f"model option {name!r}: emissivity must be in [0, 1], got {v!r}")
@@ -313,14 +316,19 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
 
 
 _VIEW_CACHE: dict = {}
+#: the last few exchange laws (X costs a dense radiosity solve of the patches, ~1e9 flops at the default mesh,
+#: and a correlation's reduced model assembles ~80 variants that share the emissivities)
+_LAW_CACHE: dict = {}
 
 
 def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOptions):
     """The ``s2s`` cavity law of the unit: :class:`~imutherm.thermal.cavity_radiation.CavityExchange`.
 
-    Emissivities from the bounding parts' materials (or ``cavity_surface_emissivity``); rays seeded with 0.
+    Emissivities from the bounding parts' materials (or ``cavity_surface_emissivity``; the housing's and
+    lid's ``cavity_wall_emissivity`` if given); rays seeded with 0.
     View factors depend only on the mesh, the air and the patch size and rays, so the last few are kept
-    (a correlation re-solves the same mesh with other emissivities or conductances).
+    (a correlation re-solves the same mesh with other emissivities or conductances), and so are the last
+    few laws (the same view factors and emissivities: the same exchange matrix; laws are not changed after).
     """
     import hashlib
 
@@ -332,12 +340,21 @@ def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOpti
     else:
         eps = [options.material(p.material).emissivity for p in geometry.parts]
         eps = [DEFAULT_INTERIOR_EMISSIVITY if e is None else e for e in eps]
+    if options.cavity_wall_emissivity is not None:
+        eps = [options.cavity_wall_emissivity if p.kind in ("housing", "lid") else e
+               for p, e in zip(geometry.parts, eps)]
     h = hashlib.sha1()
     for a in (grid.xs, grid.ys, grid.zs, grid.cell_part, air):
         h.update(np.ascontiguousarray(a).tobytes())
     key = (h.hexdigest(), float(options.cavity_patch_mm), int(options.cavity_rays))
+    law_key = key + (tuple(float(e) for e in eps),)
+    if law_key in _LAW_CACHE:  # the same enclosure and emissivities: the same radiosity solve (read-only law)
+        return _LAW_CACHE[law_key]
     law = cavity_exchange(grid, air, eps, patch_mm=options.cavity_patch_mm, rays=options.cavity_rays,
                           rng=np.random.default_rng(0), view=_VIEW_CACHE.get(key))
+    if len(_LAW_CACHE) >= 8:
+        _LAW_CACHE.pop(next(iter(_LAW_CACHE)))
+    _LAW_CACHE[law_key] = law
     if key not in _VIEW_CACHE:
         if len(_VIEW_CACHE) >= 4:
             _VIEW_CACHE.pop(next(iter(_VIEW_CACHE)))
