@@ -131,7 +131,7 @@ class _Forward:
     """Site rises of every run from knob values, through the runs' reduced models."""
 
     def __init__(self, runs, roms, geometries, options: ModelOptions | None = None):
-        self.runs, self.roms, self.geometries = runs, roms, geometries
+        self.runs, self.roms, self.geometries, self.options = runs, roms, geometries, options or ModelOptions()
         #: the re-tune knobs' nominal values, from the layout and materials (every scheme shares them)
         self.nominal = K.nominal_values(next(iter(geometries.values())), options) if geometries else {}
 
@@ -172,8 +172,9 @@ def _residuals(fwd: _Forward, values: dict, mask: dict) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros(0)
 
 
-def _knobs_for(name: str) -> list:
-    """Re-tune knobs plus the candidate's (none: re-tune only); an emissivity effect replaces the re-tune."""
+def _knobs_for(name: str, fwd: _Forward) -> list:
+    """Re-tune knobs plus the candidate's (none: re-tune only); an emissivity effect replaces the re-tune;
+    a ``power@part`` candidate cannot take the part below zero power (:func:`~imutherm.thermal.knobs.power_floor_W`)."""
     ks = [k for k, _ in K.RETUNE]
     if name == "none":
         return ks
@@ -183,7 +184,9 @@ def _knobs_for(name: str) -> list:
         ks = [k for k in ks if k.name != "emissivity_ext"]
     if e.kind == "signal":
         return ks + [Knob(name, p.unit, p.lo, p.hi, log=p.log)]
-    return ks + [K.effect_knob(name)]
+    floor = (K.power_floor_W(fwd.geometries.values(), name, [r.power_scale for r in fwd.runs])
+             if e.name == "power" else None)
+    return ks + [K.effect_knob(name, fwd.options, power_floor_W=floor)]
 
 
 def _fit(fwd: _Forward, name: str, train: dict, test: dict | None, n_eff_ratio: float, prior_K: float) -> Fit:
@@ -194,7 +197,7 @@ def _fit(fwd: _Forward, name: str, train: dict, test: dict | None, n_eff_ratio: 
     sigma squared. It decides only where the data do not (sparse files); the effect's own parameter
     has none (uniform within its bounds).
     """
-    ks = _knobs_for(name)
+    ks = _knobs_for(name, fwd)
     # start at the nominal (re-tune) / mid-range (effect) in the knob coordinate u in [-1, 1]
     u0 = np.array([float(k.to_u(K.RETUNE_NOMINAL[k.name])) if k.name in K.RETUNE_NOMINAL else 0.0 for k in ks])
     base = fwd.nominal

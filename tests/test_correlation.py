@@ -96,6 +96,35 @@ def test_cli_lists_effects_and_refuses_bad_input(tmp_path, capsys):
     assert not (tmp_path / "o").exists()  # nothing half-written
 
 
+def test_a_power_candidate_cannot_take_a_part_below_zero_power():
+    """The fit's power@part bound: the part's layout power x the re-tune's lowest power_scale x the smallest
+    run's power_scale, not the library's -1 W (which took the 0.26 W ADC to -0.74 W on the paper's figures)."""
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.studies.correlation import _Forward, _knobs_for
+    from imutherm.thermal import knobs as K
+    from imutherm.thermal.effects import power_part
+
+    lay = load_layout(None)
+    geos = {s: build_geometry(lay, s) for s in ("air", "grease")}
+    runs = [_run("a.csv", "air", [800.0], [89.0]), _run("g.csv", "grease", [300.0], [77.0])]
+    runs[1] = MeasuredRun("g.csv", "grease", 70.0, 0.9, 0.0, "die", ("tp1",), np.array([300.0]),
+                          np.array([[77.0]]), (0,))
+    fwd = _Forward(runs, {}, geos)
+    adc_W = power_part(geos["air"], "adc").power_W
+    assert 0.0 < adc_W < 1.0  # the layout's ADC draws well under the library's 1 W
+    knob = _knobs_for("power@adc", fwd)[-1]
+    assert knob.name == "power@adc" and knob.part == "adc"
+    assert knob.lo == pytest.approx(-adc_W * 0.85 * 0.9, rel=1e-12)
+    assert knob.hi == 1.0
+    # the worst case of every run at every re-tune keeps the part at or above zero
+    assert adc_W * 0.85 * min(r.power_scale for r in runs) + knob.lo >= -1e-12
+    # a part above 1 W keeps the library's -1 W; an unpowered target is floored at zero
+    assert K.effect_knob("power@adc", power_floor_W=2.5).lo == -1.0
+    assert K.effect_knob("power@adc", power_floor_W=0.0).lo == 0.0
+    assert K.effect_knob("power@adc").lo == -1.0  # the reduced model's knob: the load is exact for any value
+
+
 @pytest.fixture(scope="module")
 def models():
     return build_models([("air", 70.0), ("grease", 70.0)], mesh_size_mm=INV_MM, min_cells=1)

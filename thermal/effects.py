@@ -243,7 +243,8 @@ class ModelVariant:
     extra_laws: dict = field(default_factory=dict)
 
 
-def _power_part(geometry: Geometry, component: str):
+def power_part(geometry: Geometry, component: str):
+    """The part that carries component ``component``'s power (its ``_die`` if it has one)."""
     names = [p.name for p in geometry.parts]
     for cand in (component + "_die", component):
         if cand in names:
@@ -289,7 +290,7 @@ def apply_model_effects(geometry: Geometry, options: ModelOptions, settings=()) 
             options = options.with_(cavity_emissivity=s.value("eps"),
                                     cavity_wall_emissivity=wall_emissivity_for_pair(s.value("eps")))
         elif e.name == "power":
-            part = _power_part(geometry, s.target)
+            part = power_part(geometry, s.target)
             new = part.power_W + s.value("extra_W")
             if new < 0:
                 raise InputError(f"effect power@{s.target}: extra_W = {s.value('extra_W'):g} W would make the "

@@ -14,7 +14,8 @@ from dataclasses import replace
 from imutherm import InputError
 from imutherm.geometry.build import Geometry
 from imutherm.geometry.materials import with_properties
-from imutherm.thermal.effects import EFFECTS, ModelVariant, apply_model_effects, candidate_names, effect_of, setting
+from imutherm.thermal.effects import (EFFECTS, ModelVariant, apply_model_effects, candidate_names, effect_of,
+                                      power_part, setting)
 from imutherm.thermal.model import ModelOptions
 from imutherm.thermal.reduced import Knob
 
@@ -79,21 +80,42 @@ def nominal_values(geometry: Geometry, options: ModelOptions | None = None) -> d
 S2S_EMISSIVITY_NODES = 4
 
 
-def effect_knob(name: str, options: ModelOptions | None = None) -> Knob:
+def effect_knob(name: str, options: ModelOptions | None = None, power_floor_W: float | None = None) -> Knob:
     """The :class:`Knob` of a one-parameter model effect ``name`` (``name@target``); ``options``: the model's
-    laws (the s2s cavity law makes ``cavity_emissivity`` nonlinear in its parameter)."""
+    laws (the s2s cavity law makes ``cavity_emissivity`` nonlinear in its parameter); ``power_floor_W``
+    [W]: for a ``power@part`` knob, the lowest part power the fit may reach (the part switched off), so its
+    lower bound is ``max(-1 W, -power_floor_W)`` (:func:`power_floor_W`)."""
     e = effect_of(name)
     if e.kind != "model" or len(e.params) != 1:
         raise InputError(f"effect {name!r} is not a one-parameter model effect")
     p = e.params[0]
     if e.name == "power":
-        return Knob(name, p.unit, p.lo, p.hi, part=name.split("@", 1)[1])
+        lo = p.lo if power_floor_W is None else max(p.lo, -float(power_floor_W))
+        return Knob(name, p.unit, lo, p.hi, part=name.split("@", 1)[1])
     if e.name == "contact":
         return Knob(name, p.unit, p.lo, p.hi, log=True, nodes=CONTACT_NODES)
     if e.name == "cavity_emissivity" and options is not None and options.cavity_radiation \
             and options.cavity_law == "s2s":
         return Knob(name, p.unit, p.lo, p.hi, nodes=S2S_EMISSIVITY_NODES)
     return Knob(name, p.unit, p.lo, p.hi, nodes=2)  # linear in the parameter
+
+
+def power_floor_W(geometries, name: str, power_scales=(1.0,)) -> float:
+    """The smallest power [W] part ``name`` (``power@part``) can have in a fit: its layout power times the
+    re-tune's lowest ``power_scale`` times the smallest measured run's ``power_scale``, over ``geometries``.
+
+    A ``power@part`` extra above minus this keeps the part's power non-negative in every run at every
+    re-tune (an extra of -1 W on a 0.26 W ADC is not a power error, it is a refrigerator).
+    """
+    component = name.split("@", 1)[1]
+    lo_scale = next(k.lo for k, _ in RETUNE if k.name == "power_scale") * min(power_scales)
+    watts = []
+    for geo in geometries:
+        try:
+            watts.append(power_part(geo, component).power_W)
+        except InputError:
+            continue
+    return lo_scale * min(watts) if watts else 0.0
 
 
 def model_effect_names() -> tuple:

@@ -304,9 +304,9 @@ def _cg(A, b, pc, rtol=BASIS_RTOL, atol=0.0):
 
 def _part_load(variant: ModelVariant, grid, component: str) -> np.ndarray:
     """Nodal load [W] of 1 W spread over the die (or body) of ``component``."""
-    from imutherm.thermal.effects import _power_part
+    from imutherm.thermal.effects import power_part
     g = variant.geometry
-    part = _power_part(g, component)
+    part = power_part(g, component)
     pb = effect_problem(variant, grid)
     q = np.where(grid.cell_part.ravel() == grid.part_names.index(part.name), 1.0 / g.volumes[part.name], 0.0)
     from dataclasses import replace
@@ -449,5 +449,5 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
 
 
 def _power_part_W(variant: ModelVariant, component: str) -> float:
-    from imutherm.thermal.effects import _power_part
-    return _power_part(variant.geometry, component).power_W
+    from imutherm.thermal.effects import power_part
+    return power_part(variant.geometry, component).power_W
