@@ -420,10 +420,10 @@ def build_models(keys, layout: LayoutSpec | str | None = None, *, mesh_size_mm: 
             raise InputError(f"correlate: scheme {scheme!r} is not in layout {layout.name!r}; "
                              f"valid: {', '.join(layout.schemes)}")
     n_nodes = build_mesh(build_geometry(layout, keys[0][0]), mesh_size_mm, min_cells).n_nodes if keys else 0
-    # measured at the default mesh (1.75e5 unknowns, 16-17 knobs, two coupled pairs): three builds on two
-    # workers of the idle 2-core machine 274 s, i.e. ~90 s each; 3.6 GB peak (the full assemblies at the
-    # knobs' Chebyshev nodes are kept until the basis is known)
-    each, gb = n_nodes / 175e3 * 90.0, n_nodes / 175e3 * 3.6
+    # measured at the default mesh (1.75e5 unknowns, 16-17 knobs, two coupled pairs; effective cavity law):
+    # three builds on two workers of the idle 2-core machine 112 s, i.e. ~56 s each; 1.0 GB peak per worker
+    # (benchmarks/bench_correlation_speed.py, 2026-12-01)
+    each, gb = n_nodes / 175e3 * 60.0, n_nodes / 175e3 * 1.1
     say(f"{len(keys)} reduced model(s), ~{n_nodes} unknowns each: about {each:.0f} s and {gb:.1f} GB each on one "
         f"core, {len(keys)} on {max(1, min(jobs, len(keys)))} worker(s)")
     pool = _pool(jobs, len(keys))
