@@ -98,7 +98,7 @@ def test_cli_lists_effects_and_refuses_bad_input(tmp_path, capsys):
 
 def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     """The fit's power@part bound: the part's layout power x the re-tune's lowest power_scale x the smallest
-    run's power_scale, not the library's -1 W (which took the 0.26 W ADC to -0.74 W on the paper's figures)."""
+    run's power_scale, not the library's -1 W (which let the fit draw -1 W from the 0.04 W ADC on the paper's figures)."""
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.studies.correlation import _Forward, _knobs_for

@@ -105,7 +105,7 @@ def power_floor_W(geometries, name: str, power_scales=(1.0,)) -> float:
     re-tune's lowest ``power_scale`` times the smallest measured run's ``power_scale``, over ``geometries``.
 
     A ``power@part`` extra above minus this keeps the part's power non-negative in every run at every
-    re-tune (an extra of -1 W on a 0.26 W ADC is not a power error, it is a refrigerator).
+    re-tune (an extra of -1 W on the 0.04 W ADC is not a power error, it is a heat sink).
     """
     component = name.split("@", 1)[1]
     lo_scale = next(k.lo for k, _ in RETUNE if k.name == "power_scale") * min(power_scales)
