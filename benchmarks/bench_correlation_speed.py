@@ -60,7 +60,8 @@ def main() -> int:
     j = json.loads((out / "correlation.json").read_text())
     print(json.dumps({"exit": rc, "wall_s": round(wall, 1), "target_s": 300, "cpu_s": round(cpu, 1),
                       "peak_rss_MB_one_process": round(peak), "load_before": load0, "load_after": os.getloadavg()[0],
-                      "cavity_law": args.cavity_law, "stages_s": j["timings_s"], "verdict": j["verdict"], "named_effect": j["named_effect"],
+                      "cavity_law": args.cavity_law, "stages_s": j["timings_s"], "verdict": j["verdict"],
+                      "named_effect": j["named_effect"],
                       "rms_before_K": j["rms_before_K"], "rms_after_K": j["rms_after_K"]}, indent=1))
     return 0 if rc == 0 else 1
 

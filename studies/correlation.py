@@ -133,7 +133,7 @@ class _Forward:
     def __init__(self, runs, roms, geometries, options: ModelOptions | None = None):
         self.runs, self.roms, self.geometries, self.options = runs, roms, geometries, options or ModelOptions()
         #: the re-tune knobs' nominal values, from the layout and materials (every scheme shares them)
-        self.nominal = K.nominal_values(next(iter(geometries.values())), options) if geometries else {}
+        self.nominal = K.nominal_values(next(iter(geometries.values())), self.options) if geometries else {}
 
     def rise(self, i: int, values: dict, times=None) -> np.ndarray:
         """Model rise [K] of run ``i`` at its times (or ``times``), its sites (n, m)."""
@@ -186,7 +186,7 @@ def _knobs_for(name: str, fwd: _Forward) -> list:
         return ks + [Knob(name, p.unit, p.lo, p.hi, log=p.log)]
     floor = (K.power_floor_W(fwd.geometries.values(), name, [r.power_scale for r in fwd.runs])
              if e.name == "power" else None)
-    return ks + [K.effect_knob(name, fwd.options, power_floor_W=floor)]
+    return ks + [K.effect_knob(name, fwd.options, min_power_W=floor)]
 
 
 def _fit(fwd: _Forward, name: str, train: dict, test: dict | None, n_eff_ratio: float, prior_K: float) -> Fit:

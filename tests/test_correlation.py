@@ -120,8 +120,8 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     # the worst case of every run at every re-tune keeps the part at or above zero
     assert adc_W * 0.85 * min(r.power_scale for r in runs) + knob.lo >= -1e-12
     # a part above 1 W keeps the library's -1 W; an unpowered target is floored at zero
-    assert K.effect_knob("power@adc", power_floor_W=2.5).lo == -1.0
-    assert K.effect_knob("power@adc", power_floor_W=0.0).lo == 0.0
+    assert K.effect_knob("power@adc", min_power_W=2.5).lo == -1.0
+    assert K.effect_knob("power@adc", min_power_W=0.0).lo == 0.0
     assert K.effect_knob("power@adc").lo == -1.0  # the reduced model's knob: the load is exact for any value
 
 

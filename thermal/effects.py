@@ -20,8 +20,9 @@ that scales it; with surface-to-surface exchange (``cavity_law 's2s'``) it sets 
 housing's and lid's inner faces to the value whose pair emissivity with the boards' 0.9 is the
 parameter (:func:`wall_emissivity_for_pair`), and the radiosity exchange follows.
 
-Not in the library (said here so nobody looks for it): a temperature-dependent conductivity (at the 10-20 K rises of this unit, FR-4 and aluminium change by
-< 2 %, below what the workflow can separate from a conductivity re-tune).
+Not in the library (said here so nobody looks for it): a temperature-dependent conductivity (at the 10-20 K
+rises of this unit, FR-4 and aluminium change by < 2 %, below what the workflow can separate from a
+conductivity re-tune).
 """
 
 from __future__ import annotations

@@ -80,17 +80,17 @@ def nominal_values(geometry: Geometry, options: ModelOptions | None = None) -> d
 S2S_EMISSIVITY_NODES = 4
 
 
-def effect_knob(name: str, options: ModelOptions | None = None, power_floor_W: float | None = None) -> Knob:
+def effect_knob(name: str, options: ModelOptions | None = None, min_power_W: float | None = None) -> Knob:
     """The :class:`Knob` of a one-parameter model effect ``name`` (``name@target``); ``options``: the model's
-    laws (the s2s cavity law makes ``cavity_emissivity`` nonlinear in its parameter); ``power_floor_W``
+    laws (the s2s cavity law makes ``cavity_emissivity`` nonlinear in its parameter); ``min_power_W``
     [W]: for a ``power@part`` knob, the lowest part power the fit may reach (the part switched off), so its
-    lower bound is ``max(-1 W, -power_floor_W)`` (:func:`power_floor_W`)."""
+    lower bound is ``max(-1 W, -min_power_W)`` (:func:`power_floor_W`)."""
     e = effect_of(name)
     if e.kind != "model" or len(e.params) != 1:
         raise InputError(f"effect {name!r} is not a one-parameter model effect")
     p = e.params[0]
     if e.name == "power":
-        lo = p.lo if power_floor_W is None else max(p.lo, -float(power_floor_W))
+        lo = p.lo if min_power_W is None else max(p.lo, -float(min_power_W))
         return Knob(name, p.unit, lo, p.hi, part=name.split("@", 1)[1])
     if e.name == "contact":
         return Knob(name, p.unit, p.lo, p.hi, log=True, nodes=CONTACT_NODES)
