@@ -27,6 +27,16 @@ PLATFORMS = {
     "aircraft": ((0.3, 0.0, 0.05), GateConfig.L),
 }
 
+#: platform settings of the gated filter (GateConfig fields) beside the defaults. handheld: the accelerometer
+#: low-passed in the estimate's frame (VQF's idea, Laidig & Seel, Information Fusion 91, 2023) with
+#: tau_acc = 1 s and kp = 1 1/s: hand and pendulum motion reverses within a second, so its accelerations
+#: average out in 1 s while the gyro (scale errors of a consumer part at hundreds of °/s) drifts within
+#: seconds. Chosen from the grid (tau_acc, kp) in {(1, 1), (1, 0.3), (3, 0.3)} by the mean inclination RMS
+#: on the six RepoIMU files (benchmarks/bench_repoimu.py); leave-one-file-out picks (1, 1) for every file.
+#: vehicle / aircraft: the seed's per-sample gate (sustained linear accelerations and turns, which a 1 s
+#: low-pass does not remove: on the simulated vehicle profile the low-pass mode doubled the roll error).
+PLATFORM_GATE = {"handheld": {"tau_acc": 1.0, "kp": 1.0}, "vehicle": {}, "aircraft": {}}
+
 
 @dataclass(frozen=True)
 class RecordedResult:
@@ -84,7 +94,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
     if unknown:
         raise InputError(f"filters: {unknown} unknown or not runnable on a recorded log (aekf_gnss needs GNSS "
                          f"fixes); valid: {', '.join(LOG_FILTERS)}")
-    gate = replace(GateConfig(), L=L, init_s=float(init_s))
+    gate = replace(GateConfig(), L=L, init_s=float(init_s), **PLATFORM_GATE[platform])
     est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, names=tuple(names))
     metrics = {}
     series = {"t": log.t}

@@ -54,6 +54,7 @@ from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
                                          initial_quat)
+from imutherm.imu.filters.inertial_lp import butter2_coeffs, lp3, lp3_init
 from imutherm.imu.filters.gate import (GateThresholds, _lp, gate_noise_level, gate_signals, gate_thresholds,
                                       lowpass_alpha, rest_reference)
 
@@ -70,6 +71,12 @@ class GatedParams:
     g : float [m/s^2]       |f| reference of the ||f| - g| gate (the accelerometer's reading at rest)
     recover_s : float [s]   recovery: open after |f| and ω̇ conditions held this long even if the
                             rate condition fails (inf: never)
+    tau_acc : float [s]     0 (default): the seed's per-sample on/off gate as published; > 0: the
+                            accelerometer and the rate are low-passed in the estimate's frame
+                            (:mod:`imutherm.imu.filters.inertial_lp`) before the gate and the correction,
+                            the rate gate tests the low-passed (sustained) rate, on/off, and the |f| and ω̇
+                            gates become a gain weight Π min(1, (σ/e)²) (:func:`_lp_core`; ``tau``,
+                            ``hold_s``, ``recover_s`` unused)
     """
 
     thresholds: GateThresholds | None
@@ -79,6 +86,7 @@ class GatedParams:
     hold_s: float = 1.0
     g: float = G0
     recover_s: float = 30.0
+    tau_acc: float = 0.0
 
     def __post_init__(self):
         for name in ("kp", "ki", "tau", "hold_s", "g"):
@@ -86,6 +94,9 @@ class GatedParams:
             if not (math.isfinite(v) and v >= 0) or (name in ("tau", "g") and v <= 0):
                 raise InputError(f"GatedParams: {name}={v!r} is invalid; valid: a finite number >= 0 "
                                  "(tau, g > 0)")
+        if not (math.isfinite(self.tau_acc) and self.tau_acc >= 0):
+            raise InputError(f"GatedParams: tau_acc={self.tau_acc!r} is invalid; valid: a time constant >= 0 [s] "
+                             "(0: the seed's per-sample gate)")
         if not (self.recover_s > 0):
             raise InputError(f"GatedParams: recover_s={self.recover_s!r} is invalid; valid: a number > 0 [s] "
                              "(inf: no recovery)")
@@ -100,7 +111,8 @@ class GatedState:
     lp_f : float [m/s^2] low-passed |f|; lp_w : (3,) [rad/s] low-passed ω;
     run : int [samples] consecutive samples with all gate conditions true;
     quiet : int [samples] consecutive samples with the |f| and ω̇ conditions true (recovery);
-    gate_open : bool, whether the last update used the accelerometer.
+    gate_open : bool, whether the last update used the accelerometer;
+    lp : the state vector of :func:`_lp_core` (``tau_acc > 0``; None before the first sample).
     """
 
     q: tuple
@@ -111,6 +123,7 @@ class GatedState:
     run: int = 0
     quiet: int = 0
     gate_open: bool = False
+    lp: tuple | None = None
 
     @property
     def gravity(self) -> np.ndarray:
@@ -176,6 +189,12 @@ def gated_step(state: GatedState, gyro, accel, dt: float, params: GatedParams) -
     state : GatedState; gyro (3,) [rad/s]; accel (3,) [m/s^2] specific force; dt [s];
     params : GatedParams (``thresholds=None`` → ungated). Returns the new state.
     """
+    if params.tau_acc > 0:
+        S = lp_state0(state.q, state.bias) if state.lp is None else np.array(state.lp)
+        _, used, _ = run_lp_core(np.asarray(gyro, float).reshape(1, 3), np.asarray(accel, float).reshape(1, 3),
+                                 dt, params, S)
+        return replace(state, q=tuple(S[0:4]), bias=tuple(S[4:7]), prev_gyro=tuple(S[34:37]), lp=tuple(S),
+                       gate_open=bool(used[0]))
     gx, gy, gz = (float(v) for v in gyro)
     fx, fy, fz = (float(v) for v in accel)
     pg = state.prev_gyro if state.prev_gyro is not None else (gx, gy, gz)
@@ -359,7 +378,11 @@ def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, 
     if bias0 is None:
         bias0 = initial_bias(gyro, dt, init_s)
     th = params.thresholds
-    if th is None:
+    if params.tau_acc > 0:
+        if th is not None:
+            params = replace(params, thresholds=lp_thresholds(gyro, accel, dt, params, bias0, init_s))
+        r, gate, _ = run_lp_core(gyro, accel, dt, params, lp_state0(q0, bias0))
+    elif th is None:
         r, gate = _loop(gyro, accel, np.ones(len(gyro), bool), dt, params.kp, params.ki, q0, bias0)
     else:
         e_a, _, e_wd = gate_signals(gyro, accel, dt, params.tau, params.g)
@@ -374,4 +397,138 @@ def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, 
 def run_ungated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, *,
                 init_s: float = 10.0) -> AttitudeEstimate:
     """Ungated complementary baseline: :func:`run_gated` with the gate always open (same gains)."""
-    return run_gated(gyro, accel, dt, replace(params, thresholds=None), q0, bias0, init_s=init_s, name="ungated")
+    return run_gated(gyro, accel, dt, replace(params, thresholds=None, tau_acc=0.0), q0, bias0, init_s=init_s,
+                     name="ungated")
+
+
+# --------------------------------------------------------------------------- inertial low-pass mode
+#: layout of the state vector of :func:`_lp_core`: q (4), bias (3), low-pass of f_n (12), of ω_n (12),
+#: previous low-passed ω_n (3), previous gyro (3), started flag (1)
+_LP_STATE = 38
+
+
+@njit(cache=True)
+def _lp_core(gyro, accel, dt, kp, ki, g, sa, sw, swd, c, S):
+    """Seed-000 strapdown with the accelerometer low-passed in the estimate's frame and a soft gate.
+
+    gyro, accel (N,3) raw samples; S (38,) state (see :data:`_LP_STATE`), updated in place. Per sample:
+    f_n = C_nb f, ω_n = C_nb (ω - b) low-passed (:mod:`imutherm.imu.filters.inertial_lp`, coefficients c);
+    the gate signals of the seed on the low-passed vectors, e_a = ||f̄_n| - g|, e_w = |ω̄_n|,
+    e_ẇ = |Δω̄_n| / dt; gain weight w = min(1, (σa / e_a)²) min(1, (σω̇ / e_ẇ)²), and w = 0 while
+    e_w > σω (a sustained turn: the apparent vertical is not the vertical); the PI correction of the seed
+    toward m = -C_bn f̄_n / |f̄_n| with kp w and ki w. Returns (gravity (N,3), used (N,) = w >= 0.5, w (N,)).
+    """
+    n = gyro.shape[0]
+    out = np.empty((n, 3))
+    used = np.zeros(n, np.bool_)
+    wt = np.empty(n)
+    w, x, y, z = S[0], S[1], S[2], S[3]
+    bx, by, bz = S[4], S[5], S[6]
+    hdt = 0.5 * dt
+    for k in range(n):
+        gx, gy, gz = gyro[k, 0], gyro[k, 1], gyro[k, 2]
+        if S[37] == 0.0:
+            S[34], S[35], S[36] = gx, gy, gz
+        wx, wy, wz = 0.5 * (S[34] + gx) - bx, 0.5 * (S[35] + gy) - by, 0.5 * (S[36] + gz) - bz
+        S[34], S[35], S[36] = gx, gy, gz
+        # C_nb (body -> nav) of q
+        c00, c01, c02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
+        c10, c11, c12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
+        c20, c21, c22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+        fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
+        fn0, fn1, fn2 = c00 * fx + c01 * fy + c02 * fz, c10 * fx + c11 * fy + c12 * fz, c20 * fx + c21 * fy + c22 * fz
+        ux, uy, uz = gx - bx, gy - by, gz - bz
+        wn0, wn1, wn2 = c00 * ux + c01 * uy + c02 * uz, c10 * ux + c11 * uy + c12 * uz, c20 * ux + c21 * uy + c22 * uz
+        if S[37] == 0.0:
+            lp3_init(S, 7, fn0, fn1, fn2)
+            lp3_init(S, 19, wn0, wn1, wn2)
+            S[31], S[32], S[33] = wn0, wn1, wn2
+            S[37] = 1.0
+        lf = lp3(S, 7, fn0, fn1, fn2, c)
+        lw = lp3(S, 19, wn0, wn1, wn2, c)
+        e_a = abs(math.sqrt(lf[0] * lf[0] + lf[1] * lf[1] + lf[2] * lf[2]) - g)
+        e_w = math.sqrt(lw[0] * lw[0] + lw[1] * lw[1] + lw[2] * lw[2])
+        d0, d1, d2 = (lw[0] - S[31]) / dt, (lw[1] - S[32]) / dt, (lw[2] - S[33]) / dt
+        e_wd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        S[31], S[32], S[33] = lw[0], lw[1], lw[2]
+        q_w = 1.0
+        if e_a > sa:
+            q_w *= (sa / e_a) ** 2
+        if e_w > sw:
+            q_w = 0.0  # a sustained turn: the seed's on/off rate gate on the low-passed rate
+        if e_wd > swd:
+            q_w *= (swd / e_wd) ** 2
+        wt[k] = q_w
+        used[k] = q_w >= 0.5
+        # measurement in body axes: C_bn f̄_n
+        mbx = c00 * lf[0] + c10 * lf[1] + c20 * lf[2]
+        mby = c01 * lf[0] + c11 * lf[1] + c21 * lf[2]
+        mbz = c02 * lf[0] + c12 * lf[1] + c22 * lf[2]
+        mn = math.sqrt(mbx * mbx + mby * mby + mbz * mbz)
+        if mn > 0.0 and q_w > 0.0:
+            mx, my, mz = -mbx / mn, -mby / mn, -mbz / mn
+            rx, ry, rz = c20, c21, c22
+            ex = my * rz - mz * ry
+            ey = mz * rx - mx * rz
+            ez = mx * ry - my * rx
+            kpw, kiw = kp * q_w, ki * q_w
+            wx += kpw * ex
+            wy += kpw * ey
+            wz += kpw * ez
+            bx -= kiw * ex * dt
+            by -= kiw * ey * dt
+            bz -= kiw * ez * dt
+        hx, hy, hz = hdt * wx, hdt * wy, hdt * wz
+        n2 = hx * hx + hy * hy + hz * hz
+        if n2 > 1e-24:
+            nn = math.sqrt(n2)
+            s = math.sin(nn) / nn
+            cc = math.cos(nn)
+        else:
+            s = 1.0 - n2 / 6.0
+            cc = 1.0 - n2 / 2.0
+        dx, dy, dz = hx * s, hy * s, hz * s
+        w, x, y, z = (w * cc - x * dx - y * dy - z * dz, w * dx + x * cc + y * dz - z * dy,
+                      w * dy - x * dz + y * cc + z * dx, w * dz + x * dy - y * dx + z * cc)
+        inv = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
+        w, x, y, z = w * inv, x * inv, y * inv, z * inv
+        out[k, 0] = 2 * (x * z - w * y)
+        out[k, 1] = 2 * (y * z + w * x)
+        out[k, 2] = 1 - 2 * (x * x + y * y)
+    S[0], S[1], S[2], S[3] = w, x, y, z
+    S[4], S[5], S[6] = bx, by, bz
+    return out, used, wt
+
+
+def lp_thresholds(gyro, accel, dt, params: "GatedParams", bias, init_s: float) -> GateThresholds:
+    """The thresholds of ``params`` with the rate threshold's widening R_ω re-measured on the signal the
+    low-pass mode tests: |LP(ω - b)| (second-order, ``tau_acc``) over the rest window ``init_s`` [s], mean +
+    4 std after its first 2 tau_acc (at rest the estimate's frame does not turn, so the body-frame low-pass is
+    the same signal)."""
+    from scipy.signal import lfilter
+
+    th = params.thresholds
+    n0 = max(2, int(round(init_s / dt)))
+    c = butter2_coeffs(params.tau_acc, dt)
+    x = np.asarray(gyro, float)[:n0] - np.asarray(bias, float)
+    y = lfilter(c[:3], np.r_[1.0, c[3:]], x, axis=0)
+    e = np.linalg.norm(y[min(n0 - 1, int(2 * params.tau_acc / dt)):], axis=1)
+    rw = float(e.mean() + 4.0 * e.std())
+    return replace(th, sigma_w=th.theory[1] + rw, noise_std=(th.noise_std[0], rw, th.noise_std[2]))
+
+
+def lp_state0(q0, b0) -> np.ndarray:
+    """Initial state vector of :func:`_lp_core` (attitude q0 (4,) [-], bias b0 (3,) [rad/s])."""
+    S = np.zeros(_LP_STATE)
+    S[0:4] = np.asarray(q0, float)
+    S[4:7] = np.asarray(b0, float)
+    return S
+
+
+def run_lp_core(gyro, accel, dt, params: "GatedParams", S):
+    """:func:`_lp_core` with ``params`` (its thresholds; inf where None = ungated); returns its outputs."""
+    th = params.thresholds
+    sa, sw, swd = (math.inf,) * 3 if th is None else (th.sigma_a, th.sigma_w, th.sigma_wdot)
+    return _lp_core(np.ascontiguousarray(gyro, float), np.ascontiguousarray(accel, float), float(dt),
+                    float(params.kp), float(params.ki), float(params.g), float(sa), float(sw), float(swd),
+                    butter2_coeffs(params.tau_acc, dt), S)
