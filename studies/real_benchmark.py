@@ -16,7 +16,7 @@ Procedure per file (:func:`prepare`), identical for our filters and the peers:
    sensor (:func:`~imutherm.imu.reference_log.estimate_alignment`), once per file, never from a filter;
 5. the filters run with the leveling / rest window ``init_s`` = 1 s (the pendulum is released 1.3-1.5 s
    into each file) and the gate design inputs and gated settings of ``--platform handheld`` (the defaults
-   of ``imutherm attitude --imu-csv``: :data:`~imutherm.studies.recorded.PLATFORM_GATE`), each filter at its
+   of ``imutherm attitude --imu-csv``: :data:`~imutherm.studies.recorded.PLATFORM_GATE`, ``PLATFORM_KF``, ``PLATFORM_AEKF``), each filter at its
    defaults unless ``params`` says otherwise;
 6. score: the inclination error (angle between the filter's and the reference's vertical) at every row
    after ``skip_s`` = 5 s with a reference, the filter's estimate linearly interpolated to the row's time;
@@ -106,11 +106,13 @@ def run(names, rec: RealRecord, params=None, *, init_s: float = INIT_S) -> dict:
     """Run ``names`` on ``rec`` (:func:`imutherm.studies.attitude_study.run_filters`, platform handheld) and
     score each: {name: score dict + accel_used_fraction}."""
     from imutherm.studies.attitude_study import GateConfig, run_filters
-    from imutherm.studies.recorded import PLATFORM_GATE, PLATFORMS
+    from imutherm.imu.filters import KFParams
+    from imutherm.studies.recorded import PLATFORM_GATE, PLATFORM_KF, PLATFORMS, platform_params
 
     d, L = PLATFORMS["handheld"]
     gate = replace(GateConfig(), L=L, init_s=init_s, **PLATFORM_GATE["handheld"])
-    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, gate, names=tuple(names), params=params)
+    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, gate, kf=KFParams(**PLATFORM_KF["handheld"]),
+                         names=tuple(names), params={**platform_params("handheld"), **(params or {})})
     out = {}
     for n, e in est.items():
         s = score(rec, e.gravity)

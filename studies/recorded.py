@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from imutherm import InputError
-from imutherm.imu.filters import ALL_FILTERS
+from imutherm.imu.filters import ALL_FILTERS, KFParams
 from imutherm.studies.attitude_study import GateConfig, error_metrics, run_filters
 
 #: platform defaults of the gate design inputs: lever arm d (3,) [m] and turn radius L [m].
@@ -36,6 +36,27 @@ PLATFORMS = {
 #: vehicle / aircraft: the seed's per-sample gate (sustained linear accelerations and turns, which a 1 s
 #: low-pass does not remove: on the simulated vehicle profile the low-pass mode doubled the roll error).
 PLATFORM_GATE = {"handheld": {"tau_acc": 1.0, "kp": 1.0}, "vehicle": {}, "aircraft": {}}
+
+#: platform settings of the seed-003 KF (KFParams fields) beside its defaults. handheld: the measurement low-passed
+#: in a strapdown frame with the same tau_acc = 1 s, one measurement per sample (the low-pass replaces the seed's
+#: window mean), and the gyro scale-factor uncertainty sf_std = 0.03 in the process noise (the ±3 % sensitivity
+#: tolerance of a consumer MEMS gyro, e.g. InvenSense MPU-6000/6050 product specification, at 25 °C). Same grid
+#: procedure as PLATFORM_GATE (tau_acc 1 vs 3 s; n_window 1 vs 10; sf_std 0, 0.01, 0.03: the last two within
+#: 0.01° of each other). vehicle / aircraft: the seed's filter.
+PLATFORM_KF = {"handheld": {"tau_acc": 1.0, "n_window": 1, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
+
+#: platform settings of seed 001's adaptive EKF (AEKFParams fields). handheld: the same low-pass (tau_acc 1 s,
+#: an update every sample: lp_update_s 0.1 s was 0.9° worse on the mean) and sf_std 0.03 (as PLATFORM_KF;
+#: without it the filter diverged on 02a/3: 35.8°). vehicle / aircraft: the seed's filter.
+PLATFORM_AEKF = {"handheld": {"tau_acc": 1.0, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
+
+
+def platform_params(platform: str) -> dict:
+    """{filter: params} of ``platform`` for :func:`~imutherm.studies.attitude_study.run_filters` (``kf`` is
+    passed separately: :data:`PLATFORM_KF`)."""
+    from imutherm.imu.filters import AEKFParams
+
+    return {"aekf": AEKFParams(**PLATFORM_AEKF[platform])}
 
 
 @dataclass(frozen=True)
@@ -95,7 +116,8 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         raise InputError(f"filters: {unknown} unknown or not runnable on a recorded log (aekf_gnss needs GNSS "
                          f"fixes); valid: {', '.join(LOG_FILTERS)}")
     gate = replace(GateConfig(), L=L, init_s=float(init_s), **PLATFORM_GATE[platform])
-    est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, names=tuple(names))
+    est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, kf=KFParams(**PLATFORM_KF[platform]),
+                         names=tuple(names), params=platform_params(platform))
     metrics = {}
     series = {"t": log.t}
     if log.has_reference:

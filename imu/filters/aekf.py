@@ -122,6 +122,16 @@ class AEKFParams:
     accel_avg_s : float [s]         no-GNSS variant: the accelerometer is averaged over blocks of
                                     N = round(accel_avg_s / dt) samples (rotation-compensated) before the gate and
                                     the gravity update, one update per block (≤ 1.5 dt: every sample, no averaging)
+    tau_acc : float [s]             0 (default): the block mean above; > 0 (no-GNSS variant): the measurement is
+                                    the specific force low-passed in the gyro-propagated body frame (the
+                                    second-order filter of :mod:`imutherm.imu.filters.inertial_lp`, its state
+                                    vectors rotated with each gyro increment: VQF's low-pass in an almost-inertial
+                                    frame), one update per ``lp_update_s`` (0: every sample), and the |f| gate
+                                    becomes a variance inflation R / w, w = min(1, (accel_gate / e_a)²) (R is
+                                    not adapted on inflated updates)
+    lp_update_s : float [s]         update period of the low-pass mode
+    sf_std : float [-]              gyro scale-factor uncertainty: the attitude process noise grows by
+                                    (sf_std |ω|)² [rad²/s] (0: none)
     """
 
     memory_s: float = 5.0
@@ -138,6 +148,9 @@ class AEKFParams:
     innov_gate: float = 16.27
     reject_timeout_s: float = 20.0
     accel_avg_s: float = 0.1
+    tau_acc: float = 0.0
+    lp_update_s: float = 0.0
+    sf_std: float = 0.0
 
     def __post_init__(self):
         for name in ("memory_s", "gnss_std0", "bias_rw", "accel_density", "r_floor", "accel_gate", "innov_gate",
@@ -145,6 +158,10 @@ class AEKFParams:
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise InputError(f"AEKFParams: {name}={v!r} is invalid; valid: a positive number")
+        for name in ("tau_acc", "lp_update_s", "sf_std"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise InputError(f"AEKFParams: {name}={v!r} is invalid; valid: a number >= 0")
         for name in ("gyro_density0", "accel_std0"):
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v > 0):
@@ -192,7 +209,7 @@ def _orthonormalise(C):
 
 @njit(cache=True)
 def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_val, adapt_r, r_floor,
-               use_gnss, gidx, gvel, p0_yaw, accel_gate, innov_gate, reject_timeout, n_avg, n_hold):
+               use_gnss, gidx, gvel, p0_yaw, accel_gate, innov_gate, reject_timeout, n_avg, n_hold, lpc, sf2):
     n = gyro.shape[0]
     C = C0.copy()
     b = b0.copy()
@@ -221,6 +238,11 @@ def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_
     Hm = np.zeros(3)
     m_max = gidx.shape[0] if use_gnss else n // n_avg + 1
     fsum = np.zeros(3)  # no-GNSS: sum of the block's specific force, in the current body frame
+    use_lp = lpc.shape[0] == 5 and not use_gnss
+    lps = np.zeros((4, 3))  # low-pass state (x1, x2, y1, y2) in the current body frame (inertial low-pass mode)
+    for i in range(4):
+        lps[i] = accel[0]
+    wgt = 1.0
     cnt = 0
     out_C = np.empty((n, 3, 3))
     out_b = np.empty((n, 3))
@@ -247,6 +269,9 @@ def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_
             C = C @ Rk
             if not use_gnss:
                 fsum = Rk.T @ fsum  # a nav-fixed vector seen from the rotated body
+                if use_lp:
+                    for i in range(4):
+                        lps[i] = Rk.T @ lps[i]
             v = v + (Cf + gn) * dt
             F = np.zeros((9, 9))
             F[0:3, 6:9] = -C
@@ -254,7 +279,7 @@ def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_
             Phi = I9 + F * dt
             Qd = np.zeros((9, 9))
             for i in range(3):
-                Qd[i, i] = qg * dt
+                Qd[i, i] = (qg + sf2 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2])) * dt
                 Qd[3 + i, 3 + i] = qa * qa * dt
                 Qd[6 + i, 6 + i] = rbw * rbw * dt
             P = Phi @ P @ Phi.T + Qd
@@ -272,10 +297,20 @@ def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_
             fsum = fsum + accel[k]
             cnt += 1
             fk = fsum / n_avg
+            if use_lp:
+                y = lpc[0] * accel[k] + lpc[1] * lps[0] + lpc[2] * lps[1] - lpc[3] * lps[2] - lpc[4] * lps[3]
+                lps[1] = lps[0].copy()
+                lps[0] = accel[k].copy()
+                lps[3] = lps[2].copy()
+                lps[2] = y
+                fk = y
             if cnt == n_avg:
                 fsum = np.zeros(3)
                 cnt = 0
-            if cnt == 0 and abs(np.sqrt(fk[0] * fk[0] + fk[1] * fk[1] + fk[2] * fk[2]) - g) < accel_gate:
+            ea = abs(np.sqrt(fk[0] * fk[0] + fk[1] * fk[1] + fk[2] * fk[2]) - g)
+            if use_lp:  # gate as variance inflation: R / w, w = min(1, (accel_gate / e_a)^2)
+                wgt = 1.0 if ea < accel_gate else (accel_gate / ea) ** 2
+            if cnt == 0 and (use_lp or ea < accel_gate):
                 H = np.zeros((3, 9))
                 H[:, 0:3] = -(C.T @ _skew(gn))
                 nu = fk + C.T @ gn
@@ -291,8 +326,8 @@ def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_
             last_m = k
             S = HPH.copy()
             for i in range(3):
-                S[i, i] += R[i]
-            if adapt_r and steady and not fresh:  # Sage-Husa on every measurement, each term clipped at innov_gate S_ii
+                S[i, i] += R[i] / wgt
+            if adapt_r and steady and not fresh and wgt == 1.0:  # Sage-Husa on every measurement, each term clipped at innov_gate S_ii
                 for i in range(3):
                     c = nu[i] * nu[i]
                     cmax = innov_gate * S[i, i]
@@ -317,7 +352,7 @@ def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_
                         HPH = H @ P @ H.T
                         S = HPH.copy()
                         for i in range(3):
-                            S[i, i] += R[i]
+                            S[i, i] += R[i] / wgt
                         rej_t = 0.0
                 else:
                     rej_t = 0.0
@@ -325,13 +360,14 @@ def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_
                 K = P @ H.T @ np.linalg.inv(S)
                 dx = K @ nu
                 IKH = I9 - K @ H
-                P = IKH @ P @ IKH.T + K @ np.diag(R) @ K.T
+                P = IKH @ P @ IKH.T + K @ np.diag(R / wgt) @ K.T
                 P = 0.5 * (P + P.T)
                 C = _rotvec_dcm(dx[0:3]) @ C
                 v = v + dx[3:6]
                 b = b + dx[6:9]
-                for j in range(k - n_per + 1 if not use_gnss else k, k + 1):
-                    used[j] = True
+                if wgt >= 0.5:
+                    for j in range(k - n_per + 1 if not use_gnss else k, k + 1):
+                        used[j] = True
             t_idx[m] = k
             R_hist[m] = R
             q_hist[m] = qg
@@ -396,13 +432,21 @@ def run_aekf(gyro, accel, dt: float, params: AEKFParams = AEKFParams(), *, gnss=
             raise InputError("aekf: GNSS fixes must have increasing sample indices within the record and (M,3) "
                              "velocities")
     als = _als_schedule(gyro, accel_rest, dt, params, b0, qg0, n0) if params.adapt_q else ()
+    if params.tau_acc > 0 and gnss is None:
+        from imutherm.imu.filters.inertial_lp import butter2_coeffs
+
+        lpc = butter2_coeffs(params.tau_acc, dt)
+        n_avg = max(1, int(round(params.lp_update_s / dt)))
+    else:
+        lpc = np.zeros(0)
     q_idx = np.array([e.end for e in als], np.int64)
     q_val = np.array([e.q_gyro for e in als], float)
     C, bias, used, t_idx, R, q = _aekf_loop(gyro, accel, float(dt), C0, b0, g_ref, float(qg0), float(r0),
                                             params.bias_rw, params.accel_density, params.memory_s,
                                             q_idx, q_val, params.adapt_r, params.r_floor, gnss is not None,
                                             gidx, gvel, float(np.radians(5.0) ** 2), params.accel_gate,
-                                            params.innov_gate, params.reject_timeout_s, n_avg, n0)
+                                            params.innov_gate, params.reject_timeout_s, n_avg, n0, lpc,
+                                            float(params.sf_std ** 2))
     r = C[:, 2, :]  # gravity direction in body axes = third row of C_nb
     roll, pitch = roll_pitch_from_gravity(r)
     yaw = np.arctan2(C[:, 1, 0], C[:, 0, 0])

@@ -46,6 +46,7 @@ from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
                                          initial_quat)
+from imutherm.imu.filters.inertial_lp import lp3, lp3_init
 
 
 @dataclass(frozen=True)
@@ -62,6 +63,13 @@ class KFParams:
     reject_timeout_s : float [s]  re-level after this much gate-1-passing time of gate-2 rejections (inf: never)
     kb : float [1/s^2]        gyro-bias gain of the augmented state (0: plain eq. 32 KF)
     g : float [m/s^2]         |f| reference (the accelerometer's reading at rest)
+    tau_acc : float [s]       0 (default): the seed's window mean and gate 1 as published; > 0: the
+                              measurement is the specific force low-passed in a strapdown frame
+                              (:func:`_kf_lp_core`, :mod:`imutherm.imu.filters.inertial_lp`) and gate 1 inflates R
+                              by (max e_a / a)² instead of rejecting, and gate 2 is widened to 3 σ of the
+                              innovation (sqrt(p + R_eff)) where that exceeds innov_max
+    sf_std : float [-]        low-pass mode: gyro scale-factor uncertainty; the process noise of r grows by
+                              (sf_std |ω|)² [rad²/s] (fast motion makes the gyro-only prediction worse)
     """
 
     n_window: int = 10
@@ -73,6 +81,8 @@ class KFParams:
     reject_timeout_s: float = 20.0
     kb: float = 0.002
     g: float = G0
+    tau_acc: float = 0.0
+    sf_std: float = 0.0
 
     def __post_init__(self):
         if not (isinstance(self.n_window, (int, np.integer)) and self.n_window >= 1):
@@ -81,6 +91,8 @@ class KFParams:
             v = getattr(self, name)
             if not (v > 0 or (name == "kb" and v == 0)) or math.isnan(v):
                 raise InputError(f"KFParams: {name}={v!r} is invalid; valid: a positive number")
+        if not (math.isfinite(self.tau_acc) and self.tau_acc >= 0):
+            raise InputError(f"KFParams: tau_acc={self.tau_acc!r} is invalid; valid: a time constant >= 0 [s]")
 
 
 @dataclass(frozen=True)
@@ -92,7 +104,8 @@ class KFState:
     prev_gyro : (3,) [rad/s] or None; win_sum : (3,) [m/s^2] accel sum over the window;
     win_max : float [m/s^2] max ||f| - g| in the window; win_n : int samples in the window;
     reject_t : float [s] time since gate 2 last accepted while gate 1 passed;
-    used : bool, whether the last step applied a measurement.
+    used : bool, whether the last step applied a measurement;
+    lp : state vector of :func:`_kf_lp_core` (``tau_acc > 0``; None before the first sample).
     """
 
     r: tuple
@@ -104,6 +117,7 @@ class KFState:
     win_n: int = 0
     reject_t: float = 0.0
     used: bool = False
+    lp: tuple | None = None
 
     @property
     def gravity(self) -> np.ndarray:
@@ -173,6 +187,12 @@ def kf_step(state: KFState, gyro, accel, dt: float, params: KFParams) -> KFState
 
     gyro (3,) [rad/s], accel (3,) [m/s^2] specific force, dt [s]. Returns the new state.
     """
+    if params.tau_acc > 0:
+        S = kf_lp_state0(state.r, state.p, state.bias) if state.lp is None else np.array(state.lp)
+        _, u = run_kf_lp_core(np.asarray(gyro, float).reshape(1, 3), np.asarray(accel, float).reshape(1, 3), dt,
+                              params, S)
+        return replace(state, r=tuple(S[0:3]), p=float(S[3]), bias=tuple(S[4:7]), prev_gyro=tuple(S[23:26]),
+                       lp=tuple(S), used=bool(u[0]))
     gx, gy, gz = (float(v) for v in gyro)
     fx, fy, fz = (float(v) for v in accel)
     pg = state.prev_gyro if state.prev_gyro is not None else (gx, gy, gz)
@@ -241,6 +261,9 @@ def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
     r0 = r0 / np.linalg.norm(r0)
     if bias0 is None:
         bias0 = initial_bias(gyro, dt, init_s)
+    if params.tau_acc > 0:
+        r, used = run_kf_lp_core(gyro, accel, dt, params, kf_lp_state0(r0, params.p0, bias0))
+        return estimate_from_gravity("kf", r, used, time.perf_counter() - t0)
     wbar = np.empty_like(gyro)
     wbar[0] = gyro[0]
     wbar[1:] = 0.5 * (gyro[:-1] + gyro[1:])
@@ -296,3 +319,120 @@ def _kf_loop(wbar, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, bias0, rx
             wmax, wn = 0.0, 0
         out[k, 0], out[k, 1], out[k, 2] = rx, ry, rz
     return out, used
+
+
+# --------------------------------------------------------------------------- inertial low-pass mode
+#: state vector of :func:`_kf_lp_core`: r (3), p (1), bias (3), strapdown frame q_I (4), low-pass of f_I (12),
+#: previous gyro (3), started (1), samples in the window (1), rejection time (1), window max of e_a (1)
+_KF_LP_STATE = 30
+
+
+@njit(cache=True)
+def _kf_lp_core(gyro, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, c, S, sf2dt):
+    """Seed-003 KF with the measurement low-passed in a strapdown (almost-inertial) frame.
+
+    The frame q_I is the gyro-only strapdown attitude (bias-corrected with the filter's estimate, never
+    corrected by the accelerometer, as VQF's inertial frame, so the low-pass is outside the feedback loop).
+    Each sample: r propagated as in the seed; f_I = C(q_I) f low-passed (coefficients c); e_a = ||f̄_I| - g|.
+    Every ``nw`` samples the measurement r_m = -C(q_I)ᵀ f̄_I / |f̄_I| updates r through the seed's gate 2 and
+    re-level, with gate 1 as a variance inflation instead of a rejection: R / w, w = min(1, (a / max e_a)²)
+    over the window (and the bias gain kb w), gate 2 at max(innov_max, 3 sqrt(p + R / w)); process noise
+    q + sf2dt/dt |ω|². Returns (gravity (N,3), used (N,) bool); S updated in place.
+    """
+    n = gyro.shape[0]
+    out = np.empty((n, 3))
+    used = np.zeros(n, np.bool_)
+    rx, ry, rz, p = S[0], S[1], S[2], S[3]
+    bx, by, bz = S[4], S[5], S[6]
+    qw, qx, qy, qz = S[7], S[8], S[9], S[10]
+    period = nw * dt
+    for k in range(n):
+        gx, gy, gz = gyro[k, 0], gyro[k, 1], gyro[k, 2]
+        if S[26] == 0.0:
+            S[23], S[24], S[25] = gx, gy, gz
+        wx, wy, wz = 0.5 * (S[23] + gx) - bx, 0.5 * (S[24] + gy) - by, 0.5 * (S[25] + gz) - bz
+        S[23], S[24], S[25] = gx, gy, gz
+        ax, ay, az = -wx * dt, -wy * dt, -wz * dt
+        th2 = ax * ax + ay * ay + az * az
+        if th2 > 1e-24:
+            th = math.sqrt(th2)
+            s = math.sin(th) / th
+            c1 = (1.0 - math.cos(th)) / th2
+        else:
+            s = 1.0 - th2 / 6.0
+            c1 = 0.5 - th2 / 24.0
+        cx, cy, cz = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx
+        dot = ax * rx + ay * ry + az * rz
+        cc = 1.0 - c1 * th2
+        rx, ry, rz = (rx * cc + s * cx + c1 * dot * ax, ry * cc + s * cy + c1 * dot * ay,
+                      rz * cc + s * cz + c1 * dot * az)
+        p = p + qdt + sf2dt * (wx * wx + wy * wy + wz * wz)
+        # strapdown frame q_I <- q_I ⊗ exp(ω dt / 2)
+        hx, hy, hz = 0.5 * dt * wx, 0.5 * dt * wy, 0.5 * dt * wz
+        n2 = hx * hx + hy * hy + hz * hz
+        if n2 > 1e-24:
+            nn = math.sqrt(n2)
+            sh = math.sin(nn) / nn
+            ch = math.cos(nn)
+        else:
+            sh = 1.0 - n2 / 6.0
+            ch = 1.0 - n2 / 2.0
+        dx, dy, dz = hx * sh, hy * sh, hz * sh
+        qw, qx, qy, qz = (qw * ch - qx * dx - qy * dy - qz * dz, qw * dx + qx * ch + qy * dz - qz * dy,
+                          qw * dy - qx * dz + qy * ch + qz * dx, qw * dz + qx * dy - qy * dx + qz * ch)
+        inv = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+        qw, qx, qy, qz = qw * inv, qx * inv, qy * inv, qz * inv
+        c00, c01, c02 = 1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy)
+        c10, c11, c12 = 2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx)
+        c20, c21, c22 = 2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)
+        fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
+        f0, f1, f2 = c00 * fx + c01 * fy + c02 * fz, c10 * fx + c11 * fy + c12 * fz, c20 * fx + c21 * fy + c22 * fz
+        if S[26] == 0.0:
+            lp3_init(S, 11, f0, f1, f2)
+            S[26] = 1.0
+        lf = lp3(S, 11, f0, f1, f2, c)
+        e_a = abs(math.sqrt(lf[0] * lf[0] + lf[1] * lf[1] + lf[2] * lf[2]) - g)
+        if S[27] == 0.0 or e_a > S[29]:
+            S[29] = e_a
+        S[27] += 1.0
+        if S[27] >= nw:
+            wgt = 1.0 if S[29] < a else (a / S[29]) ** 2
+            sx = c00 * lf[0] + c10 * lf[1] + c20 * lf[2]
+            sy = c01 * lf[0] + c11 * lf[1] + c21 * lf[2]
+            sz = c02 * lf[0] + c12 * lf[1] + c22 * lf[2]
+            Re = R / wgt
+            gate2 = max(imax, 3.0 * math.sqrt(p + Re))  # the seed's gate 2, widened to 3 sigma of the innovation
+            rx, ry, rz, p, b, S[28], u = _measure_compiled(rx, ry, rz, p, (bx, by, bz), sx, sy, sz, Re, gate2,
+                                                           S[28], period, timeout, kb * wgt, p0)
+            bx, by, bz = b[0], b[1], b[2]
+            used[k] = u and wgt >= 0.5
+            S[27] = 0.0
+        out[k, 0], out[k, 1], out[k, 2] = rx, ry, rz
+    S[0], S[1], S[2], S[3] = rx, ry, rz, p
+    S[4], S[5], S[6] = bx, by, bz
+    S[7], S[8], S[9], S[10] = qw, qx, qy, qz
+    return out, used
+
+
+def kf_lp_state0(r0, p0, b0) -> np.ndarray:
+    """Initial state of :func:`_kf_lp_core`: r0 (3,) [-], p0 [-], b0 (3,) [rad/s]; the strapdown frame starts
+    level with the body's down along r0 (yaw 0)."""
+    from imutherm.imu.attitude_math import euler_to_quat, roll_pitch_from_gravity
+
+    S = np.zeros(_KF_LP_STATE)
+    S[0:3] = r0
+    S[3] = p0
+    S[4:7] = b0
+    roll, pitch = roll_pitch_from_gravity(np.asarray(r0, float))
+    S[7:11] = euler_to_quat(roll, pitch, 0.0)
+    return S
+
+
+def run_kf_lp_core(gyro, accel, dt, params: "KFParams", S):
+    """:func:`_kf_lp_core` with ``params``; returns (gravity (N,3), used (N,))."""
+    from imutherm.imu.filters.inertial_lp import butter2_coeffs
+
+    return _kf_lp_core(np.ascontiguousarray(gyro, float), np.ascontiguousarray(accel, float), float(dt),
+                       int(params.n_window), float(params.a), float(params.g), float(params.q * dt), float(params.R),
+                       float(params.innov_max), float(params.reject_timeout_s), float(params.kb), float(params.p0),
+                       butter2_coeffs(params.tau_acc, dt), S, float(params.sf_std ** 2 * dt))
