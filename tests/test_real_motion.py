@@ -43,8 +43,10 @@ def _tilt_err_deg(r_est, q):
 
 def test_gated_inertial_lowpass_known_answer():
     """Swing + yaw + 2 m/s² oscillating linear acceleration (tilt 0 known): the low-pass mode averages the
-    acceleration out (RMS tilt error < 0.5°, tolerance: the 1 s low-pass leaves ~2 % of the 0.8 Hz term,
-    0.2° of apparent tilt); the seed's instantaneous update with the gate always open tilts by ~5x more."""
+    acceleration out (RMS tilt error < 0.5°, tolerance: the 1 s Butterworth (cut-off √2 rad/s) leaves
+    (√2 / 5.03)² = 8 % of the 0.8 Hz term, 0.16 m/s² or 0.9° of apparent tilt, which the kp = 1/s correction
+    loop attenuates by another ~5x); the seed's instantaneous update with the gate always open tilts by ~5x
+    more."""
     t, q, gyro, f = _motion()
     th = default_thresholds(gyro, f, DT, xi_a=3.7e-4, xi_w=0.1, d=(0.08, 0, 0), L=0.5, tau=0.1, init_s=1.5,
                             g=G0, bias=(0, 0, 0))
@@ -168,3 +170,39 @@ def test_read_semicolon_log_refuses_missing_imu_value(tmp_path):
     p.write_text("a;b\nc;d\n0;1;0;0;0;;0;0;0;0;0\n0.1;1;0;0;0;1;0;0;0;0;0\n")
     with pytest.raises(InputError, match=r"row 3 lacks its time or an IMU value"):
         read_semicolon_log(p)
+
+
+@pytest.mark.parametrize("name", ["kf", "aekf"])
+def test_kf_aekf_inertial_lowpass_known_answer(name):
+    """The same known motion (swing + yaw + 2 m/s² oscillating linear acceleration: 11.5° of apparent tilt
+    amplitude, 8° RMS, unfiltered; tilt 0 known) with gyro and accelerometer noise through seed 003's KF and
+    seed 001's AEKF in the low-pass mode (the handheld settings). Tolerance 0.8° RMS: the 1 s low-pass leaves
+    8 % of the 0.8 Hz term (0.9° amplitude, 0.65° RMS), which these filters follow more closely than the
+    gated filter's kp = 1/s loop."""
+    from imutherm.imu.filters import AEKFParams, KFParams, run_aekf, run_kf
+    from imutherm.imu.filters.kf003 import kf_params_from_rest
+
+    t, q, gyro, f = _motion()
+    rng = np.random.default_rng(3)
+    g = gyro + rng.normal(0, 0.002, gyro.shape)
+    a = f + rng.normal(0, 0.02, f.shape)
+    if name == "kf":
+        p = kf_params_from_rest(g, a, DT, 1.5, KFParams(tau_acc=1.0, n_window=1, sf_std=0.03))
+        e = run_kf(g, a, DT, p, init_s=1.5)
+    else:
+        e = run_aekf(g, a, DT, AEKFParams(tau_acc=1.0, sf_std=0.03), init_s=1.5)
+    err = _tilt_err_deg(e.gravity, q)[t > 5]
+    assert float(np.sqrt(np.mean(err**2))) < 0.8
+
+
+def test_kf_lowpass_step_and_batch_agree():
+    from imutherm.imu.filters import GravityKF, KFParams, run_kf
+
+    t, q, gyro, f = _motion(T=15.0)
+    p = KFParams(tau_acc=1.0, n_window=3, sf_std=0.03, a=0.2)
+    r0 = np.array([0.0, 0.0, 1.0])
+    batch = run_kf(gyro, f, DT, p, r0, (0.0, 0.0, 0.0))
+    fl = GravityKF(p, r0)
+    states = [fl.update(gyro[k], f[k], DT) for k in range(len(t))]
+    assert np.max(np.abs(np.array([s.r for s in states]) - batch.gravity)) < 1e-12
+    assert np.array_equal([s.used for s in states], batch.accel_used)
