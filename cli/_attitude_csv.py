@@ -30,7 +30,12 @@ def add_arguments(p) -> None:
                    "defaults of the gates (default handheld)")
     g.add_argument("--lever-arm", default=None, help="sensor position from the rotation centre x,y,z [m] (FRD)")
     g.add_argument("--turn-radius", type=float, default=None, help="turn radius L of the rate gate [m]")
-    g.add_argument("--init-s", type=float, default=8.0, help="rest window at the start of the log [s] (default 8)")
+    g.add_argument("--init-s", type=float, default=None,
+                   help="rest window at the start of the log [s] (default 8; 1 for a ';'-separated reference log)")
+    g.add_argument("--gyro-range", type=float, default=None, metavar="DPS",
+                   help="the gyro's full scale [deg/s] for the fusion peer's over-range recovery (default: the "
+                        "smallest common full scale holding the log's peak, which a log that never reached its "
+                        "range underestimates)")
 
 
 def _lever(text):
@@ -52,13 +57,21 @@ def run(args) -> int:
 
     if args.profile is not None:
         raise InputError("--imu-csv and --profile: give one (a recorded log or a simulated profile)")
+    if args.gyro_range is not None and not (np.isfinite(args.gyro_range) and args.gyro_range > 0):
+        raise InputError(f"--gyro-range must be the gyro's full scale in deg/s (> 0), got {args.gyro_range}")
+    if _is_semicolon(args.imu_csv):
+        return _run_semicolon(args)
+    if args.init_s is None:
+        args.init_s = 8.0
     if not (np.isfinite(args.init_s) and args.init_s > 0):
         raise InputError(f"--init-s must be a positive number of seconds, got {args.init_s}")
     lever = _lever(args.lever_arm)
     log = read_imu_csv(args.imu_csv, gyro_units=args.gyro_units, accel_units=args.accel_units, axes=args.axes,
                        init_s=args.init_s)
+    from imutherm.imu.filters import FusionParams
+
     res = run_recorded(log, platform=args.platform, lever_arm=lever, turn_radius_m=args.turn_radius,
-                       init_s=args.init_s)
+                       init_s=args.init_s, fusion=FusionParams(gyroscope_range=args.gyro_range))
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)
@@ -70,6 +83,11 @@ def run(args) -> int:
           f"gyro {log.units['gyro']}, accel {log.units['accel']}, axes {log.units['axes']}; |f| at rest "
           f"{res.g_rest_mps2:.4f} m/s²; platform {res.platform}, lever arm {list(res.lever_arm)} m, "
           f"turn radius {res.turn_radius_m:g} m")
+    f_rest = np.mean(log.accel[: max(1, int(round(args.init_s / log.dt)))], axis=0)
+    if f_rest[2] > 0.5 * np.linalg.norm(f_rest):
+        print(f"warning: at rest the specific force reads {f_rest[2] / 9.80665:+.2f} g on the FRD z axis (a level "
+              "FRD unit reads -1 g): the log's z axis points up. If the unit rested level, declare --axes FLU (or "
+              "RFU); the roll below is then off by 180°.")
     for name, m in res.metrics.items():
         if res.has_reference:
             score = f"roll rms {m['roll_rms_deg']:.3f} deg  pitch rms {m['pitch_rms_deg']:.3f} deg"
@@ -77,4 +95,50 @@ def run(args) -> int:
             score = "no reference"
         print(f"{name:8s} {score}  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  "
               f"runtime {m['runtime_s']:.2f} s")
+    return 0
+
+
+def _is_semicolon(path) -> bool:
+    """True if the log's first line is ';'-separated (the two-header-line layout of
+    :func:`imutherm.imu.reference_log.read_semicolon_log`)."""
+    import gzip
+    from pathlib import Path
+
+    p = Path(path)
+    try:
+        with (gzip.open(p, "rt", encoding="utf-8-sig") if p.suffix == ".gz" else p.open(encoding="utf-8-sig")) as fh:
+            first = fh.readline()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    return ";" in first
+
+
+def _run_semicolon(args) -> int:
+    """A ';'-separated reference log: repeats and true times, alignment auto, inclination scores."""
+    from imutherm.imu.filters import FusionParams
+    from imutherm.studies.real_benchmark import run_reference_log
+    from imutherm.studies.recorded import LOG_FILTERS
+
+    init_s = 1.0 if args.init_s is None else args.init_s
+    if not (np.isfinite(init_s) and init_s > 0):
+        raise InputError(f"--init-s must be a positive number of seconds, got {init_s}")
+    if args.platform != "handheld" or args.lever_arm or args.turn_radius or args.axes or args.gyro_units \
+            or args.accel_units:
+        raise InputError("a ';'-separated reference log is read in its own units (m/s², rad/s) and run as "
+                         "--platform handheld; valid: drop --platform/--lever-arm/--turn-radius/--axes/--*-units")
+    res = run_reference_log(args.imu_csv, names=LOG_FILTERS, init_s=init_s,
+                            fusion=FusionParams(gyroscope_range=args.gyro_range))
+    with atomic_outdir(args.out) as tmp:
+        write_json(tmp / "attitude.json", res)
+    al = res["alignment"]
+    print(f"{res['source']}: {res['rows']} rows, {res['sample_and_hold_repeats']} sample-and-hold repeats and "
+          f"{res['repeated_times']} repeated times dropped (true step median {1e3 * res['true_step_median_s']:.1f} "
+          f"ms; filters on a {1e3 * res['grid_step_s']:.1f} ms grid from the true times); reference rows missing "
+          f"{res['reference_rows_missing']}, scored {res['reference_rows_scored']} (after {res['skip_s']:g} s); "
+          f"reference->IMU rotation (auto) {al['angle_deg']:.1f}° (residuals: rate {al['rate_resid_deg']:.1f}°, "
+          f"vertical {al['vertical_resid_deg']:.2f}°)")
+    for name, m in res["filters"].items():
+        print(f"{name:8s} inclination rms {m['inclination_rms_deg']:.3f} deg  max {m['inclination_max_deg']:.2f} deg"
+              f"  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  runtime "
+              f"{m['runtime_s']:.2f} s")
     return 0

@@ -57,7 +57,8 @@ class GateConfig:
     xi_a [m/s^2], xi_w [m/s^2], L [m], kp [1/s], ki [1/s^2], tau [s], hold_s [s],
     init_s [s] steady initial window used for leveling, the bias, the |f| reference and the R(·) widening,
     recover_s [s] the gate's recovery time (see :mod:`imutherm.imu.filters.gated`), tau_acc [s] the
-    inertial-frame low-pass of the accelerometer (VQF's tauAcc; 0: the seed's per-sample gate).
+    inertial-frame low-pass of the accelerometer (VQF's tauAcc; 0: the seed's per-sample gate), kp_lp [1/s]
+    the gated filter's kp in that mode (``ungated`` keeps kp: it is the plain seed update).
     """
 
     xi_a: float = 3.7e-4
@@ -70,6 +71,7 @@ class GateConfig:
     init_s: float = 8.0
     recover_s: float = 30.0
     tau_acc: float = 0.0
+    kp_lp: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -226,13 +228,13 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
         aekf_lever = None
     th = default_thresholds(gyro, accel, dt, xi_a=gate.xi_a, xi_w=gate.xi_w, d=lever_arm, L=gate.L,
                             tau=gate.tau, init_s=init_s, g=g_ref, bias=bias0)
-    gp = GatedParams(th, kp=gate.kp, ki=gate.ki, tau=gate.tau, hold_s=gate.hold_s, g=g_ref,
-                     recover_s=gate.recover_s, tau_acc=gate.tau_acc)
+    gp = GatedParams(th, kp=gate.kp_lp if gate.tau_acc > 0 else gate.kp, ki=gate.ki, tau=gate.tau,
+                     hold_s=gate.hold_s, g=g_ref, recover_s=gate.recover_s, tau_acc=gate.tau_acc)
     kf_run = kf_params_from_rest(gyro, accel, dt, init_s, kf)
     runners = {
         "gated": lambda: run_gated(gyro, accel, dt, gp, init_s=init_s),
         "kf": lambda: run_kf(gyro, accel, dt, kf_run, init_s=init_s),
-        "ungated": lambda: run_ungated(gyro, accel, dt, gp, init_s=init_s),
+        "ungated": lambda: run_ungated(gyro, accel, dt, replace(gp, kp=gate.kp), init_s=init_s),
         "fusion": lambda: run_fusion(gyro, accel, dt, fusion),
         "vqf": lambda: run_vqf(gyro, accel, dt, params.get("vqf", VQFParams()), init_s=init_s),
         "madgwick": lambda: run_madgwick(gyro, accel, dt, params.get("madgwick", MadgwickParams()), init_s=init_s),

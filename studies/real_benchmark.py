@@ -132,3 +132,34 @@ def table(names, recs, params=None) -> dict:
 
 
 __all__ = ["DATA_DIR", "RealRecord", "prepare", "load_all", "score", "run", "table", "level_rotation"]
+
+
+def run_reference_log(path, *, names, init_s: float = INIT_S, skip_s: float = SKIP_S, fusion=None) -> dict:
+    """``imutherm attitude --imu-csv`` on a ``;``-separated reference log: :func:`prepare` (repeats, true
+    times, alignment ``auto``), every filter in ``names`` (platform handheld), the inclination scores.
+    fusion : FusionParams or None (its defaults; gyro range from the data). Returns a JSON-ready dict."""
+    from imutherm.imu.filters import FusionParams, KFParams
+    from imutherm.studies.attitude_study import GateConfig, run_filters
+    from imutherm.studies.recorded import PLATFORM_GATE, PLATFORM_KF, PLATFORMS, platform_params
+
+    log = read_semicolon_log(path)
+    n_missing = int(np.sum(~np.all(np.isfinite(log.quat), axis=1)))
+    rec = prepare(path, init_s=init_s, skip_s=skip_s)
+    d, L = PLATFORMS["handheld"]
+    gate = replace(GateConfig(), L=L, init_s=init_s, **PLATFORM_GATE["handheld"])
+    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, gate, kf=KFParams(**PLATFORM_KF["handheld"]),
+                         fusion=fusion or FusionParams(), names=tuple(names), params=platform_params("handheld"))
+    filters = {}
+    for n, e in est.items():
+        s = score(rec, e.gravity)
+        filters[n] = {"inclination_rms_deg": s["rms_deg"], "inclination_max_deg": s["max_deg"],
+                      "accel_used_fraction": float(np.mean(e.accel_used)), "runtime_s": e.runtime_s}
+    return {"source": str(path), "layout": "semicolon, two header lines (RepoIMU)", "rows": rec.n_rows,
+            "sample_and_hold_repeats": rec.n_repeats, "repeated_times": rec.n_dup_time,
+            "true_step_median_s": rec.step_median_true, "grid_step_s": rec.dt, "init_s": init_s, "skip_s": skip_s,
+            "reference_rows_missing": n_missing, "reference_rows_scored": int(rec.t_rows.size),
+            "alignment": {"mode": "auto", "angle_deg": rec.align.angle_deg, "A": rec.align.A.tolist(),
+                          "up_world": rec.align.up_world.tolist(), "rate_resid_deg": rec.align.rate_resid_deg,
+                          "vertical_resid_deg": rec.align.up_resid_deg},
+            "platform": "handheld", "score": "inclination: angle between the filter's and the reference's vertical",
+            "filters": filters}

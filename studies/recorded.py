@@ -29,13 +29,13 @@ PLATFORMS = {
 
 #: platform settings of the gated filter (GateConfig fields) beside the defaults. handheld: the accelerometer
 #: low-passed in the estimate's frame (VQF's idea, Laidig & Seel, Information Fusion 91, 2023) with
-#: tau_acc = 1 s and kp = 1 1/s: hand and pendulum motion reverses within a second, so its accelerations
+#: tau_acc = 1 s and kp_lp = 1 1/s: hand and pendulum motion reverses within a second, so its accelerations
 #: average out in 1 s while the gyro (scale errors of a consumer part at hundreds of °/s) drifts within
 #: seconds. Chosen from the grid (tau_acc, kp) in {(1, 1), (1, 0.3), (3, 0.3)} by the mean inclination RMS
 #: on the six RepoIMU files (benchmarks/bench_repoimu.py); leave-one-file-out picks (1, 1) for every file.
 #: vehicle / aircraft: the seed's per-sample gate (sustained linear accelerations and turns, which a 1 s
 #: low-pass does not remove: on the simulated vehicle profile the low-pass mode doubled the roll error).
-PLATFORM_GATE = {"handheld": {"tau_acc": 1.0, "kp": 1.0}, "vehicle": {}, "aircraft": {}}
+PLATFORM_GATE = {"handheld": {"tau_acc": 1.0, "kp_lp": 1.0}, "vehicle": {}, "aircraft": {}}
 
 #: platform settings of the seed-003 KF (KFParams fields) beside its defaults. handheld: the measurement low-passed
 #: in a strapdown frame with the same tau_acc = 1 s, one measurement per sample (the low-pass replaces the seed's
@@ -99,9 +99,10 @@ LOG_FILTERS = tuple(n for n in ALL_FILTERS if n != "aekf_gnss")
 
 
 def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius_m: float | None = None,
-                 init_s: float = GateConfig.init_s, names=LOG_FILTERS) -> RecordedResult:
+                 init_s: float = GateConfig.init_s, names=LOG_FILTERS, fusion=None) -> RecordedResult:
     """Run ``names`` on ``log`` (an :class:`~imutherm.imu.imu_log.ImuLog`); platform in :data:`PLATFORMS`,
-    lever_arm (3,) [m] and turn_radius_m [m] override its defaults; init_s [s] the rest window."""
+    lever_arm (3,) [m] and turn_radius_m [m] override its defaults; init_s [s] the rest window; fusion a
+    FusionParams (None: its defaults, the gyro range from the data)."""
     if platform not in PLATFORMS:
         raise InputError(f"--platform: {platform!r} is unknown; valid: {', '.join(PLATFORMS)}")
     d0, L0 = PLATFORMS[platform]
@@ -117,7 +118,8 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
                          f"fixes); valid: {', '.join(LOG_FILTERS)}")
     gate = replace(GateConfig(), L=L, init_s=float(init_s), **PLATFORM_GATE[platform])
     est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, kf=KFParams(**PLATFORM_KF[platform]),
-                         names=tuple(names), params=platform_params(platform))
+                         names=tuple(names), params=platform_params(platform),
+                         **({} if fusion is None else {"fusion": fusion}))
     metrics = {}
     series = {"t": log.t}
     if log.has_reference:

@@ -206,3 +206,63 @@ def test_kf_lowpass_step_and_batch_agree():
     states = [fl.update(gyro[k], f[k], DT) for k in range(len(t))]
     assert np.max(np.abs(np.array([s.r for s in states]) - batch.gravity)) < 1e-12
     assert np.array_equal([s.used for s in states], batch.accel_used)
+
+
+def _write_semicolon(path, t, quat, gyro, accel):
+    with gzip.open(path, "wt") as fh:
+        fh.write("Time;Vicon Orientation;;;;IMU Acceleration;;;IMU Gyroscope;;;IMU Magnetometer;;\n")
+        fh.write("s;W;X;Y;Z;X;Y;Z;X;Y;Z;X;Y;Z\n")
+        for k in range(len(t)):
+            q = ["" if not np.isfinite(v) else f"{v:.8g}".replace(".", ",") for v in quat[k]]
+            vals = [f"{v:.8g}".replace(".", ",") for v in (*accel[k], *gyro[k])]
+            fh.write(";".join([f"{t[k]:.4f}".replace(".", ",")] + q + vals + ["0", "0", "0"]) + "\n")
+
+
+def test_cli_semicolon_log_repeats_gaps_and_auto_alignment(tmp_path, capsys):
+    """A ';' log (decimal commas) rotated by a known 150°, every third row a sample-and-hold repeat and 50
+    reference rows empty: the command reports the repeats, the missing rows and the rotation (within 0.5°),
+    and the filters run on it."""
+    import json
+
+    from imutherm.cli.attitude import main
+
+    A = _rot((0.3, -0.5, 0.8), math.radians(150.0))
+    t, quat, gyro, accel = _reference_log(A, (-1.0, 0.0, 0.0))
+    t, quat, gyro, accel = t[:3000], quat[:3000].copy(), gyro[:3000].copy(), accel[:3000].copy()
+    rng = np.random.default_rng(1)  # sensor noise: a noise-free rest would repeat itself exactly
+    gyro += rng.normal(0, 1e-3, gyro.shape)
+    accel += rng.normal(0, 1e-2, accel.shape)
+    gyro[2::3], accel[2::3] = gyro[1::3][: len(gyro[2::3])], accel[1::3][: len(accel[2::3])]
+    quat[1000:1050] = np.nan
+    p = tmp_path / "log.csv.gz"
+    _write_semicolon(p, t, quat, gyro, accel)
+    assert main(["--imu-csv", str(p), "--out", str(tmp_path / "o"), "--gyro-range", "2000"]) == 0
+    out = capsys.readouterr().out
+    assert "1000 sample-and-hold repeats" in out and "reference rows missing 50" in out
+    d = json.loads((tmp_path / "o" / "attitude.json").read_text())
+    assert d["alignment"]["angle_deg"] == pytest.approx(150.0, abs=0.5)
+    # the synthetic gyro is the forward difference of the attitude (half a step early) and a third of it is held:
+    # VQF within 3° (a wrong alignment would leave tens of degrees)
+    assert d["filters"]["vqf"]["inclination_rms_deg"] < 3.0
+    assert set(d["filters"]) >= {"gated", "kf", "aekf", "vqf", "fusion"}
+
+
+def test_cli_warns_on_z_up_log_declared_frd(tmp_path, capsys):
+    """A level unit at rest logged z-up but read as FRD: the fix is named (declare --axes FLU)."""
+    from imutherm.cli.attitude import main
+    from imutherm.imu.imu_log import write_imu_csv
+
+    rng = np.random.default_rng(0)
+    n = 2000
+    t = np.arange(n) * 0.01
+    gyro = rng.normal(0, 1e-3, (n, 3))
+    accel = np.array([0.0, 0.0, G0]) + rng.normal(0, 0.02, (n, 3))  # +g on z: z points up
+    p = write_imu_csv(tmp_path / "zup.csv", t, gyro, accel)
+    assert main(["--imu-csv", str(p), "--out", str(tmp_path / "o"), "--no-plot"]) == 0
+    assert "declare --axes FLU" in capsys.readouterr().out
+
+
+def test_cli_gyro_range_refused_when_not_positive(tmp_path):
+    from imutherm.cli.attitude import main
+
+    assert main(["--imu-csv", str(tmp_path / "x.csv"), "--gyro-range", "-5", "--out", str(tmp_path / "o")]) == 2
