@@ -21,10 +21,10 @@ import time
 
 def main() -> None:
     from imutherm.studies import real_benchmark as rb
-    from imutherm.studies.recorded import LOG_FILTERS
+    from imutherm.studies.recorded import log_filters
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--filters", default=",".join(LOG_FILTERS))
+    ap.add_argument("--filters", default=",".join(log_filters()))
     ap.add_argument("--data", default=str(rb.DATA_DIR))
     ap.add_argument("--json", default=None)
     a = ap.parse_args()

@@ -70,8 +70,11 @@ def run(args) -> int:
                        init_s=args.init_s)
     from imutherm.imu.filters import FusionParams
 
+    from imutherm.imu.filters.registry import parse_filters
+
     res = run_recorded(log, platform=args.platform, lever_arm=lever, turn_radius_m=args.turn_radius,
-                       init_s=args.init_s, fusion=FusionParams(gyroscope_range=args.gyro_range))
+                       init_s=args.init_s, fusion=FusionParams(gyroscope_range=args.gyro_range),
+                       names=parse_filters(args.filters, gnss=False))
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)
@@ -117,7 +120,7 @@ def _run_semicolon(args) -> int:
     """A ';'-separated reference log: repeats and true times, alignment auto, inclination scores."""
     from imutherm.imu.filters import FusionParams
     from imutherm.studies.real_benchmark import run_reference_log
-    from imutherm.studies.recorded import LOG_FILTERS
+    from imutherm.imu.filters.registry import parse_filters
 
     init_s = 1.0 if args.init_s is None else args.init_s
     if not (np.isfinite(init_s) and init_s > 0):
@@ -126,7 +129,7 @@ def _run_semicolon(args) -> int:
             or args.accel_units:
         raise InputError("a ';'-separated reference log is read in its own units (m/s², rad/s) and run as "
                          "--platform handheld; valid: drop --platform/--lever-arm/--turn-radius/--axes/--*-units")
-    res = run_reference_log(args.imu_csv, names=LOG_FILTERS, init_s=init_s,
+    res = run_reference_log(args.imu_csv, names=parse_filters(args.filters, gnss=False), init_s=init_s,
                             fusion=FusionParams(gyroscope_range=args.gyro_range))
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res)

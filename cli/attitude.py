@@ -50,6 +50,9 @@ def add_args(p) -> None:
     p.add_argument("--gnss-vel-std", type=float, default=0.05, metavar="MPS",
                    help="simulated GNSS velocity noise per axis, 1 sigma [m/s] (default 0.05)")
     p.add_argument("--no-plot", action="store_true", help="skip attitude.png")
+    p.add_argument("--filters", default=None, metavar="A,B,...",
+                   help="filters to run (imutherm.imu.filters.registry; default all that apply: every registered "
+                        "filter on a profile, all but those needing GNSS on a log)")
     p.add_argument("--disturbances", default="none", choices=("none", "realistic"),
                    help="realistic: the profile's vibration, turbulence, wind, sync error and jitter "
                         "(imutherm.imu.disturbances.PRESETS); default none")
@@ -90,12 +93,15 @@ def run(args) -> int:
     from imutherm.studies.attitude_study import run_attitude_study
 
     gnss = GnssConfig(rate_hz=args.gnss_rate, vel_std=args.gnss_vel_std)  # InputError names the bad value
+    from imutherm.imu.filters.registry import parse_filters
+
+    names = parse_filters(args.filters)
 
     res = run_attitude_study(args.profile, grade=args.grade, temperature_C=args.temperature,
                              temperature_csv=args.temperature_csv, compensation=args.compensation,
                              seeds=args.seeds, seed0=args.seed0, duration=args.duration,
                              out_of_range=args.out_of_range, disturbances=args.disturbances == "realistic",
-                             gnss=gnss)
+                             gnss=gnss, names=names)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)

@@ -7,8 +7,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-COLORS = {"gated": "tab:blue", "kf": "tab:green", "ungated": "tab:gray", "fusion": "tab:red", "aekf": "tab:purple",
-          "aekf_gnss": "tab:brown"}
+from imutherm.imu.filters.registry import color as filter_color
 
 
 def _wrap_deg(a):
@@ -33,7 +32,7 @@ def plot_attitude(series_path, png_path, *, ylim_deg: float | None = None) -> Pa
             err = _wrap_deg(s[f"{n}_{key}_deg"] - s[f"truth_{key}_deg"])
             lim = max(lim, float(np.percentile(np.abs(err), 99)))
             rms = float(np.sqrt(np.mean(err**2)))
-            ax.plot(t, err, lw=0.7, color=COLORS.get(n), label=f"{n} (rms {rms:.2f}°)")
+            ax.plot(t, err, lw=0.7, color=filter_color(n), label=f"{n} (rms {rms:.2f}°)")
         # shade manoeuvre spans
         edges = np.flatnonzero(np.diff(np.r_[0, manoeuvre.astype(int), 0]))
         for a, b in zip(edges[::2], edges[1::2]):

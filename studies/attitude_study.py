@@ -32,9 +32,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import (ALL_FILTERS, FILTERS, AEKFParams, EKFParams, FusionParams, GatedParams, KFParams,
-                                  MadgwickParams, MahonyParams, VQFParams, default_thresholds, run_aekf, run_ekf,
-                                  run_fusion, run_gated, run_kf, run_madgwick, run_mahony, run_ungated, run_vqf)
+from imutherm.imu.filters import FILTERS, FusionParams, GatedParams, KFParams, default_thresholds
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.imu.filters.gate import rest_reference
 from imutherm.imu.filters.common import lever_arm_accel
@@ -231,24 +229,17 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     gp = GatedParams(th, kp=gate.kp_lp if gate.tau_acc > 0 else gate.kp, ki=gate.ki, tau=gate.tau,
                      hold_s=gate.hold_s, g=g_ref, recover_s=gate.recover_s, tau_acc=gate.tau_acc)
     kf_run = kf_params_from_rest(gyro, accel, dt, init_s, kf)
-    runners = {
-        "gated": lambda: run_gated(gyro, accel, dt, gp, init_s=init_s),
-        "kf": lambda: run_kf(gyro, accel, dt, kf_run, init_s=init_s),
-        "ungated": lambda: run_ungated(gyro, accel, dt, replace(gp, kp=gate.kp), init_s=init_s),
-        "fusion": lambda: run_fusion(gyro, accel, dt, fusion),
-        "vqf": lambda: run_vqf(gyro, accel, dt, params.get("vqf", VQFParams()), init_s=init_s),
-        "madgwick": lambda: run_madgwick(gyro, accel, dt, params.get("madgwick", MadgwickParams()), init_s=init_s),
-        "mahony": lambda: run_mahony(gyro, accel, dt, params.get("mahony", MahonyParams()), init_s=init_s),
-        "ekf": lambda: run_ekf(gyro, accel, dt, params.get("ekf", EKFParams()), init_s=init_s),
-        "aekf": lambda: run_aekf(gyro, accel, dt, params.get("aekf", AEKFParams()), init_s=init_s,
-                                 lever_arm=aekf_lever),
-        "aekf_gnss": lambda: run_aekf(gyro, accel_raw, dt, params.get("aekf_gnss", AEKFParams()), gnss=gnss,
-                                      init_s=init_s),
-    }
-    if "aekf_gnss" in names and gnss is None:
+    from imutherm.imu.filters.registry import REGISTRY, FilterInputs
+
+    unknown = [n for n in names if n not in REGISTRY]
+    if unknown:
+        raise InputError(f"filters: {unknown} unknown; valid: {', '.join(REGISTRY)}")
+    if gnss is None and any(REGISTRY[n].needs_gnss for n in names):
         raise InputError("filter aekf_gnss: needs GNSS velocity fixes (gnss=...); valid: run it from the attitude "
                          "study, which simulates them")
-    return {n: runners[n]() for n in names}, th
+    x = FilterInputs(gyro, accel, accel_raw, dt, init_s, gp, kf_run, fusion, lever_arm=aekf_lever, gnss=gnss,
+                     ungated=replace(gp, kp=gate.kp))
+    return {n: REGISTRY[n].run(x, params.get(n)) for n in names}, th
 
 
 def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", temperature_C: float | None = None,
@@ -285,9 +276,11 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         raise InputError(f"--compensation: {compensation!r} is unknown; valid: {', '.join(COMPENSATIONS)}")
     if not (isinstance(seeds, (int, np.integer)) and seeds >= 1):
         raise InputError(f"--seeds: {seeds!r} is invalid; valid: an integer >= 1")
-    unknown = [n for n in names if n not in ALL_FILTERS]
+    from imutherm.imu.filters.registry import filter_names
+
+    unknown = [n for n in names if n not in filter_names()]
     if unknown:
-        raise InputError(f"filters: {unknown} unknown; valid: {', '.join(ALL_FILTERS)}")
+        raise InputError(f"filters: {unknown} unknown; valid: {', '.join(filter_names())}")
     d = tuple(float(v) for v in (DEFAULT_LEVER_ARM[profile] if lever_arm is None else lever_arm))
     rate = g.sample_rate_hz
     traj = motion.make_profile(profile, duration, rate, lever_arm=d)

@@ -98,8 +98,16 @@ class RecordedResult:
 LOG_FILTERS = tuple(n for n in ALL_FILTERS if n != "aekf_gnss")
 
 
+def log_filters() -> tuple:
+    """Every registered filter a recorded log can run (:mod:`imutherm.imu.filters.registry`: all but those
+    that need GNSS fixes); LOG_FILTERS is the built-in set."""
+    from imutherm.imu.filters.registry import filter_names
+
+    return filter_names(gnss=False)
+
+
 def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius_m: float | None = None,
-                 init_s: float = GateConfig.init_s, names=LOG_FILTERS, fusion=None) -> RecordedResult:
+                 init_s: float = GateConfig.init_s, names=None, fusion=None) -> RecordedResult:
     """Run ``names`` on ``log`` (an :class:`~imutherm.imu.imu_log.ImuLog`); platform in :data:`PLATFORMS`,
     lever_arm (3,) [m] and turn_radius_m [m] override its defaults; init_s [s] the rest window; fusion a
     FusionParams (None: its defaults, the gyro range from the data)."""
@@ -112,10 +120,11 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
     L = float(L0 if turn_radius_m is None else turn_radius_m)
     if not (np.isfinite(L) and L > 0):
         raise InputError(f"--turn-radius: {turn_radius_m!r} is invalid; valid: a positive length [m]")
-    unknown = [n for n in names if n not in LOG_FILTERS]
+    names = log_filters() if names is None else names
+    unknown = [n for n in names if n not in log_filters()]
     if unknown:
         raise InputError(f"filters: {unknown} unknown or not runnable on a recorded log (aekf_gnss needs GNSS "
-                         f"fixes); valid: {', '.join(LOG_FILTERS)}")
+                         f"fixes); valid: {', '.join(log_filters())}")
     gate = replace(GateConfig(), L=L, init_s=float(init_s), **PLATFORM_GATE[platform])
     est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, kf=KFParams(**PLATFORM_KF[platform]),
                          names=tuple(names), params=platform_params(platform),
