@@ -91,6 +91,14 @@ def run(args) -> int:
         print(f"warning: at rest the specific force reads {f_rest[2] / 9.80665:+.2f} g on the FRD z axis (a level "
               "FRD unit reads -1 g): the log's z axis points up. If the unit rested level, declare --axes FLU (or "
               "RFU); the roll below is then off by 180°.")
+    if log.n_repeats or log.n_dup_time or log.resampled:
+        print(f"samples: {log.n_repeats} sample-and-hold repeats and {log.n_dup_time} repeated time stamps dropped"
+              + (f"; true steps vary by up to {100 * log.step_spread:.0f} % of the median: resampled onto a uniform "
+                 f"{1e3 * log.dt:.2f} ms grid" if log.resampled else ""))
+    first = next(iter(res.metrics.values()), {})
+    if first.get("reference_samples_dropped"):
+        print(f"reference: {first['reference_samples_dropped']} samples without a value (empty / NaN) left out of "
+              "the scores")
     for name, m in res.metrics.items():
         if res.has_reference:
             score = f"roll rms {m['roll_rms_deg']:.3f} deg  pitch rms {m['pitch_rms_deg']:.3f} deg"

@@ -10,12 +10,15 @@ units and axes, one row per sample::
     0.000,0.12,-0.05,0.02,0.001,-0.002,1.000,0.1,-0.2
     ...
 
-* ``time_s`` [s], strictly increasing, any rate (the filters take the median step; the step may vary by
-  up to :data:`MAX_STEP_SPREAD` of it, more is a gap and refused);
+* ``time_s`` [s], increasing, any rate. Rows repeating the previous row's six IMU values (sample-and-hold)
+  or its time stamp are dropped and counted; the filters take the median true step; steps that vary by more
+  than :data:`MAX_STEP_SPREAD` of it are resampled onto a uniform grid from the true times (linear); a step
+  over :data:`MAX_GAP_STEPS` median steps is a gap and refused;
 * ``gyro_x..z`` in ``gyro_units`` (:data:`GYRO_UNITS`, default rad/s), ``accel_x..z`` the *specific force*
   (what an accelerometer reads: +1 g upward at rest) in ``accel_units`` (:data:`ACCEL_UNITS`, default m/s2);
 * ``axes`` (:data:`AXES`, default FRD): the sensor's body axes, converted to FRD;
-* optional reference ``roll_deg``, ``pitch_deg`` [deg]: ZYX Euler angles of the FRD body in NED.
+* optional reference ``roll_deg``, ``pitch_deg`` [deg]: ZYX Euler angles of the FRD body in NED; empty or
+  NaN cells (optical dropouts) are kept as NaN and left out of the scores.
 
 Checks (each a one-line :class:`imutherm.InputError` naming the file and what would be valid): missing
 columns, non-numeric or non-finite values, non-monotonic time, gaps, a log shorter than the leveling
@@ -50,8 +53,11 @@ AXES = {
 }
 COLUMNS = ("time_s", "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 REFERENCE = ("roll_deg", "pitch_deg")
-#: largest allowed deviation of a time step from the median step, as a fraction of it
+#: largest deviation of a true time step from the median step, as a fraction of it, read as is; beyond it the
+#: log is resampled onto a uniform grid at the median step from its true times
 MAX_STEP_SPREAD = 0.5
+#: a step longer than this many median steps is a gap (or a rate change) and refused
+MAX_GAP_STEPS = 5.0
 #: fastest MEMS gyro full scale [rad/s] (±4000 °/s parts exist; beyond it a "rad/s" log is in deg/s)
 MAX_GYRO_RADPS = math.radians(4000.0)
 #: largest log read [bytes] (a 1 h log at 200 Hz is ~65 MB)
@@ -63,9 +69,11 @@ class ImuLog:
     """A checked, converted log.
 
     path : str; t : (N,) [s]; gyro : (N,3) [rad/s] FRD; accel : (N,3) [m/s^2] FRD specific force;
-    ref_roll, ref_pitch : (N,) [rad] or None; dt : float [s] median step; rate_hz : float [Hz];
+    ref_roll, ref_pitch : (N,) [rad] or None (NaN where the reference has no value); dt : float [s] median step; rate_hz : float [Hz];
     units : {"gyro": ..., "accel": ..., "axes": ...} as declared; g_rest : float [m/s^2] |f| over the rest window;
-    step_spread : float [-] max |step − dt| / dt
+    step_spread : float [-] max |step − dt| / dt of the true samples; n_repeats : rows dropped as sample-and-hold
+    repeats (all six IMU values equal to the row before); n_dup_time : rows dropped for a repeated time stamp;
+    resampled : the true samples were put on a uniform grid (steps beyond MAX_STEP_SPREAD)
     """
 
     path: str
@@ -79,6 +87,9 @@ class ImuLog:
     units: dict
     g_rest: float
     step_spread: float
+    n_repeats: int = 0
+    n_dup_time: int = 0
+    resampled: bool = False
 
     @property
     def has_reference(self) -> bool:
@@ -142,27 +153,43 @@ def read_imu_csv(path, *, gyro_units: str | None = None, accel_units: str | None
     cols = list(COLUMNS) + (list(REFERENCE) if ref_present else [])
     idx = [header.index(c) for c in cols]
     data = np.empty((len(rows) - 1, len(cols)))
+    n_imu = len(COLUMNS)
     for i, r in enumerate(rows[1:]):
-        try:
-            data[i] = [float(r[j]) for j in idx]
+        try:  # reference cells may be empty or NaN (optical dropouts); the IMU's may not
+            data[i] = [float(r[j]) if (c < n_imu or r[j].strip()) else math.nan for c, j in enumerate(idx)]
         except (ValueError, IndexError):
             raise InputError(f"{path}: row {i + 2} is short or not numeric; valid: {len(header)} numbers per "
                              "row") from None
-    if not np.all(np.isfinite(data)):
-        i, j = np.argwhere(~np.isfinite(data))[0]
+    if not np.all(np.isfinite(data[:, :n_imu])):
+        i, j = np.argwhere(~np.isfinite(data[:, :n_imu]))[0]
         raise InputError(f"{path}: {cols[j]} is not finite in row {i + 2}; valid: finite numbers")
     t = data[:, 0]
     steps = np.diff(t)
-    if np.any(steps <= 0):
-        i = int(np.flatnonzero(steps <= 0)[0])
+    if np.any(steps < 0):
+        i = int(np.flatnonzero(steps < 0)[0])
         raise InputError(f"{path}: time_s is not strictly increasing at row {i + 3} ({t[i]:.6g} then "
                          f"{t[i + 1]:.6g} s); valid: strictly increasing times [s]")
+    # sample-and-hold repeats (all six IMU values equal to the row before) and repeated time stamps: dropped
+    rep = np.zeros(len(data), bool)
+    rep[1:] = np.all(data[1:, 1:7] == data[:-1, 1:7], axis=1)
+    same_t = np.zeros(len(data), bool)
+    same_t[1:] = steps == 0
+    n_repeats, n_dup_time = int(np.sum(rep)), int(np.sum(same_t & ~rep))
+    data = data[~(rep | same_t)]
+    t = data[:, 0]
+    steps = np.diff(t)
     dt = float(np.median(steps))
     spread = float(np.max(np.abs(steps - dt)) / dt)
-    if spread > MAX_STEP_SPREAD:
+    if spread > MAX_GAP_STEPS - 1.0:
         i = int(np.argmax(np.abs(steps - dt)))
-        raise InputError(f"{path}: the time step at row {i + 3} is {steps[i]:.6g} s against a median of {dt:.6g} s "
-                         f"(a gap or a rate change); valid: steps within ±{MAX_STEP_SPREAD:.0%} of the median")
+        raise InputError(f"{path}: the time step after {t[i]:.6g} s is {steps[i]:.6g} s against a median of {dt:.6g} s "
+                         f"(a gap or a rate change); valid: steps up to {MAX_GAP_STEPS:g}x the median (irregular "
+                         "steps below that are resampled)")
+    resampled = spread > MAX_STEP_SPREAD
+    if resampled:  # irregular true sample times: onto a uniform grid at the median step (linear)
+        grid = t[0] + dt * np.arange(int(np.floor((t[-1] - t[0]) / dt)) + 1)
+        data = np.column_stack([grid] + [np.interp(grid, t, data[:, j]) for j in range(1, data.shape[1])])
+        t = grid
     R = AXES[declared["axes"]]
     gyro = data[:, 1:4] @ R.T * GYRO_UNITS[declared["gyro_units"]]
     accel = data[:, 4:7] @ R.T * ACCEL_UNITS[declared["accel_units"]]
@@ -201,7 +228,7 @@ def read_imu_csv(path, *, gyro_units: str | None = None, accel_units: str | None
         rr, rp = np.radians(data[:, 7]), np.radians(data[:, 8])
     return ImuLog(str(path), t - t[0], gyro, accel, rr, rp, dt, 1.0 / dt,
                   {"gyro": declared["gyro_units"], "accel": declared["accel_units"], "axes": declared["axes"]},
-                  g_rest, spread)
+                  g_rest, spread, n_repeats, n_dup_time, resampled)
 
 
 def _integrate_down(gyro, r0, dt):

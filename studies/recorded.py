@@ -135,9 +135,16 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         series["truth_roll_deg"] = np.degrees(log.ref_roll)
         series["truth_pitch_deg"] = np.degrees(log.ref_pitch)
         series["phase"] = np.full(log.t.size, "stable")
+    valid = None
+    if log.has_reference:
+        valid = np.isfinite(log.ref_roll) & np.isfinite(log.ref_pitch)
+        if not np.any(valid):
+            raise InputError(f"{log.path}: the reference columns have no value; valid: numbers where the reference "
+                             "saw the unit (empty cells are skipped)")
     for n, e in est.items():
         if log.has_reference:
-            m = error_metrics(e.roll - log.ref_roll, e.pitch - log.ref_pitch, {"all": np.ones(log.t.size, bool)})["all"]
+            m = error_metrics(e.roll - log.ref_roll, e.pitch - log.ref_pitch, {"all": valid})["all"]
+            m["reference_samples_dropped"] = int(np.sum(~valid))
         else:
             m = {k: None for k in ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")}
         m["accel_used_fraction"] = float(np.mean(e.accel_used))

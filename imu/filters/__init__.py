@@ -16,7 +16,9 @@ aekf_gnss  (numba loop, GNSS velocity)     --                    run_aekf
 =========  ==============================  ====================  ===============
 
 ``PEERS`` (``vqf``, ``madgwick``, ``mahony``, ``ekf``): batch runners only
-(:mod:`imutherm.imu.filters.peers`); ``ALL_FILTERS`` = FILTERS + PEERS.
+(:mod:`imutherm.imu.filters.peers`); ``ALL_FILTERS`` = FILTERS + PEERS, the built-in set. The registry
+(:mod:`imutherm.imu.filters.registry`) declares each of them once (runner, parameters, source, plot colour,
+needs-GNSS); the study, the command and the plots read it.
 """
 
 from imutherm.imu.filters.aekf import AEKFParams, AEKFTrace, run_aekf
