@@ -32,10 +32,26 @@ def add_arguments(p) -> None:
     g.add_argument("--turn-radius", type=float, default=None, help="turn radius L of the rate gate [m]")
     g.add_argument("--init-s", type=float, default=None,
                    help="rest window at the start of the log [s] (default 8; 1 for a ';'-separated reference log)")
+    g.add_argument("--align", default="none", metavar="none|auto|R,P,Y",
+                   help="rotation from the reference's body frame to the IMU's: none (default, the same frame), auto "
+                        "(estimated from quasi-static moments; the angle is printed) or the IMU's roll,pitch,yaw "
+                        "[deg] in the reference body frame")
     g.add_argument("--gyro-range", type=float, default=None, metavar="DPS",
                    help="the gyro's full scale [deg/s] for the fusion peer's over-range recovery (default: the "
                         "smallest common full scale holding the log's peak, which a log that never reached its "
                         "range underestimates)")
+
+
+def _align(text):
+    if text in ("none", "auto"):
+        return text
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 3 or not all(np.isfinite(v)):
+        raise InputError(f"--align: {text!r} is invalid; valid: none, auto, or roll,pitch,yaw [deg], e.g. 0,0,180")
+    return tuple(v)
 
 
 def _lever(text):
@@ -74,7 +90,7 @@ def run(args) -> int:
 
     res = run_recorded(log, platform=args.platform, lever_arm=lever, turn_radius_m=args.turn_radius,
                        init_s=args.init_s, fusion=FusionParams(gyroscope_range=args.gyro_range),
-                       names=parse_filters(args.filters, gnss=False))
+                       names=parse_filters(args.filters, gnss=False), align=_align(args.align))
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)
@@ -96,12 +112,18 @@ def run(args) -> int:
               + (f"; true steps vary by up to {100 * log.step_spread:.0f} % of the median: resampled onto a uniform "
                  f"{1e3 * log.dt:.2f} ms grid" if log.resampled else ""))
     first = next(iter(res.metrics.values()), {})
+    if first.get("alignment") and first["alignment"]["mode"] != "none":
+        al = first["alignment"]
+        print(f"reference -> IMU rotation ({al['mode']}): {al['angle_deg']:.2f}°"
+              + (f" (vertical residual {al['vertical_resid_deg']:.2f}° over {al['n_still']} still samples)"
+                 if al["mode"] == "auto" else ""))
     if first.get("reference_samples_dropped"):
         print(f"reference: {first['reference_samples_dropped']} samples without a value (empty / NaN) left out of "
               "the scores")
     for name, m in res.metrics.items():
         if res.has_reference:
-            score = f"roll rms {m['roll_rms_deg']:.3f} deg  pitch rms {m['pitch_rms_deg']:.3f} deg"
+            score = (f"roll rms {m['roll_rms_deg']:.3f} deg  pitch rms {m['pitch_rms_deg']:.3f} deg  inclination rms "
+                     f"{m['inclination_rms_deg']:.3f} deg")
         else:
             score = "no reference"
         print(f"{name:8s} {score}  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  "
@@ -134,9 +156,9 @@ def _run_semicolon(args) -> int:
     if not (np.isfinite(init_s) and init_s > 0):
         raise InputError(f"--init-s must be a positive number of seconds, got {init_s}")
     if args.platform != "handheld" or args.lever_arm or args.turn_radius or args.axes or args.gyro_units \
-            or args.accel_units:
+            or args.accel_units or args.align not in ("none", "auto"):
         raise InputError("a ';'-separated reference log is read in its own units (m/s², rad/s) and run as "
-                         "--platform handheld; valid: drop --platform/--lever-arm/--turn-radius/--axes/--*-units")
+                         "--platform handheld; valid: drop --platform/--lever-arm/--turn-radius/--axes/--*-units/--align (always auto there)")
     res = run_reference_log(args.imu_csv, names=parse_filters(args.filters, gnss=False), init_s=init_s,
                             fusion=FusionParams(gyroscope_range=args.gyro_range))
     with atomic_outdir(args.out) as tmp:

@@ -15,6 +15,7 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.imu.filters import ALL_FILTERS, KFParams
+from imutherm.imu.attitude_math import roll_pitch_from_gravity
 from imutherm.studies.attitude_study import GateConfig, error_metrics, run_filters
 
 #: platform defaults of the gate design inputs: lever arm d (3,) [m] and turn radius L [m].
@@ -107,10 +108,12 @@ def log_filters() -> tuple:
 
 
 def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius_m: float | None = None,
-                 init_s: float = GateConfig.init_s, names=None, fusion=None) -> RecordedResult:
+                 init_s: float = GateConfig.init_s, names=None, fusion=None, align="none") -> RecordedResult:
     """Run ``names`` on ``log`` (an :class:`~imutherm.imu.imu_log.ImuLog`); platform in :data:`PLATFORMS`,
     lever_arm (3,) [m] and turn_radius_m [m] override its defaults; init_s [s] the rest window; fusion a
-    FusionParams (None: its defaults, the gyro range from the data)."""
+    FusionParams (None: its defaults, the gyro range from the data); align (:func:`reference_alignment`):
+    'none', 'auto' or the IMU's (roll, pitch, yaw) [deg] in the reference's body frame. Scores include the
+    inclination (angle between the filter's and the reference's vertical, independent of heading)."""
     if platform not in PLATFORMS:
         raise InputError(f"--platform: {platform!r} is unknown; valid: {', '.join(PLATFORMS)}")
     d0, L0 = PLATFORMS[platform]
@@ -136,22 +139,71 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         series["truth_pitch_deg"] = np.degrees(log.ref_pitch)
         series["phase"] = np.full(log.t.size, "stable")
     valid = None
+    align_info = None
     if log.has_reference:
         valid = np.isfinite(log.ref_roll) & np.isfinite(log.ref_pitch)
         if not np.any(valid):
             raise InputError(f"{log.path}: the reference columns have no value; valid: numbers where the reference "
                              "saw the unit (empty cells are skipped)")
+        A, align_info = reference_alignment(log, align, valid, init_s)
+        r_ref = _down(log.ref_roll, log.ref_pitch) @ A.T
+        ref_roll, ref_pitch = roll_pitch_from_gravity(r_ref)
+        series["truth_roll_deg"] = np.degrees(ref_roll)
+        series["truth_pitch_deg"] = np.degrees(ref_pitch)
     for n, e in est.items():
         if log.has_reference:
-            m = error_metrics(e.roll - log.ref_roll, e.pitch - log.ref_pitch, {"all": valid})["all"]
+            m = error_metrics(e.roll - ref_roll, e.pitch - ref_pitch, {"all": valid})["all"]
+            c = np.sum(e.gravity[valid] / np.linalg.norm(e.gravity[valid], axis=1)[:, None] * r_ref[valid], axis=1)
+            inc = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+            m["inclination_rms_deg"] = float(np.sqrt(np.mean(inc**2)))
+            m["inclination_max_deg"] = float(np.max(inc))
             m["reference_samples_dropped"] = int(np.sum(~valid))
         else:
             m = {k: None for k in ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")}
         m["accel_used_fraction"] = float(np.mean(e.accel_used))
         m["runtime_s"] = e.runtime_s
+        if align_info is not None:
+            m["alignment"] = align_info
         metrics[n] = m
         series[f"{n}_roll_deg"] = np.degrees(e.roll)
         series[f"{n}_pitch_deg"] = np.degrees(e.pitch)
         series[f"{n}_accel_used"] = e.accel_used
     return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
                           L, float(init_s), log.g_rest, log.has_reference, metrics, series)
+
+
+def _down(roll, pitch) -> np.ndarray:
+    """Gravity direction (N,3) in body axes of ZYX roll, pitch [rad] (FRD in NED)."""
+    return np.column_stack([-np.sin(pitch), np.sin(roll) * np.cos(pitch), np.cos(roll) * np.cos(pitch)])
+
+
+def reference_alignment(log, align, valid, init_s: float):
+    """(A (3,3) reference body -> IMU, info dict) for ``align``: 'none' (identity), a declared (roll, pitch, yaw)
+    [deg] of the IMU frame in the reference body frame, or 'auto': the least-squares rotation (Kabsch) between the
+    reference's down direction and the accelerometer's (-f/|f|) over the quasi-static samples (|ω| < 5 °/s,
+    ||f| - g_rest| < 0.02 g). 'auto' needs quasi-static moments at two attitudes at least 10° apart (one
+    vertical leaves the rotation about it free): refused otherwise, with the fix named."""
+    from imutherm.imu.attitude_math import G0, euler_to_quat, quat_to_dcm
+    from imutherm.imu.reference_log import kabsch, rotation_angle_deg
+
+    if isinstance(align, str) and align == "none":
+        return np.eye(3), {"mode": "none", "angle_deg": 0.0}
+    if isinstance(align, str) and align == "auto":
+        w = np.linalg.norm(log.gyro, axis=1)
+        fn = np.linalg.norm(log.accel, axis=1)
+        still = valid & (w < np.radians(5.0)) & (np.abs(fn - log.g_rest) < 0.02 * G0)
+        u = _down(log.ref_roll[still], log.ref_pitch[still])
+        v = -log.accel[still] / fn[still, None]
+        spread = 0.0 if len(u) < 2 else float(np.degrees(np.arccos(np.clip(np.min(u @ u.mean(axis=0) /
+                                                                        np.linalg.norm(u.mean(axis=0))), -1, 1))))
+        if len(u) < 20 or spread < 10.0:
+            raise InputError(f"{log.path}: --align auto needs quasi-static moments at two attitudes at least 10° apart "
+                             f"(found {len(u)} samples within {spread:.1f}°); valid: --align none, or the IMU's "
+                             "roll,pitch,yaw [deg] in the reference body frame")
+        A = kabsch(u, v)
+        res = np.degrees(np.arccos(np.clip(np.sum((u @ A.T) * v, axis=1), -1, 1)))
+        return A, {"mode": "auto", "angle_deg": rotation_angle_deg(A), "vertical_resid_deg": float(np.median(res)),
+                   "n_still": int(len(u))}
+    rpy = np.radians(np.asarray(align, float))
+    A = quat_to_dcm(euler_to_quat(*rpy)).T  # v_ref = C v_imu  ->  v_imu = C^T v_ref
+    return A, {"mode": "declared", "rpy_deg": [float(v) for v in np.degrees(rpy)], "angle_deg": rotation_angle_deg(A)}
