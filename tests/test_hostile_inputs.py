@@ -469,13 +469,21 @@ def test_working_directory_as_out_is_updated_file_by_file(tmp_path, monkeypatch)
 
 
 # --------------------------------------------------------------------------- killed runs (subprocesses)
-def _spawn(out: Path, pause: str | None = None, extra=()):
+def _default_sigint():
+    """In the child before exec: the default SIGINT handler. A test run started as a background job of a
+    non-interactive shell has SIGINT ignored, and children inherit that (the commands keep honouring an
+    inherited ignore, as programs conventionally do); the tests send SIGINT and expect Ctrl-C's handling."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def _spawn(out: Path, pause: str | None = None, extra=(), sigint=_default_sigint):
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
     if pause:
         env.update(IMUTHERM_TEST_PAUSE=pause, IMUTHERM_TEST_PAUSE_S="60")
     code = "import sys; from imutherm.cli import main; sys.exit(main(sys.argv[1:]))"
     return subprocess.Popen([sys.executable, "-c", code, "solve", "--scheme", "grease", "--out", str(out),
-                             *extra, *COARSE, *LINEAR], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                             *extra, *COARSE, *LINEAR], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=sigint)
 
 
 def _wait_for_pause(proc, stage):
