@@ -85,8 +85,8 @@ def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_sto
     g = parser.add_argument_group("time stepping")
     g.add_argument("--t-end", type=float, default=None, metavar="SECONDS",
                    help=f"transient end time [s] (default {t_end:g}; the latest end with --until-settled)")
-    # None above tells "not given" from the default (see reject_time_options); time_kwargs fills it in
-    parser.set_defaults(t_end_default=t_end, settle_flag="--full-length" if settle_stop else "--until-settled")
+    # None above: time_kwargs fills the default in (time options without a transient: imutherm.cli._ignored)
+    parser.set_defaults(t_end_default=t_end)
     g.add_argument("--time-tol", type=float, default=None, metavar="K",
                    help="local error tolerance of the adaptive TR-BDF2 steps at the sites [K] (default 0.01)")
     g.add_argument("--dt", type=float, default=None, metavar="SECONDS",
@@ -104,19 +104,6 @@ def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_sto
     else:
         g.add_argument("--until-settled", action="store_true",
                        help="stop once every site is within 0.5 %% of its steady rise (past its t95)")
-
-
-def reject_time_options(args, why: str) -> None:
-    """InputError naming the options of :func:`add_time_arguments` (and ``--save-every``) that were given
-    although no transient runs (``why``): they would be silently ignored."""
-    given = [opt for opt, dest in (("--t-end", "t_end"), ("--time-tol", "time_tol"), ("--dt", "dt"),
-                                   ("--dt-max", "dt_max"), ("--theta", "theta"), ("--save-every", "save_every"))
-             if getattr(args, dest, None) is not None]
-    if args.until_settled == (args.settle_flag == "--until-settled"):
-        given.append(args.settle_flag)
-    if given:
-        raise InputError(f"{', '.join(given)}: time stepping given {why}; a steady solve has no time steps, "
-                         f"so drop {'it' if len(given) == 1 else 'them'} or run the transient")
 
 
 def time_kwargs(args) -> dict:
