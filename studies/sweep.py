@@ -575,27 +575,68 @@ def _parse_cell(column: str, text: str):
     return float(text) if text != "" else None
 
 
-def read_results(path: Path, columns) -> list:
-    """Rows of a ``results.csv`` (a partial last line, cut by a kill mid-write, is dropped from the file)."""
+def _damaged(path: Path, lineno: int, what: str) -> InputError:
+    return InputError(f"{path}:{lineno}: {what}; the file is damaged: delete that line to run its case again "
+                      "with --resume (or start a new --out)")
+
+
+def read_results(path: Path, columns, cases=None, keys=()) -> list:
+    """Rows of a ``results.csv``, checked line by line; a damaged line is refused naming it.
+
+    A partial last line (no newline: a kill mid-write cut it) is the one repair made, as it is provably
+    safe: it is dropped from the file and its case runs again. Every other line must decode as UTF-8, have
+    the header's fields, an integer case id of the design (``cases``: the plan's cases, None: not checked),
+    numbers in the numeric columns, status ok or failed, and inputs (``keys``: the plan's input columns) equal
+    to its case's in the design.
+    """
     data = path.read_bytes()
     if data and not data.endswith(b"\n"):
         cut = data.rfind(b"\n") + 1
         with open(path, "r+b") as fh:
             fh.truncate(cut)
         data = data[:cut]
-    reader = csv.reader(io.StringIO(data.decode()))
-    header = next(reader, None)
-    if header is None:
+    lines = data.split(b"\n")[:-1] if data else []
+    if not lines:
         return []
+    texts = []
+    for i, raw in enumerate(lines, start=1):
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise _damaged(path, i, f"not UTF-8 text (byte {exc.start + 1})") from None
+        if "\0" in text:
+            raise _damaged(path, i, "a NUL byte")
+        texts.append(text)
+    try:
+        parsed = [next(csv.reader([t])) if t else [] for t in texts]
+    except csv.Error as exc:
+        raise InputError(f"{path}: not a valid CSV: {exc}") from None
+    header = parsed[0]
     if tuple(header) != tuple(columns):
-        raise InputError(f"{path}: its columns {header} are not this sweep's {list(columns)}")
+        raise _damaged(path, 1, f"its columns {header} are not this sweep's {list(columns)}")
     rows, seen = [], set()
-    for line in reader:
+    for i, line in enumerate(parsed[1:], start=2):
         if len(line) != len(columns):
-            raise InputError(f"{path}: a row has {len(line)} fields, expected {len(columns)}: {line}")
-        row = {c: _parse_cell(c, t) for c, t in zip(columns, line)}
+            raise _damaged(path, i, f"{len(line)} fields, the header has {len(columns)}")
+        row = {}
+        for c, t in zip(columns, line):
+            try:
+                row[c] = _parse_cell(c, t)
+            except ValueError:
+                what = "an integer case id" if c == "case" else "a number"
+                raise _damaged(path, i, f"column {c!r} holds {t[:40]!r}, not {what}") from None
+        if row["status"] not in ("ok", "failed"):
+            raise _damaged(path, i, f"status {row['status'][:40]!r} is neither ok nor failed")
         if row["case"] in seen:
-            raise InputError(f"{path}: case {row['case']} is recorded twice")
+            raise _damaged(path, i, f"case {row['case']} is recorded twice")
+        if cases is not None:
+            if not 0 <= row["case"] < len(cases):
+                raise _damaged(path, i, f"case id {row['case']} is not in this design (0..{len(cases) - 1})")
+            design = dict(zip(keys, cases[row["case"]].values))
+            off = [k for k, v in design.items() if k in row and row[k] != v]
+            if off:
+                raise _damaged(path, i, f"case {row['case']}'s {off[0]} = {row[off[0]]!r} is not the design's "
+                                        f"{design[off[0]]!r}")
         seen.add(row["case"])
         rows.append(row)
     return rows
@@ -806,19 +847,22 @@ def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resum
         if not json_path.is_file():
             raise InputError(f"--resume: {json_path} not found; start the sweep without --resume")
         try:
-            old = json.loads(json_path.read_text())["design"]
-        except (ValueError, KeyError) as exc:
-            raise InputError(f"--resume: {json_path} is not a sweep record: {exc}") from None
+            old = json.loads(json_path.read_bytes().decode("utf-8"))["design"]
+            if not isinstance(old, dict):
+                raise TypeError("its design is not a table")
+        except UnicodeDecodeError as exc:
+            raise InputError(f"--resume: {json_path} is damaged (not UTF-8 text at byte {exc.start + 1}); "
+                             "start the sweep in a new --out") from None
+        except (ValueError, KeyError, TypeError) as exc:
+            raise InputError(f"--resume: {json_path} is not a sweep record ({type(exc).__name__}: {exc}); "
+                             "start the sweep in a new --out") from None
         diff = _design_mismatch(old, plan.design)
         if diff:
             raise InputError(f"--resume: this sweep's design differs from the one recorded in {json_path} "
                              f"in {', '.join(diff)}; give the same --set, --method, --samples, --seed, layout, "
                              "scheme, mesh and model options, or a new --out")
         if csv_path.exists():
-            rows = read_results(csv_path, plan.columns)
-            bad = [r["case"] for r in rows if not 0 <= r["case"] < len(plan.cases)]
-            if bad:
-                raise InputError(f"{csv_path}: case ids {bad} are not in this design (0..{len(plan.cases) - 1})")
+            rows = read_results(csv_path, plan.columns, plan.cases, plan.keys)
     else:
         if csv_path.exists() or json_path.exists():
             raise InputError(f"--out {out} already holds a sweep ({RESULTS_CSV}/{SWEEP_JSON}); "
