@@ -302,6 +302,10 @@ SECONDS_PER_PATCH_CUBE = 1.6e-10
 #: most estimated CPU time of the s2s exchange of one run [s]: an hour (the default 5 mm patches of the
 #: reference unit take seconds); more is a patch size typed wrong, e.g. ``--cavity-patch-mm 0.001``
 MAX_S2S_S = 3600.0
+#: most s2s patches whatever the memory: the README's convergence study has the reference unit's sites within
+#: 0.1 K at 2 mm patches (~5,600 at the default mesh); 1e4 patches are ~5.3 GiB and ~4 min of CPU here, and
+#: more only repeats face cells (a patch never gets smaller than its mesh face)
+MAX_PATCHES = 10_000
 
 
 def s2s_cost(n_patches: int, rays: int) -> tuple:
@@ -314,11 +318,14 @@ def s2s_cost(n_patches: int, rays: int) -> tuple:
 def check_s2s_cost(what: str, n_patches: int, rays: int, max_memory: int | None = None,
                    other_bytes: float = 0.0) -> tuple:
     """InputError stating the patches, the estimate and the limit if the s2s exchange is beyond
-    :data:`MAX_S2S_S` or, with ``other_bytes`` (the rest of the run), beyond ``max_memory`` (None: the memory
+    :data:`MAX_PATCHES`, :data:`MAX_S2S_S` or, with ``other_bytes`` (the rest of the run), beyond ``max_memory`` (None: the memory
     available now); returns (memory [bytes], seconds)."""
     mem, sec = s2s_cost(n_patches, rays)
     hint = "use a larger --cavity-patch-mm (or --cavity-law effective)"
     desc = f"{what}: {n_patches:,} cavity patches (dense exchange: n^2 memory, n^3 time)"
+    if n_patches > MAX_PATCHES:
+        raise InputError(f"{desc}, estimated ~{fmt_bytes(mem)} and ~{sec:,.0f} s of CPU: more than the limit of "
+                         f"{MAX_PATCHES:,} patches; {hint}")
     if sec > MAX_S2S_S:
         raise InputError(f"{desc}, estimated ~{sec / 3600:,.3g} h of CPU and ~{fmt_bytes(mem)}, more than the limit of "
                          f"{MAX_S2S_S / 3600:g} h; {hint}")
