@@ -23,7 +23,7 @@ from imutherm.budget import BASE_BYTES, BYTES_PER_UNKNOWN_SOLVE, check_memory
 from imutherm.cli import run_command
 from imutherm.cli._common import check_outdir
 from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
-                                   add_progress_argument, model_options)
+                                   add_progress_argument, check_cavity_cost, model_options)
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
 
 
@@ -81,6 +81,10 @@ def run(args) -> int:
     one = BASE_BYTES + BYTES_PER_UNKNOWN_SOLVE * largest
     check_memory(f"sweep: {workers} worker(s) x the largest case ({largest:,} unknowns)", workers * one,
                  args.max_memory, "use a larger --mesh-size or a smaller --jobs")
+    from imutherm.geometry.build import build_geometry
+
+    # the s2s patches of the first case (the cases' geometries differ by the swept values only)
+    check_cavity_cost(build_geometry(plan.cases[0].layout, plan.settings.scheme), args, "sweep: a case", one, workers)
     d = plan.design
     runner = f"{args.jobs} local process{'es' if args.jobs > 1 else ''}"
     where = (f"{_duration(cost.total_s)} of one core, divided over the cluster's workers" if args.dask
