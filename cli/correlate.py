@@ -44,12 +44,16 @@ def add_args(parser) -> None:
 #: peak memory of one reduced-model build per mesh unknown [bytes]: 1.0 GB per worker at 1.75e5 unknowns
 #: (benchmarks/bench_correlation_speed.py, as :func:`imutherm.studies.correlation.build_models` says), rounded up
 BYTES_PER_UNKNOWN_BUILD = 1.1e9 / 175e3
+#: CPU time of one build per mesh unknown [s]: ~56 s each at 1.75e5 unknowns (the same benchmark), rounded up
+SECONDS_PER_UNKNOWN_BUILD = 60.0 / 175e3
+#: most estimated wall time of the builds [s]: 6 h, as the other commands' limits
+MAX_BUILD_S = 6 * 3600.0
 
 
 def _check_build_cost(layout, runs, args, jobs: int) -> None:
-    """The reduced models' builds (one per scheme and ambient, ``jobs`` at once) and, with the s2s law, their
-    patches against ``--max-memory``, before any is built."""
-    from imutherm.budget import BASE_BYTES, check_memory
+    """The reduced models' builds (one per scheme and ambient, ``jobs`` at once; time limit :data:`MAX_BUILD_S`)
+    and, with the s2s law, their patches against ``--max-memory``, before any is built."""
+    from imutherm.budget import BASE_BYTES, check_cost, check_memory, thermal_cost
     from imutherm.cli._options import check_cavity_cost
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.mesh import grid_shape
@@ -58,11 +62,15 @@ def _check_build_cost(layout, runs, args, jobs: int) -> None:
     workers = max(1, min(jobs, len(keys)))
     for scheme in sorted({k[0] for k in keys}):
         geo = build_geometry(layout, scheme)
-        nodes = 1
-        for n in grid_shape(geo, args.mesh_size, args.min_cells):
-            nodes *= n + 1
+        shape = grid_shape(geo, args.mesh_size, args.min_cells)
+        # the mesh's own limits (cells) and one solve's memory first, then the builds'
+        nodes = check_cost(thermal_cost(f"correlate: the reduced model of {scheme}", shape), args.max_memory).unknowns
         each = BASE_BYTES + BYTES_PER_UNKNOWN_BUILD * nodes
         what = f"correlate: {len(keys)} reduced model(s) of {nodes:,} unknowns, {workers} at once"
+        hours = len(keys) * SECONDS_PER_UNKNOWN_BUILD * nodes / workers / 3600
+        if hours > MAX_BUILD_S / 3600:
+            raise InputError(f"{what}: estimated ~{hours:,.3g} h, more than the limit of {MAX_BUILD_S / 3600:g} h; "
+                             "use a larger --mesh-size")
         check_memory(what, workers * each, args.max_memory, "use a larger --mesh-size or a smaller --jobs")
         check_cavity_cost(geo, args, f"correlate: the reduced model of {scheme}", each, workers)
 
