@@ -7,7 +7,8 @@ one line in :data:`COMMANDS` and its module.
 
 Every subcommand turns :class:`imutherm.InputError` and OSError into a one-line message on stderr and exit
 status 2, ConvergenceError into status 3, Ctrl-C into status 130 (:func:`imutherm.cli._common.run_guarded`);
-no traceback for bad input.
+no traceback for bad input. An option the given combination would ignore is refused before the command runs
+(the table :data:`imutherm.cli._ignored.IGNORED`).
 """
 
 from __future__ import annotations
@@ -63,7 +64,12 @@ def run_command(name: str, argv: list[str] | None = None) -> int:
 
     @run_guarded(f"imutherm {name}")
     def guarded(argv):
-        args = build_parser(name).parse_args([name, *argv])
+        from imutherm.cli._ignored import refuse_ignored
+
+        parser = build_parser(name)
+        args = parser.parse_args([name, *argv])
+        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[name]
+        refuse_ignored(name, sub, argv, args)  # an option the combination would ignore: one rule, one place
         return int(args.run(args) or 0)
 
     return guarded(argv)

@@ -32,13 +32,34 @@ def add_layout_arguments(parser: argparse.ArgumentParser, scheme: bool = True) -
 
 
 def check_thermal_cost(geometry, args, *, steps: int = 0, saved: int = 1, geometry_only: bool = False):
-    """Estimate the mesh (from its grid lines only) and the run's memory; InputError beyond ``--max-memory``."""
+    """Estimate the mesh (from its grid lines only) and the run's memory; InputError beyond ``--max-memory``.
+    With ``--cavity-law s2s`` the patches are counted too (:func:`check_cavity_cost`)."""
     from imutherm.geometry.mesh import grid_shape
 
     shape = grid_shape(geometry, args.mesh_size, args.min_cells)
     what = f"{'geometry' if geometry_only else 'solve'} of {geometry.layout.name} / {geometry.scheme.name}"
-    return check_cost(thermal_cost(what, shape, steps=steps, saved=saved, geometry_only=geometry_only),
+    cost = check_cost(thermal_cost(what, shape, steps=steps, saved=saved, geometry_only=geometry_only),
                       args.max_memory)
+    if not geometry_only:
+        check_cavity_cost(geometry, args, what, cost.memory_bytes)
+    return cost
+
+
+def check_cavity_cost(geometry, args, what: str, other_bytes: float = 0.0, workers: int = 1):
+    """With ``--cavity-law s2s``: count the patches (mesh and faces only; nothing of n^2 size exists yet),
+    print the exchange's estimate and refuse it (:func:`imutherm.budget.check_s2s_cost`) beyond its time
+    limit or, ``workers`` at once beside ``other_bytes``, beyond ``--max-memory``. Returns the patch count."""
+    from imutherm.budget import check_s2s_cost, fmt_bytes
+    from imutherm.thermal.model import s2s_patches
+
+    options = model_options(args)
+    n = s2s_patches(geometry, options, args.mesh_size, args.min_cells)
+    if n:
+        mem, sec = check_s2s_cost(what, n, options.cavity_rays, args.max_memory and args.max_memory / workers,
+                                  other_bytes)
+        print(f"{what}: s2s cavity law, {n:,} patches of {options.cavity_patch_mm:g} mm: estimated ~{fmt_bytes(mem)} "
+              f"and ~{sec:.0f} s of CPU for the exchange", flush=True)
+    return n
 
 
 # ------------------------------------------------------------------ the physical model
@@ -85,8 +106,8 @@ def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_sto
     g = parser.add_argument_group("time stepping")
     g.add_argument("--t-end", type=float, default=None, metavar="SECONDS",
                    help=f"transient end time [s] (default {t_end:g}; the latest end with --until-settled)")
-    # None above tells "not given" from the default (see reject_time_options); time_kwargs fills it in
-    parser.set_defaults(t_end_default=t_end, settle_flag="--full-length" if settle_stop else "--until-settled")
+    # None above: time_kwargs fills the default in (time options without a transient: imutherm.cli._ignored)
+    parser.set_defaults(t_end_default=t_end)
     g.add_argument("--time-tol", type=float, default=None, metavar="K",
                    help="local error tolerance of the adaptive TR-BDF2 steps at the sites [K] (default 0.01)")
     g.add_argument("--dt", type=float, default=None, metavar="SECONDS",
@@ -104,19 +125,6 @@ def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_sto
     else:
         g.add_argument("--until-settled", action="store_true",
                        help="stop once every site is within 0.5 %% of its steady rise (past its t95)")
-
-
-def reject_time_options(args, why: str) -> None:
-    """InputError naming the options of :func:`add_time_arguments` (and ``--save-every``) that were given
-    although no transient runs (``why``): they would be silently ignored."""
-    given = [opt for opt, dest in (("--t-end", "t_end"), ("--time-tol", "time_tol"), ("--dt", "dt"),
-                                   ("--dt-max", "dt_max"), ("--theta", "theta"), ("--save-every", "save_every"))
-             if getattr(args, dest, None) is not None]
-    if args.until_settled == (args.settle_flag == "--until-settled"):
-        given.append(args.settle_flag)
-    if given:
-        raise InputError(f"{', '.join(given)}: time stepping given {why}; a steady solve has no time steps, "
-                         f"so drop {'it' if len(given) == 1 else 'them'} or run the transient")
 
 
 def time_kwargs(args) -> dict:

@@ -89,6 +89,15 @@ def run(args) -> int:
 
     # samples x seeds before any allocation; no --duration: the longest profile default (flight, 400 s)
     check_attitude_cost(args.duration or 400.0, load_grade(args.grade).sample_rate_hz, args.seeds, args.max_memory)
+    if args.temperature_csv is not None:  # the table read and its times checked before the study starts
+        import inspect
+
+        from imutherm.imu import motion
+        from imutherm.studies.attitude_study import check_temperature_span, read_temperature_csv
+
+        duration = args.duration or inspect.signature(getattr(motion, f"{args.profile}_profile")).parameters[
+            "duration"].default
+        check_temperature_span(read_temperature_csv(args.temperature_csv)[0], 0.0, duration, args.temperature_csv)
     from imutherm.imu.gnss import GnssConfig
     from imutherm.studies.attitude_study import run_attitude_study
 

@@ -22,7 +22,7 @@ from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir
 from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
                                    add_progress_argument, add_time_arguments, check_thermal_cost, model_options,
-                                   reject_time_options, time_kwargs)
+                                   time_kwargs)
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.compare import compare_schemes, write_comparison
@@ -61,8 +61,6 @@ def main(argv=None) -> int:
 def run(args) -> int:
     """Check everything, run the study of ``args`` and write its outputs; returns 0."""
     check_outdir(args.out)
-    if args.steady_only:
-        reject_time_options(args, "with --steady-only")
     args.time_kwargs = {} if args.steady_only else time_kwargs(args)
     schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
     if not schemes:

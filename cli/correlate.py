@@ -41,6 +41,40 @@ def add_args(parser) -> None:
     add_model_arguments(parser)
 
 
+#: peak memory of one reduced-model build per mesh unknown [bytes]: 1.0 GB per worker at 1.75e5 unknowns
+#: (benchmarks/bench_correlation_speed.py, as :func:`imutherm.studies.correlation.build_models` says), rounded up
+BYTES_PER_UNKNOWN_BUILD = 1.1e9 / 175e3
+#: CPU time of one build per mesh unknown [s]: ~56 s each at 1.75e5 unknowns (the same benchmark), rounded up
+SECONDS_PER_UNKNOWN_BUILD = 60.0 / 175e3
+#: most estimated wall time of the builds [s]: 6 h, as the other commands' limits
+MAX_BUILD_S = 6 * 3600.0
+
+
+def _check_build_cost(layout, runs, args, jobs: int) -> None:
+    """The reduced models' builds (one per scheme and ambient, ``jobs`` at once; time limit :data:`MAX_BUILD_S`)
+    and, with the s2s law, their patches against ``--max-memory``, before any is built."""
+    from imutherm.budget import BASE_BYTES, check_cost, check_memory, thermal_cost
+    from imutherm.cli._options import check_cavity_cost
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.mesh import grid_shape
+
+    keys = sorted({(r.scheme, r.ambient_C) for r in runs})
+    workers = max(1, min(jobs, len(keys)))
+    for scheme in sorted({k[0] for k in keys}):
+        geo = build_geometry(layout, scheme)
+        shape = grid_shape(geo, args.mesh_size, args.min_cells)
+        # the mesh's own limits (cells) and one solve's memory first, then the builds'
+        nodes = check_cost(thermal_cost(f"correlate: the reduced model of {scheme}", shape), args.max_memory).unknowns
+        each = BASE_BYTES + BYTES_PER_UNKNOWN_BUILD * nodes
+        what = f"correlate: {len(keys)} reduced model(s) of {nodes:,} unknowns, {workers} at once"
+        hours = len(keys) * SECONDS_PER_UNKNOWN_BUILD * nodes / workers / 3600
+        if hours > MAX_BUILD_S / 3600:
+            raise InputError(f"{what}: estimated ~{hours:,.3g} h, more than the limit of {MAX_BUILD_S / 3600:g} h; "
+                             "use a larger --mesh-size")
+        check_memory(what, workers * each, args.max_memory, "use a larger --mesh-size or a smaller --jobs")
+        check_cavity_cost(geo, args, f"correlate: the reduced model of {scheme}", each, workers)
+
+
 def main(argv=None) -> int:
     """``imutherm correlate ARGV...``; returns the exit status."""
     return run_command("correlate", argv)
@@ -66,6 +100,7 @@ def run(args) -> int:
     layout = load_layout(args.layout)
     sites = tuple(build_geometry(layout, None).sites)
     runs = [read_measured(p, sites=sites, schemes=tuple(layout.schemes)) for p in args.measured]
+    _check_build_cost(layout, runs, args, jobs)
     from imutherm.studies.correlation import correlate, result_json, updated_model_toml
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                     options=model_options(args), rerun=not args.no_rerun, jobs=jobs,

@@ -25,7 +25,7 @@ from imutherm.cli import run_command
 from imutherm.cli._common import FIELD_FILES, _test_pause, atomic_outdir, check_outdir, write_json
 from imutherm.cli._options import (add_effect_argument, add_layout_arguments, add_model_arguments,
                                    add_out_argument, add_progress_argument, add_time_arguments,
-                                   check_thermal_cost, model_options, reject_time_options, time_kwargs)
+                                   check_thermal_cost, model_options, time_kwargs)
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.site_table import write_site_table
@@ -76,8 +76,7 @@ def run(args) -> int:
             raise InputError(f"--save-every {every:g} s keeps {args.t_end / every:.3g} fields of a {args.t_end:g} s "
                              f"run, more than the limit of {MAX_SAVED_FIELDS}; use a larger --save-every")
         save_times = np.unique(np.append(np.arange(0.0, args.t_end, every), args.t_end))
-    else:
-        reject_time_options(args, "without --transient")
+    else:  # time options without --transient are refused by imutherm.cli._ignored
         tkw = {}
     options = model_options(args)
     effects = tuple(parse_effect(e) for e in args.effect)

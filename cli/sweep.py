@@ -19,10 +19,11 @@ inputs' influence).
 from __future__ import annotations
 
 from imutherm import InputError
+from imutherm.budget import BASE_BYTES, BYTES_PER_UNKNOWN_SOLVE, check_memory
 from imutherm.cli import run_command
 from imutherm.cli._common import check_outdir
 from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
-                                   add_progress_argument, model_options)
+                                   add_progress_argument, check_cavity_cost, model_options)
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
 
 
@@ -51,6 +52,9 @@ def add_args(parser) -> None:
     where = parser.add_mutually_exclusive_group()
     add_jobs_argument(where, default=1, help="local worker processes (default 1)")
     where.add_argument("--dask", default=None, metavar="ADDRESS", help="run the cases on a Dask scheduler, tcp://host:port")
+    parser.add_argument("--max-cpu-hours", type=float, default=None, metavar="H",
+                        help="refuse a sweep estimated to need more CPU time than H hours of one core (default "
+                             "168, a week; counted before the design is expanded)")
     parser.add_argument("--resume", action="store_true", help="continue the sweep in --out: run only the missing cases")
     add_progress_argument(parser)
     add_model_arguments(parser)
@@ -70,8 +74,17 @@ def run(args) -> int:
     plan = plan_sweep(args.layout, args.scheme, args.sets, method=args.method, samples=args.samples, seed=args.seed,
                       options=model_options(args), mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                       transient=args.transient, t_end=args.t_end, attitude=args.attitude,
-                      attitude_seeds=args.attitude_seeds)
+                      attitude_seeds=args.attitude_seeds, max_cpu_hours=args.max_cpu_hours)
     cost = estimate_cost(plan, 1 if args.dask else args.jobs)
+    workers = 1 if args.dask else args.jobs  # each local worker solves one case at a time
+    largest = int(plan.unknowns.max())
+    one = BASE_BYTES + BYTES_PER_UNKNOWN_SOLVE * largest
+    check_memory(f"sweep: {workers} worker(s) x the largest case ({largest:,} unknowns)", workers * one,
+                 args.max_memory, "use a larger --mesh-size or a smaller --jobs")
+    from imutherm.geometry.build import build_geometry
+
+    # the s2s patches of the first case (the cases' geometries differ by the swept values only)
+    check_cavity_cost(build_geometry(plan.cases[0].layout, plan.settings.scheme), args, "sweep: a case", one, workers)
     d = plan.design
     runner = f"{args.jobs} local process{'es' if args.jobs > 1 else ''}"
     where = (f"{_duration(cost.total_s)} of one core, divided over the cluster's workers" if args.dask

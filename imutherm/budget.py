@@ -174,6 +174,17 @@ def check_cost(cost: Cost, max_memory: int | None, hint: str = "use a larger --m
     return cost
 
 
+def check_memory(what: str, memory_bytes: float, max_memory: int | None, hint: str) -> float:
+    """InputError ``"<what>: estimated ~X of memory, more than <limit>; <hint>"`` beyond ``max_memory`` [bytes]
+    (None: the memory available now); returns ``memory_bytes``."""
+    limit = available_memory_bytes() if max_memory is None else int(max_memory)
+    if memory_bytes > limit:
+        src = "--max-memory" if max_memory is not None else "the memory available now (--max-memory)"
+        raise InputError(f"{what}: estimated ~{fmt_bytes(memory_bytes)} of memory, more than {src} "
+                         f"{fmt_bytes(limit)}; {hint}")
+    return float(memory_bytes)
+
+
 #: peak memory per motion sample of ``imutherm attitude`` [bytes]: measured ~0.9 kB (600 s vs 200 s of the
 #: flight profile at 100 Hz: 190 vs 138 MiB), rounded up with margin; the first seed's series is kept
 BYTES_PER_SAMPLE_ATTITUDE = 1500
@@ -272,3 +283,51 @@ def check_study_cost(config, schemes: int, jobs: int | None, max_memory: int | N
         raise InputError(f"{what}, estimated ~{fmt_bytes(memory)} of memory on {workers} worker process(es) "
                          f"(--jobs {jobs}), more than {src} {fmt_bytes(limit)}; use a smaller --jobs")
     return work
+
+
+# ------------------------------------------------------------------ the s2s cavity law
+#: peak memory of the s2s exchange above the mesh and its patches [bytes]: a fixed part plus its dense n x n
+#: arrays (ray counts, view factors, the radiosity system and its solution, X) per pair of patches. Fitted by
+#: benchmarks/bench_cost_model.py (reference unit, grease, 3 mm mesh, 400 rays; 645 / 1302 / 2507 / 5287
+#: patches: +57 / 104 / 339 / 1334 MiB): ~46 bytes per pair + ~50 MiB, rounded up to 56 and 64 MiB
+BYTES_PER_PATCH_PAIR = 56.0
+S2S_BASE_BYTES = 64 * 2**20
+#: CPU time of the s2s exchange [s]: per ray cast (view factors), per patch pair (the reciprocity and
+#: closure balancing) and per patch cubed (the dense radiosity solve). Fitted (non-negative least squares,
+#: relative error) by benchmarks/bench_cost_model.py on the same four sizes: 2.5 / 5.5 / 14.9 / 56.6 s of
+#: CPU, on a machine shared with five other jobs (2026-12-01)
+SECONDS_PER_RAY = 8.5e-6
+SECONDS_PER_PATCH_PAIR = 5.5e-7
+SECONDS_PER_PATCH_CUBE = 1.6e-10
+#: most estimated CPU time of the s2s exchange of one run [s]: an hour (the default 5 mm patches of the
+#: reference unit take seconds); more is a patch size typed wrong, e.g. ``--cavity-patch-mm 0.001``
+MAX_S2S_S = 3600.0
+#: most s2s patches whatever the memory: the README's convergence study has the reference unit's sites within
+#: 0.1 K at 2 mm patches (~5,600 at the default mesh); 1e4 patches are ~5.3 GiB and ~4 min of CPU here, and
+#: more only repeats face cells (a patch never gets smaller than its mesh face)
+MAX_PATCHES = 10_000
+
+
+def s2s_cost(n_patches: int, rays: int) -> tuple:
+    """(memory [bytes], CPU time [s]) of the s2s exchange of ``n_patches`` patches at ``rays`` rays each."""
+    n = float(n_patches)
+    seconds = SECONDS_PER_RAY * n * rays + SECONDS_PER_PATCH_PAIR * n**2 + SECONDS_PER_PATCH_CUBE * n**3
+    return S2S_BASE_BYTES + BYTES_PER_PATCH_PAIR * n**2, seconds
+
+
+def check_s2s_cost(what: str, n_patches: int, rays: int, max_memory: int | None = None,
+                   other_bytes: float = 0.0) -> tuple:
+    """InputError stating the patches, the estimate and the limit if the s2s exchange is beyond
+    :data:`MAX_PATCHES`, :data:`MAX_S2S_S` or, with ``other_bytes`` (the rest of the run), beyond ``max_memory`` (None: the memory
+    available now); returns (memory [bytes], seconds)."""
+    mem, sec = s2s_cost(n_patches, rays)
+    hint = "use a larger --cavity-patch-mm (or --cavity-law effective)"
+    desc = f"{what}: {n_patches:,} cavity patches (dense exchange: n^2 memory, n^3 time)"
+    if n_patches > MAX_PATCHES:
+        raise InputError(f"{desc}, estimated ~{fmt_bytes(mem)} and ~{sec:,.0f} s of CPU: more than the limit of "
+                         f"{MAX_PATCHES:,} patches; {hint}")
+    if sec > MAX_S2S_S:
+        raise InputError(f"{desc}, estimated ~{sec / 3600:,.3g} h of CPU and ~{fmt_bytes(mem)}, more than the limit of "
+                         f"{MAX_S2S_S / 3600:g} h; {hint}")
+    check_memory(f"{desc} and the rest of the run", mem + other_bytes, max_memory, hint)
+    return mem, sec

@@ -77,6 +77,42 @@ def _number(text: str, where: str, what: str) -> float:
     return v
 
 
+#: most a power-on reading (time_s <= 0) may differ from ambient_C [K]: the unit starts at its ambient (probe
+#: offsets and an ambient cycle are a few K at most); beyond it the file's unit or ambient_C is wrong
+POWER_ON_TOLERANCE_K = 15.0
+#: most the smallest reading of a file may exceed ambient_C [K]: 150 K above the ambient at every reading is
+#: past what a powered unit within the layout limits reaches at all its sites (components are refused past
+#: 150 degC); such a file is in another unit or has the wrong ambient_C
+MAX_LOWEST_RISE_K = 150.0
+
+
+def _likely_unit(reading: float, ambient_C: float, tol: float) -> str:
+    """' (they look like kelvin: ...)' or Fahrenheit, if converting ``reading`` puts it near ``ambient_C``."""
+    for unit, to_c in (("kelvin", lambda v: v - 273.15), ("degF", lambda v: (v - 32.0) / 1.8)):
+        if abs(to_c(reading) - ambient_C) <= tol:
+            return f"; the readings look like {unit} ({reading:g} {unit} = {to_c(reading):.1f} degC): convert them to degC"
+    return "; give the readings in degC and the ambient at power-on as ambient_C"
+
+
+def _check_unit(path: str, ambient_C: float, amb_line: int, times, arr, lines) -> None:
+    """InputError if the readings cannot be degC under ``ambient_C`` (a file in kelvin or degF, or the
+    wrong ambient): a power-on reading far from the ambient, or every reading far above it."""
+    on = np.isfinite(times) & (times <= 0.0)
+    for r in np.nonzero(on)[0]:
+        row = arr[r][np.isfinite(arr[r])]
+        if len(row) and np.abs(row - ambient_C).max() > POWER_ON_TOLERANCE_K:
+            v = float(row[np.argmax(np.abs(row - ambient_C))])
+            raise InputError(f"{path}:{lines[r]}: reading {v:g} at power-on (time_s <= 0) is more than "
+                             f"{POWER_ON_TOLERANCE_K:g} K from ambient_C = {ambient_C:g} (line {amb_line})"
+                             + _likely_unit(v, ambient_C, POWER_ON_TOLERANCE_K))
+    lowest = float(np.nanmin(arr))
+    if lowest - ambient_C > MAX_LOWEST_RISE_K:
+        r = int(np.argwhere(arr == lowest)[0][0])
+        raise InputError(f"{path}:{lines[r]}: every reading is more than {MAX_LOWEST_RISE_K:g} K above ambient_C = "
+                         f"{ambient_C:g} (line {amb_line}; the lowest is {lowest:g})"
+                         + _likely_unit(lowest, ambient_C, MAX_LOWEST_RISE_K))
+
+
 def read_measured(path, sites=None, schemes=None) -> MeasuredRun:
     """Read and check one measured CSV file (see the module docstring).
 
@@ -175,6 +211,10 @@ def read_measured(path, sites=None, schemes=None) -> MeasuredRun:
     arr = np.array(values, float)
     if not np.isfinite(arr).any():
         raise InputError(f"{path}: no readings (every site cell is empty)")
+    if len(times) < 2:
+        raise InputError(f"{path}:{lines[0]}: one row of readings; a correlation compares the rise over time: give "
+                         "two or more rows (e.g. a reading during the warm-up and the steady one, time_s = inf)")
+    _check_unit(path, vals["ambient_C"], meta_line["ambient_C"], np.array(times, float), arr, lines)
     return MeasuredRun(path, scheme, vals["ambient_C"], vals["power_scale"], vals["t_power_on_s"], probe,
                        tuple(names), np.array(times, float), arr, tuple(lines))
 

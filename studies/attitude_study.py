@@ -124,6 +124,18 @@ def read_temperature_csv(path) -> tuple[np.ndarray, np.ndarray]:
     return t, T
 
 
+def check_temperature_span(tc, start_s: float, end_s: float, path) -> None:
+    """InputError unless a multi-row temperature CSV's times ``tc`` [s] reach the run's start ``start_s`` [s]
+    and overlap the run up to ``end_s`` [s]: beyond its ends a table is held constant, so a table that starts
+    after the run starts, or ends before it, would be reinterpreted silently (a single row is a constant)."""
+    if len(tc) < 2:
+        return
+    if tc[0] > start_s or tc[-1] < start_s:
+        raise InputError(f"temperature: {path}: its times {tc[0]:g}..{tc[-1]:g} s do not cover the run's "
+                         f"{start_s:g}..{end_s:g} s (a table is held constant beyond its ends); give time_s "
+                         f"from {start_s:g} s (power-on) on, or one row for a constant temperature")
+
+
 def temperature_on(t, temperature_C=None, temperature_csv=None, *, valid_C=None) -> tuple[np.ndarray, dict]:
     """True die temperatures (N, 6) [°C] on sample times ``t`` [s] and a description dict.
 
@@ -139,6 +151,8 @@ def temperature_on(t, temperature_C=None, temperature_csv=None, *, valid_C=None)
         raise InputError("temperature: give either --temperature or --temperature-csv, not both")
     if temperature_csv is not None:
         tc, T = read_temperature_csv(temperature_csv)
+        if len(t):
+            check_temperature_span(tc, float(t[0]), float(t[-1]), temperature_csv)
         if len(tc) == 1:  # steady state: one row, its time (possibly inf) is irrelevant
             temp = np.tile(T[0], (len(t), 1))
         else:

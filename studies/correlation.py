@@ -400,6 +400,60 @@ def _build_one(layout: LayoutSpec, scheme: str, amb: float, mesh_size_mm: float,
     return geo, build_reduced(lambda v: K.variant(geo, options, v), grid, ks, dict(geo.sites), pairs=pairs)
 
 
+#: a file is refused before the reduced models are built if it ends before this fraction of its sites'
+#: slowest t63 in the pre-check's knobless reduced model (its basis is the nominal Krylov space alone, a
+#: few % off the full model's t63; the exact check after the build stays)
+PRECHECK_T63_FRACTION = 0.9
+#: the pre-check's mesh [mm] (at least; min cells 1): the reference unit's t63 there are within 2 % of the
+#: 2 mm mesh's (gyro_x 94 / 96 s, tp1 27 / 27 s, accel_z 104 / 106 s) at a third of the CPU (12 / 33 s)
+PRECHECK_MESH_MM = 6.0
+
+
+def model_t63_s(layout: LayoutSpec, scheme: str, amb: float, sites, mesh_size_mm: float, min_cells: int,
+                options: ModelOptions) -> dict:
+    """Nominal t63 [s] of ``sites`` of one (scheme, ambient [degC]): a reduced model without knobs (one
+    nonlinear steady solve and the nominal Krylov basis: a small part of a full build), rise to 2e4 s."""
+    from dataclasses import replace
+    lay = replace(layout, ambient_C=amb, mounting=replace(layout.mounting, temperature_C=amb))
+    geo = build_geometry(lay, scheme)
+    grid = build_mesh(geo, mesh_size_mm, min_cells)
+    rom = build_reduced(lambda v: K.variant(geo, options, v), grid, [], {s: geo.sites[s] for s in sites})
+    fine = np.geomspace(1.0, 2.0e4, 400)
+    curves = rom.rise({}, fine)
+    out = {}
+    for j, s in enumerate(rom.site_names):
+        fin = curves[-1, j]
+        out[s] = float(np.interp(0.632 * fin, curves[:, j], fine)) if fin > 0 else math.nan
+    return out
+
+
+def check_inputs(runs, layout: LayoutSpec, holdout: str | None, *, mesh_size_mm: float, min_cells: int,
+                 options: ModelOptions, say=None) -> None:
+    """Everything about the measured files that can be refused before the reduced models are built:
+    a ``holdout`` naming no file, and a file without a steady row that ends before
+    :data:`PRECHECK_T63_FRACTION` of its slowest site's t63 (:func:`model_t63_s` on a mesh of at least
+    :data:`PRECHECK_MESH_MM`, once per (scheme, ambient)). ``mesh_size_mm``, ``min_cells``: the run's mesh."""
+    if holdout not in (None, "auto") and not any(r.path == holdout or r.name == holdout for r in runs):
+        raise InputError(f"--holdout {holdout!r}: not one of the measured files ({', '.join(r.path for r in runs)})")
+    t63 = {}
+    for run in runs:
+        if np.isinf(run.times_s).any():
+            continue
+        key = (run.scheme, run.ambient_C)
+        if key not in t63:
+            if say:
+                say(f"time constants of {run.scheme} at {run.ambient_C:g} C (a reduced model without knobs)")
+            sites = sorted({s for r in runs if (r.scheme, r.ambient_C) == key for s in r.sites})
+            t63[key] = model_t63_s(layout, run.scheme, run.ambient_C, sites, max(mesh_size_mm, PRECHECK_MESH_MM),
+                                   1, options)
+        slowest = max(t63[key][s] for s in run.sites)
+        last = float(run.times_s.max())
+        if last < PRECHECK_T63_FRACTION * slowest:
+            raise InputError(f"{run.path}:{run.lines[-1]}: the file ends at {last:g} s, before the model's time "
+                             f"constant (~{slowest:.0f} s, t63 of its slowest site): nothing to correlate the "
+                             f"plateau with; add later readings or a steady row (time_s = inf)")
+
+
 def build_models(keys, layout: LayoutSpec | str | None = None, *, mesh_size_mm: float = DEFAULT_MAX_CELL_MM,
                  min_cells: int = DEFAULT_MIN_CELLS, options: ModelOptions | None = None, jobs: int = 1,
                  progress=None) -> Models:
@@ -638,6 +692,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         layout = load_layout(layout)
     options = options or ModelOptions()
     if models is None:
+        check_inputs(runs, layout, holdout, mesh_size_mm=mesh_size_mm, min_cells=min_cells, options=options, say=say)
         models = build_models(sorted({(r.scheme, r.ambient_C) for r in runs}), layout, mesh_size_mm=mesh_size_mm,
                               min_cells=min_cells, options=options, jobs=jobs, progress=say)
     missing = sorted({(r.scheme, r.ambient_C) for r in runs} - set(models.roms))

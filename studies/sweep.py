@@ -42,7 +42,7 @@ from imutherm import InputError
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import default_layout_path, parse_layout
 from imutherm.geometry.materials import PROPERTY_UNITS, get_material, settable_properties, with_properties
-from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
+from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, grid_shape
 from imutherm.thermal.model import ModelOptions
 
 try:  # Python >= 3.11
@@ -60,6 +60,11 @@ STEADY_S_PER_UNKNOWN = 4.0e-5
 #: grease: the transient adds 25.1 s to a ~7 s steady case; measured with the θ-scheme steps, the adaptive
 #: TR-BDF2 default was not re-measured for this estimate)
 TRANSIENT_FACTOR = 4.5
+#: most cases of one sweep: 1e5 cases at the default mesh are ~9 days of one core (7.4 s each); more is a
+#: typing error (1,000 x 1,000 values) rather than a study. Counted before the design is expanded.
+MAX_CASES = 100_000
+#: default most estimated CPU time of a sweep's cases [h] (``--max-cpu-hours``): a week of one core
+MAX_CPU_HOURS = 168.0
 #: optional numeric fields a layout table may leave out (their defaults apply) but a sweep may set
 _OPTIONAL_FIELDS = {"components": ("power_W", "die_base_mm"), "parts": ("power_W",),
                     "mounting": ("temperature_C",), "schemes": ("max_bond_gap_mm",)}
@@ -321,6 +326,22 @@ def _split_set(item: str) -> tuple:
     return key, text
 
 
+def count_cases(factors, method: str, samples: int | None) -> int:
+    """Cases [-] of the design of ``factors``, in O(factors): the product of the value counts (grid),
+    ``samples`` (lhs) or ``samples`` x (factors + 1) (morris); 0 if ``samples`` is missing (refused later)."""
+    if method == "grid":
+        return math.prod(len(f.values) for f in factors)
+    if samples is None or samples < 1:
+        return 0
+    return int(samples) * (len(factors) + 1 if method == "morris" else 1)
+
+
+def _count_words(factors, method: str, samples) -> str:
+    if method == "grid":
+        return " x ".join(f"{len(f.values):,}" for f in factors) + " values"
+    return f"--samples {samples:,}" + (f" x {len(factors) + 1} (inputs + 1)" if method == "morris" else "")
+
+
 def _design_matrix(factors, method: str, samples: int | None, seed: int | None) -> np.ndarray:
     if method == "grid":
         return np.array(list(itertools.product(*(f.values for f in factors))), float)
@@ -374,7 +395,8 @@ def _case(case_id: int, values, factors, raw: dict, path: str, settings: CaseSet
         geometry = build_geometry(layout, settings.scheme)
         overrides = tuple(with_properties(get_material(m), f"--set materials.{m}", **ch) for m, ch in mats.items())
         options = base.with_(**opts, materials=base.materials + overrides)
-        unknowns = build_mesh(geometry, settings.mesh_size_mm, settings.min_cells).n_nodes
+        # counted from the grid lines alone (the mesh of every case is not built at planning)
+        unknowns = int(np.prod([n + 1 for n in grid_shape(geometry, settings.mesh_size_mm, settings.min_cells)]))
     except InputError as exc:
         raise InputError(f"--set: case {case_id} ({what}) is refused: {exc}") from None
     return Case(case_id, tuple(values), layout, options), unknowns
@@ -388,7 +410,7 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
                samples: int | None = None, seed: int | None = None, options: ModelOptions | None = None,
                mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
                transient: bool = False, t_end: float = 1200.0, attitude: bool = False,
-               attitude_seeds: int = 1) -> SweepPlan:
+               attitude_seeds: int = 1, max_cpu_hours: float = None) -> SweepPlan:
     """Check a sweep and build every case; nothing runs.
 
     Parameters
@@ -405,8 +427,10 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     attitude : bool, add the attitude-error columns of :func:`attitude_columns` (one call of
         :func:`imutherm.studies.end_to_end.scheme_attitude_metrics` per case, the same seeds in every case)
     attitude_seeds : int, IMU units / noise draws averaged per case (seeds 0 .. n-1)
+    max_cpu_hours : float [h], most estimated CPU time of all cases (default :data:`MAX_CPU_HOURS`): the
+        cases are counted and the first case's mesh estimated before the design is expanded
 
-    Raises InputError on an unknown key (naming the nearest valid ones), a bad value or range,
+    Raises InputError on more than :data:`MAX_CASES` cases or ``max_cpu_hours``, an unknown key (naming the nearest valid ones), a bad value or range,
     or a case the layout, the geometry or the model refuses.
     """
     if method not in METHODS:
@@ -417,6 +441,9 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
         raise InputError("give at least one --set KEY=VALUES")
     if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0):
         raise InputError(f"--t-end must be a finite number > 0 [s], got {t_end!r}")
+    max_cpu_hours = MAX_CPU_HOURS if max_cpu_hours is None else max_cpu_hours
+    if not (isinstance(max_cpu_hours, (int, float)) and math.isfinite(max_cpu_hours) and max_cpu_hours > 0):
+        raise InputError(f"--max-cpu-hours must be a finite number > 0 [h], got {max_cpu_hours!r}")
     if not (isinstance(attitude_seeds, int) and 1 <= attitude_seeds <= 1000):
         raise InputError(f"--attitude-seeds must be an integer in 1..1000, got {attitude_seeds!r}")
     path = Path(layout_path) if layout_path else default_layout_path()
@@ -443,6 +470,17 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
         values, bounds = parse_values(key, text, method)
         factors.append(Factor(key, values, bounds, valid[key]))
     factors = tuple(factors)
+    n_cases = count_cases(factors, method, samples)  # before the design is expanded
+    if n_cases > MAX_CASES:
+        raise InputError(f"--set: {n_cases:,} cases ({_count_words(factors, method, samples)}), more than the limit "
+                         f"of {MAX_CASES:,}; use fewer values per --set, fewer keys or a smaller --samples "
+                         "(an lhs / morris design samples many inputs in few cases)")
+    unknowns0 = int(np.prod([n + 1 for n in grid_shape(build_geometry(base_layout, scheme), mesh_size_mm, min_cells)]))
+    cpu_s = n_cases * unknowns0 * STEADY_S_PER_UNKNOWN * (TRANSIENT_FACTOR if transient else 1.0)
+    if cpu_s > max_cpu_hours * 3600.0:
+        raise InputError(f"--set: {n_cases:,} cases of ~{unknowns0:,} unknowns, estimated {cpu_s / 3600:,.3g} h of "
+                         f"one core, more than --max-cpu-hours {max_cpu_hours:g}; use fewer cases, a larger "
+                         "--mesh-size, or a larger --max-cpu-hours (a Dask cluster divides it over its workers)")
     X = _design_matrix(factors, method, samples, seed)
 
     sites = tuple(s.name for s in base_layout.sites)
@@ -575,27 +613,68 @@ def _parse_cell(column: str, text: str):
     return float(text) if text != "" else None
 
 
-def read_results(path: Path, columns) -> list:
-    """Rows of a ``results.csv`` (a partial last line, cut by a kill mid-write, is dropped from the file)."""
+def _damaged(path: Path, lineno: int, what: str) -> InputError:
+    return InputError(f"{path}:{lineno}: {what}; the file is damaged: delete that line to run its case again "
+                      "with --resume (or start a new --out)")
+
+
+def read_results(path: Path, columns, cases=None, keys=()) -> list:
+    """Rows of a ``results.csv``, checked line by line; a damaged line is refused naming it.
+
+    A partial last line (no newline: a kill mid-write cut it) is the one repair made, as it is provably
+    safe: it is dropped from the file and its case runs again. Every other line must decode as UTF-8, have
+    the header's fields, an integer case id of the design (``cases``: the plan's cases, None: not checked),
+    numbers in the numeric columns, status ok or failed, and inputs (``keys``: the plan's input columns) equal
+    to its case's in the design.
+    """
     data = path.read_bytes()
     if data and not data.endswith(b"\n"):
         cut = data.rfind(b"\n") + 1
         with open(path, "r+b") as fh:
             fh.truncate(cut)
         data = data[:cut]
-    reader = csv.reader(io.StringIO(data.decode()))
-    header = next(reader, None)
-    if header is None:
+    lines = data.split(b"\n")[:-1] if data else []
+    if not lines:
         return []
+    texts = []
+    for i, raw in enumerate(lines, start=1):
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise _damaged(path, i, f"not UTF-8 text (byte {exc.start + 1})") from None
+        if "\0" in text:
+            raise _damaged(path, i, "a NUL byte")
+        texts.append(text)
+    try:
+        parsed = [next(csv.reader([t])) if t else [] for t in texts]
+    except csv.Error as exc:
+        raise InputError(f"{path}: not a valid CSV: {exc}") from None
+    header = parsed[0]
     if tuple(header) != tuple(columns):
-        raise InputError(f"{path}: its columns {header} are not this sweep's {list(columns)}")
+        raise _damaged(path, 1, f"its columns {header} are not this sweep's {list(columns)}")
     rows, seen = [], set()
-    for line in reader:
+    for i, line in enumerate(parsed[1:], start=2):
         if len(line) != len(columns):
-            raise InputError(f"{path}: a row has {len(line)} fields, expected {len(columns)}: {line}")
-        row = {c: _parse_cell(c, t) for c, t in zip(columns, line)}
+            raise _damaged(path, i, f"{len(line)} fields, the header has {len(columns)}")
+        row = {}
+        for c, t in zip(columns, line):
+            try:
+                row[c] = _parse_cell(c, t)
+            except ValueError:
+                what = "an integer case id" if c == "case" else "a number"
+                raise _damaged(path, i, f"column {c!r} holds {t[:40]!r}, not {what}") from None
+        if row["status"] not in ("ok", "failed"):
+            raise _damaged(path, i, f"status {row['status'][:40]!r} is neither ok nor failed")
         if row["case"] in seen:
-            raise InputError(f"{path}: case {row['case']} is recorded twice")
+            raise _damaged(path, i, f"case {row['case']} is recorded twice")
+        if cases is not None:
+            if not 0 <= row["case"] < len(cases):
+                raise _damaged(path, i, f"case id {row['case']} is not in this design (0..{len(cases) - 1})")
+            design = dict(zip(keys, cases[row["case"]].values))
+            off = [k for k, v in design.items() if k in row and row[k] != v]
+            if off:
+                raise _damaged(path, i, f"case {row['case']}'s {off[0]} = {row[off[0]]!r} is not the design's "
+                                        f"{design[off[0]]!r}")
         seen.add(row["case"])
         rows.append(row)
     return rows
@@ -806,19 +885,22 @@ def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resum
         if not json_path.is_file():
             raise InputError(f"--resume: {json_path} not found; start the sweep without --resume")
         try:
-            old = json.loads(json_path.read_text())["design"]
-        except (ValueError, KeyError) as exc:
-            raise InputError(f"--resume: {json_path} is not a sweep record: {exc}") from None
+            old = json.loads(json_path.read_bytes().decode("utf-8"))["design"]
+            if not isinstance(old, dict):
+                raise TypeError("its design is not a table")
+        except UnicodeDecodeError as exc:
+            raise InputError(f"--resume: {json_path} is damaged (not UTF-8 text at byte {exc.start + 1}); "
+                             "start the sweep in a new --out") from None
+        except (ValueError, KeyError, TypeError) as exc:
+            raise InputError(f"--resume: {json_path} is not a sweep record ({type(exc).__name__}: {exc}); "
+                             "start the sweep in a new --out") from None
         diff = _design_mismatch(old, plan.design)
         if diff:
             raise InputError(f"--resume: this sweep's design differs from the one recorded in {json_path} "
                              f"in {', '.join(diff)}; give the same --set, --method, --samples, --seed, layout, "
                              "scheme, mesh and model options, or a new --out")
         if csv_path.exists():
-            rows = read_results(csv_path, plan.columns)
-            bad = [r["case"] for r in rows if not 0 <= r["case"] < len(plan.cases)]
-            if bad:
-                raise InputError(f"{csv_path}: case ids {bad} are not in this design (0..{len(plan.cases) - 1})")
+            rows = read_results(csv_path, plan.columns, plan.cases, plan.keys)
     else:
         if csv_path.exists() or json_path.exists():
             raise InputError(f"--out {out} already holds a sweep ({RESULTS_CSV}/{SWEEP_JSON}); "

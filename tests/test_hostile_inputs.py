@@ -469,13 +469,21 @@ def test_working_directory_as_out_is_updated_file_by_file(tmp_path, monkeypatch)
 
 
 # --------------------------------------------------------------------------- killed runs (subprocesses)
-def _spawn(out: Path, pause: str | None = None, extra=()):
+def _default_sigint():
+    """In the child before exec: the default SIGINT handler. A test run started as a background job of a
+    non-interactive shell has SIGINT ignored, and children inherit that (the commands keep honouring an
+    inherited ignore, as programs conventionally do); the tests send SIGINT and expect Ctrl-C's handling."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def _spawn(out: Path, pause: str | None = None, extra=(), sigint=_default_sigint):
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
     if pause:
         env.update(IMUTHERM_TEST_PAUSE=pause, IMUTHERM_TEST_PAUSE_S="60")
     code = "import sys; from imutherm.cli import main; sys.exit(main(sys.argv[1:]))"
     return subprocess.Popen([sys.executable, "-c", code, "solve", "--scheme", "grease", "--out", str(out),
-                             *extra, *COARSE, *LINEAR], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                             *extra, *COARSE, *LINEAR], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=sigint)
 
 
 def _wait_for_pause(proc, stage):
@@ -624,3 +632,228 @@ def test_study_cost_counts_the_imu_work():
     two = check_study_cost(StudyConfig(), 3, 3, 1e15)          # two workers share the cases (given two CPUs)
     assert two["seconds"] == pytest.approx(w["seconds"] / min(2, os.cpu_count() or 1))
     assert two["memory_bytes"] > w["memory_bytes"]
+
+
+# --------------------------------------------------------------------------- issue 26: cost, order, no reinterpretation
+@pytest.fixture
+def no_expensive(no_work, monkeypatch):
+    """Besides :func:`no_work`: the s2s view factors, the sweep's cases, correlate's reduced models and its
+    time-constant pre-check fail the test if they start (the refusal must come before them)."""
+    import imutherm.studies.correlation as corr
+    import imutherm.studies.sweep as sw
+    import imutherm.thermal.cavity_radiation as cr
+
+    monkeypatch.setattr(cr, "view_factors", _fail)
+    monkeypatch.setattr(sw, "run_case", _fail)
+    monkeypatch.setattr(corr, "build_models", _fail)
+    monkeypatch.setattr(corr, "model_t63_s", _fail)
+
+
+TEMPS = "time_s,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n"
+MEASURED = {  # name -> (text, expected tokens)
+    "kelvin": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n300,358.1\ninf,363.15\n", ["kelvin", "ambient_C"]),
+    "kelvin_power_on": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,343.15\n300,358.1\n", ["kelvin", "power-on"]),
+    "fahrenheit": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,158\n300,190\n", ["degF", "power-on"]),
+    "one_row": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,70\n", ["one row"]),
+}
+ISSUE26 = {  # name -> (argv without --out, expected tokens); files from _issue26_files
+    "s2s_patches_solve": (["solve", "--cavity-law", "s2s", "--cavity-patch-mm", "0.001", "--max-memory", "2G"],
+                          ["cavity patches", "--cavity-patch-mm"]),
+    "s2s_patches_compare": (["compare", "--thermal-only", "--cavity-law", "s2s", "--cavity-patch-mm", "0.001",
+                             "--max-memory", "2G"], ["cavity patches", "--cavity-patch-mm"]),
+    "s2s_patches_sweep": (["sweep", "--set", "environment.ambient_C=20,30", "--cavity-law", "s2s",
+                           "--cavity-patch-mm", "0.001", "--max-memory", "2G"], ["cavity patches"]),
+    "s2s_patches_correlate": (["correlate", "--measured", "{paper_air}", "--cavity-law", "s2s",
+                               "--cavity-patch-mm", "0.001", "--max-memory", "2G"], ["cavity patches"]),
+    "sweep_1000x1000": (["sweep", "--set", "environment.ambient_C=20:60:1000", "--set",
+                         "mounting.temperature_C=20:60:1000"], ["1,000,000 cases", "limit"]),
+    "sweep_cpu_hours": (["sweep", "--set", "environment.ambient_C=20:60:300", "--set", "mounting.temperature_C=20:60:300",
+                         "--mesh-size", "2"], ["90,000 cases", "--max-cpu-hours"]),
+    "sweep_memory_jobs": (["sweep", "--set", "environment.ambient_C=20,30", "--jobs", "2", "--max-memory", "150M"],
+                          ["worker", "--max-memory"]),
+    "correlate_holdout_unknown": (["correlate", "--measured", "{paper_air}", "--holdout", "nope.csv"], ["--holdout"]),
+    "correlate_build_memory": (["correlate", "--measured", "{paper_air}", "{paper_grease}", "--jobs", "2",
+                                "--max-memory", "1G", "--mesh-size", "2"], ["reduced model", "--max-memory"]),
+    "effect_repeated_key": (["solve", "--effect", "contact@bond:h_W_m2K=300,h_W_m2K=5000"], ["given twice"]),
+    "attitude_csv_late": (["attitude", "--profile", "static", "--duration", "20", "--temperature-csv", "{late}"],
+                          ["1e+06..2e+06", "do not cover"]),
+    "attitude_csv_negative": (["attitude", "--profile", "static", "--duration", "20", "--temperature-csv", "{negative}"],
+                              ["-100..-1", "do not cover"]),
+    # options the combination would ignore (cli/_ignored.py): one case per row of the table
+    "ignored_solve_time": (["solve", "--t-end", "600"], ["--t-end", "without --transient"]),
+    "ignored_compare_time": (["compare", "--steady-only", "--dt", "5"], ["--dt", "with --steady-only"]),
+    "ignored_compare_imu": (["compare", "--thermal-only", "--seeds", "2"], ["--seeds", "--thermal-only"]),
+    "ignored_signal_effect": (["solve", "--effect", "probe_lag:tau_s=30"], ["--effect", "without --transient"]),
+    "ignored_sweep_t_end": (["sweep", "--set", "environment.ambient_C=20,30", "--t-end", "100"], ["--t-end"]),
+    "ignored_sweep_attitude_seeds": (["sweep", "--set", "environment.ambient_C=20,30", "--attitude-seeds", "2"],
+                                     ["--attitude-seeds", "without --attitude"]),
+    "ignored_patch_no_cavity": (["solve", "--cavity-patch-mm", "2", "--no-cavity-radiation"],
+                                ["--cavity-patch-mm", "--no-cavity-radiation"]),
+    "ignored_patch_without_s2s": (["correlate", "--measured", "{paper_air}", "--cavity-law", "effective",
+                                   "--cavity-patch-mm", "2"], ["--cavity-patch-mm", "without --cavity-law s2s"]),
+    "ignored_h": (["sweep", "--set", "environment.ambient_C=20,30", "--h", "5"], ["--h", "--exterior fixed"]),
+    "ignored_emissivity": (["compare", "--emissivity", "0.5", "--no-radiation"], ["--emissivity", "--no-radiation"]),
+    "ignored_load_dependence": (["calibrate", "--load-dependence"], ["--load-dependence", "--procedure overload"]),
+    "ignored_rig_options": (["calibrate", "--procedure", "roll-coupling", "--interp", "segment"], ["--interp"]),
+    "ignored_profile_options": (["attitude", "--imu-csv", "{late}", "--duration", "5"], ["--duration", "--imu-csv"]),
+    "ignored_log_options": (["attitude", "--profile", "static", "--platform", "vehicle"],
+                            ["--platform", "without --imu-csv"]),
+    **{f"measured_{k}": (["correlate", "--measured", f"{{{k}}}"], v[1]) for k, v in MEASURED.items()},
+}
+
+
+def _issue26_files(tmp_path: Path) -> dict:
+    ex = Path(__file__).resolve().parents[1] / "examples" / "measured"
+    files = {"paper_air": str(ex / "paper_000_air.csv"), "paper_grease": str(ex / "paper_000_grease.csv")}
+    for name, (text, _) in MEASURED.items():
+        (tmp_path / f"{name}.csv").write_text(text)
+        files[name] = str(tmp_path / f"{name}.csv")
+    (tmp_path / "late.csv").write_text(TEMPS + "1e6,25,25,25,25,25,25\n2e6,26,26,26,26,26,26\n")
+    (tmp_path / "negative.csv").write_text(TEMPS + "-100,25,25,25,25,25,25\n-1,26,26,26,26,26,26\n")
+    files.update(late=str(tmp_path / "late.csv"), negative=str(tmp_path / "negative.csv"))
+    return files
+
+
+@pytest.mark.parametrize("case", list(ISSUE26))
+def test_refused_before_the_work(case, out, tmp_path, capsys, no_expensive):
+    """Each refusal class of issue 26: one line, exit 2, ``--out`` untouched, and none of the expensive steps
+    (meshing for the solve, the s2s view factors, the sweep's cases, the reduced models, the studies) started."""
+    files = _issue26_files(tmp_path)
+    argv, expect = ISSUE26[case]
+    argv = [a.format(**files) for a in argv]
+    coarse = [] if "--mesh-size" in argv or argv[0] in ("calibrate", "attitude") else COARSE
+    before = _snapshot(out)
+    code, err = _run(argv + coarse + ["--out", str(out)], capsys)
+    _assert_refused(code, err, expect)
+    assert _snapshot(out) == before
+
+
+def test_correlate_short_file_refused_before_the_build(out, tmp_path, capsys, no_expensive, monkeypatch):
+    """A file ending before its sites' t63 is refused by the pre-check (a knobless reduced model, here
+    replaced by its answer) before the reduced models are built (build_models fails the test)."""
+    import imutherm.studies.correlation as corr
+
+    seen = []
+
+    def t63(layout, scheme, amb, sites, mesh, min_cells, options):
+        seen.append((scheme, amb, mesh))
+        return {s: 100.0 for s in sites}
+
+    monkeypatch.setattr(corr, "model_t63_s", t63)
+    short = tmp_path / "short.csv"
+    short.write_text("# scheme = grease\n# ambient_C = 70\ntime_s,tp1,gyro_x\n0,70,70\n10,72,70.5\n20,73,71\n")
+    before = _snapshot(out)
+    code, err = _run(["correlate", "--measured", str(short), "--out", str(out)] + COARSE, capsys)
+    _assert_refused(code, err, [f"{short}:6", "ends at 20 s", "~100 s"])
+    assert seen == [("grease", 70.0, corr.PRECHECK_MESH_MM)] and _snapshot(out) == before
+
+
+def test_s2s_default_patches_pass_the_cost_model_with_margin():
+    """With --cavity-law s2s (the default law may become s2s) the default patch size on the default mesh is
+    far inside the limits: under a tenth of the patch limit, of an hour of CPU and of 1 GiB."""
+    from imutherm.budget import MAX_PATCHES, MAX_S2S_S, s2s_cost
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS
+    from imutherm.thermal.model import ModelOptions, s2s_patches
+
+    opts = ModelOptions(cavity_law="s2s")
+    for scheme in ("air", "grease", "potted"):
+        n = s2s_patches(build_geometry(load_layout(None), scheme), opts, DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS)
+        mem, sec = s2s_cost(n, opts.cavity_rays)
+        assert n < MAX_PATCHES / 5 and sec < MAX_S2S_S / 10 and mem < 2**30, (scheme, n, mem, sec)
+    assert s2s_patches(build_geometry(load_layout(None), "grease"), ModelOptions(), 6, 1) == 0  # effective law
+
+
+def test_s2s_library_refuses_before_the_dense_arrays(monkeypatch):
+    """The library itself (sweep cases, correlate builds, scripts) counts the patches before view factors."""
+    import imutherm.thermal.cavity_radiation as cr
+    from imutherm import InputError
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.geometry.mesh import build_mesh
+
+    monkeypatch.setattr(cr, "view_factors", _fail)
+    grid = build_mesh(build_geometry(load_layout(None), "air"), 6, 1)
+    air = grid.cell_part == grid.part_names.index("fill")
+    with pytest.raises(InputError, match="cavity patches.*limit of 10,000 patches"):
+        cr.cavity_exchange(grid, air, [0.9] * len(grid.part_names), patch_mm=0.001)
+
+
+SWEEP_ARGV = ["sweep", "--scheme", "grease", "--set", "environment.ambient_C=20,30,40", *COARSE]
+
+
+def _damaged_sweep(folder: Path, damage) -> None:
+    """A sweep record of SWEEP_ARGV's design in ``folder`` (no case run) with ``damage`` applied to its rows."""
+    import json
+
+    from imutherm.studies.sweep import plan_sweep
+
+    plan = plan_sweep(None, "grease", ["environment.ambient_C=20,30,40"], mesh_size_mm=6, min_cells=1)
+    folder.mkdir()
+    (folder / "sweep.json").write_text(json.dumps({"design": plan.design, "status": "running"}, default=str))
+    good = [f"{i},{v:.1f}," + ",".join(["1.0"] * (len(plan.columns) - 5)) + ",ok,,1.0" for i, v in
+            enumerate((20.0, 30.0, 40.0))]
+    (folder / "results.csv").write_bytes(damage(",".join(plan.columns).encode() + b"\n",
+                                                [g.encode() for g in good[:2]]))
+
+
+DAMAGE = {  # name -> (bytes from header and two good rows, expected tokens)
+    "random_bytes": (lambda h, r: h + r[0] + b"\n" + bytes(range(128, 256)) + b"\n", ["results.csv:3", "not UTF-8"]),
+    "nul": (lambda h, r: h + r[0] + b"\n" + r[1].replace(b",ok", b",o\0k") + b"\n", ["results.csv:3", "NUL"]),
+    "case_id_text": (lambda h, r: h + r[0] + b"\n" + b"x" + r[1][1:] + b"\n", ["results.csv:3", "'case'", "integer"]),
+    "value_text": (lambda h, r: h + r[0].replace(b",1.0,", b",hot,", 1) + b"\n", ["results.csv:2", "'hot'"]),
+    "case_id_out_of_design": (lambda h, r: h + b"7" + r[0][1:] + b"\n", ["results.csv:2", "case id 7"]),
+    "input_not_the_design": (lambda h, r: h + r[1].replace(b",30.0,", b",31.0,") + b"\n",
+                             ["results.csv:2", "31.0", "30.0"]),
+    "status": (lambda h, r: h + r[0].replace(b",ok,", b",maybe,") + b"\n", ["results.csv:2", "'maybe'"]),
+    "header": (lambda h, r: b"case,what\n" + r[0] + b"\n", ["results.csv:1", "columns"]),
+}
+
+
+@pytest.mark.parametrize("case", list(DAMAGE))
+def test_damaged_sweep_resume_is_refused_naming_the_row(case, tmp_path, capsys, no_expensive):
+    folder = tmp_path / "sw"
+    _damaged_sweep(folder, DAMAGE[case][0])
+    before = _snapshot(folder)
+    code, err = _run(SWEEP_ARGV + ["--resume", "--out", str(folder)], capsys)
+    _assert_refused(code, err, DAMAGE[case][1])
+    assert _snapshot(folder) == before
+
+
+@pytest.mark.parametrize("text", [bytes(range(256)), b"[1, 2]", b'{"design": 3}', b"{"])
+def test_damaged_sweep_json_is_refused(text, tmp_path, capsys, no_expensive):
+    folder = tmp_path / "sw"
+    _damaged_sweep(folder, lambda h, r: h + r[0] + b"\n")
+    (folder / "sweep.json").write_bytes(text)
+    code, err = _run(SWEEP_ARGV + ["--resume", "--out", str(folder)], capsys)
+    _assert_refused(code, err, ["--resume", "sweep.json"])
+
+
+def test_a_cut_last_row_is_the_one_repair(tmp_path):
+    """A kill mid-write leaves a last line without its newline: dropped (its case runs again), the rest kept."""
+    from imutherm.studies.sweep import plan_sweep, read_results
+
+    plan = plan_sweep(None, "grease", ["environment.ambient_C=20,30,40"], mesh_size_mm=6, min_cells=1)
+    _damaged_sweep(tmp_path / "sw", lambda h, r: h + r[0] + b"\n" + r[1][:12])
+    rows = read_results(tmp_path / "sw" / "results.csv", plan.columns, plan.cases, plan.keys)
+    assert [r["case"] for r in rows] == [0]
+    assert (tmp_path / "sw" / "results.csv").read_bytes().endswith(b",ok,,1.0\n")
+
+
+def test_an_inherited_sigint_ignore_is_honoured(out):
+    """Started with SIGINT ignored (as a background job of a non-interactive shell), the command keeps it,
+    as programs conventionally do: Ctrl-C does not stop it (SIGKILL then does, leaving ``out`` untouched)."""
+    before = _snapshot(out)
+    proc = _spawn(out, pause="solving", sigint=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    _wait_for_pause(proc, "solving")
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=3)
+    except subprocess.TimeoutExpired:
+        pass
+    alive = proc.poll() is None
+    proc.kill()
+    proc.communicate(timeout=60)
+    assert alive, "the run stopped at SIGINT although it was started with SIGINT ignored"
+    assert _snapshot(out) == before

@@ -471,6 +471,10 @@ def cavity_exchange(grid: TensorGrid, air: np.ndarray, emissivity_by_part, *, pa
     """
     patches = find_patches(grid, air, patch_mm)
     if view is None:
+        from imutherm.budget import check_s2s_cost
+
+        # counted before the dense n x n arrays exist: refused beyond the memory available now or the time limit
+        check_s2s_cost(f"cavity law s2s at {patch_mm:g} mm patches", patches.n, rays)
         view = view_factors(grid, air, patches, rays, rng)
     elif view.F.shape != (patches.n, patches.n):
         raise InputError("cavity radiation: the given view factors do not belong to these patches")

@@ -191,8 +191,11 @@ def parse_effect(text: str) -> EffectSetting:
     values = {}
     for item in rest.split(","):
         k, eq, v = item.partition("=")
+        k = k.strip()
+        if k in values:  # a dict would silently keep the last value
+            raise InputError(f"--effect {text!r}: {k} is given twice; give each parameter once")
         try:
-            values[k.strip()] = float(v)
+            values[k] = float(v)
         except ValueError:
             raise InputError(f"--effect {text!r}: {item!r} is not PARAM=NUMBER") from None
         if not eq:

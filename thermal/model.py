@@ -315,6 +315,23 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
                           exchanges)
 
 
+def s2s_patches(geometry: Geometry, options: ModelOptions, mesh_size_mm: float, min_cells: int) -> int:
+    """Patches [-] the ``s2s`` cavity law of ``options`` would exchange between on this mesh (0: no s2s law,
+    or the cavity is not air), counted from the mesh and the faces bounding the air before any view factor
+    or dense array exists (builds the mesh: call it after its own cost was checked)."""
+    from imutherm.geometry.mesh import build_mesh
+    from imutherm.thermal.cavity_radiation import find_patches
+
+    if not options.cavity_radiation or options.cavity_law != "s2s":
+        return 0
+    fill = next((p for p in geometry.parts if p.name == "fill"), None)
+    if fill is None or options.material(fill.material).name != "air":
+        return 0
+    grid = build_mesh(geometry, mesh_size_mm, min_cells)
+    air = grid.cell_part == grid.part_names.index("fill")
+    return int(find_patches(grid, air, options.cavity_patch_mm).n) if air.any() else 0
+
+
 _VIEW_CACHE: dict = {}
 #: the last few exchange laws (X costs a dense radiosity solve of the patches, ~1e9 flops at the default mesh,
 #: and a correlation's reduced model assembles ~80 variants that share the emissivities)
