@@ -7,7 +7,7 @@ to ``field.vtu`` (open it in ParaView: point data ``temperature_C``, cell data `
 back with meshio to draw two slices through the hot spot.
 
 The mesh is coarse (6 mm cells, one cell across the thinnest part) so that the example runs in seconds;
-the default mesh (2 mm, two cells) moves the rises by a few hundredths of a kelvin.
+on the default mesh (2 mm, two cells) the grease scheme's maximum rise is 18.89 K against 18.48 K here.
 """
 
 # %%
