@@ -72,6 +72,9 @@ sphinx_gallery_conf = {
     "abort_on_example_error": True,
     "only_warn_on_example_error": False,
     "show_memory": False,
+    # the examples run two at a time (joblib processes; CI has two cores): the correlation example alone is
+    # about 4 CPU-minutes, the other five together about 2
+    "parallel": int(os.environ.get("IMUTHERM_DOCS_JOBS", "2")),
     "image_scrapers": ("matplotlib",),
     "reset_modules": ("matplotlib",),
     "capture_repr": (),
