@@ -55,9 +55,10 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
     from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM
     from imutherm.thermal.model import CAVITY_LAWS
-    g.add_argument("--cavity-law", choices=CAVITY_LAWS, default="effective",
-                   help="radiation inside the cavity: an effective conductivity of the air (default), s2s "
-                        "(surface-to-surface exchange: view factors and radiosity) or none")
+    g.add_argument("--cavity-law", choices=CAVITY_LAWS, default="s2s",
+                   help="radiation inside the cavity: s2s (default: surface-to-surface exchange, view factors and "
+                        "radiosity), effective (an effective conductivity of the air: faster, but it runs the air "
+                        "scheme ~7 K cool at tp1) or none")
     g.add_argument("--cavity-patch-mm", type=float, default=DEFAULT_PATCH_MM, metavar="MM",
                    help=f"patch edge of --cavity-law s2s [mm] (default {DEFAULT_PATCH_MM:g})")
 
