@@ -181,7 +181,7 @@ def key_unit(key: str) -> str:
         return PROPERTY_UNITS.get(parts[2], "-")
     name = parts[-2] if parts[-1].isdigit() and len(parts) > 1 else parts[-1]
     for suffix, unit in (("_W_m2K", "W/m^2 K"), ("_mm", "mm"), ("_C", "degC"), ("_W", "W"), ("_K", "K"),
-                         ("_s", "s"), ("_deg", "deg")):
+                         ("_s", "s"), ("_deg", "deg"), ("_V", "V"), ("_A", "A")):
         if name.endswith(suffix):
             return unit
     return "-"
