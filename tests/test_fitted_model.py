@@ -1,0 +1,109 @@
+"""``--model DIR/updated_model.toml``: solve, compare and sweep run on the model correlate fitted.
+
+The fitted model acts through the layout (powers) and the model options; the correlation defines its corrected
+model through :func:`imutherm.thermal.knobs.variant`. The two must be the same model: same mesh, same problem,
+the same site rises to round-off. The round trip from hidden-effect data through ``correlate`` is slow."""
+
+import json
+
+import numpy as np
+import pytest
+
+from imutherm.cli import main
+from imutherm.geometry.build import build_geometry
+from imutherm.geometry.layout import load_layout
+from imutherm.geometry.mesh import build_mesh
+from imutherm.studies.fitted_model import apply_fitted, load_fitted_model
+from imutherm.studies.thermal_study import run_scheme
+from imutherm.thermal import knobs as K
+from imutherm.thermal.effects import effect_problem
+from imutherm.thermal.model import ModelOptions
+from imutherm.thermal.solve import solve_steady
+
+MESH = ["--mesh-size", "8", "--min-cells", "1"]
+
+#: every re-tune knob off its nominal value, and one effect of each kind the layout/options carry
+VALUES = {"power_scale": 0.9, "mount_h_W_m2K": 1500.0, "convection_scale": 1.2, "emissivity_ext": 0.8,
+          "k_board_W_mK": 20.0, "power@reg_5v": -0.4, "contact@bond": 2000.0}
+MODEL_TOML = """# written by hand in the form imutherm correlate writes
+[model]
+cavity_law = "effective"
+[correlation]
+verdict = "effect"
+rms_before_K = 2.5
+rms_after_K = 0.4
+[retune]
+power_scale = 0.9
+mount_h_W_m2K = 1500.0
+convection_scale = 1.2
+emissivity_ext = 0.8
+k_board_W_mK = 20.0
+[effects]
+"power@reg_5v" = { extra_W = -0.4 }
+"contact@bond" = { h_W_m2K = 2000.0 }
+"probe_lag" = { tau_s = 30.0 }
+"""
+
+
+def _variant_rises(scheme, values, options, mesh_mm=8.0):
+    """Steady site rises [K] of the correlation's corrected model (knobs.variant), the reference unit."""
+    geo = build_geometry(None, scheme)
+    grid = build_mesh(geo, mesh_mm, 1)
+    v = K.variant(geo, options, values)
+    st = solve_steady(effect_problem(v, grid), probes=dict(v.geometry.sites))
+    return dict(zip(st.probe_names, np.asarray(st.probe_C) - geo.layout.ambient_C))
+
+
+@pytest.fixture
+def model_file(tmp_path):
+    path = tmp_path / "updated_model.toml"
+    path.write_text(MODEL_TOML)
+    return path
+
+
+def test_fitted_model_is_the_correlations_corrected_model(model_file):
+    fitted = load_fitted_model(model_file)
+    assert fitted.options == {"cavity_law": "effective"} and fitted.skipped == ("probe_lag:tau_s=30",)
+    lay, opts, effects = apply_fitted(fitted, load_layout(None), ModelOptions(**fitted.options))
+    assert effects == ()
+    reg = next(c for c in lay.components if c.name == "reg_5v")
+    assert reg.power_W == pytest.approx(0.8974 * 0.9 - 0.4, abs=1e-4) and "fitted" in reg.power_source
+    res = run_scheme(lay, "grease", options=opts, mesh_size_mm=8.0, min_cells=1)
+    ours = dict(zip(res.steady.probe_names, np.asarray(res.steady.probe_C) - 70.0))
+    want = _variant_rises("grease", VALUES, ModelOptions(cavity_law="effective"))
+    for site, rise in want.items():
+        assert ours[site] == pytest.approx(rise, rel=1e-9, abs=1e-9), site
+    # and the fitted values moved it: the nominal model differs by far more than round-off
+    nominal = _variant_rises("grease", {}, ModelOptions(cavity_law="effective"))
+    assert abs(nominal["tp1"] - ours["tp1"]) > 0.3
+
+
+def test_solve_and_compare_name_the_model(model_file, tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["solve", "--scheme", "grease", "--model", str(model_file), "--out", str(out)] + MESH) == 0
+    r = json.loads((out / "result.json").read_text())
+    assert r["model"]["file"] == str(model_file) and r["model"]["rms_after_K"] == 0.4
+    assert r["model"]["not_applied"] == ["probe_lag:tau_s=30"] and r["model_options"]["cavity_law"] == "effective"
+    want = _variant_rises("grease", VALUES, ModelOptions(cavity_law="effective"))
+    assert r["sites"]["tp1"]["rise_K"] == pytest.approx(want["tp1"], rel=1e-9)
+    assert "correlation RMS 2.50 -> 0.40 K" in capsys.readouterr().out
+    out = tmp_path / "c"
+    assert main(["compare", "--schemes", "grease", "--steady-only", "--model", str(model_file),
+                 "--out", str(out)] + MESH) == 0
+    c = json.loads((out / "compare.json").read_text())
+    assert c["model"]["file"] == str(model_file)
+    assert c["schemes"]["grease"]["sites"]["tp1"]["rise_K"] == pytest.approx(want["tp1"], rel=1e-9)
+
+
+def test_bad_model_files_are_refused(model_file, tmp_path, capsys):
+    # the file fixes the laws it was fitted with: a different one on the command line is refused
+    assert main(["solve", "--model", str(model_file), "--cavity-law", "none", "--out", str(tmp_path / "a")]
+                + MESH) == 2
+    assert "fitted with the model switches cavity_law=effective" in capsys.readouterr().err
+    bad = tmp_path / "bad.toml"
+    bad.write_text(MODEL_TOML.replace("power_scale = 0.9", "power_scale = 3.0"))
+    assert main(["solve", "--model", str(bad), "--out", str(tmp_path / "b")] + MESH) == 2
+    err = capsys.readouterr().err
+    assert "power_scale = 3.0 is outside its source's range 0.85..1.15" in err and str(bad) in err
+    assert main(["solve", "--model", str(tmp_path / "missing.toml"), "--out", str(tmp_path / "c")] + MESH) == 2
+    assert "no such file" in capsys.readouterr().err
