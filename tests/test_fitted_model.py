@@ -5,6 +5,7 @@ model through :func:`imutherm.thermal.knobs.variant`. The two must be the same m
 the same site rises to round-off. The round trip from hidden-effect data through ``correlate`` is slow."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -107,3 +108,42 @@ def test_bad_model_files_are_refused(model_file, tmp_path, capsys):
     assert "power_scale = 3.0 is outside its source's range 0.85..1.15" in err and str(bad) in err
     assert main(["solve", "--model", str(tmp_path / "missing.toml"), "--out", str(tmp_path / "c")] + MESH) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_round_trip_correlate_then_solve_and_compare_on_the_fitted_model(tmp_path):
+    """0.35 W hidden at the 5 V regulator (full-model data, ±10 % nuisance, noise) on a coarse mesh ->
+    ``correlate`` -> ``solve --model`` and ``compare --model`` give the corrected model's rises and name it."""
+    from imutherm.studies.hidden_effect import make_case
+
+    case = make_case(tmp_path / "case", "power@reg_5v", np.random.default_rng(3), mesh_size_mm=6.0, min_cells=1,
+                     value=0.35, samples=30)
+    out = tmp_path / "corr"
+    mesh = ["--mesh-size", "6", "--min-cells", "1"]
+    assert main(["correlate", "--measured", *map(str, case.files), "--no-report", "--jobs", "1",
+                 "--out", str(out)] + mesh) == 0
+    data = json.loads((out / "correlation.json").read_text())
+    model_path = out / "updated_model.toml"
+    fitted = load_fitted_model(model_path)
+    assert fitted.options["cavity_law"] == "s2s" and Path(fitted.layout) == Path(load_layout(None).path).resolve()
+    assert fitted.correlation["rms_after_K"] == pytest.approx(data["rms_after_K"], rel=1e-5)
+    if data["verdict"] == "effect":
+        assert [e.name for e in fitted.effects] == [data["named_effect"]]
+    for name, p in data["parameters"].items():  # the file holds the fit's values (6 significant digits)
+        v = fitted.retune.get(name) if p["kind"] == "retune" else fitted.effects[0].values[0][1]
+        assert v == pytest.approx(p["value"], rel=1e-5), name
+    values = dict(fitted.retune, **{e.name: e.values[0][1] for e in fitted.effects})
+    want = {s: _variant_rises(s, values, ModelOptions(), 6.0) for s in ("air", "grease")}
+    assert main(["solve", "--scheme", "air", "--model", str(model_path), "--out", str(tmp_path / "s")] + mesh) == 0
+    r = json.loads((tmp_path / "s" / "result.json").read_text())
+    assert r["model"]["file"] == str(model_path)
+    for site, rise in want["air"].items():
+        assert r["sites"][site]["rise_K"] == pytest.approx(rise, rel=1e-7), site
+    assert main(["compare", "--steady-only", "--schemes", "air,grease", "--model", str(model_path),
+                 "--out", str(tmp_path / "c")] + mesh) == 0
+    c = json.loads((tmp_path / "c" / "compare.json").read_text())
+    for s in ("air", "grease"):
+        assert c["schemes"][s]["sites"]["tp1"]["rise_K"] == pytest.approx(want[s]["tp1"], rel=1e-7)
+    assert c["model"]["rms_before_K"] == pytest.approx(data["rms_before_K"], rel=1e-5)
+    # the nominal model is off by the hidden 0.35 W: the fitted one is a different model
+    assert abs(_variant_rises("air", {}, ModelOptions(), 6.0)["tp1"] - want["air"]["tp1"]) > 0.5
