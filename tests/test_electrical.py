@@ -47,6 +47,9 @@ def test_supply_voltage_moves_only_the_first_regulator():
     assert knob.lo == pytest.approx((6.2 - 9.0) * i_in, rel=1e-12)
     assert knob.hi == pytest.approx((12.0 - 9.0) * i_in, rel=1e-12)
     assert "the paper states none" in source and "6.2..12 V" in source
+    from imutherm.thermal.knobs import RETUNE, uncertain_inputs
+    inputs = uncertain_inputs(build_geometry(None, "air"))
+    assert inputs[:len(RETUNE)] == RETUNE and inputs[-1] == (knob, source)
 
 
 def test_switching_regulator_loss_from_its_efficiency(write_layout):

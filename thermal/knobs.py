@@ -149,6 +149,19 @@ def supply_power_knob(geometry: Geometry) -> tuple:
             f"x {slope * 1e3:.4g} mA drawn by {reg}")
 
 
+def uncertain_inputs(geometry: Geometry) -> tuple:
+    """Every uncertain input of the unit's model as ((Knob, source), ...): the re-tune knobs (:data:`RETUNE`)
+    and, if the layout states an electrical design with one linear regulator on the supply, the supply
+    voltage's range as that regulator's ``power@`` knob (:func:`supply_power_knob`)."""
+    out = tuple(RETUNE)
+    if geometry.layout.electrical is not None:
+        try:
+            out += (supply_power_knob(geometry),)
+        except InputError:
+            pass  # no single linear regulator on the supply: its voltage moves no one part's power alone
+    return out
+
+
 def model_effect_names() -> tuple:
     return tuple(n for n in candidate_names() if EFFECTS[n.split("@")[0]].kind == "model")
 
