@@ -147,3 +147,26 @@ def test_round_trip_correlate_then_solve_and_compare_on_the_fitted_model(tmp_pat
     assert c["model"]["rms_before_K"] == pytest.approx(data["rms_before_K"], rel=1e-5)
     # the nominal model is off by the hidden 0.35 W: the fitted one is a different model
     assert abs(_variant_rises("air", {}, ModelOptions(), 6.0)["tp1"] - want["air"]["tp1"]) > 0.5
+
+
+def test_updated_model_toml_reads_back(tmp_path):
+    """What correlate writes (updated_model_toml) is what --model reads: layout, switches, RMS, values."""
+    from imutherm.studies.correlation import CorrelationResult, Fit, updated_model_toml
+
+    vals = {"power_scale": 0.9, "mount_h_W_m2K": 1234.5, "power@reg_5v": -0.3}
+    after = Fit("power@reg_5v", vals, 0.2, 0.3, 4, 4.0, 3, float("nan"), 0.25, 0.3)
+    retune = Fit("none", {"power_scale": 0.95}, 1.1, 1.5, 4, 4.0, 2, float("nan"), 1.3, 1.6)
+    res = CorrelationResult("effect", "power@reg_5v", (), {"rms_K": 2.0, "max_K": 3.0, "heldout_rms_K": 2.1},
+                            after, retune, (after,), {}, {}, 0.5, {}, (), {}, {"reason": "test", "total_s": 1.0},
+                            "a test", {"rms_K": 0.22, "max_K": 0.31})
+    opts = ModelOptions(cavity_law="s2s", mounting_conductance_W_m2K=800.0)
+    path = tmp_path / "updated_model.toml"
+    path.write_text(updated_model_toml(res, load_layout(None).path, opts))
+    m = load_fitted_model(path)
+    assert Path(m.layout) == Path(load_layout(None).path).resolve()
+    assert m.options["cavity_law"] == "s2s" and m.options["mounting_conductance_W_m2K"] == 800.0
+    assert m.retune == {"power_scale": 0.9, "mount_h_W_m2K": 1234.5}
+    assert [e.text() for e in m.effects] == ["power@reg_5v:extra_W=-0.3"]
+    assert m.correlation["verdict"] == "effect" and m.correlation["rms_before_K"] == 2.0
+    assert m.correlation["rms_after_K"] == 0.22 and m.correlation["after_from"] == "full model re-run"
+    assert "correlation RMS 2.00 -> 0.22 K" in m.line()
