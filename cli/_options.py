@@ -76,9 +76,10 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
     from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM
     from imutherm.thermal.model import CAVITY_LAWS
-    g.add_argument("--cavity-law", choices=CAVITY_LAWS, default="effective",
-                   help="radiation inside the cavity: an effective conductivity of the air (default), s2s "
-                        "(surface-to-surface exchange: view factors and radiosity) or none")
+    g.add_argument("--cavity-law", choices=CAVITY_LAWS, default="s2s",
+                   help="radiation inside the cavity: s2s (default: surface-to-surface exchange, view factors and "
+                        "radiosity), effective (an effective conductivity of the air: faster, but it runs the air "
+                        "scheme ~7 K cool at tp1) or none")
     g.add_argument("--cavity-patch-mm", type=float, default=DEFAULT_PATCH_MM, metavar="MM",
                    help=f"patch edge of --cavity-law s2s [mm] (default {DEFAULT_PATCH_MM:g})")
 
@@ -91,6 +92,41 @@ def model_options(args):
                         emissivity=args.emissivity, mounting_conductance_W_m2K=args.mount_conductance,
                         cavity_radiation=not args.no_cavity_radiation, cavity_law=args.cavity_law,
                         cavity_patch_mm=args.cavity_patch_mm)
+
+
+def add_fitted_model_argument(parser: argparse.ArgumentParser) -> None:
+    """``--model FILE``: run on the model ``imutherm correlate`` fitted (its ``updated_model.toml``)."""
+    parser.add_argument("--model", default=None, metavar="FILE",
+                        help="run on the model imutherm correlate fitted (DIR/updated_model.toml): its re-tuned "
+                             "values and named effect, on the layout and model switches it was fitted with")
+
+
+def run_inputs(args) -> tuple:
+    """(LayoutSpec, ModelOptions, effects, FittedModel or None) of a run: the CLI's layout and model switches,
+    or with ``--model FILE`` the fitted model on them (:func:`imutherm.studies.fitted_model.apply_fitted`).
+
+    A model file that records the switches it was fitted with fixes them: a different switch given on the
+    command line is refused (the fitted values belong to those laws). Without LAYOUT, the model's layout.
+    """
+    from imutherm.geometry.layout import load_layout
+    from imutherm.thermal.model import ModelOptions
+
+    cli = model_options(args)
+    if getattr(args, "model", None) is None:
+        return load_layout(args.layout), cli, (), None
+    from imutherm.studies.fitted_model import apply_fitted, load_fitted_model
+
+    fitted = load_fitted_model(args.model)
+    base = cli
+    if fitted.options:
+        base = ModelOptions(**fitted.options)
+        if cli != ModelOptions() and cli != base:
+            raise InputError(f"--model {args.model}: it was fitted with the model switches "
+                             f"{', '.join(f'{k}={v}' for k, v in fitted.options.items())}; the command line's "
+                             f"differ: drop them (or edit [model] in the file)")
+    layout = load_layout(args.layout if args.layout is not None else fitted.layout)
+    lay, opts, effects = apply_fitted(fitted, layout, base)
+    return lay, opts, effects, fitted
 
 
 def add_effect_argument(parser: argparse.ArgumentParser) -> None:

@@ -20,11 +20,10 @@ from imutherm import InputError
 from imutherm.budget import check_study_cost, transient_steps
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir
-from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
-                                   add_progress_argument, add_time_arguments, check_thermal_cost, model_options,
-                                   time_kwargs)
+from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,
+                                   add_model_arguments, add_out_argument, add_progress_argument, add_time_arguments,
+                                   check_thermal_cost, run_inputs, time_kwargs)
 from imutherm.geometry.build import build_geometry
-from imutherm.geometry.layout import load_layout
 from imutherm.studies.compare import compare_schemes, write_comparison
 
 
@@ -50,6 +49,7 @@ def add_args(parser) -> None:
                       help="processes (default: min(2, CPUs)); the IMU side runs beside the thermal solves")
     add_progress_argument(parser)
     add_model_arguments(parser)
+    add_fitted_model_argument(parser)
     add_out_argument(parser)
 
 
@@ -69,7 +69,8 @@ def run(args) -> int:
         raise InputError(f"--seeds: {args.seeds} is invalid; valid: an integer >= 1")
     if args.seed < 0:
         raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")
-    layout = load_layout(args.layout)
+    layout, options, effects, fitted = run_inputs(args)
+    args.run_model = (layout, options, effects, fitted)
     unknown = [s for s in schemes if s not in layout.schemes]
     if unknown:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
@@ -81,13 +82,13 @@ def run(args) -> int:
         check_study_cost(config, len(schemes), args.jobs, args.max_memory)  # the IMU side, before any solve
         return _end_to_end(args, schemes, config)
     comp = compare_schemes(layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
-                           mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=model_options(args),
-                           **args.time_kwargs)
+                           mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=options,
+                           **args.time_kwargs, **({"effects": effects} if effects else {}))
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout
 
     with atomic_outdir(args.out) as tmp:
-        write_comparison(comp, tmp)
+        write_comparison(comp, tmp, fitted.summary() if fitted is not None else None)
         plot_layout(next(iter(comp.runs.values())).geometry if "grease" not in comp.runs
                     else comp.runs["grease"].geometry, tmp / "layout.png")
         write_compare_report(tmp, tmp / "report.pdf")
@@ -98,6 +99,8 @@ def run(args) -> int:
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     for line in [cols] + rows:
         print("  ".join(v.ljust(w) if i in (0, 3) else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths))))
+    if fitted is not None:
+        print(fitted.line())
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png")
     return 0
 
@@ -113,20 +116,27 @@ def _study_config(args):
 
 
 def _end_to_end(args, schemes, config) -> int:
-    from imutherm.studies.end_to_end import run_study, write_study
+    from imutherm.studies.end_to_end import run_study, study_summary, write_study
 
-    res = run_study(args.layout, schemes, config=config, options=model_options(args), jobs=args.jobs,
+    layout, options, effects, fitted = args.run_model
+    extra = {"effects": effects} if effects else {}
+    res = run_study(layout, schemes, config=config, options=options, jobs=args.jobs,
                     progress=not args.no_progress, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                    **args.time_kwargs)
+                    **args.time_kwargs, **extra)
     from imutherm.reports.layout_plot import plot_layout
     from imutherm.reports.study_report import write_study_report
 
     with atomic_outdir(args.out) as tmp:
-        summary = write_study(res, tmp)
+        summary = study_summary(res)
+        if fitted is not None:
+            summary["model"] = fitted.summary()
+        write_study(res, tmp, summary=summary)
         for name, st in res.schemes.items():
             plot_layout(st.thermal.geometry, tmp / f"layout_{name}.png")
         write_study_report(tmp, tmp / "report.pdf")
     print_answer(summary)
+    if fitted is not None:
+        print(fitted.line())
     print(f"wrote {args.out}/report.pdf summary.json curves_*.csv residuals_*.csv attitude_*.csv steady_*.vtu "
           f"({res.wall_s:.0f} s)")
     return 0

@@ -108,7 +108,7 @@ def run(args) -> int:
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "correlation.json", data)
-        (tmp / "updated_model.toml").write_text(updated_model_toml(res))
+        (tmp / "updated_model.toml").write_text(updated_model_toml(res, layout.path, model_options(args)))
         if not args.no_report:
             from imutherm.reports.correlation_report import write_report
             write_report(tmp / "correlation.pdf", res)

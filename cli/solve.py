@@ -23,11 +23,10 @@ from imutherm import InputError
 from imutherm.budget import MAX_SAVED_FIELDS, transient_steps
 from imutherm.cli import run_command
 from imutherm.cli._common import FIELD_FILES, _test_pause, atomic_outdir, check_outdir, write_json
-from imutherm.cli._options import (add_effect_argument, add_layout_arguments, add_model_arguments,
-                                   add_out_argument, add_progress_argument, add_time_arguments,
-                                   check_thermal_cost, model_options, time_kwargs)
+from imutherm.cli._options import (add_effect_argument, add_fitted_model_argument, add_layout_arguments,
+                                   add_model_arguments, add_out_argument, add_progress_argument, add_time_arguments,
+                                   check_thermal_cost, run_inputs, time_kwargs)
 from imutherm.geometry.build import build_geometry
-from imutherm.geometry.layout import load_layout
 from imutherm.site_table import write_site_table
 from imutherm.studies.thermal_study import probe_table, result_summary, run_scheme
 from imutherm.thermal.effects import list_effects, parse_effect
@@ -46,6 +45,7 @@ def add_args(parser) -> None:
     add_progress_argument(parser)
     add_model_arguments(parser)
     add_effect_argument(parser)
+    add_fitted_model_argument(parser)
     parser.add_argument("--list-effects", action="store_true",
                         help="print the library of candidate effects (parameters, bounds, sources) and exit")
     add_out_argument(parser, required=False, help="output directory (required unless --list-effects)")
@@ -78,11 +78,10 @@ def run(args) -> int:
         save_times = np.unique(np.append(np.arange(0.0, args.t_end, every), args.t_end))
     else:  # time options without --transient are refused by imutherm.cli._ignored
         tkw = {}
-    options = model_options(args)
-    effects = tuple(parse_effect(e) for e in args.effect)
+    layout, options, fitted_effects, fitted = run_inputs(args)
+    effects = fitted_effects + tuple(parse_effect(e) for e in args.effect)
     if len({e.name for e in effects}) != len(effects):
-        raise InputError("--effect: an effect is given twice")
-    layout = load_layout(args.layout)
+        raise InputError("--effect: an effect is given twice (or again beside the --model file's)")
     geometry = build_geometry(layout, args.scheme)
     check_thermal_cost(geometry, args, steps=transient_steps(tkw) if args.transient else 0,
                        saved=len(save_times) if save_times is not None else 1)
@@ -98,6 +97,8 @@ def run(args) -> int:
                      progress=args.transient and not args.no_progress, effects=effects, **tkw)
     summary = result_summary(res)
     summary["effects"] = [e.text() for e in effects]
+    if fitted is not None:
+        summary["model"] = fitted.summary()
     header, rows = probe_table(res)
     if args.site:
         keep = [0] + [header.index(s) for s in args.site]
@@ -111,6 +112,8 @@ def run(args) -> int:
           f"({summary['max_temperature_C']:.2f} C) in {summary['hottest_part']}; "
           f"energy balance {summary['energy_balance_rel_error']:.1e}; {summary['unknowns']} unknowns; "
           f"{summary['timings_s']['wall']:.1f} s")
+    if fitted is not None:
+        print(f"  {fitted.line()}")
     if args.transient:
         how = (f"theta {summary['theta']:g}" if summary["time_scheme"] == "theta" else
                "TR-BDF2" + (f", tol {summary['time_tol_K']:g} K" if summary["time_tol_K"] is not None else ""))

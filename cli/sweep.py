@@ -22,8 +22,9 @@ from imutherm import InputError
 from imutherm.budget import BASE_BYTES, BYTES_PER_UNKNOWN_SOLVE, check_memory
 from imutherm.cli import run_command
 from imutherm.cli._common import check_outdir
-from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
-                                   add_progress_argument, check_cavity_cost, model_options)
+from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,
+                                   add_model_arguments, add_out_argument, add_progress_argument, check_cavity_cost,
+                                   run_inputs)
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
 
 
@@ -58,6 +59,7 @@ def add_args(parser) -> None:
     parser.add_argument("--resume", action="store_true", help="continue the sweep in --out: run only the missing cases")
     add_progress_argument(parser)
     add_model_arguments(parser)
+    add_fitted_model_argument(parser)
     add_out_argument(parser)
 
 
@@ -71,10 +73,13 @@ def run(args) -> int:
     check_outdir(args.out)
     if args.jobs < 1:
         raise InputError(f"--jobs must be >= 1, got {args.jobs}")
-    plan = plan_sweep(args.layout, args.scheme, args.sets, method=args.method, samples=args.samples, seed=args.seed,
-                      options=model_options(args), mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
+    layout, options, _, fitted = run_inputs(args)  # the layout is re-read per case (plan_sweep)
+    plan = plan_sweep(layout.path, args.scheme, args.sets, method=args.method, samples=args.samples,
+                      seed=args.seed, options=options, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                       transient=args.transient, t_end=args.t_end, attitude=args.attitude,
-                      attitude_seeds=args.attitude_seeds, max_cpu_hours=args.max_cpu_hours)
+                      attitude_seeds=args.attitude_seeds, max_cpu_hours=args.max_cpu_hours, fitted=fitted)
+    if fitted is not None:
+        print(fitted.line())
     cost = estimate_cost(plan, 1 if args.dask else args.jobs)
     workers = 1 if args.dask else args.jobs  # each local worker solves one case at a time
     largest = int(plan.unknowns.max())

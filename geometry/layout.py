@@ -9,11 +9,12 @@ checks that need the built parts (overlaps, parts outside the cavity) are in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 
 from imutherm import InputError
+from imutherm.geometry.electrical import ElectricalSpec, parse_electrical, rail_losses
 from imutherm.geometry.materials import load_library
 from imutherm.textio import quote, read_text
 
@@ -141,6 +142,8 @@ class ComponentSpec:
     pad_mm : (u, v) footprint of that pad [mm] (default: the die's)
     vias : a thermal-via field through the board under the pad
     power_W : float [W] dissipated in the die
+    power_source : str, where ``power_W`` comes from (``layout power_W``, or the electrical design's
+        formula for a rail's regulator without an explicit ``power_W``)
     """
 
     name: str
@@ -156,6 +159,7 @@ class ComponentSpec:
     vias: bool
     power_W: float
     axis: str | None
+    power_source: str = "layout power_W"
 
 
 @dataclass(frozen=True)
@@ -203,6 +207,8 @@ class LayoutSpec:
     components: tuple
     sites: tuple
     schemes: dict
+    #: the supply and rails the regulators' powers follow from (None: every power is given explicitly)
+    electrical: ElectricalSpec | None = None
 
     def scheme(self, name: str | None) -> SchemeSpec:
         """The scheme ``name`` (default: the layout's default scheme)."""
@@ -306,7 +312,7 @@ class _Table:
 _TOP = {"name": "layout name", "description": "text", "default_scheme": "scheme name",
         "environment": "table", "housing": "table", "mounting": "table", "boards": "array of tables",
         "parts": "array of tables", "components": "array of tables", "sites": "table",
-        "schemes": "table"}
+        "schemes": "table", "electrical": "table", "rails": "array of tables"}
 
 
 def _table_array(top: _Table, key: str) -> list:
@@ -357,6 +363,8 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     boards = _parse_boards(path, top, mats, names)
     parts = _parse_parts(path, top, mats, names)
     components = _parse_components(path, top, mats, names, boards)
+    electrical = parse_electrical(path, top, _Table, {c.name: c for c in components})
+    components = _component_powers(path, components, electrical)
     sites = _parse_sites(path, top, names, boards)
     schemes = _parse_schemes(path, top, mats, components)
     default = top.string("default_scheme", next(iter(schemes)))
@@ -364,7 +372,26 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         top.fail("default_scheme", f"unknown scheme {default!r}; valid: {', '.join(schemes)}")
     return LayoutSpec(top.string("name", Path(path).stem), path, top.string("description", ""), default,
                       ambient, housing, mounting, tuple(boards), tuple(parts), tuple(components),
-                      tuple(sites), schemes)
+                      tuple(sites), schemes, electrical)
+
+
+def _component_powers(path, components, electrical) -> list:
+    """Each rail regulator without an explicit ``power_W`` gets its loss from the electrical design at the
+    nominal supply; an explicit ``power_W`` wins (a sweep or a measurement sets it). Every other
+    component must state its ``power_W``."""
+    losses = rail_losses(electrical, path=path) if electrical is not None else {}
+    out = []
+    for c in components:
+        if c.power_W is None:
+            if c.name not in losses:
+                raise InputError(f"{path}: component {c.name!r}: field 'power_W' is required (or make the part "
+                                 f"a rail's regulator in [[rails]], whose loss then follows from the supply)")
+            loss = losses[c.name]
+            c = replace(c, power_W=float(loss.loss_W), power_source=f"electrical: rail {loss.rail!r}, {loss.formula}")
+        elif c.name in losses:
+            c = replace(c, power_source=f"layout power_W (the electrical design gives {losses[c.name].loss_W:.4g} W)")
+        out.append(c)
+    return out
 
 
 class _Names:
@@ -489,7 +516,7 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
         spec = ComponentSpec(name, board, c.string("side", choices=("top", "bottom")), c.vector("center_mm", 2),
                              size, c.material("material", mats), die, die_base, pad,
                              (pad_mm or (die[:2] if pad else None)), vias,
-                             c.number("power_W", nonneg=True, bounds=POWER_BOUNDS),
+                             c.number("power_W", None, nonneg=True, bounds=POWER_BOUNDS),
                              c.string("axis", None, choices=AXES))
         names.claim(name, c.where)
         for sub in ("_die", "_pad", "_vias"):

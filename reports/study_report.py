@@ -99,6 +99,18 @@ def _answer_page(pdf, data: dict) -> None:
            f"unit (oven -40..70 C with each scheme's self-heating); out-of-range policy '{data['out_of_range_policy']}'; "
            f"{prof} profile, roll/pitch error RMS and max", 165))
     y = 0.88
+    model = data.get("model")
+    if model:  # the study ran on a correlated model: name it and its correlation's before/after
+        rms = (f"; correlation RMS {model['rms_before_K']:.2f} -> {model['rms_after_K']:.2f} K"
+               if model.get("rms_before_K") is not None and model.get("rms_after_K") is not None else "")
+        text = (f"Model: {model['file']} (correlated, verdict {model.get('verdict', 'not recorded')}{rms}); "
+                f"re-tuned {', '.join(f'{k} {v:.4g}' for k, v in model['retune'].items()) or 'nothing'}; "
+                f"effects {', '.join(model['effects']) or 'none'}"
+                + (f"; not applied (measurement effects): {', '.join(model['not_applied'])}"
+                   if model.get("not_applied") else ""))
+        lines = textwrap.wrap(text, 190)
+        fig.text(0.03, y, "\n".join(lines), fontsize=7.6, va="top", weight="bold")
+        y -= 0.022 * len(lines) + 0.008
     for name, s in data["schemes"].items():
         lines = textwrap.wrap(s["answer"], 190)
         fig.text(0.03, y, "\n".join(lines), fontsize=7.6, va="top", color=_colour(name))

@@ -105,10 +105,12 @@ def board_plane_map(res: SchemeResult, board: str = "main") -> dict:
             "normal": "xyz"[n], "at_mm": lines[n][k] / MM}
 
 
-def write_comparison(comp: Comparison, out: str | os.PathLike) -> None:
-    """``compare.json``, ``probes_<scheme>.csv`` and ``map_<scheme>.npz`` in ``out``."""
+def write_comparison(comp: Comparison, out: str | os.PathLike, model: dict | None = None) -> None:
+    """``compare.json``, ``probes_<scheme>.csv`` and ``map_<scheme>.npz`` in ``out``; ``model``: the fitted
+    model the comparison ran on (:meth:`imutherm.studies.fitted_model.FittedModel.summary`), if any."""
     out = Path(out)
-    write_json(out / "compare.json", {"paper": PAPER, "schemes": comp.summaries})
+    write_json(out / "compare.json", {"paper": PAPER, "schemes": comp.summaries,
+                                      **({"model": model} if model is not None else {})})
     for s, res in comp.runs.items():
         header, rows = probe_table(res)
         write_site_table(out / f"probes_{s}.csv", rows[:, 0], header[1:], rows[:, 1:])

@@ -820,10 +820,36 @@ def result_json(res: CorrelationResult) -> dict:
     }
 
 
-def updated_model_toml(res: CorrelationResult) -> str:
-    """``updated_model.toml``: the fitted re-tune values and the named effect, as ``imutherm solve`` takes them."""
+def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
+                       options: ModelOptions | None = None) -> str:
+    """``updated_model.toml``: the fitted re-tune values and the named effect, as ``imutherm solve`` takes them;
+    ``[model]`` the layout and model switches the fit ran with (``layout_path``, ``options``), ``[correlation]``
+    its verdict and RMS before / after, so that ``solve`` / ``compare`` / ``sweep --model FILE`` run on it and
+    name it (:mod:`imutherm.studies.fitted_model`)."""
+    import json
+    from pathlib import Path
+
     lines = ["# imutherm correlate: the model after correlation", f"# verdict = {res.verdict}",
-             f"# {res.words}", "", "[retune]"]
+             f"# {res.words}", "# run a study on it: imutherm compare --model THIS_FILE (also solve, sweep)", ""]
+    if layout_path is not None or options is not None:
+        lines.append("[model]")
+        if layout_path is not None:
+            lines.append(f"layout = {json.dumps(str(Path(layout_path).resolve()))}")
+        if options is not None:
+            from imutherm.studies.fitted_model import OPTION_FIELDS
+            for name in OPTION_FIELDS:
+                v = getattr(options, name)
+                if v is not None:
+                    lines.append(f"{name} = {json.dumps(v)}")
+        lines.append("")
+    data = result_json(res)
+    lines.append("[correlation]")
+    lines.append(f"verdict = {json.dumps(res.verdict)}")
+    for key in ("rms_before_K", "rms_after_K", "heldout_rms_before_K", "heldout_rms_after_K", "noise_K"):
+        v = data.get(key)
+        if v is not None and np.isfinite(v):
+            lines.append(f"{key} = {float(v):.6g}")
+    lines += [f"after_from = {json.dumps(data['after_from'])}", "", "[retune]"]
     for k, _ in K.RETUNE:
         if k.name in res.after.values:
             lines.append(f"{k.name} = {res.after.values[k.name]:.6g}   # {K.RETUNE_SOURCES[k.name]}")

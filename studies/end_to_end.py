@@ -573,8 +573,9 @@ def paper_comparison(schemes: dict, config: StudyConfig) -> list:
                          "difference": f"{d:+.1f} K. Our hot spot is a die: {s['hottest_part']} carries "
                                        f"{s['hottest_part_power_W']:.2f} W in a small package, whose die-to-board "
                                        "path no fill material touches; the paper's part-level FEM spreads chip "
-                                       "powers over the package. The regulator powers follow from an assumed "
-                                       "9 V supply (the paper names none)."})
+                                       "powers over the package. The regulator powers follow from the layout's "
+                                       "electrical design at an assumed supply voltage (the paper names none), "
+                                       "the largest single lever on the unit's heat."})
         tp1 = s["sites"].get("tp1")
         if tp1 and ("measured_rise_lower_K" in p or "measured_rise_upper_K" in p):
             bound = p.get("measured_rise_lower_K", p.get("measured_rise_upper_K"))

@@ -186,7 +186,7 @@ def key_unit(key: str) -> str:
         return PROPERTY_UNITS.get(parts[2], "-")
     name = parts[-2] if parts[-1].isdigit() and len(parts) > 1 else parts[-1]
     for suffix, unit in (("_W_m2K", "W/m^2 K"), ("_mm", "mm"), ("_C", "degC"), ("_W", "W"), ("_K", "K"),
-                         ("_s", "s"), ("_deg", "deg")):
+                         ("_s", "s"), ("_deg", "deg"), ("_V", "V"), ("_A", "A")):
         if name.endswith(suffix):
             return unit
     return "-"
@@ -377,8 +377,10 @@ def _assign(data: dict, key: str, value: float) -> None:
         node[rest[0]] = value
 
 
-def _case(case_id: int, values, factors, raw: dict, path: str, settings: CaseSettings, base: ModelOptions) -> tuple:
-    """(Case, unknowns): the case's layout re-parsed and built, its options and materials checked."""
+def _case(case_id: int, values, factors, raw: dict, path: str, settings: CaseSettings, base: ModelOptions,
+          fitted=None) -> tuple:
+    """(Case, unknowns): the case's layout re-parsed and built (with the fitted model's powers if ``fitted``),
+    its options and materials checked."""
     data = copy.deepcopy(raw)
     opts, mats = {}, {}
     for f, v in zip(factors, values):
@@ -392,6 +394,9 @@ def _case(case_id: int, values, factors, raw: dict, path: str, settings: CaseSet
     what = ", ".join(f"{f.key}={v:g}" for f, v in zip(factors, values))
     try:
         layout = parse_layout(data, path)
+        if fitted is not None:
+            from imutherm.studies.fitted_model import fitted_layout
+            layout = fitted_layout(fitted, layout)
         geometry = build_geometry(layout, settings.scheme)
         overrides = tuple(with_properties(get_material(m), f"--set materials.{m}", **ch) for m, ch in mats.items())
         options = base.with_(**opts, materials=base.materials + overrides)
@@ -410,7 +415,7 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
                samples: int | None = None, seed: int | None = None, options: ModelOptions | None = None,
                mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
                transient: bool = False, t_end: float = 1200.0, attitude: bool = False,
-               attitude_seeds: int = 1, max_cpu_hours: float = None) -> SweepPlan:
+               attitude_seeds: int = 1, max_cpu_hours: float = None, fitted=None) -> SweepPlan:
     """Check a sweep and build every case; nothing runs.
 
     Parameters
@@ -429,6 +434,9 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     attitude_seeds : int, IMU units / noise draws averaged per case (seeds 0 .. n-1)
     max_cpu_hours : float [h], most estimated CPU time of all cases (default :data:`MAX_CPU_HOURS`): the
         cases are counted and the first case's mesh estimated before the design is expanded
+    fitted : FittedModel or None, the correlated model (:mod:`imutherm.studies.fitted_model`): its powers
+        act on every case's layout (after the case's own values); its other values must already be in
+        ``options`` (``imutherm.cli._options.run_inputs``)
 
     Raises InputError on more than :data:`MAX_CASES` cases or ``max_cpu_hours``, an unknown key (naming the nearest valid ones), a bad value or range,
     or a case the layout, the geometry or the model refuses.
@@ -486,7 +494,13 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     sites = tuple(s.name for s in base_layout.sites)
     settings = CaseSettings(scheme, float(mesh_size_mm), int(min_cells), bool(transient), float(t_end), sites,
                             bool(attitude), int(attitude_seeds))
-    built = [_case(i, tuple(float(v) for v in row), factors, raw, str(path), settings, base) for i, row in enumerate(X)]
+    if fitted is not None:
+        from imutherm.studies.fitted_model import fitted_effects
+        if fitted_effects(fitted):
+            raise InputError(f"--model {fitted.path}: effect(s) {', '.join(e.text() for e in fitted_effects(fitted))} "
+                             f"add a boundary law a sweep case cannot carry; use imutherm solve/compare --model")
+    built = [_case(i, tuple(float(v) for v in row), factors, raw, str(path), settings, base, fitted)
+             for i, row in enumerate(X)]
     cases = tuple(c for c, _ in built)
     unknowns = np.array([n for _, n in built], int)
     outputs = ("max_rise_K",) + (("t95_s",) if transient else ()) + tuple(f"rise_{s}_K" for s in sites)
@@ -505,6 +519,7 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
         "attitude_seeds": int(attitude_seeds) if attitude else None,
         "model_options": json.loads(json.dumps(base_opts, default=str)),
         "X_sha256": _canonical_hash(X.tolist()),
+        **({"model": fitted.summary()} if fitted is not None else {}),
     }
     return SweepPlan(design, factors, X, cases, settings, outputs, unknowns)
 

@@ -39,10 +39,12 @@ def test_transient_result_json(transient):
     for s in r["sites"].values():
         assert 0 < s["rise_K"] <= s["steady_rise_K"] + 1e-9  # heating up from ambient towards steady state
         assert s["t95_s"] is None or 0 < s["t63_s"] < s["t95_s"]
-    # The acceptance limit is 1e-3; the AMG solves close far tighter (measured on this mesh: transient
-    # 1.8e-10, steady 2.5e-12), so check 4 (transient) and 6 (steady) orders of magnitude below that limit.
+    # The acceptance limit is 1e-3; the solves close far tighter, so check 4 (transient) and 5 (steady)
+    # orders of magnitude below that limit. With the s2s cavity law (the default) the steady Newton is a
+    # linearly convergent Jacobi-type iteration that stops at its step tolerance 1e-8 (solve_steady's tol):
+    # measured on this mesh, steady 4.6e-9 (2.5e-12 with the effective law's quadratic Newton).
     assert r["energy_balance_rel_error"] < 1e-7
-    assert r["steady_energy_balance_rel_error"] < 1e-9
+    assert r["steady_energy_balance_rel_error"] < 1e-8
     # largest relative linear residual of any step: within the study's per-stage CG tolerance (1e-5)
     assert 0 <= r["transient_residual"] <= STUDY_CG_RTOL
     assert r["time_scheme"] == "trbdf2" and r["time_tol_K"] == 0.01 and r["theta"] is None

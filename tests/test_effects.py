@@ -163,4 +163,5 @@ def test_cavity_emissivity_under_s2s_sets_the_housing_inner_emissivity():
     np.testing.assert_array_equal(bare.emissivity[~walls], nom.emissivity[~walls])
     assert np.abs(np.diag(bare.X)).sum() < 0.6 * np.abs(np.diag(nom.X)).sum()
     assert K.effect_knob("cavity_emissivity", opts).nodes == K.S2S_EMISSIVITY_NODES
-    assert K.effect_knob("cavity_emissivity", ModelOptions()).nodes == 2
+    assert K.effect_knob("cavity_emissivity", ModelOptions(cavity_law="effective")).nodes == 2  # linear in eps
+    assert K.effect_knob("cavity_emissivity", ModelOptions()).nodes == K.S2S_EMISSIVITY_NODES  # s2s: the default

@@ -97,15 +97,21 @@ def test_cavity_radiation_run_lengths_and_conductivity():
 
 
 def test_cavity_radiation_only_in_air(unit):
+    """The effective law raises the air's conductivity only; the s2s law (the default) leaves every
+    conductivity alone and adds one exchange; potting is opaque under both."""
     g, m = unit
-    on = build_problem(g, m)
+    on = build_problem(g, m, ModelOptions(cavity_law="effective"))
     off = build_problem(g, m, ModelOptions(cavity_radiation=False))
     fill = m.cell_part.ravel() == m.part_names.index("fill")
     assert np.all(on.k[fill] > off.k[fill]) and np.all(on.k[~fill] == off.k[~fill])
+    s2s = build_problem(g, m)
+    assert ModelOptions().cavity_law == "s2s"
+    assert np.array_equal(s2s.k, off.k) and len(s2s.exchanges) == 1 and not off.exchanges
     gp = build_geometry(None, "potted")
     mp = build_mesh(gp, 4.0, 1)
-    a, b = build_problem(gp, mp), build_problem(gp, mp, ModelOptions(cavity_radiation=False))
-    assert np.array_equal(a.k, b.k)  # potting is opaque
+    for law in ("effective", "s2s"):
+        a, b = build_problem(gp, mp, ModelOptions(cavity_law=law)), build_problem(gp, mp, ModelOptions(cavity_radiation=False))
+        assert np.array_equal(a.k, b.k) and not a.exchanges  # potting is opaque
 
 
 def test_lid_joint_lowers_conductivity_of_the_touching_lid_layer(unit):

@@ -22,7 +22,8 @@ from imutherm.thermal.reduced import Knob
 #: the model's uncertain parameters and the range their sources allow
 RETUNE = (
     (Knob("power_scale", "-", 0.85, 1.15, scale_power=True),
-     "every power x p: datasheet typical vs worst-case currents and the assumed 9 V input (layout power budget)"),
+     "every power x p: datasheet typical vs worst-case currents (layout power budget; the supply "
+     "voltage's own range is supply_power_knob's)"),
     (Knob("mount_h_W_m2K", "W/m^2 K", 150.0, 3000.0, nodes=2),
      "base-to-fixture contact (layout: 500 assumed, 'to be calibrated'); lightly bolted dry Al joints "
      "~1e2..3e3, Incropera Table 3.1"),
@@ -116,6 +117,49 @@ def power_floor_W(geometries, name: str, power_scales=(1.0,)) -> float:
         except InputError:
             continue
     return lo_scale * min(watts) if watts else 0.0
+
+
+#: where the supply voltage's range comes from when a layout's [electrical] states one (the reference unit's)
+SUPPLY_SOURCE = ("supply voltage: the paper states none; the layout's supply_range_V (reference unit: 9 V assumed, "
+                 "6.2 V = the 5 V LDO's output + its 1.2 V dropout (LM1117 datasheet) .. 12 V, a common supply)")
+
+
+def supply_power_knob(geometry: Geometry) -> tuple:
+    """(Knob, source): the supply voltage's uncertainty as the extra power [W] of the linear regulator it feeds.
+
+    A linear regulator on the supply dissipates (V - V_out) I_load + V I_q: linear in the supply V with
+    slope its input current I_load + I_q, so the layout's ``supply_range_V`` maps exactly onto a
+    ``power@<regulator>`` knob over [(V_lo - V_nom) I_in, (V_hi - V_nom) I_in] (the rails it feeds run
+    from its fixed output and do not move). InputError if the layout states no electrical design, or
+    the supply feeds more than one linear regulator (one knob would then move several parts together).
+    """
+    from imutherm.geometry.electrical import supply_sensitivity
+
+    spec = geometry.layout.electrical
+    if spec is None:
+        raise InputError(f"layout {geometry.layout.name!r}: no [electrical] table, so no supply voltage to vary")
+    slopes = {reg: s for reg, s in supply_sensitivity(spec).items() if s > 0}
+    if len(slopes) != 1:
+        raise InputError(f"layout {geometry.layout.name!r}: the supply feeds {len(slopes)} linear regulators "
+                         f"({', '.join(slopes) or 'none'}); supply_power_knob maps it onto exactly one")
+    (reg, slope), = slopes.items()
+    lo, hi = ((v - spec.supply_V) * slope for v in spec.supply_range_V)
+    return (Knob(f"power@{reg}", "W", lo, hi, part=reg),
+            f"{SUPPLY_SOURCE}: {spec.supply_range_V[0]:g}..{spec.supply_range_V[1]:g} V around {spec.supply_V:g} V "
+            f"x {slope * 1e3:.4g} mA drawn by {reg}")
+
+
+def uncertain_inputs(geometry: Geometry) -> tuple:
+    """Every uncertain input of the unit's model as ((Knob, source), ...): the re-tune knobs (:data:`RETUNE`)
+    and, if the layout states an electrical design with one linear regulator on the supply, the supply
+    voltage's range as that regulator's ``power@`` knob (:func:`supply_power_knob`)."""
+    out = tuple(RETUNE)
+    if geometry.layout.electrical is not None:
+        try:
+            out += (supply_power_knob(geometry),)
+        except InputError:
+            pass  # no single linear regulator on the supply: its voltage moves no one part's power alone
+    return out
 
 
 def model_effect_names() -> tuple:
