@@ -205,7 +205,7 @@ def _settle_index(curves, final, fraction) -> int | None:
 
 
 def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle: bool = False,
-                     save_times=None, tol_K: float = CHECK_TOL_K, t95_rel: float = CHECK_T95_REL,
+                     save_times=None, tol_K: float | None = None, t95_rel: float | None = None,
                      order: int = KRYLOV_ORDER, max_rounds: int = 2):
     """The power-on transient from the ambient on a checked reduced model (module docstring).
 
@@ -213,11 +213,15 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
     taken about, and the end of the curves); probes : dict site -> point [m]; t_end : float [s] the
     latest end; settle : stop once every site is within 0.5 % of its steady rise (past its t95), as the
     full run's ``settle_C``; save_times : [s] times whose whole field is kept.
-    tol_K : float [K], t95_rel : float [-], the check's acceptance (:class:`ReducedCheck`).
+    tol_K : float [K], t95_rel : float [-], the check's acceptance (:class:`ReducedCheck`; default
+    :data:`CHECK_TOL_K`, :data:`CHECK_T95_REL`); order : Krylov vectors of the first basis; max_rounds :
+    enrichments of the basis by the error fields before giving up.
 
     Returns (TransientResult or None, ReducedCheck): None when the check failed (run the full FEM).
     """
     t0 = time.perf_counter()
+    tol_K = CHECK_TOL_K if tol_K is None else float(tol_K)
+    t95_rel = CHECK_T95_REL if t95_rel is None else float(t95_rel)
     amb = problem.ambient_C
     names = tuple(probes)
     P = probe_matrix(problem.grid, np.array([probes[n] for n in names]))
