@@ -55,7 +55,6 @@ CHECK_RTOL = 1e-2
 CHECK_TIMES = 8
 #: the reduced integrator's relative tolerance (its absolute one: this times the largest steady rise)
 ODE_RTOL = 1e-7
-_DEBUG = False
 
 
 @dataclass(frozen=True)
@@ -199,12 +198,14 @@ def _check_times(t_stop: float, t95) -> np.ndarray:
     tk = list(np.geomspace(t_stop / 3000.0, t_stop, CHECK_TIMES))
     if len(t95):
         tk += [float(np.min(t95)), float(np.max(t95))]
+    ends = {float(np.min(t95)), float(np.max(t95))} if len(t95) else set()
     keep = []
     for t in sorted(tk):
-        if not keep or t > 1.15 * keep[-1]:
-            keep.append(t)
-        elif t in (np.min(t95) if len(t95) else None, np.max(t95) if len(t95) else None):
-            keep[-1] = t   # a t95 replaces its neighbour: the t95 check reads the estimate there
+        if keep and t <= 1.15 * keep[-1]:
+            if t in ends:
+                keep[-1] = t   # a t95 replaces its neighbour: the t95 check reads the estimate there
+            continue
+        keep.append(t)
     return np.array(keep)
 
 
@@ -287,8 +288,6 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
             e = lin.solve(_Shifted(A, M, 1.0 / t), r, CHECK_RTOL)
             err[i] = P @ e
             fields.append(e)
-            if _DEBUG:
-                print(f"  round {rnd} t {t:8.2f} s: est {np.abs(err[i]).max():.2e} K, {lin.its} its", flush=True)
         rel95 = 0.0   # each t95's error: the site's estimated error there over the curve's slope
         for j in np.flatnonzero(fin):
             slope = abs(float(PV[j] @ red.rhs(t95[j], sol.sol(t95[j]))))
