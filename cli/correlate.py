@@ -37,6 +37,9 @@ def add_args(parser) -> None:
     add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
                                     "(default: 2, or 1 on one core)")
     parser.add_argument("--no-report", action="store_true", help="no correlation.pdf")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="neither read nor keep the reduced models and the re-run in the disk cache "
+                             "($IMUTHERM_CACHE_DIR, default the user cache folder; size limit $IMUTHERM_CACHE_MB)")
     add_out_argument(parser, required=False, help="output directory (required unless --list-effects)")
     add_model_arguments(parser)
 
@@ -103,7 +106,7 @@ def run(args) -> int:
     _check_build_cost(layout, runs, args, jobs)
     from imutherm.studies.correlation import correlate, result_json, updated_model_toml
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                    options=model_options(args), rerun=not args.no_rerun, jobs=jobs,
+                    options=model_options(args), rerun=not args.no_rerun, jobs=jobs, use_cache=not args.no_cache,
                     progress=lambda s: print(f"  {s}", flush=True))
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:

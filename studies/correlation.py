@@ -388,16 +388,27 @@ def _pool(jobs: int, n: int):
 
 
 def _build_one(layout: LayoutSpec, scheme: str, amb: float, mesh_size_mm: float, min_cells: int,
-               options: ModelOptions):
-    """(geometry, reduced model) of one (scheme, ambient [degC]); a pure function, run in a worker."""
+               options: ModelOptions, use_cache: bool = True):
+    """(geometry, reduced model, from the cache: bool) of one (scheme, ambient [degC]); a pure function, run in
+    a worker. The model is kept in the disk cache (:mod:`imutherm.cache`) under the key of everything it
+    depends on: the layout's content, the scheme, the ambient, the mesh, the model options, the knob set and
+    the sites (and the code version of the model)."""
     from dataclasses import replace
+
+    from imutherm.cache import cached
     lay = replace(layout, ambient_C=amb, mounting=replace(layout.mounting, temperature_C=amb))
     geo = build_geometry(lay, scheme)
-    grid = build_mesh(geo, mesh_size_mm, min_cells)
     ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n, options) for n in K.model_effect_names() if K.applicable(n, geo)]
     names = {k.name for k in ks}
     pairs = [p for p in K.COUPLED if set(p) <= names]
-    return geo, build_reduced(lambda v: K.variant(geo, options, v), grid, ks, dict(geo.sites), pairs=pairs)
+
+    def build():
+        grid = build_mesh(geo, mesh_size_mm, min_cells)
+        return build_reduced(lambda v: K.variant(geo, options, v), grid, ks, dict(geo.sites), pairs=pairs)
+    parts = (replace(lay, path=""), scheme, float(amb), float(mesh_size_mm), int(min_cells), options, ks, pairs,
+             dict(geo.sites))
+    rom, hit = cached("reduced_model", parts, build, use_cache=use_cache)
+    return geo, rom, hit
 
 
 #: a file is refused before the reduced models are built if it ends before this fraction of its sites'
@@ -456,9 +467,12 @@ def check_inputs(runs, layout: LayoutSpec, holdout: str | None, *, mesh_size_mm:
 
 def build_models(keys, layout: LayoutSpec | str | None = None, *, mesh_size_mm: float = DEFAULT_MAX_CELL_MM,
                  min_cells: int = DEFAULT_MIN_CELLS, options: ModelOptions | None = None, jobs: int = 1,
-                 progress=None) -> Models:
+                 progress=None, use_cache: bool = True) -> Models:
     """The reduced model of each (scheme, ambient [degC]) in ``keys``, with every re-tune knob and every
     model effect that applies to the scheme (:func:`imutherm.thermal.reduced.build_reduced`).
+
+    ``use_cache``: read and keep the models in the disk cache (:mod:`imutherm.cache`); a model found there
+    costs a file read instead of its build.
 
     Each costs one nonlinear steady solve, ~35 preconditioned CG solves and ~60 assemblies of the full
     model: about a minute at the default 2 mm mesh on one core; ``jobs`` builds that many at once.
@@ -486,25 +500,32 @@ def build_models(keys, layout: LayoutSpec | str | None = None, *, mesh_size_mm: 
             built = []
             for scheme, amb in keys:
                 say(f"reduced model of {scheme} at {amb:g} C")
-                built.append(_build_one(layout, scheme, amb, mesh_size_mm, min_cells, options))
+                built.append(_build_one(layout, scheme, amb, mesh_size_mm, min_cells, options, use_cache))
         else:
-            futs = [pool.submit(_build_one, layout, sc, amb, mesh_size_mm, min_cells, options) for sc, amb in keys]
+            futs = [pool.submit(_build_one, layout, sc, amb, mesh_size_mm, min_cells, options, use_cache)
+                    for sc, amb in keys]
             built = []
             for (scheme, amb), f in zip(keys, futs):
                 built.append(f.result())
-                say(f"reduced model of {scheme} at {amb:g} C: done")
+                say(f"reduced model of {scheme} at {amb:g} C: " + ("from the cache" if built[-1][2] else "done"))
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)
     roms, geometries, keyed = {}, {}, {}
-    for (scheme, amb), (geo, rom) in zip(keys, built):
+    for (scheme, amb), (geo, rom, _) in zip(keys, built):
         geometries.setdefault(scheme, geo)
         keyed[(scheme, amb)] = geo
         roms[(scheme, amb)] = rom
     return Models(roms, geometries, time.perf_counter() - t0, keyed, mesh_size_mm, min_cells, options)
 
 
-def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cells: int, options: ModelOptions):
+def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cells: int, options: ModelOptions,
+               use_cache: bool = True):
+    """Site rises [K] of the corrected model at the run's times on the full FEM (kept in the disk cache under
+    the key of the layout's content, scheme, options, values, sites, times and mesh)."""
+    from dataclasses import replace
+
+    from imutherm.cache import cached
     from imutherm.studies.forward import full_rise
     model_vals, signal = {}, []
     for k, v in values.items():
@@ -513,24 +534,31 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
         elif k in K.RETUNE_SOURCES or K.applicable(k, geo):
             model_vals[k] = v
     model_vals["power_scale"] = values.get("power_scale", 1.0) * run.power_scale
-    variant = K.variant(geo, options, model_vals)
-    grid = build_mesh(variant.geometry, mesh_size_mm, min_cells)
     # the study's CG tolerance: the same t95 to 0.1 s as 1e-6, 18 % fewer iterations (README, issue 10)
     from imutherm.studies.thermal_study import STUDY_CG_RTOL
-    return full_rise(variant, grid, {s: geo.sites[s] for s in run.sites}, run.times_s, signal, rtol=STUDY_CG_RTOL)
+    probes = {s: geo.sites[s] for s in run.sites}
+
+    def build():
+        variant = K.variant(geo, options, model_vals)
+        grid = build_mesh(variant.geometry, mesh_size_mm, min_cells)
+        return full_rise(variant, grid, probes, run.times_s, signal, rtol=STUDY_CG_RTOL)
+    parts = (replace(geo.layout, path=""), geo.scheme.name, options, model_vals, signal, probes,
+             np.asarray(run.times_s, float), float(mesh_size_mm), int(min_cells), STUDY_CG_RTOL)
+    return cached("full_rerun", parts, build, use_cache=use_cache)[0]
 
 
-def rerun_full(runs, values: dict, models: Models, jobs: int = 1, progress=None) -> list:
+def rerun_full(runs, values: dict, models: Models, jobs: int = 1, progress=None, use_cache: bool = True) -> list:
     """The corrected model re-run on the full FEM: site rises [K] of each run at its times (n, m).
 
     values : knob name -> value (re-tune knobs and the named effect), as fitted; the runs' own
     ``power_scale`` multiplies the fitted one; a model effect whose target a scheme lacks is off there.
-    ``jobs``: runs re-run at once.
+    ``jobs``: runs re-run at once; ``use_cache``: a re-run of the same corrected model on the same data
+    (the next correlation of the same unit) is read from the disk cache (:mod:`imutherm.cache`).
     """
     say = progress or (lambda s: None)
     say(f"full-model re-run of {len(runs)} file(s) (one steady solve and one transient each)")
     args = [(models.keyed_geometries[(r.scheme, r.ambient_C)], values, r, models.mesh_size_mm, models.min_cells,
-             models.options or ModelOptions()) for r in runs]
+             models.options or ModelOptions(), use_cache) for r in runs]
     pool = _pool(jobs, len(runs))
     if pool is None:
         return [_rerun_one(*a) for a in args]
@@ -673,7 +701,7 @@ def _fit_candidate(fwd, name: str, full, folds, ratio: float, noise: float):
 def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | None = "auto",
               mesh_size_mm: float = DEFAULT_MAX_CELL_MM, min_cells: int = DEFAULT_MIN_CELLS,
               candidates=None, options: ModelOptions | None = None, models: "Models | None" = None,
-              rerun: bool = True, jobs: int = 1, progress=None) -> CorrelationResult:
+              rerun: bool = True, jobs: int = 1, progress=None, use_cache: bool = True) -> CorrelationResult:
     """Run the correlation workflow on measured runs (see the module docstring).
 
     candidates : names to consider (default: every effect applicable to at least one run's scheme)
@@ -682,6 +710,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     models : :class:`Models` built beforehand (:func:`build_models`; a campaign reuses them across
         cases); default: built here for the runs' (scheme, ambient) pairs
     progress : callable(str) or None, told what is being done
+    use_cache : keep the reduced models and the re-run in the disk cache (:mod:`imutherm.cache`) and read
+        them from it: the next correlation of the same unit skips their builds
     """
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
@@ -694,7 +724,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     if models is None:
         check_inputs(runs, layout, holdout, mesh_size_mm=mesh_size_mm, min_cells=min_cells, options=options, say=say)
         models = build_models(sorted({(r.scheme, r.ambient_C) for r in runs}), layout, mesh_size_mm=mesh_size_mm,
-                              min_cells=min_cells, options=options, jobs=jobs, progress=say)
+                              min_cells=min_cells, options=options, jobs=jobs, progress=say, use_cache=use_cache)
     missing = sorted({(r.scheme, r.ambient_C) for r in runs} - set(models.roms))
     if missing:
         raise InputError(f"correlate: no reduced model for {', '.join(f'{s} at {a:g} C' for s, a in missing)}")
@@ -754,7 +784,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     rerun_stats = {}
     t1 = time.perf_counter()
     if rerun:
-        rises = rerun_full(runs, after.values, models, jobs, say)
+        rises = rerun_full(runs, after.values, models, jobs, say, use_cache)
         res_full = np.concatenate([(y - r.rise_K)[np.isfinite(r.values_C)] for y, r in zip(rises, runs)])
         rerun_stats = {"rms_K": float(np.sqrt(np.mean(res_full**2))), "max_K": float(np.abs(res_full).max())}
         for y, r in zip(rises, runs):

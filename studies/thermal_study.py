@@ -37,6 +37,8 @@ class SchemeResult:
     metrics : ThermalMetrics of the transient (t63/t95 against the steady rises) or of the steady result
     options : ModelOptions used
     wall_s : float [s] wall time of the whole run
+    transient_check : ReducedCheck or None, the check of a reduced transient
+        (:mod:`imutherm.thermal.reduced_transient`; ``accepted`` False: the transient is the full FEM's)
     """
 
     geometry: Geometry
@@ -46,6 +48,7 @@ class SchemeResult:
     metrics: ThermalMetrics
     options: ModelOptions
     wall_s: float
+    transient_check: object | None = None
 
 
 #: growth factor of the transient step from ``dt`` to ``dt_max`` (first steps resolve the power-on jump)
@@ -53,6 +56,8 @@ DT_GROWTH = 1.2
 #: given-step defaults of the θ-scheme (the pre-TR-BDF2 default): 2 s growing by 1.2 up to 60 s
 THETA_DT, THETA_DT_MAX = 2.0, 60.0
 TIME_SCHEMES = ("trbdf2", "theta")
+#: how the power-on transient is computed: the full adaptive FEM, or a reduced model checked against it
+TRANSIENT_MODELS = ("full", "reduced")
 
 
 def check_time_arguments(t_end: float, dt: float | None = None, dt_max: float | None = None,
@@ -94,7 +99,7 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
                options: ModelOptions | None = None, transient: bool = False, t_end: float = 1200.0,
                time_scheme: str = "trbdf2", tol_K: float | None = None, dt: float | None = None,
                dt_max: float | None = None, theta: float = 1.0, until_settled: bool = False, save_times=None,
-               progress: bool = False, effects=()) -> SchemeResult:
+               progress: bool = False, effects=(), transient_model: str = "full") -> SchemeResult:
     """Solve one cooling scheme of a layout.
 
     Parameters
@@ -118,7 +123,13 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     effects : sequence of :class:`~imutherm.thermal.effects.EffectSetting`, candidate effects switched
         on (model effects change the problem; signal effects, probe lag and ambient drift, change the
         sites' curves of the transient, and its metrics; an ambient drift needs ``transient``)
+    transient_model : 'full' (the adaptive FEM) or 'reduced': the transient on a reduced model of the
+        steady field that checks itself against the full model, the full FEM when the check fails
+        (:func:`imutherm.thermal.reduced_transient.reduced_power_on`; adaptive TR-BDF2 settings only:
+        given steps or the θ-scheme always run the full FEM)
     """
+    if transient_model not in TRANSIENT_MODELS:
+        raise InputError(f"transient model must be one of {', '.join(TRANSIENT_MODELS)}, got {transient_model!r}")
     effects = tuple(effects)
     if not transient and any(e.base == "ambient_drift" for e in effects):
         raise InputError("effect ambient_drift needs a transient run (a drifting ambient has no steady state)")
@@ -146,9 +157,12 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     probes = dict(geometry.sites)
     asm = assemble(problem)  # shared by the steady and the transient solve
     steady = solve_steady(problem, probes=probes, assembly=asm)
-    tr = None
+    tr = check = None
     if transient:
         final_C = dict(zip(steady.probe_names, (float(v) for v in steady.probe_C)))
+        if transient_model == "reduced" and steps is None and time_scheme == "trbdf2":
+            tr, check = _reduced_transient(problem, asm, steady, probes, t_end, until_settled, save_times, progress)
+    if transient and tr is None:
         kw = dict(scheme=time_scheme, save_times=save_times, probes=probes, progress=progress, assembly=asm,
                   settle_C=final_C if until_settled else None, rtol=STUDY_CG_RTOL)
         if time_scheme == "theta":
@@ -156,13 +170,31 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         if steps is None:
             kw.update(tol_K=tol_K, dt_max=dt_max, error_control="probes")
         tr = solve_transient(problem, t_end, steps, **kw)
+    if transient:
         if any(EFFECTS[e.base].kind == "signal" for e in effects):
             tr = _with_signal_effects(tr, steady, asm, effects, probes)
         final = {n: v - problem.ambient_C for n, v in final_C.items()}
         metrics = thermal_metrics(tr, final_rise_K=final)
     else:
         metrics = thermal_metrics(steady)
-    return SchemeResult(geometry, grid, steady, tr, metrics, options, time.perf_counter() - start)
+    return SchemeResult(geometry, grid, steady, tr, metrics, options, time.perf_counter() - start, check)
+
+
+def _reduced_transient(problem, asm, steady, probes, t_end, settle, save_times, progress):
+    """(TransientResult or None, ReducedCheck or None): the checked reduced transient; None: run the full FEM
+    (the check failed, or the model is one the reduced model does not cover: the reason is printed)."""
+    from imutherm.thermal.reduced_transient import reduced_power_on
+    try:
+        tr, check = reduced_power_on(problem, asm, steady, probes, t_end, settle=settle, save_times=save_times)
+    except InputError as e:   # e.g. a fixed-temperature face, a fixture away from ambient
+        if progress:
+            print(f"  reduced transient not applicable ({e}): full FEM", flush=True)
+        return None, None
+    if progress:
+        print(f"  reduced transient: basis {check.basis_size}, {check.full_solves} full solves, estimated error "
+              f"{check.max_site_error_K:.2g} K: " + ("accepted" if check.accepted else f"{check.reason}: full FEM"),
+              flush=True)
+    return tr, check
 
 
 def _with_signal_effects(tr, steady, asm, effects, sites: dict):
@@ -231,6 +263,9 @@ def result_summary(res: SchemeResult) -> dict:
                     "transient_newton_iterations": tr.newton_iterations,
                     "transient_linear_iterations": tr.linear_iterations, "transient_residual": tr.residual})
         out["timings_s"].update({"transient_assembly": tr.assembly_s, "transient_solve": tr.solve_s})
+        out["transient_model"] = "reduced" if tr.scheme == "reduced" else "full"
+        if res.transient_check is not None:
+            out["transient_check"] = res.transient_check.summary()
     return out
 
 

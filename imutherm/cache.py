@@ -1,0 +1,204 @@
+"""A disk cache of expensive model products (reduced models, full-model re-runs), keyed by their content.
+
+A value is stored under the SHA-256 of a canonical form of everything it depends on (:func:`key_of`:
+dataclasses field by field, arrays by their bytes, floats exactly) and of :data:`CODE_VERSION`, a hash of
+the source of the modules that compute the models: a change of the layout, the scheme, the ambient, the
+mesh, the model options, the knob set or the code is a different key, so a stale entry is never read.
+
+* Folder: ``$IMUTHERM_CACHE_DIR`` if set, else the user cache folder (``platformdirs``), ``.../imutherm``.
+* Size limit: ``$IMUTHERM_CACHE_MB`` (default :data:`DEFAULT_LIMIT_MB`); after each write the least
+  recently used entries (a hit refreshes an entry's time) are removed until the folder fits.
+* Interrupted writes and concurrent runs: a value is written to a temporary file in the same folder and
+  renamed over its name (atomic), so a reader sees a whole entry or none; two runs writing the same key
+  write the same bytes. Each entry carries its key and a checksum of its payload: a truncated, corrupted
+  or foreign file is a miss (deleted, rebuilt), never a traceback. Entries are pickles: the folder is the
+  user's own, like any cache of Python objects.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import io
+import os
+import pickle
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+#: environment variable naming the cache folder (tests and CI point it at a temporary folder)
+CACHE_ENV = "IMUTHERM_CACHE_DIR"
+#: environment variable giving the size limit [MB]
+LIMIT_ENV = "IMUTHERM_CACHE_MB"
+DEFAULT_LIMIT_MB = 2048.0
+_MAGIC = b"IMUTHERM-CACHE-1\n"
+_SUFFIX = ".pkl"
+
+
+def _code_version() -> str:
+    """SHA-256 (16 hex) of the source of the modules a cached model depends on (thermal, geometry, layouts)."""
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for pkg in ("thermal", "geometry", "layouts"):
+        try:
+            import importlib
+            d = Path(importlib.import_module(f"imutherm.{pkg}").__file__).resolve().parent
+        except ImportError:  # pragma: no cover - every subpackage is installed
+            d = root.parent / pkg
+        for f in sorted(d.glob("*.py")) + sorted(d.glob("*.toml")):
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+#: the models' code version (changes with any change of their source)
+CODE_VERSION = _code_version()
+
+
+def cache_dir() -> Path:
+    """The cache folder (``$IMUTHERM_CACHE_DIR`` or the user cache folder)."""
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env)
+    import platformdirs
+    return Path(platformdirs.user_cache_dir("imutherm", appauthor=False))
+
+
+def limit_bytes() -> float:
+    """The size limit [bytes] (``$IMUTHERM_CACHE_MB``, default :data:`DEFAULT_LIMIT_MB`)."""
+    try:
+        mb = float(os.environ.get(LIMIT_ENV, DEFAULT_LIMIT_MB))
+    except ValueError:
+        mb = DEFAULT_LIMIT_MB
+    return mb * 1024 * 1024
+
+
+def _canon(x):
+    """A canonical, hashable form of ``x`` (dataclasses, mappings, sequences, arrays, numbers, strings)."""
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return (type(x).__qualname__,) + tuple((f.name, _canon(getattr(x, f.name))) for f in dataclasses.fields(x))
+    if isinstance(x, dict):
+        return ("dict",) + tuple(sorted((repr(_canon(k)), _canon(v)) for k, v in x.items()))
+    if isinstance(x, (list, tuple)):
+        return (type(x).__name__,) + tuple(_canon(v) for v in x)
+    if isinstance(x, (set, frozenset)):
+        return ("set",) + tuple(sorted(repr(_canon(v)) for v in x))
+    if isinstance(x, np.ndarray):
+        a = np.ascontiguousarray(x)
+        if a.dtype == object:
+            return ("ndo", a.shape, tuple(_canon(v) for v in a.ravel()))
+        return ("nd", str(a.dtype), a.shape, hashlib.sha256(a.tobytes()).hexdigest())
+    if isinstance(x, (float, np.floating)):
+        return ("f", float(x).hex())
+    if isinstance(x, (bool, int, np.integer, str, bytes, type(None))):
+        return x.item() if isinstance(x, np.generic) else x
+    if isinstance(x, os.PathLike):
+        return ("path", os.fspath(x))
+    if hasattr(x, "__dict__"):
+        return (type(x).__qualname__,) + tuple(sorted((k, _canon(v)) for k, v in vars(x).items()))
+    return (type(x).__qualname__, repr(x))
+
+
+def key_of(kind: str, *parts) -> str:
+    """The cache key (hex SHA-256) of a value of ``kind`` depending on ``parts`` and :data:`CODE_VERSION`."""
+    return hashlib.sha256(repr((kind, CODE_VERSION, _canon(parts))).encode()).hexdigest()
+
+
+def _path(key: str, folder: Path) -> Path:
+    return folder / f"{key}{_SUFFIX}"
+
+
+def load(key: str, folder: Path | None = None):
+    """The value stored under ``key``, or None (a miss: absent, truncated, corrupted or another key's)."""
+    p = _path(key, folder or cache_dir())
+    try:
+        data = p.read_bytes()
+    except OSError:
+        return None
+    head = len(_MAGIC) + 64 + 64
+    ok = (len(data) > head and data.startswith(_MAGIC) and data[len(_MAGIC):len(_MAGIC) + 64] == key.encode()
+          and hashlib.sha256(data[head:]).hexdigest().encode() == data[len(_MAGIC) + 64:head])
+    if ok:
+        try:
+            value = pickle.loads(data[head:])
+        except Exception:   # a checksum-valid entry that does not unpickle (e.g. a class since renamed)
+            ok = False
+    if not ok:
+        _remove(p)
+        return None
+    try:
+        os.utime(p)   # least recently *used*: a hit refreshes the entry
+    except OSError:
+        pass
+    return value
+
+
+def store(key: str, value, folder: Path | None = None) -> Path | None:
+    """Write ``value`` under ``key`` (temporary file + atomic rename), then evict to the size limit.
+
+    Returns the entry's path, or None when the folder cannot be written (the run goes on uncached)."""
+    folder = folder or cache_dir()
+    buf = io.BytesIO()
+    pickle.dump(value, buf, protocol=pickle.HIGHEST_PROTOCOL)
+    payload = buf.getvalue()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=_SUFFIX)
+        with os.fdopen(fd, "wb") as f:
+            f.write(_MAGIC + key.encode() + hashlib.sha256(payload).hexdigest().encode() + payload)
+        p = _path(key, folder)
+        os.replace(tmp, p)
+    except OSError:
+        return None
+    evict(folder)
+    return p
+
+
+def evict(folder: Path | None = None, limit: float | None = None) -> list:
+    """Remove the least recently used entries until the folder's entries fit ``limit`` [bytes]; their paths."""
+    folder = folder or cache_dir()
+    limit = limit_bytes() if limit is None else limit
+    entries = []
+    for p in folder.glob(f"*{_SUFFIX}"):
+        if p.name.startswith(".tmp-"):
+            continue
+        try:
+            st = p.stat()
+        except OSError:
+            continue
+        entries.append((st.st_mtime, st.st_size, p))
+    total = sum(e[1] for e in entries)
+    removed = []
+    for _, size, p in sorted(entries, key=lambda e: e[0]):
+        if total <= limit:
+            break
+        _remove(p)
+        total -= size
+        removed.append(p)
+    return removed
+
+
+def _remove(p: Path) -> None:
+    try:
+        p.unlink()
+    except OSError:
+        pass
+
+
+def cached(kind: str, parts: tuple, build, *, use_cache: bool = True, progress=None):
+    """``build()``, or its value stored under the key of (``kind``, ``parts``): (value, hit: bool).
+
+    use_cache False: build, neither read nor write. progress: callable(str) told of a hit.
+    """
+    if not use_cache:
+        return build(), False
+    key = key_of(kind, *parts)
+    value = load(key)
+    if value is not None:
+        if progress:
+            progress(f"{kind}: from the cache ({cache_dir()})")
+        return value, True
+    value = build()
+    store(key, value)
+    return value, False

@@ -1,0 +1,347 @@
+"""The power-on transient on a reduced model that checks itself against the full model.
+
+The full adaptive TR-BDF2 transient of a unit costs ~75 preconditioned CG solves of the full model;
+its steady field (solved anyway) and a handful of solves give a reduced model that reproduces it:
+
+1. **Basis**: the steady rise x = T_ss - T_amb, the uniform field (so the projection conserves heat),
+   and the block Krylov space of the secant operator A about the steady field
+   (:func:`imutherm.thermal.reduced.linearised`; with ``cavity_law 's2s'`` its exchange secant is the
+   low-rank term): A^-1 M x, (A^-1 M)^2 x, ... (moment matching at s = 0: what a step response needs),
+   M-orthonormalised.
+2. **Reduced transient**: the *nonlinear* model projected on the basis, M_r y' = V^T (F - L T - N(T)),
+   T = T_amb + V y: the nonlinear laws (natural convection, radiation, the cavity exchange) are
+   evaluated exactly on their own nodes, so the only error is the basis's. Integrated by an implicit
+   stiff integrator (scipy BDF, exact reduced Jacobian) at tight tolerance; the steady field is in the
+   basis and Galerkin-exact, so the reduced curves end on the full steady state.
+3. **Check** (a posteriori, against the full model): at a few times t_k (spread over the transient, and
+   each site's t95) the full nonlinear residual of the reduced solution, r = F - M T' - L T - N(T)
+   (orthogonal to the basis), gives the error estimate e_k = (A + M / t_k)^-1 r_k (the error's modes
+   answer a residual held since t = 0 by (1 - e^{-lambda t}) / lambda <= 1 / (lambda + 1 / t) up to a
+   factor ~1.6). The curves are accepted when every site's estimated error is within ``tol_K`` and every
+   t95's (error over the curve's slope there) within ``t95_rel``; otherwise the error fields join the basis
+   and the reduced transient is run again (at most ``max_rounds`` times), and if it still fails the caller
+   falls back to the full adaptive FEM. The estimate's effectivity against the true error is measured in
+   ``tests/test_reduced_transient.py``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse.linalg as spla
+from scipy.integrate import solve_ivp
+
+from imutherm import InputError
+from imutherm.thermal.metrics import T95_FRACTION, settle_time
+from imutherm.thermal.reduced import linearised, sparse_part
+from imutherm.thermal.solve import SETTLE_FRACTION, TransientResult, amg_preconditioner, probe_matrix
+
+#: site error the check accepts [K] (issue 25: every site curve within 0.05 K of the full adaptive FEM)
+CHECK_TOL_K = 0.05
+#: relative t95 error the check accepts [-] (issue 25: 1 %)
+CHECK_T95_REL = 0.01
+#: Krylov vectors A^-1 M ... of the first basis
+KRYLOV_ORDER = 3
+#: time scales [s] of the shifted solves (A + M / tau)^-1 b that join the basis for the first seconds
+EARLY_S = (0.3, 2.0, 10.0, 50.0)
+#: relative CG tolerance of the basis solves and of the error-estimate solves
+BASIS_RTOL = 1e-4
+CHECK_RTOL = 1e-2
+#: check times: this many spread geometrically over the transient (from its end / 3000), and the earliest and
+#: latest t95
+CHECK_TIMES = 8
+#: the reduced integrator's relative tolerance (its absolute one: this times the largest steady rise)
+ODE_RTOL = 1e-7
+
+
+@dataclass(frozen=True)
+class ReducedCheck:
+    """The reduced transient's check against the full model.
+
+    accepted : bool, the curves passed (else the caller ran the full FEM)
+    reason : str, why not (empty when accepted)
+    basis_size : int, rounds : int (1: the first basis passed)
+    full_solves : int, CG solves of the full model (basis and check); cg_iterations : int
+    check_times_s : tuple [s]; site_error_K : (len(check_times), m) estimated site errors [K]
+    max_site_error_K : float [K], max_t95_error_rel : float [-] (estimated)
+    tol_K : float [K], t95_rel : float [-], cavity_law : str
+    timings_s : dict, {"basis", "integrate", "check"} [s]
+    """
+
+    accepted: bool
+    reason: str
+    basis_size: int
+    rounds: int
+    full_solves: int
+    cg_iterations: int
+    check_times_s: tuple
+    site_error_K: np.ndarray
+    max_site_error_K: float
+    max_t95_error_rel: float
+    tol_K: float
+    t95_rel: float
+    timings_s: dict
+
+    def summary(self) -> dict:
+        """JSON-ready figures (the ``transient_check`` entry of ``result.json``)."""
+        return {"accepted": self.accepted, "reason": self.reason, "basis_size": self.basis_size,
+                "rounds": self.rounds, "full_solves": self.full_solves, "cg_iterations": self.cg_iterations,
+                "check_times_s": [float(t) for t in self.check_times_s],
+                "max_site_error_K": float(self.max_site_error_K), "max_t95_error_rel": float(self.max_t95_error_rel),
+                "tol_K": self.tol_K, "t95_rel": self.t95_rel,
+                "timings_s": {k: float(v) for k, v in self.timings_s.items()}}
+
+
+class _Solver:
+    """CG on the full model with one AMG hierarchy of the secant operator's sparse part (counts solves)."""
+
+    def __init__(self, A):
+        self.A = A
+        self.pc = amg_preconditioner(sparse_part(A))
+        self.solves = self.its = 0
+
+    def solve(self, Op, b, rtol):
+        n = [0]
+
+        def count(_):
+            n[0] += 1
+        x, info = spla.cg(Op, b, rtol=rtol, M=self.pc, maxiter=3000, callback=count)
+        self.solves += 1
+        self.its += n[0]
+        if info:
+            raise InputError(f"reduced transient: CG did not converge (info {info})")
+        return x
+
+
+class _Shifted(spla.LinearOperator):
+    """A + s M, never formed (A may be sparse plus low rank)."""
+
+    def __init__(self, A, M, s):
+        super().__init__(float, A.shape)
+        self.A, self.M, self.s = A, M, s
+
+    def _matvec(self, x):
+        x = np.ravel(x)
+        return self.A @ x + self.s * (self.M @ x)
+
+
+def _m_orthonormal(cols, M) -> np.ndarray:
+    """An M-orthonormal basis V (V^T M V = I) of the span of ``cols`` (near-dependent columns dropped)."""
+    X = np.column_stack([c / (np.linalg.norm(c) or 1.0) for c in cols])
+    U, s, _ = np.linalg.svd(X, full_matrices=False)
+    U = U[:, s > 1e-10 * s[0]]
+    R = sla.cholesky(U.T @ (M @ U))          # U^T M U = R^T R
+    return sla.solve_triangular(R, U.T, trans="T").T   # U R^-1
+
+
+class _Reduced:
+    """The nonlinear model projected on V: y' = f0 - L_r y - sum over laws V_b^T w q(T_amb + V_b y)."""
+
+    def __init__(self, asm, V, amb):
+        self.V, self.amb = V, amb
+        L = asm.pattern.csr(asm.K_data + asm.H_data)
+        F = asm.F_q + asm.F_bc
+        one = np.ones(asm.n)
+        self.f0 = V.T @ (F - amb * (L @ one))
+        self.L_r = V.T @ (L @ V)
+        self.laws = []
+        for bc in asm.nonlinear:
+            Vb = V[bc.nodes]
+            if hasattr(bc.law, "X") and hasattr(bc.law, "Pn"):   # the cavity exchange: Q = X sigma T_p^4
+                self.laws.append(("exchange", bc, np.asarray(bc.law.Pn @ Vb)))
+            else:
+                self.laws.append(("nodal", bc, Vb, (Vb * bc.weights[:, None]).T))
+
+    def rhs(self, t, y):
+        from imutherm.thermal.problem import SIGMA, ZERO_C_K
+        f = self.f0 - self.L_r @ y
+        for law in self.laws:
+            if law[0] == "exchange":
+                _, bc, Q = law
+                Tk = self.amb + ZERO_C_K + Q @ y
+                f -= Q.T @ (bc.law.X @ (SIGMA * Tk**4))
+            else:
+                _, bc, Vb, W = law
+                q, _ = bc.law.flux_out(self.amb + Vb @ y, bc.T_ref)
+                f -= W @ q
+        return f
+
+    def jac(self, t, y):
+        from imutherm.thermal.problem import SIGMA, ZERO_C_K
+        J = -self.L_r.copy()
+        for law in self.laws:
+            if law[0] == "exchange":
+                _, bc, Q = law
+                Tk = self.amb + ZERO_C_K + Q @ y
+                J -= Q.T @ (bc.law.X @ (4 * SIGMA * Tk[:, None]**3 * Q))
+            else:
+                _, bc, Vb, W = law
+                _, dq = bc.law.flux_out(self.amb + Vb @ y, bc.T_ref)
+                J -= W @ (dq[:, None] * Vb)
+        return J
+
+
+def _integrate(red: _Reduced, t_end: float, scale_K: float):
+    sol = solve_ivp(red.rhs, (0.0, t_end), np.zeros(red.V.shape[1]), method="BDF", jac=red.jac,
+                    rtol=ODE_RTOL, atol=ODE_RTOL * scale_K, dense_output=True, first_step=1e-3)
+    if not sol.success:
+        raise InputError(f"reduced transient: the integrator failed ({sol.message})")
+    return sol
+
+
+def _check_times(t_stop: float, t95) -> np.ndarray:
+    """Check times [s]: :data:`CHECK_TIMES` spread geometrically from ``t_stop`` / 3000 to ``t_stop``, and the
+    earliest and latest t95; a time within 15 % of the one before is dropped (its estimate adds little)."""
+    tk = list(np.geomspace(t_stop / 3000.0, t_stop, CHECK_TIMES))
+    if len(t95):
+        tk += [float(np.min(t95)), float(np.max(t95))]
+    ends = {float(np.min(t95)), float(np.max(t95))} if len(t95) else set()
+    keep = []
+    for t in sorted(tk):
+        if keep and t <= 1.15 * keep[-1]:
+            if t in ends:
+                keep[-1] = t   # a t95 replaces its neighbour: the t95 check reads the estimate there
+            continue
+        keep.append(t)
+    return np.array(keep)
+
+
+def _settle_index(curves, final, fraction) -> int | None:
+    """First row where every site has passed 95 % of its rise and is within ``fraction`` of it."""
+    rise = final - curves[0]
+    nz = rise != 0
+    frac = np.ones_like(curves)
+    frac[:, nz] = (curves[:, nz] - curves[0, nz]) / rise[nz]
+    passed = np.maximum.accumulate(frac >= 0.95, axis=0) | ~nz
+    ok = passed.all(axis=1) & (np.abs(final - curves) <= fraction * np.abs(rise)).all(axis=1)
+    idx = np.flatnonzero(ok)
+    return int(idx[0]) if idx.size else None
+
+
+def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle: bool = False,
+                     save_times=None, tol_K: float | None = None, t95_rel: float | None = None,
+                     order: int = KRYLOV_ORDER, max_rounds: int = 2):
+    """The power-on transient from the ambient on a checked reduced model (module docstring).
+
+    problem, asm : the full model and its assembly; steady : its SteadyResult (the field the secant is
+    taken about, and the end of the curves); probes : dict site -> point [m]; t_end : float [s] the
+    latest end; settle : stop once every site is within 0.5 % of its steady rise (past its t95), as the
+    full run's ``settle_C``; save_times : [s] times whose whole field is kept.
+    tol_K : float [K], t95_rel : float [-], the check's acceptance (:class:`ReducedCheck`; default
+    :data:`CHECK_TOL_K`, :data:`CHECK_T95_REL`); order : Krylov vectors of the first basis; max_rounds :
+    enrichments of the basis by the error fields before giving up.
+
+    Returns (TransientResult or None, ReducedCheck): None when the check failed (run the full FEM).
+    """
+    t0 = time.perf_counter()
+    tol_K = CHECK_TOL_K if tol_K is None else float(tol_K)
+    t95_rel = CHECK_T95_REL if t95_rel is None else float(t95_rel)
+    amb = problem.ambient_C
+    names = tuple(probes)
+    P = probe_matrix(problem.grid, np.array([probes[n] for n in names]))
+    A, _ = linearised(asm, np.asarray(steady.T_C))
+    M = asm.M
+    lin = _Solver(A)
+    x_ss = np.asarray(steady.T_C) - amb
+    # the initial slope's direction (the power over the lumped heat capacity: what the first seconds heat)
+    cols = [x_ss, np.ones(asm.n), asm.F_q / np.maximum(np.asarray(M.sum(axis=1)).ravel(), 1e-300)]
+    v = x_ss
+    for _ in range(order):
+        v = lin.solve(A, M @ v, BASIS_RTOL)
+        cols.append(v)
+    for tau in EARLY_S:   # the first seconds: (A + M / tau)^-1 b, well conditioned, a few CG iterations each
+        cols.append(lin.solve(_Shifted(A, M, 1.0 / tau), asm.F_q, BASIS_RTOL))
+    timings = {"basis": time.perf_counter() - t0, "integrate": 0.0, "check": 0.0}
+    final = P @ x_ss
+    scale = max(float(np.abs(x_ss).max()), 1e-6)
+    L = asm.pattern.csr(asm.K_data + asm.H_data)
+    F = asm.F_q + asm.F_bc
+    F_norm = float(np.linalg.norm(asm.F_q)) or 1.0
+    for rnd in range(1, max_rounds + 2):
+        t1 = time.perf_counter()
+        V = _m_orthonormal(cols, M)
+        red = _Reduced(asm, V, amb)
+        sol = _integrate(red, t_end, scale)
+        PV = np.asarray(P @ V)
+        times = sol.t
+        curves = sol.y.T @ PV.T
+        t_stop = t_end
+        if settle:
+            k = _settle_index(curves, final, SETTLE_FRACTION)
+            if k is not None:
+                times, curves, t_stop = times[:k + 1], curves[:k + 1], float(times[k])
+        t95 = np.array([settle_time(times, curves[:, j], T95_FRACTION, final[j]) for j in range(len(names))])
+        timings["integrate"] += time.perf_counter() - t1
+        t1 = time.perf_counter()
+        fin = np.isfinite(t95) & (t95 > 0)   # the sites whose t95 the run reaches
+        tk = _check_times(t_stop, t95[fin])
+        err = np.empty((len(tk), len(names)))
+        fields, res_max = [], 0.0
+        for i, t in enumerate(tk):
+            y = sol.sol(t)
+            T = amb + V @ y
+            r = F - M @ (V @ red.rhs(t, y)) - L @ T - asm.nonlinear_flux(T)[0]
+            res_max = max(res_max, float(np.linalg.norm(r)) / F_norm)
+            e = lin.solve(_Shifted(A, M, 1.0 / t), r, CHECK_RTOL)
+            err[i] = P @ e
+            fields.append(e)
+        rel95 = 0.0   # each t95's error: the site's estimated error there over the curve's slope
+        for j in np.flatnonzero(fin):
+            slope = abs(float(PV[j] @ red.rhs(t95[j], sol.sol(t95[j]))))
+            at95 = float(np.interp(t95[j], tk, np.abs(err[:, j])))
+            rel95 = max(rel95, at95 / max(slope, 1e-30) / t95[j])
+        max_err = float(np.abs(err).max())
+        timings["check"] += time.perf_counter() - t1
+        ok = max_err <= tol_K and rel95 <= t95_rel
+        if ok or rnd == max_rounds + 1:
+            break
+        cols += fields
+    reason = "" if ok else (f"estimated site error {max_err:.3g} K (tolerance {tol_K:g} K), t95 error "
+                            f"{100 * rel95:.2g} % (tolerance {100 * t95_rel:g} %) after {rnd} round(s)")
+    check = ReducedCheck(bool(ok), reason, V.shape[1], rnd, lin.solves, lin.its, tuple(float(t) for t in tk), err,
+                         max_err, rel95, tol_K, t95_rel, timings)
+    if not ok:
+        return None, check
+    return _result(problem, asm, red, sol, times, curves + amb, names, save_times, res_max, lin, t0), check
+
+
+def _result(problem, asm, red, sol, times, probe_C, names, save_times, res_max, lin, t0) -> TransientResult:
+    """The reduced transient as a :class:`TransientResult` (its energy account on the integrator's steps)."""
+    V, amb = red.V, red.amb
+    one = np.ones(asm.n)
+    Y = np.asarray(sol.sol(times))                     # (r, k)
+    H1 = asm.pattern.csr(asm.H_data).T @ one           # heat out through the linear laws: 1^T H (T - T_ref)
+    F_lin = asm.F_bc - sum((bc.law.q * bc.weights for bc in asm.fluxes), start=np.zeros(asm.n)) \
+        if asm.fluxes else asm.F_bc
+    q_lin = (H1 @ V) @ Y + float(H1 @ (amb * one) - F_lin.sum())
+    q_nl = np.zeros(len(times))
+    for law in red.laws:
+        if law[0] == "exchange":
+            continue    # moves heat between the cavity surfaces only (zero net)
+        _, bc, Vb, _ = law
+        for j in range(len(times)):
+            q, _ = bc.law.flux_out(amb + Vb @ Y[:, j], bc.T_ref)
+            q_nl[j] += float(bc.weights @ q)
+    power = float(asm.F_q.sum()) + asm.flux_in_W
+    E_in = power * float(times[-1])
+    E_out = float(np.trapezoid(q_lin + q_nl, times)) if hasattr(np, "trapezoid") else float(np.trapz(q_lin + q_nl, times))
+    T_end = amb + V @ Y[:, -1]
+    E_stored = float((asm.M @ one) @ (T_end - amb))
+    ebal = abs(E_in - E_stored - E_out) / max(abs(E_in), abs(E_stored) + abs(E_out), 1e-30)
+    sv = np.sort(np.atleast_1d(np.asarray([] if save_times is None else save_times, float)))
+    sv = sv[sv <= times[-1] * (1 + 1e-12)]
+    saved = np.array([amb + V @ sol.sol(t) for t in sv]) if sv.size else np.empty((0, asm.n))
+    T0 = np.full(asm.n, amb)
+    for arr in (T_end, T0, probe_C, saved, times, sv):
+        arr.setflags(write=False)
+    return TransientResult(problem=problem, times=np.asarray(times), T_C=T_end, T0_C=T0, probe_names=names,
+                           probe_C=probe_C, saved_times=sv, saved_C=saved, newton_iterations=0,
+                           linear_iterations=lin.its, residual=res_max, energy_balance_rel_error=float(ebal),
+                           energy_in_J=E_in, energy_stored_J=E_stored, energy_out_J=E_out, unknowns=asm.n,
+                           steps=len(times) - 1, theta=float("nan"), assembly_s=0.0,
+                           solve_s=time.perf_counter() - t0, solver="reduced", lagged_nonlinear=False,
+                           scheme="reduced", linear_solves=lin.solves, rejected_steps=0, tol_K=None,
+                           settled=bool(times[-1] < sol.t[-1]))
