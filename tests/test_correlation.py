@@ -21,6 +21,8 @@ KEYS = ("verdict", "named_effect", "parameters", "ranking", "rms_before_K", "rms
         "max_after_K", "heldout_rms_before_K", "heldout_rms_after_K")
 #: the inversion's mesh in these tests (coarse, one cell across the thinnest part) and the generator's (finer)
 INV_MM, GEN_MM = 6.0, 3.0
+#: the model-form cases' generator mesh (the s2s law's view factors and radiosity cost more per node)
+MF_GEN_MM = 5.0
 
 
 def _fit(name, aicc, held, rms=None):
@@ -313,7 +315,7 @@ def test_discrepancy_takes_a_model_form_null_case_without_naming_an_effect(tmp_p
     effective conductivity) on a finer mesh: the model's form is off by kelvins, which the re-tune does not
     close; the discrepancy term takes it, and no library effect is named."""
     from imutherm.studies.hidden_effect import model_form_options
-    case = make_case(tmp_path / "case", "none", np.random.default_rng(11), mesh_size_mm=GEN_MM, min_cells=1,
+    case = make_case(tmp_path / "case", "none", np.random.default_rng(11), mesh_size_mm=MF_GEN_MM, min_cells=1,
                      samples=30, options=model_form_options(models_effective.options))
     runs = [read_measured(f) for f in case.files]
     res = correlate(runs, models=models_effective, rerun=False)
