@@ -32,7 +32,7 @@ import numpy as np
 from imutherm.io import write_json
 from imutherm.measured import read_measured
 from imutherm.studies.correlation import _Forward, build_models, correlate, result_json
-from imutherm.studies.hidden_effect import OUT_OF_LIBRARY, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case
+from imutherm.studies.hidden_effect import OUT_OF_LIBRARY_KINDS, HiddenCase, make_case, model_form_options
 
 DEFAULT_EFFECTS = ("contact@bond", "emissivity", "cavity_emissivity", "power@reg_5v", "fixture_leak",
                    "probe_lag", "contact@standoff")
@@ -57,6 +57,12 @@ def main(argv=None) -> int:
     ap.add_argument("--gen-min-cells", type=int, default=1, help="generator: cells across the thinnest part")
     ap.add_argument("--no-generate", action="store_true",
                     help="re-invert the cases already generated in --out, skip the others")
+    ap.add_argument("--model-form", action="store_true",
+                    help="model-form cases: generate with the other cavity-radiation law than the inversion's "
+                         "(hidden_effect.model_form_options), so the data differ from the inverted model in form")
+    ap.add_argument("--no-discrepancy", action="store_true", help="invert without the discrepancy term")
+    ap.add_argument("--max-effects", type=int, default=3, help="forward selection's largest number of effects")
+    ap.add_argument("--samples", type=int, default=40, help="readings per file")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
@@ -73,13 +79,16 @@ def main(argv=None) -> int:
     # the inversion's reduced models depend only on the layout, mesh and experiments: built once, reused
     models = build_models(experiments, mesh_size_mm=args.mesh_size, min_cells=args.min_cells, progress=print)
     print(f"reduced models built in {time.perf_counter() - t0:.0f} s", flush=True)
+    gen_options = model_form_options(models.options) if args.model_form else None
+    form = "model-form" if args.model_form else "same-model"
     tag = "" if args.kinds is None and not args.first_case else f"_{'_'.join(kinds)}_from{args.first_case}"
+    tag += "_mf" if args.model_form else ""
     rows_path = out / f"campaign_rows{tag}.json"
     rows = []
     for hidden in kinds:
         for c in range(args.first_case, args.first_case + args.cases):
             seed = _seed(args.seed, hidden, c)
-            d = out / f"{hidden.replace('@', '_')}_{c}"
+            d = out / f"{'mf_' if args.model_form else ''}{hidden.replace('@', '_')}_{c}"
             t0 = time.perf_counter()
             meta = d / "case.json"
             if not meta.exists() and args.no_generate:
@@ -90,17 +99,23 @@ def main(argv=None) -> int:
                                   m.get("extra", {}))
             else:
                 case = make_case(d, hidden, np.random.default_rng(seed), experiments=experiments,
-                                 mesh_size_mm=args.gen_mesh_size, min_cells=args.gen_min_cells, seed=seed)
+                                 mesh_size_mm=args.gen_mesh_size, min_cells=args.gen_min_cells, seed=seed,
+                                 options=gen_options, samples=args.samples)
                 write_json(meta, {"hidden": case.hidden, "value": case.value, "nuisance": case.nuisance,
                                   "files": list(case.files), "seed": seed, "extra": case.extra})
             t_gen = time.perf_counter() - t0
             runs = [read_measured(f) for f in case.files]
-            res = correlate(runs, models=models, rerun=False)  # held-out figures come from the reduced model
+            res = correlate(runs, models=models, rerun=False, discrepancy=not args.no_discrepancy,
+                            max_effects=args.max_effects)  # held-out figures come from the reduced model
             j = result_json(res)
             called = res.named_effect if res.verdict == "effect" else res.verdict
             sig = signature(models, runs, case, res.noise_K)
             shape = residual_shape(_Forward(tuple(runs), models.roms, models.geometries), res.retune.values)
-            rows.append({"hidden": hidden, "value": case.value, "extra": case.extra, "seed": seed, "verdict": res.verdict,
+            rows.append({"form": form, "named_effects": list(res.named_effects),
+                         "discrepancy_supported": bool(res.discrepancy and res.discrepancy["supported"]),
+                         "discrepancy_rms_K": res.discrepancy["rms_K"] if res.discrepancy else None,
+                         "heldout_retune_K": j["heldout_rms_retune_K"],
+                         "hidden": hidden, "value": case.value, "extra": case.extra, "seed": seed, "verdict": res.verdict,
                          "called": called, "ambiguous_set": list(res.ambiguous_set), "signature_over_noise": sig,
                          "heldout_before_K": j["heldout_rms_before_K"], "heldout_after_K": j["heldout_rms_after_K"],
                          "rms_before_K": j["rms_before_K"], "rms_after_K": j["rms_after_K"], "noise_K": res.noise_K,
@@ -109,9 +124,11 @@ def main(argv=None) -> int:
                          "retune_residual": shape,
                          "named_values": dict(res.after.values) if res.verdict == "effect" else None})
             print(f"{hidden:<20} {case.value!s:<12.8} sig {sig if sig is None else round(sig, 1)!s:<6} -> "
-                  f"{called:<20} ({time.perf_counter() - t0:.0f} s)", flush=True)
+                  f"{called:<20} {'+'.join(res.named_effects) or '-':<30} "
+                  f"disc {'yes' if rows[-1]['discrepancy_supported'] else 'no'} ({time.perf_counter() - t0:.0f} s)",
+                  flush=True)
             write_json(rows_path, rows)
-    summary = summarise(rows, args.effects)
+    summary = summarise(rows, [k for k in kinds if k not in ("none", *OUT_OF_LIBRARY_KINDS)])
     write_json(out / f"campaign{tag}.json",
                {"rows": rows, "summary": summary, "args": vars(args)})
     print(json.dumps(summary, indent=1))
@@ -177,7 +194,22 @@ def summarise(rows, effects) -> dict:
                              "named": dict(Counter(r["called"] for r in rk if r["verdict"] == "effect"))}
     ratios = [r["heldout_after_K"] / r["heldout_before_K"] for r in eff_rows
               if r["called"] == r["hidden"] and r["heldout_before_K"]]
+    named = [r for r in strong if r.get("named_effects") is not None]
     return {
+        # issue 22's figures: the hidden effect among the named ones, first; nulls naming no library effect;
+        # out-of-library kinds abstained or discrepancy-only
+        "hidden_among_named_strong": (sum(r["hidden"] in r["named_effects"] for r in named) / len(named))
+        if named else None,
+        "hidden_first_strong": (sum(r["named_effects"][:1] == [r["hidden"]] for r in named) / len(named))
+        if named else None,
+        "null_no_library_effect": (sum(r["verdict"] != "effect" for r in nulls) / len(nulls)) if nulls else None,
+        "null_discrepancy": sum(r["verdict"] == "discrepancy" for r in nulls),
+        "out_of_library_abstained_or_discrepancy": (sum(r["verdict"] in ("not_in_library", "ambiguous", "discrepancy")
+                                                        for r in ool) / len(ool)) if ool else None,
+        "heldout_after_over_before_median_named": float(np.median(
+            [r["heldout_after_K"] / r["heldout_before_K"] for r in strong
+             if r.get("named_effects") and r["hidden"] in r["named_effects"] and r["heldout_before_K"]]))
+        if any(r.get("named_effects") and r["hidden"] in r["named_effects"] for r in strong) else None,
         "top1_accuracy_strong": (sum(r["called"] == r["hidden"] for r in strong) / len(strong)) if strong else None,
         "strong_cases": len(strong),
         "top1_accuracy_all": (sum(r["called"] == r["hidden"] for r in eff_rows) / len(eff_rows)) if eff_rows else None,

@@ -36,6 +36,11 @@ def add_args(parser) -> None:
                              "the full FEM, one transient per file)")
     add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
                                     "(default: 2, or 1 on one core)")
+    parser.add_argument("--no-discrepancy", action="store_true",
+                        help="no model-discrepancy term (the model's own error, fitted beside the knobs with a prior "
+                             "of 5 %% of each site's rise): the re-tune and the library's effects only")
+    parser.add_argument("--max-effects", type=int, default=None, metavar="N",
+                        help="forward selection names at most N library effects (default 3; 1: one effect)")
     parser.add_argument("--no-report", action="store_true", help="no correlation.pdf")
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor keep the reduced models and the re-run in the disk cache "
@@ -99,6 +104,10 @@ def run(args) -> int:
     jobs = min(2, os.cpu_count() or 1) if args.jobs is None else args.jobs
     if jobs < 1:
         raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    from imutherm.studies.correlation import MAX_EFFECTS
+    max_effects = MAX_EFFECTS if args.max_effects is None else args.max_effects
+    if max_effects < 1:
+        raise InputError(f"--max-effects: {max_effects} is invalid; valid: an integer >= 1")
     check_outdir(args.out)
     layout = load_layout(args.layout)
     sites = tuple(build_geometry(layout, None).sites)
@@ -107,7 +116,8 @@ def run(args) -> int:
     from imutherm.studies.correlation import correlate, result_json, updated_model_toml
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                     options=model_options(args), rerun=not args.no_rerun, jobs=jobs, use_cache=not args.no_cache,
-                    progress=lambda s: print(f"  {s}", flush=True))
+                    progress=lambda s: print(f"  {s}", flush=True), discrepancy=not args.no_discrepancy,
+                    max_effects=max_effects)
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "correlation.json", data)
@@ -115,7 +125,7 @@ def run(args) -> int:
         if not args.no_report:
             from imutherm.reports.correlation_report import write_report
             write_report(tmp / "correlation.pdf", res)
-    print(f"verdict: {res.verdict}" + (f" ({res.named_effect})" if res.named_effect else "")
+    print(f"verdict: {res.verdict}" + (f" ({' + '.join(res.named_effects)})" if res.named_effects else "")
           + (f" {', '.join(res.ambiguous_set)}" if res.ambiguous_set else ""))
     print(f"  {res.words}")
     print(f"  RMS {data['rms_before_K']:.2f} -> {data['rms_after_K']:.2f} K, max {data['max_before_K']:.2f} -> "

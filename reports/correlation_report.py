@@ -25,7 +25,7 @@ def _fmt(v, unit="K"):
 
 def _summary_page(pdf, res):
     fig = plt.figure(figsize=A4_LANDSCAPE)
-    head = f"Correlation verdict: {res.verdict}" + (f" — {res.named_effect}" if res.named_effect else "")
+    head = f"Correlation verdict: {res.verdict}" + (f" — {' + '.join(res.named_effects)}" if res.named_effects else "")
     if res.ambiguous_set:
         head += f" — one of {', '.join(res.ambiguous_set)}"
     fig.text(0.05, 0.94, head, fontsize=15, weight="bold")
@@ -100,6 +100,9 @@ def _curve_pages(pdf, res):
             ax.plot(tplot, c["measured_K"][:, j], "k.", ms=3, label="measured")
             ax.plot(tplot, c["before_K"][:, j], "-", color="tab:red", label="before")
             ax.plot(tplot, c["after_K"][:, j], "-", color="tab:green", label="after (reduced model fit)")
+            if "discrepancy_K" in c and np.any(c["discrepancy_K"][:, j]):
+                ax.plot(tplot, c["after_K"][:, j] - c["discrepancy_K"][:, j], ":", color="tab:green",
+                        label="after, without the discrepancy term")
             if "after_full_K" in c:
                 ax.plot(tplot, c["after_full_K"][:, j], "s", mfc="none", color="tab:green", ms=5,
                         label="after, full-model re-run")
