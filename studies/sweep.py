@@ -519,16 +519,11 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
         surrogate = "reduced" if fits and not attitude else "none"
     if surrogate == "reduced":
         # every key is a coefficient on the same mesh: the layout's, geometry's and materials' checks of a
-        # value are interval checks per key, so each key at its bounds (the others at case 0's values) checks
+        # value are interval checks per key, so the cases holding each key's smallest and largest value check
         # every case; the mesh is built once
-        checked = {tuple(float(v) for v in X[0])}
-        for j, f in enumerate(factors):
-            for v in f.bounds:
-                row = [float(x) for x in X[0]]
-                row[j] = float(v)
-                checked.add(tuple(row))
-        for row in sorted(checked):
-            _case(0, row, factors, raw, str(path), settings, base, mesh=False)
+        ids = sorted({0} | {int(i) for j in range(len(factors)) for i in (np.argmin(X[:, j]), np.argmax(X[:, j]))})
+        for i in ids:
+            _case(i, tuple(float(v) for v in X[i]), factors, raw, str(path), settings, base, mesh=False)
         n0 = build_mesh(build_geometry(base_layout, scheme), mesh_size_mm, min_cells).n_nodes
         cases = tuple(Case(i, tuple(float(v) for v in row), None, None) for i, row in enumerate(X))
         unknowns = np.full(len(cases), n0, int)
