@@ -221,7 +221,7 @@ def build_surrogate(plan, progress=None) -> SweepSurrogate:
     say(f"reduced model: building ({len(knobs)} knobs{', pairs ' + str(pairs) if pairs else ''})")
     probes = dict(geometry.sites)
     probes.update(hot)
-    rom = build_reduced(variant_fn, grid, knobs, probes, pairs=pairs)
+    rom = build_reduced(variant_fn, grid, knobs, probes, pairs=pairs, load_directions=True)
     return SweepSurrogate(rom, knobs, base_power, tuple(geometry.sites), pairs, time.perf_counter() - t0)
 
 

@@ -83,10 +83,10 @@ def inputs() -> tuple:
                               "pair emissivity of facing board / housing surfaces: boards 0.80-0.95 (solder "
                               "mask, assumed), anodised inner walls 0.75-0.90 (Incropera Table A.11, widened) "
                               "-> 1/(1/e1 + 1/e2 - 1) = 0.63-0.86 (model default 0.77)", 0.77))
-    out.append(UncertainInput("contact@bond", "W/m^2 K", 3.6e3, 3.8e4, True,
+    out.append(UncertainInput("contact@bond", "W/m^2 K", 3.6e3, 2.0e4, True,
                               "each face of a grease bond line: from an unwetted (air-filled) Al joint, "
-                              "R'' = 2.75e-4 m^2 K/W, to a glycerine-filled one, 0.265e-4 (Incropera & DeWitt "
-                              "Table 3.1b; model default the silicone-oil value 1.9e4)"))
+                              "R'' = 2.75e-4 m^2 K/W (Incropera & DeWitt Table 3.1b), up to the contact effect's "
+                              "physical bound 2e4 (the model's default, the silicone-oil-filled joint, is 1.9e4)"))
     return tuple(out)
 
 
@@ -217,7 +217,7 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     if progress:
         progress(f"uncertainty: reduced model of {scheme} ({len(knobs)} knobs, {grid.n_nodes} unknowns)")
     rom = build_reduced(lambda v: K.variant(geo, options, v), grid, knobs, {s: geo.sites[s] for s in sites},
-                        pairs=pairs)
+                        pairs=pairs, load_directions=True)
     return SchemeModel(scheme, geo, grid, options, rom, tuple(i.name for i in ins), tuple(applicable), current,
                        sites, time.perf_counter() - t0)
 
