@@ -99,3 +99,32 @@ def test_propagation_on_the_reduced_models_checked_on_the_full_fem():
     assert res["max_check_error_K"] < 0.1, res["checks"]
     assert res["max_check_t95_rel_error"] < 0.02, res["checks"]
     assert res["answer"] and "diff_max_die_rise_K:air-grease" in res["stats"]
+
+
+def test_compare_refuses_a_bad_sample_count_before_any_solve(tmp_path, capsys):
+    from imutherm.cli import main
+
+    rc = main(["compare", "--steady-only", "--uncertainty", "--uncertainty-samples", "100", "--out",
+               str(tmp_path / "x"), "--no-progress"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "power of 2" in err[0] and not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_compare_uncertainty_writes_its_json_and_pages(tmp_path, capsys):
+    import json
+
+    from imutherm.cli import main
+
+    out = tmp_path / "c"
+    rc = main(["compare", "--steady-only", "--schemes", "air,grease", "--uncertainty", "--uncertainty-samples", "4",
+               "--uncertainty-checks", "1", "--mesh-size", "6", "--min-cells", "1", "--no-progress",
+               "--out", str(out)])
+    text = capsys.readouterr().out
+    unc = json.loads((out / "uncertainty.json").read_text())
+    assert rc == 0 and unc["draws"] == 4 * (len(U.inputs()) + 2) and "air - grease" in text
+    assert unc["max_check_error_K"] < 0.1
+    from pypdf import PdfReader
+
+    pdf = "".join(p.extract_text() for p in PdfReader(out / "uncertainty.pdf").pages)
+    assert "supply_V" in pdf and "Sobol" in pdf and "Not propagated" in pdf
