@@ -137,3 +137,14 @@ def test_sabotaged_surrogate_fails_its_check_and_exits_3(tmp_path, capsys, monke
     v = json.loads((out / "sweep.json").read_text())["verification"]
     assert rc == 3 and not v["passed"] and v["max_site_error_K"] == pytest.approx(0.5, abs=0.05)
     assert "FAIL" in text and "exceeds its tolerance" in text
+
+
+@pytest.mark.slow
+def test_reduced_sweep_t95_matches_the_full_fem(tmp_path, capsys):
+    out = tmp_path / "t"
+    rc = main(["sweep", "--scheme", "air", "--method", "lhs", "--samples", "6", "--seed", "2", "--transient",
+               "--t-end", "1500", "--set", f"{POWER}=0.4:1.2", "--set", "options.emissivity=0.05:0.9",
+               "--verify", "1", "--out", str(out), *CLI_COARSE])
+    v = json.loads((out / "sweep.json").read_text())["verification"]
+    assert rc == 0 and v["passed"], v
+    assert v["max_t95_rel_error"] is not None and v["max_t95_rel_error"] < 0.01
