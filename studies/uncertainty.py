@@ -286,8 +286,8 @@ def answer_words(stats: dict, schemes) -> list:
             lo, mid, hi = (fmt.format(s[q]) for q in ("q05", "q50", "q95"))
             if s["q05"] > 0 or s["q95"] < 0:
                 better, worse = (b, a) if s["q05"] > 0 else (a, b)
-                verdict = (f"{better} is lower than {worse} in every draw between the 5th and 95th percentile: the "
-                           f"advantage is larger than the model's uncertainty")
+                verdict = (f"{better} is lower than {worse} across the 5-95 % interval: the advantage is larger "
+                           f"than the model's uncertainty")
             else:
                 verdict = "the 5-95 % interval includes zero: the difference is within the model's uncertainty"
             drv = ", ".join(s.get("drivers", [])[:2])
