@@ -127,7 +127,8 @@ def run(args) -> int:
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     for line in [cols] + rows:
         print("  ".join(v.ljust(w) if i in (0, 3) else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths))))
-    print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png")
+    print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png"
+          + (" uncertainty.json uncertainty.pdf" if unc is not None else ""))
     return 0
 
 
@@ -164,7 +165,7 @@ def _end_to_end(args, schemes, config) -> int:
         write_study_report(tmp, tmp / "report.pdf")
     print_answer(summary)
     print(f"wrote {args.out}/report.pdf summary.json curves_*.csv residuals_*.csv attitude_*.csv steady_*.vtu "
-          f"({res.wall_s:.0f} s)")
+          + ("uncertainty.json " if unc is not None else "") + f"({res.wall_s:.0f} s)")
     return 0
 
 
