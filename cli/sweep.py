@@ -140,7 +140,7 @@ def run(args) -> int:
     print(f"wrote {args.out}/results.csv sweep.json sweep.pdf")
     if res.verification is not None and not res.verification["passed"]:
         print("imutherm sweep: the reduced model's check against the full FEM exceeds its tolerance; its rows "
-              "are not to be trusted (rerun with --surrogate none, or a finer --verify-tol study)")
+              "are not to be trusted: rerun with --surrogate none")
         return 3
     if res.lost:
         print(f"imutherm sweep: {len(res.lost)} case(s) not run (a worker process was lost): rerun with --resume")
