@@ -10,6 +10,12 @@ warm-up), ``attitude_<s>.csv`` (attitude error of each filter over the warm-up),
 ``--thermal-only`` (or ``--steady-only``) runs the thermal comparison alone and writes the earlier
 files: ``report.pdf``, ``compare.json``, ``probes_<s>.csv``, ``map_<s>.npz``, ``layout.png``.
 
+``--uncertainty`` propagates the model's uncertain inputs (each with its range and source) through each
+scheme's reduced model to the sensor-die rises, the settle time and the differences between schemes
+(:mod:`imutherm.studies.uncertainty`): 5-95 % intervals and Sobol' indices in ``uncertainty.json``
+(and ``summary.json``), pages in ``report.pdf`` (``uncertainty.pdf`` with ``--thermal-only``), checked
+against the full FEM at ``--uncertainty-checks`` drawn points per scheme.
+
 Transients: on a reduced model of each scheme's steady field that checks itself against the full model
 (every site within 0.05 K, every t95 within 1 %; :mod:`imutherm.thermal.reduced_transient`), the full
 adaptive TR-BDF2 where the check fails or with ``--full`` (``--time-tol``, default 0.01 K at the sites);
@@ -53,6 +59,14 @@ def add_args(parser) -> None:
                         "calibration's temperature trend), hold (clamp), error (refuse)")
     add_jobs_argument(g, default=None,
                       help="processes (default: min(2, CPUs)); the IMU side runs beside the thermal solves")
+    u = parser.add_argument_group("uncertainty of the answer")
+    u.add_argument("--uncertainty", action="store_true",
+                   help="propagate the model's uncertain inputs (ranges and sources in the report) to each scheme's "
+                        "die rises, t95 and the differences between schemes, on the reduced models")
+    u.add_argument("--uncertainty-samples", type=int, default=256, metavar="N",
+                   help="Saltelli base samples N, a power of 2: N x (inputs + 2) draws (default 256)")
+    u.add_argument("--uncertainty-checks", type=int, default=2, metavar="N",
+                   help="drawn points per scheme re-run on the full FEM (the first with the transient; default 2)")
     add_progress_argument(parser)
     add_model_arguments(parser)
     add_fitted_model_argument(parser)
@@ -81,6 +95,12 @@ def run(args) -> int:
         raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")
     layout, options, effects, fitted = run_inputs(args)
     args.run_model = (layout, options, effects, fitted)
+    if args.uncertainty:
+        from imutherm.studies.uncertainty import design, inputs
+
+        if args.uncertainty_checks < 0:
+            raise InputError(f"--uncertainty-checks must be an integer >= 0, got {args.uncertainty_checks}")
+        design(inputs(), args.uncertainty_samples, 0)  # a bad sample count is refused before any solve
     unknown = [s for s in schemes if s not in layout.schemes]
     if unknown:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
@@ -97,7 +117,14 @@ def run(args) -> int:
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout
 
+    unc = _uncertainty(args, layout, schemes, options)
     with atomic_outdir(args.out) as tmp:
+        if unc is not None:
+            from imutherm.io import write_json
+            from imutherm.reports.uncertainty_report import write_uncertainty_pdf
+
+            write_json(tmp / "uncertainty.json", unc)
+            write_uncertainty_pdf(unc, tmp / "uncertainty.pdf")
         write_comparison(comp, tmp, fitted.summary() if fitted is not None else None)
         plot_layout(next(iter(comp.runs.values())).geometry if "grease" not in comp.runs
                     else comp.runs["grease"].geometry, tmp / "layout.png")
@@ -111,7 +138,8 @@ def run(args) -> int:
         print("  ".join(v.ljust(w) if i in (0, 3) else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths))))
     if fitted is not None:
         print(fitted.line())
-    print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png")
+    print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png"
+          + (" uncertainty.json uncertainty.pdf" if unc is not None else ""))
     return 0
 
 
@@ -136,10 +164,16 @@ def _end_to_end(args, schemes, config) -> int:
     from imutherm.reports.layout_plot import plot_layout
     from imutherm.reports.study_report import write_study_report
 
+    unc = _uncertainty(args, res.layout, schemes, options)
     with atomic_outdir(args.out) as tmp:
         summary = study_summary(res)
         if fitted is not None:
             summary["model"] = fitted.summary()
+        if unc is not None:
+            from imutherm.io import write_json
+
+            summary["uncertainty"] = unc
+            write_json(tmp / "uncertainty.json", unc)
         write_study(res, tmp, summary=summary)
         for name, st in res.schemes.items():
             plot_layout(st.thermal.geometry, tmp / f"layout_{name}.png")
@@ -148,8 +182,32 @@ def _end_to_end(args, schemes, config) -> int:
     if fitted is not None:
         print(fitted.line())
     print(f"wrote {args.out}/report.pdf summary.json curves_*.csv residuals_*.csv attitude_*.csv steady_*.vtu "
-          f"({res.wall_s:.0f} s)")
+          + ("uncertainty.json " if unc is not None else "") + f"({res.wall_s:.0f} s)")
     return 0
+
+
+def _uncertainty(args, layout, schemes, options):
+    """The propagation of ``--uncertainty`` (None without it); prints its answer."""
+    if not args.uncertainty:
+        return None
+    from imutherm.studies.uncertainty import run_uncertainty
+
+    say = None if args.no_progress else (lambda m: print(m, flush=True))
+    unc = run_uncertainty(layout, schemes, options=options, samples=args.uncertainty_samples,
+                          seed=args.seed if hasattr(args, "seed") else 0, checks=args.uncertainty_checks,
+                          t_end=args.t_end or args.t_end_default, mesh_size_mm=args.mesh_size,
+                          min_cells=args.min_cells, progress=say)
+    print(f"uncertainty ({len(unc['inputs'])} inputs, {unc['draws']} draws on the reduced models; checked on the "
+          f"full FEM: largest site error {unc['max_check_error_K']:.3f} K):" if unc["max_check_error_K"] is not None
+          else f"uncertainty ({len(unc['inputs'])} inputs, {unc['draws']} draws, not checked on the full FEM):")
+    for s in schemes:
+        r, t = unc["stats"][f"max_die_rise_K:{s}"], unc["stats"][f"t95_s:{s}"]
+        print(f"  {s:<8} hottest die rise {r['q50']:.2f} K (5-95 %: {r['q05']:.2f} .. {r['q95']:.2f}), t95 "
+              f"{t['q50']:.0f} s ({t['q05']:.0f} .. {t['q95']:.0f})" if t["q05"] is not None else
+              f"  {s:<8} hottest die rise {r['q50']:.2f} K (5-95 %: {r['q05']:.2f} .. {r['q95']:.2f})")
+    for line in unc["answer"]:
+        print(f"  {line}")
+    return unc
 
 
 def print_answer(summary: dict) -> None:

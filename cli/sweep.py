@@ -5,7 +5,14 @@ Each ``--set KEY=VALUES`` names an input by a dotted key into the layout
 ``environment.ambient_C``, ``boards.main.min_mm.2``), a material of the scheme
 (``materials.silicone_grease.k``) or the model options (``options.emissivity``),
 and its values: a list ``0.5,1,2`` or a range ``lo:hi:n`` (grid), ``lo:hi``
-(lhs, morris). Every key and every case is checked before the first case runs.
+(lhs, morris, sobol). Every key and every case is checked before the first case runs.
+
+When every key is a knob of the scheme's reduced model (powers, conductivities,
+contact and mounting conductances, convection factor, emissivities) the cases
+run on it (``--surrogate reduced``, the default then; ``--surrogate none``: the
+full FEM) and ``--verify N`` (default 5) random cases are re-run on the full FEM:
+their largest site error is in the summary, ``sweep.json`` and the PDF, and a
+sweep whose check exceeds ``--verify-tol`` (0.1 K) says so and exits 3.
 
 Writes in ``--out DIR``: ``results.csv`` (one row per case: case id, inputs,
 ``max_rise_K``, ``t95_s`` with ``--transient``, ``rise_<site>_K``, attitude RMS
@@ -26,6 +33,7 @@ from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument,
                                    add_model_arguments, add_out_argument, add_progress_argument, check_cavity_cost,
                                    run_inputs)
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
+from imutherm.studies.sweep_surrogate import SURROGATES, VERIFY_DEFAULT, VERIFY_TOL_K, verify_words
 
 
 def _duration(seconds: float) -> str:
@@ -39,9 +47,19 @@ def add_args(parser) -> None:
                         help="an input and its values (repeatable): KEY=0.5,1,2 or KEY=lo:hi:n (grid), KEY=lo:hi (lhs, morris)")
     parser.add_argument("--method", choices=METHODS, default="grid",
                         help="grid: every combination; lhs: SALib Latin hypercube of --samples cases; "
-                             "morris: SALib Morris design of --samples trajectories ((inputs + 1) cases each)")
-    parser.add_argument("--samples", type=int, default=None, metavar="N", help="design size of lhs / morris")
-    parser.add_argument("--seed", type=int, default=None, metavar="N", help="seed of the lhs / morris design")
+                             "morris: SALib Morris design of --samples trajectories ((inputs + 1) cases each); "
+                             "sobol: SALib Saltelli design, first and total order Sobol' indices "
+                             "(--samples N, a power of 2: N x (inputs + 2) cases)")
+    parser.add_argument("--samples", type=int, default=None, metavar="N", help="design size of lhs / morris / sobol")
+    parser.add_argument("--seed", type=int, default=None, metavar="N", help="seed of the lhs / morris / sobol design")
+    parser.add_argument("--surrogate", choices=SURROGATES, default="auto",
+                        help="reduced: every case on the scheme's reduced model (every key must be one of its "
+                             "knobs); none: every case on the full FEM; auto (default): reduced when it can")
+    parser.add_argument("--verify", type=int, default=VERIFY_DEFAULT, metavar="N",
+                        help=f"reduced model: cases re-run on the full FEM as its proof (default {VERIFY_DEFAULT})")
+    parser.add_argument("--verify-tol", type=float, default=VERIFY_TOL_K, metavar="K",
+                        help=f"reduced model: largest site error a verified case may show [K] (default "
+                             f"{VERIFY_TOL_K:g}); above it the sweep exits 3")
     parser.add_argument("--transient", action="store_true",
                         help="also run the power-on transient: adds t95_s of the hottest site")
     parser.add_argument("--t-end", type=float, default=1200.0, metavar="SECONDS", help="transient end time [s]")
@@ -77,7 +95,8 @@ def run(args) -> int:
     plan = plan_sweep(layout.path, args.scheme, args.sets, method=args.method, samples=args.samples,
                       seed=args.seed, options=options, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                       transient=args.transient, t_end=args.t_end, attitude=args.attitude,
-                      attitude_seeds=args.attitude_seeds, max_cpu_hours=args.max_cpu_hours, fitted=fitted)
+                      attitude_seeds=args.attitude_seeds, max_cpu_hours=args.max_cpu_hours, fitted=fitted,
+                      surrogate=args.surrogate, verify=args.verify, verify_tol_K=args.verify_tol)
     if fitted is not None:
         print(fitted.line())
     cost = estimate_cost(plan, 1 if args.dask else args.jobs)
@@ -94,9 +113,14 @@ def run(args) -> int:
     runner = f"{args.jobs} local process{'es' if args.jobs > 1 else ''}"
     where = (f"{_duration(cost.total_s)} of one core, divided over the cluster's workers" if args.dask
              else f"{_duration(cost.total_s)} on {runner}")
-    print(f"sweep of {d['scheme']} ({d['method']}): {cost.cases} cases of {', '.join(plan.keys)}; "
-          f"~{cost.unknowns} unknowns each, ~{cost.case_s:.0f} s per case on an idle core; estimate {where}",
-          flush=True)
+    if plan.surrogate == "reduced":
+        print(f"sweep of {d['scheme']} ({d['method']}): {cost.cases} cases of {', '.join(plan.keys)} on the "
+              f"reduced model of {cost.unknowns} unknowns (--surrogate reduced), {d['verify']} verified on the "
+              f"full FEM; estimate {where}", flush=True)
+    else:
+        print(f"sweep of {d['scheme']} ({d['method']}): {cost.cases} cases of {', '.join(plan.keys)}; "
+              f"~{cost.unknowns} unknowns each, ~{cost.case_s:.0f} s per case on an idle core; estimate {where}",
+              flush=True)
     res = run_sweep(plan, args.out, jobs=args.jobs, dask_address=args.dask, resume=args.resume,
                     progress=not args.no_progress)
 
@@ -110,7 +134,13 @@ def run(args) -> int:
         if r["status"] == "failed":
             print(f"  case {r['case']} failed: {r['message']}")
     sens = res.sensitivity
-    if sens["ranking"]:
+    if sens["ranking"] and sens["measure"] == "sobol":
+        by = sens["outputs"]["max_rise_K"]["by_key"]
+        print("influence on max_rise_K (Sobol' first-order S1 and total ST, ± 95 % confidence):")
+        for k in sens["ranking"]:
+            b = by[k]
+            print(f"  {k:<40} S1 {b['S1']:6.3f} ± {b['S1_conf']:.3f}   ST {b['ST']:6.3f} ± {b['ST_conf']:.3f}")
+    elif sens["ranking"]:
         metric = "mu_star" if sens["measure"] == "morris_mu_star" else "src"
         name = {"mu_star": "Morris mu*", "src": "standardised regression coefficient"}[metric]
         by = sens["outputs"]["max_rise_K"]["by_key"]
@@ -120,7 +150,16 @@ def run(args) -> int:
             print(f"  {k:<40} {by[k][metric]:+.3g}")
     if sens["note"]:
         print(f"note: {sens['note']}")
+    if res.verification is not None:
+        t = res.timings
+        print(f"reduced model: built in {t['build_s']:.1f} s, {len(res.rows)} cases evaluated in "
+              f"{t['evaluate_s']:.1f} s, verification {t['verify_s']:.1f} s")
+        print(f"verification: {verify_words(res.verification)}")
     print(f"wrote {args.out}/results.csv sweep.json sweep.pdf")
+    if res.verification is not None and not res.verification["passed"]:
+        print("imutherm sweep: the reduced model's check against the full FEM exceeds its tolerance; its rows "
+              "are not to be trusted: rerun with --surrogate none")
+        return 3
     if res.lost:
         print(f"imutherm sweep: {len(res.lost)} case(s) not run (a worker process was lost): rerun with --resume")
         return 1

@@ -389,6 +389,10 @@ def write_study_report(folder: str | os.PathLike, path: str | os.PathLike) -> No
     data = json.loads((folder / "summary.json").read_text())
     with PdfPages(path) as pdf:
         _answer_page(pdf, data)
+        if data.get("uncertainty"):  # imutherm compare --uncertainty
+            from imutherm.reports.uncertainty_report import uncertainty_pages
+
+            uncertainty_pages(pdf, data["uncertainty"])
         _bare_page(pdf, data)
         _image_pages(pdf, folder, data)
         _map_page(pdf, folder, data)

@@ -1,8 +1,10 @@
 """``sweep.pdf`` of ``imutherm sweep``: the ranking of the inputs' influence, then each output against each input.
 
 Page 1: the design in words and a bar chart of each input's influence on the
-largest rise (Morris mu* for a Morris design, else the standardised regression
-coefficient with its R^2; the page says which). Page 2: the same measure for
+largest rise (Morris mu* for a Morris design, Sobol' first-order and total
+indices with their 95 % confidence for a Sobol' design, else the standardised
+regression coefficient with its R^2; the page says which), and for a sweep on
+the reduced model its check against the full FEM. Page 2: the same measure for
 every output as a table of numbers. Then one page per input: every output
 against it, one scatter panel per output. Axis labels carry units; A4
 landscape, fonts >= 8 pt.
@@ -41,6 +43,8 @@ def _measure(sens: dict) -> tuple:
     """(metric key in by_key, long name)."""
     if sens["measure"] == "morris_mu_star":
         return "mu_star", "Morris mu* (mean |elementary effect|, output units per input range)"
+    if sens["measure"] == "sobol":
+        return "ST", "Sobol' total-order index ST (first-order S1 beside it; share of the output's variance)"
     return "src", "standardised regression coefficient (linear least squares on standardised values)"
 
 
@@ -59,6 +63,13 @@ def _ranking_page(pdf, result) -> None:
              f"influence measure: {mname}"]
     if sens.get("note"):
         lines.append(f"note: {sens['note']}")
+    if result.verification is not None:
+        from imutherm.studies.sweep_surrogate import verify_words
+
+        t = result.timings or {}
+        lines.append(f"cases evaluated on the scheme's reduced model (built in {t.get('build_s', 0):.0f} s, "
+                     f"{len(result.rows)} cases in {t.get('evaluate_s', 0):.1f} s); proof against the full FEM:")
+        lines.append("  " + verify_words(result.verification))
     fig.text(0.04, 0.96, "\n".join(lines), va="top", fontsize=10, wrap=True)
     ax = fig.add_axes([0.34, 0.1, 0.6, 0.6])
     primary = sens["outputs"].get("max_rise_K")
@@ -66,14 +77,25 @@ def _ranking_page(pdf, result) -> None:
         keys = sens["ranking"][::-1]
         vals = [primary["by_key"][k][metric] for k in keys]
         colors = ["tab:red" if v > 0 else "tab:blue" for v in vals]
-        ax.barh(range(len(keys)), vals, color=colors)
+        if metric == "ST":
+            y = np.arange(len(keys))
+            by = primary["by_key"]
+            ax.barh(y + 0.2, [by[k]["ST"] for k in keys], 0.4, xerr=[by[k]["ST_conf"] for k in keys],
+                    color="tab:red", capsize=3, label="total order ST")
+            ax.barh(y - 0.2, [by[k]["S1"] for k in keys], 0.4, xerr=[by[k]["S1_conf"] for k in keys],
+                    color="tab:orange", capsize=3, label="first order S1")
+            ax.legend(fontsize=9, loc="lower right")
+        else:
+            ax.barh(range(len(keys)), vals, color=colors)
         if metric == "mu_star":
             conf = [primary["by_key"][k]["mu_star_conf"] for k in keys]
             ax.errorbar(vals, range(len(keys)), xerr=conf, fmt="none", ecolor="k", capsize=3, lw=1)
         ax.set_yticks(range(len(keys)))
         ax.set_yticklabels([_label(k) for k in keys], fontsize=9)
         ax.axvline(0, color="k", lw=0.8)
-        xl = "Morris mu* of max_rise_K [K]" if metric == "mu_star" else "SRC of max_rise_K [-] (red: raises, blue: lowers)"
+        xl = {"mu_star": "Morris mu* of max_rise_K [K]",
+              "ST": "Sobol' index of max_rise_K [-] (bars: 95 % confidence)"}.get(
+            metric, "SRC of max_rise_K [-] (red: raises, blue: lowers)")
         ax.set_xlabel(xl, fontsize=10)
         title = "Influence of each input on the largest steady rise, most influential on top"
         if metric == "src":
@@ -100,7 +122,11 @@ def _table_page(pdf, result) -> None:
     cells = []
     for o in outs:
         by = sens["outputs"][o]["by_key"]
-        row = [_label(o)] + [f"{by[k][metric]:+.3g}" if k in by else "-" for k in plan.keys]
+        if metric == "ST":
+            row = [_label(o)] + [f"S1 {by[k]['S1']:.2f}±{by[k]['S1_conf']:.2f}\nST {by[k]['ST']:.2f}±{by[k]['ST_conf']:.2f}"
+                                 if k in by else "-" for k in plan.keys]
+        else:
+            row = [_label(o)] + [f"{by[k][metric]:+.3g}" if k in by else "-" for k in plan.keys]
         if metric == "src":
             row.append(f"{sens['outputs'][o]['r2']:.3f}")
         cells.append(row)
@@ -111,7 +137,7 @@ def _table_page(pdf, result) -> None:
                      colWidths=[first] + [rest] * (len(cols) - 1))
     table.auto_set_font_size(False)
     table.set_fontsize(8)
-    table.scale(1.0, 1.4)
+    table.scale(1.0, 2.4 if metric == "ST" else 1.4)
     pdf.savefig(fig)
     plt.close(fig)
 
@@ -127,7 +153,8 @@ def _scatter_pages(pdf, result) -> None:
         x = np.array([r[key] for r in ok], float)
         for ax, name in zip(axes.flat, outs):
             y = np.array([np.nan if r[name] is None else r[name] for r in ok], float)
-            ax.plot(x, y, "o", ms=4, color="tab:blue", alpha=0.7)
+            many = len(ok) > 500  # thousands of cases (a reduced-model sweep): small points, drawn as an image
+            ax.plot(x, y, "o", ms=1 if many else 4, color="tab:blue", alpha=0.3 if many else 0.7, rasterized=many)
             ax.set_xlabel(_label(key), fontsize=8)
             ax.set_ylabel(_label(name), fontsize=8)
             ax.set_title(_output_title(name), fontsize=9)

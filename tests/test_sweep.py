@@ -18,7 +18,7 @@ from imutherm.studies.sweep import plan_sweep, sensitivity
 
 COARSE = ["--mesh-size", "6", "--min-cells", "1", "--no-progress"]
 POWER = "components.reg_5v.power_W"
-DESIGN = ["--scheme", "grease", "--set", f"{POWER}=0.4,0.8,1.2"]
+DESIGN = ["--scheme", "grease", "--surrogate", "none", "--set", f"{POWER}=0.4,0.8,1.2"]
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -203,7 +203,7 @@ def test_failing_case_recorded_and_sweep_goes_on(tmp_path, capsys):
     # without exterior convection and radiation, a zero mounting conductance leaves no path for the heat:
     # the solver refuses that case when it runs; the other case is fine
     out = tmp_path / "f"
-    assert main(["sweep", "--scheme", "grease", "--exterior", "none", "--no-radiation",
+    assert main(["sweep", "--scheme", "grease", "--surrogate", "none", "--exterior", "none", "--no-radiation",
                  "--set", "options.mounting_conductance_W_m2K=0,500", "--out", str(out), *COARSE]) == 0
     rows = _rows(out)
     assert [r["status"] for r in rows] == ["failed", "ok"]
@@ -236,10 +236,10 @@ def test_existing_sweep_needs_resume_and_same_design(reference, tmp_path, monkey
     monkeypatch.setattr(sweep_mod, "run_case", _no_run)
     assert main(["sweep", *DESIGN, "--out", str(out), *COARSE]) == 2
     assert "add --resume" in capsys.readouterr().err
-    assert main(["sweep", "--scheme", "grease", "--set", f"{POWER}=0.4,0.8,1.3", "--resume",
+    assert main(["sweep", "--scheme", "grease", "--surrogate", "none", "--set", f"{POWER}=0.4,0.8,1.3", "--resume",
                  "--out", str(out), *COARSE]) == 2
     assert "differs from the one recorded" in capsys.readouterr().err
-    assert main(["sweep", "--scheme", "air", "--set", f"{POWER}=0.4,0.8,1.2", "--resume",
+    assert main(["sweep", "--scheme", "air", "--surrogate", "none", "--set", f"{POWER}=0.4,0.8,1.2", "--resume",
                  "--out", str(out), *COARSE]) == 2
     assert "scheme" in capsys.readouterr().err
     # complete: a resume runs nothing and leaves the rows as they were
@@ -302,7 +302,7 @@ def test_dask_unreachable_scheduler_is_one_line(tmp_path, capsys):
 @pytest.mark.slow
 def test_transient_sweep_adds_t95_of_the_hottest_site(tmp_path):
     out = tmp_path / "t"
-    assert main(["sweep", "--scheme", "grease", "--set", f"{POWER}=0.8", "--transient", "--t-end", "400",
+    assert main(["sweep", "--scheme", "grease", "--surrogate", "none", "--set", f"{POWER}=0.8", "--transient", "--t-end", "400",
                  "--out", str(out), *COARSE]) == 0
     (row,) = _rows(out)
     assert row["status"] == "ok"

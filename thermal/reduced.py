@@ -314,7 +314,7 @@ def _part_load(variant: ModelVariant, grid, component: str) -> np.ndarray:
 
 
 def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_ORDER, pairs=(),
-                  progress=None) -> ReducedModel:
+                  progress=None, load_directions: bool = False) -> ReducedModel:
     """Build the :class:`ReducedModel` of a scheme.
 
     variant_fn : callable, ``variant_fn(values: dict) -> ModelVariant`` (values: knob name -> value;
@@ -324,6 +324,10 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
     sites : dict name -> point [m]
     pairs : (a, b) knob names whose changes do not add (they change the same conductances): each pair
         is interpolated jointly on the tensor grid of their Chebyshev nodes
+    load_directions : bool, also put in the basis each power knob's steady response at every other knob's
+        bounds (one more warm-started solve per power knob and bound): a sweep that varies a power far
+        from the layout's together with a conductance needs it (grease scheme, 5 V regulator at 1.4 W with
+        the board at 10 W/m K: 0.09 K site error without, the nominal load's bound solutions only)
     """
     t0 = time.perf_counter()
     timings = {}
@@ -343,6 +347,7 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
     one = np.ones(A0.shape[0])
     B.append(A0 @ one)
     cols = []
+    first = {}
     for Bi in B:
         x = Bi
         for i in range(order):
@@ -353,6 +358,8 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
                 solves += 1
                 if progress:
                     progress(f"basis solve {solves}")
+            if i == 0 and Bi is not B[-1]:
+                first[id(Bi)] = x   # A0^-1 B_i: the warm start of its bound solutions (load_directions)
             cols.append(x / (np.linalg.norm(x) or 1.0))
     timings["krylov_s"] = time.perf_counter() - t0 - timings["steady_s"]
     # parametric directions: the steady solution with each knob at its bounds, solved as its change from the
@@ -363,10 +370,17 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
     cols.append(x_nom / (np.linalg.norm(x_nom) or 1.0))
     atol = BASIS_RTOL * np.linalg.norm(b0)
 
+    part_loads = [Bi for Bi in B[:len(parts)]] if load_directions else []
+
     def change(Ak):
         nonlocal solves
         solves += 1
         d = _cg(Ak, b0 - Ak @ x_nom, pc, rtol=0.0, atol=atol)
+        for Bi in part_loads:  # the part's response at this bound, as its change from A0^-1 B_i
+            y0 = first[id(Bi)]
+            solves += 1
+            dy = _cg(Ak, Bi - Ak @ y0, pc, rtol=0.0, atol=BASIS_RTOL * np.linalg.norm(Bi))
+            cols.append((y0 + dy) / (np.linalg.norm(y0 + dy) or 1.0))
         return d / (np.linalg.norm(d) or 1.0)
     pattern = asm.pattern
 

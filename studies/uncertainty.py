@@ -1,0 +1,360 @@
+"""What the model does not know, carried to the study's answer: ``imutherm compare --uncertainty``.
+
+Every uncertain input of the thermal model is a knob of the scheme's reduced model
+(:mod:`imutherm.thermal.reduced`) with its range and its source (:data:`INPUTS`): the re-tune knobs
+of :data:`imutherm.thermal.knobs.RETUNE` (powers' scale, mount, convection, housing emissivity, board
+conductivity), the cavity pair emissivity, the grease bond lines' contact and the supply voltage,
+which sets the 5 V linear regulator's loss ((V_in - 5 V) x its load current; the layout assumes 9 V,
+the paper states none; 6-12 V is the range issue 23 states).
+
+:func:`propagate` draws SALib's Saltelli design over the inputs (uniform in each knob's coordinate:
+uniform over a linear range, log-uniform over a conductance's), evaluates a model on every row and
+returns, per output, the mean, the 5 / 50 / 95 % quantiles, and first-order and total Sobol'
+indices with their 95 % confidence (every row of the design is a draw from the inputs' joint
+distribution, so the quantiles use them all). :func:`run_uncertainty` does it per scheme on the
+reduced model (the same draws in every scheme, so the difference between two schemes is computed
+draw by draw), for each sensor die's steady rise, the largest die rise, the hottest die's t95 and
+their differences between schemes, and checks the reduced model against the full FEM at a few
+drawn points (steady at every check point, the power-on transient at the first).
+
+Residual sensor errors and the attitude error are not propagated here: the chain from die
+temperatures to attitude (calibration in the oven, compensation, filters) is the full IMU study of
+:mod:`imutherm.studies.end_to_end`, a few seconds per (scheme, seed) but not a function of the rise
+alone, and no cheap map from rise to residual error has been validated. The report says so.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from imutherm import InputError
+
+#: the 5 V regulator: the layout's 9 V input is assumed (layouts/imu_reference.toml, power budget)
+ASSUMED_SUPPLY_V = 9.0
+REG_5V_OUT_V = 5.0
+SUPPLY_RANGE_V = (6.0, 12.0)
+#: time grid of the reduced transient, x t_end [s]
+_T_GRID = np.concatenate([[0.0], np.geomspace(1e-4, 1.0, 600)])
+QUANTILES = (0.05, 0.5, 0.95)
+DEFAULT_SAMPLES = 256
+DEFAULT_CHECKS = 2
+
+
+@dataclass(frozen=True)
+class UncertainInput:
+    """One uncertain input: ``name`` (a knob of :func:`imutherm.thermal.knobs.variant`, or ``supply_V``),
+    ``unit``, range ``lo``..``hi`` [unit], ``log`` (log-uniform), ``source`` (where the range comes from),
+    ``nominal`` [unit] (the model's value) or None (the layout's)."""
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    log: bool
+    source: str
+    nominal: float | None = None
+
+
+def _retune(name: str):
+    from imutherm.thermal import knobs as K
+
+    return next(k for k, _ in K.RETUNE if k.name == name), K.RETUNE_SOURCES[name]
+
+
+def inputs() -> tuple:
+    """The uncertain inputs with their ranges and sources (the re-tune knobs as :data:`~imutherm.thermal.knobs.RETUNE`
+    states them; the supply, cavity emissivity and bond contact here)."""
+    out = []
+    out.append(UncertainInput("supply_V", "V", *SUPPLY_RANGE_V, False,
+                              "input supply: the paper states none; the layout assumes 9 V; 6-12 V (issue 23: "
+                              "a 6 V supply makes the 5 V regulator's loss ~0.2 W, which the correlation of the "
+                              "paper's data points to). Sets the 5 V linear regulator's loss (V - 5 V) x I_5V",
+                              ASSUMED_SUPPLY_V))
+    for name in ("power_scale", "mount_h_W_m2K", "convection_scale", "emissivity_ext", "k_board_W_mK"):
+        k, src = _retune(name)
+        if name == "power_scale":
+            src = "every power x p: datasheet typical vs worst-case load currents (the supply is its own input here)"
+        out.append(UncertainInput(name, k.unit, k.lo, k.hi, k.log, src))
+    out.append(UncertainInput("cavity_emissivity", "-", 0.63, 0.86, False,
+                              "pair emissivity of facing board / housing surfaces: boards 0.80-0.95 (solder "
+                              "mask, assumed), anodised inner walls 0.75-0.90 (Incropera Table A.11, widened) "
+                              "-> 1/(1/e1 + 1/e2 - 1) = 0.63-0.86 (model default 0.77)", 0.77))
+    out.append(UncertainInput("contact@bond", "W/m^2 K", 3.6e3, 2.0e4, True,
+                              "each face of a grease bond line: from an unwetted (air-filled) Al joint, "
+                              "R'' = 2.75e-4 m^2 K/W (Incropera & DeWitt Table 3.1b), up to the contact effect's "
+                              "physical bound 2e4 (the model's default, the silicone-oil-filled joint, is 1.9e4)"))
+    return tuple(out)
+
+
+# ------------------------------------------------------------------ generic propagation
+def _problem(ins) -> dict:
+    return {"num_vars": len(ins), "names": [i.name for i in ins], "bounds": [[-1.0, 1.0]] * len(ins)}
+
+
+def to_values(ins, U: np.ndarray) -> np.ndarray:
+    """Physical input values (n, D) [units] of design rows ``U`` in each input's coordinate [-1, 1]
+    (linear, or in log p for a log-uniform input)."""
+    U = np.asarray(U, float)
+    out = np.empty_like(U)
+    for j, i in enumerate(ins):
+        f, g = (np.log, np.exp) if i.log else ((lambda x: x), (lambda x: x))
+        out[:, j] = g(f(i.lo) + (U[:, j] + 1) / 2 * (f(i.hi) - f(i.lo)))
+    return out
+
+
+def design(ins, samples: int, seed: int) -> np.ndarray:
+    """SALib's Saltelli design (first and total order), ``samples`` (a power of 2) x (D + 2) rows, in [-1, 1]."""
+    if samples < 2 or samples & (samples - 1):
+        raise InputError(f"--uncertainty-samples must be a power of 2 >= 2 (the Sobol' sequence's balance), "
+                         f"got {samples}")
+    from SALib.sample import sobol
+
+    return sobol.sample(_problem(ins), samples, calc_second_order=False, scramble=True, seed=seed)
+
+
+def statistics(ins, Y: np.ndarray, seed: int) -> dict:
+    """mean, std, q05 / q50 / q95 and the Sobol' indices {input: {S1, S1_conf, ST, ST_conf}} of one output
+    ``Y`` over a :func:`design` (NaN rows, e.g. a t95 not reached, make the indices None)."""
+    Y = np.asarray(Y, float)
+    good = np.isfinite(Y)
+    out = {"mean": float(np.mean(Y[good])) if good.any() else None,
+           "std": float(np.std(Y[good])) if good.any() else None,
+           **{f"q{int(round(100 * q)):02d}": (float(np.quantile(Y[good], q)) if good.any() else None)
+              for q in QUANTILES},
+           "n": int(good.sum()), "sobol": None}
+    if good.all() and np.std(Y) > 0:
+        from SALib.analyze import sobol
+
+        res = sobol.analyze(_problem(ins), Y, calc_second_order=False, conf_level=0.95, seed=seed)
+        out["sobol"] = {i.name: {m: float(res[m][j]) for m in ("S1", "S1_conf", "ST", "ST_conf")}
+                        for j, i in enumerate(ins)}
+        out["drivers"] = sorted(out["sobol"], key=lambda n: -out["sobol"][n]["ST"])
+    return out
+
+
+def propagate(fn, ins, samples: int = DEFAULT_SAMPLES, seed: int = 0) -> tuple:
+    """(X, outputs, stats): ``fn(X) -> {name: (n,) array}`` evaluated on the design of ``ins``; ``X`` (n, D)
+    the physical input values, ``stats`` {name: :func:`statistics`}."""
+    U = design(ins, samples, seed)
+    X = to_values(ins, U)
+    Y = fn(X)
+    return X, Y, {name: statistics(ins, y, seed) for name, y in Y.items()}
+
+
+# ------------------------------------------------------------------ per scheme on the reduced model
+@dataclass(frozen=True)
+class SchemeModel:
+    """The reduced model of one scheme and how an input row becomes its knob values.
+
+    geometry, grid, options; rom : ReducedModel; names : input names in design order, applicable :
+    the inputs this scheme has (``contact@bond`` needs bond lines); reg_current_A [A] the 5 V rail's load;
+    sites : sensor sites; build_s [s]
+    """
+
+    scheme: str
+    geometry: object
+    grid: object
+    options: object
+    rom: object
+    names: tuple
+    applicable: tuple
+    reg_current_A: float
+    sites: tuple
+    build_s: float
+
+
+def knob_values(sm: SchemeModel, row) -> dict:
+    """Knob values (name -> value) of one input row: the supply as the 5 V regulator's extra loss [W]."""
+    vals = {}
+    for name, v in zip(sm.names, row):
+        if name not in sm.applicable:
+            continue
+        if name == "supply_V":
+            vals["power@reg_5v"] = (float(v) - ASSUMED_SUPPLY_V) * sm.reg_current_A
+        else:
+            vals[name] = float(v)
+    return vals
+
+
+def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=None, min_cells=None,
+                       progress=None) -> SchemeModel:
+    """The reduced model of ``scheme`` over the inputs ``ins`` (each knob over the input's range)."""
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
+    from imutherm.site_table import ACCEL_SITES, GYRO_SITES
+    from imutherm.thermal import knobs as K
+    from imutherm.thermal.effects import power_part
+    from imutherm.thermal.model import ModelOptions
+    from imutherm.thermal.reduced import Knob, build_reduced
+
+    t0 = time.perf_counter()
+    options = options or ModelOptions()
+    geo = build_geometry(layout, scheme)
+    grid = build_mesh(geo, DEFAULT_MAX_CELL_MM if mesh_size_mm is None else mesh_size_mm,
+                      DEFAULT_MIN_CELLS if min_cells is None else min_cells)
+    p5 = power_part(geo, "reg_5v").power_W
+    current = p5 / (ASSUMED_SUPPLY_V - REG_5V_OUT_V)
+    knobs, applicable = [], []
+    retune = {k.name: k for k, _ in K.RETUNE}
+    for i in ins:
+        if i.name == "supply_V":
+            knobs.append(Knob("power@reg_5v", "W", (i.lo - ASSUMED_SUPPLY_V) * current,
+                              (i.hi - ASSUMED_SUPPLY_V) * current, part="reg_5v"))
+        elif i.name in retune:
+            knobs.append(replace(retune[i.name], lo=i.lo, hi=i.hi))
+        elif K.applicable(i.name, geo):
+            knobs.append(replace(K.effect_knob(i.name, options), lo=i.lo, hi=i.hi, log=i.log))
+        else:
+            continue
+        applicable.append(i.name)
+    names = {k.name for k in knobs}
+    pairs = [p for p in K.COUPLED if set(p) <= names]
+    sites = tuple(s for s in GYRO_SITES + ACCEL_SITES if s in geo.sites)
+    if progress:
+        progress(f"uncertainty: reduced model of {scheme} ({len(knobs)} knobs, {grid.n_nodes} unknowns)")
+    rom = build_reduced(lambda v: K.variant(geo, options, v), grid, knobs, {s: geo.sites[s] for s in sites},
+                        pairs=pairs, load_directions=True)
+    return SchemeModel(scheme, geo, grid, options, rom, tuple(i.name for i in ins), tuple(applicable), current,
+                       sites, time.perf_counter() - t0)
+
+
+def scheme_outputs(sm: SchemeModel, X: np.ndarray, t_end: float) -> dict:
+    """Per draw: ``rise_<site>_K`` [K] (steady), ``max_die_rise_K`` [K] and ``t95_s`` [s] of the hottest die."""
+    from imutherm.thermal.metrics import T95_FRACTION, settle_time
+
+    t = _T_GRID * t_end
+    n = len(X)
+    rise = np.empty((n, len(sm.sites)))
+    t95 = np.empty(n)
+    for i, row in enumerate(X):
+        vals = knob_values(sm, row)
+        y = sm.rom.rise(vals, np.append(t, np.inf))
+        rise[i] = y[-1]
+        j = int(np.argmax(y[-1]))
+        t95[i] = settle_time(t, y[:-1, j], T95_FRACTION, float(y[-1, j]))
+    out = {f"rise_{s}_K": rise[:, j] for j, s in enumerate(sm.sites)}
+    out["max_die_rise_K"] = rise.max(axis=1)
+    out["t95_s"] = t95
+    return out
+
+
+def check_point(sm: SchemeModel, row, t_end: float, transient: bool) -> dict:
+    """The reduced model against the full FEM at one drawn point: largest site error [K], t95 error [-]."""
+    from imutherm.studies.forward import full_rise
+    from imutherm.studies.thermal_study import STUDY_CG_RTOL
+    from imutherm.thermal import knobs as K
+    from imutherm.thermal.metrics import T95_FRACTION, settle_time
+
+    vals = knob_values(sm, row)
+    probes = {s: sm.geometry.sites[s] for s in sm.sites}
+    t = np.geomspace(1.0, t_end, 300) if transient else np.zeros(0)
+    times = np.concatenate([[0.0], t, [np.inf]]) if transient else np.array([np.inf])
+    t0 = time.perf_counter()
+    full = full_rise(K.variant(sm.geometry, sm.options, vals), sm.grid, probes, times, rtol=STUDY_CG_RTOL)
+    red = sm.rom.rise(vals, times)
+    out = {"inputs": {n: float(v) for n, v in zip(sm.names, row)},
+           "site_error_K": float(np.max(np.abs(full[-1] - red[-1]))),
+           "full_max_die_rise_K": float(full[-1].max()), "reduced_max_die_rise_K": float(red[-1].max()),
+           "seconds": None}
+    if transient:
+        j = int(np.argmax(full[-1]))
+        tf = settle_time(times[:-1], full[:-1, j], T95_FRACTION, float(full[-1, j]))
+        tr = settle_time(times[:-1], red[:-1, j], T95_FRACTION, float(red[-1, j]))
+        out.update(curve_error_K=float(np.max(np.abs(full[:-1] - red[:-1]))), full_t95_s=tf, reduced_t95_s=tr,
+                   t95_rel_error=float(abs(tr - tf) / tf) if math.isfinite(tf) and tf > 0 else None)
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
+def _pairs(schemes) -> list:
+    return [(a, b) for i, a in enumerate(schemes) for b in schemes[i + 1:]]
+
+
+def answer_words(stats: dict, schemes) -> list:
+    """One sentence per pair of schemes: is one's advantage larger than what the model does not know?"""
+    lines = []
+    for a, b in _pairs(schemes):
+        for out, what, unit, fmt in (("max_die_rise_K", "hottest sensor die", "K", "{:.1f}"),
+                                     ("t95_s", "settle time t95", "s", "{:.0f}")):
+            s = stats.get(f"diff_{out}:{a}-{b}")
+            if not s or s["q05"] is None:
+                continue
+            lo, mid, hi = (fmt.format(s[q]) for q in ("q05", "q50", "q95"))
+            if s["q05"] > 0 or s["q95"] < 0:
+                better, worse = (b, a) if s["q05"] > 0 else (a, b)
+                verdict = (f"{better} is lower than {worse} across the 5-95 % interval: the advantage is larger "
+                           f"than the model's uncertainty")
+            else:
+                verdict = "the 5-95 % interval includes zero: the difference is within the model's uncertainty"
+            drv = ", ".join(s.get("drivers", [])[:2])
+            lines.append(f"{what}, {a} - {b}: {mid} {unit} (5-95 %: {lo} .. {hi} {unit}); {verdict}"
+                         + (f" (driven most by {drv})" if drv else "") + ".")
+    return lines
+
+
+def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAMPLES, seed: int = 0,
+                    checks: int = DEFAULT_CHECKS, t_end: float = 2400.0, mesh_size_mm=None, min_cells=None,
+                    progress=None) -> dict:
+    """Propagate :func:`inputs` through each scheme's reduced model; the result is JSON-ready.
+
+    Returns {"inputs": [...], "samples", "draws", "seed", "stats": {"<output>:<scheme>" or
+    "diff_<output>:<a>-<b>": :func:`statistics`}, "checks": {scheme: [check_point ...]}, "max_check_error_K",
+    "max_check_t95_rel_error", "answer": [sentences], "not_propagated": str, "timings": {...}}.
+    """
+    from imutherm.geometry.layout import LayoutSpec, load_layout
+
+    say = progress or (lambda s: None)
+    t0 = time.perf_counter()
+    if not isinstance(layout, LayoutSpec):
+        layout = load_layout(layout)
+    if checks < 0:
+        raise InputError(f"--uncertainty-checks must be an integer >= 0, got {checks}")
+    ins = inputs()
+    U = design(ins, samples, seed)
+    X = to_values(ins, U)
+    stats, per, check, timings, applicable = {}, {}, {}, {}, {}
+    rng = np.random.default_rng(seed)
+    for scheme in schemes:
+        sm = build_scheme_model(layout, scheme, ins, options=options, mesh_size_mm=mesh_size_mm,
+                                min_cells=min_cells, progress=say)
+        applicable[scheme] = list(sm.applicable)
+        t1 = time.perf_counter()
+        per[scheme] = scheme_outputs(sm, X, t_end)
+        timings[scheme] = {"build_s": sm.build_s, "evaluate_s": time.perf_counter() - t1}
+        for name, y in per[scheme].items():
+            stats[f"{name}:{scheme}"] = statistics(ins, y, seed)
+        ids = sorted(int(i) for i in rng.choice(len(X), size=min(checks, len(X)), replace=False))
+        t2 = time.perf_counter()
+        check[scheme] = []
+        for k, i in enumerate(ids):
+            say(f"uncertainty: {scheme} checked on the full FEM at draw {i}" + (" (with the transient)" if k == 0 else ""))
+            check[scheme].append({"draw": i, **check_point(sm, X[i], t_end, transient=(k == 0))})
+        timings[scheme]["check_s"] = time.perf_counter() - t2
+    for a, b in _pairs(list(schemes)):
+        for name in ("max_die_rise_K", "t95_s"):
+            stats[f"diff_{name}:{a}-{b}"] = statistics(ins, per[a][name] - per[b][name], seed)
+    flat = [c for cs in check.values() for c in cs]
+    t95e = [c["t95_rel_error"] for c in flat if c.get("t95_rel_error") is not None]
+    return {
+        "inputs": [{"name": i.name, "unit": i.unit, "range": [i.lo, i.hi], "distribution":
+                    "log-uniform" if i.log else "uniform", "source": i.source} for i in ins],
+        "method": "SALib Saltelli design (first and total order), quantiles over every draw, Sobol' indices "
+                  "with 95 % bootstrap confidence; each scheme on its reduced model (the same draws in every "
+                  "scheme)",
+        "samples": samples, "draws": int(len(X)), "seed": seed, "t_end_s": t_end,
+        "applicable": applicable,
+        "stats": stats, "checks": check,
+        "max_check_error_K": max((c["site_error_K"] for c in flat), default=None),
+        "max_check_curve_error_K": max((c["curve_error_K"] for c in flat if "curve_error_K" in c), default=None),
+        "max_check_t95_rel_error": max(t95e, default=None),
+        "answer": answer_words(stats, list(schemes)),
+        "not_propagated": ("residual sensor errors and attitude error: the IMU chain (oven calibration, "
+                           "compensation, filters) is not a function of the die rise alone and no cheap map "
+                           "from rise to residual error is validated; they are the nominal study's figures"),
+        "timings": {**timings, "total_s": time.perf_counter() - t0},
+    }
+

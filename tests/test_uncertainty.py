@@ -1,0 +1,132 @@
+"""``imutherm compare --uncertainty``: the propagation on models with a known answer, the inputs' ranges
+and sources, the answer's words; the reduced models against the full FEM (slow)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from imutherm.studies import uncertainty as U
+
+
+def _uniform(*ranges):
+    return tuple(U.UncertainInput(f"x{i}", "-", lo, hi, False, "test") for i, (lo, hi) in enumerate(ranges))
+
+
+def test_linear_model_variance_quantiles_and_sobol_are_analytic():
+    # Y = sum a_i X_i, X_i ~ U(lo_i, hi_i): mean sum a_i m_i, variance sum a_i^2 w_i^2 / 12,
+    # S1_i = ST_i = a_i^2 w_i^2 / 12 / variance (no interaction)
+    ins = _uniform((0.0, 1.0), (2.0, 4.0), (-1.0, 1.0))
+    a = np.array([3.0, -1.0, 0.5])
+    X, Y, st = U.propagate(lambda X: {"y": X @ a}, ins, samples=1024, seed=1)
+    s = st["y"]
+    w = np.array([1.0, 2.0, 2.0])
+    var = np.sum(a**2 * w**2 / 12)
+    assert len(X) == 1024 * (3 + 2) and s["n"] == len(X)
+    assert s["mean"] == pytest.approx(3 * 0.5 - 3.0 + 0.0, abs=0.01)
+    assert s["std"] ** 2 == pytest.approx(var, rel=0.02)
+    for j, name in enumerate(("x0", "x1", "x2")):
+        exact = a[j] ** 2 * w[j] ** 2 / 12 / var
+        assert s["sobol"][name]["S1"] == pytest.approx(exact, abs=max(0.02, s["sobol"][name]["S1_conf"]))
+        assert s["sobol"][name]["ST"] == pytest.approx(exact, abs=max(0.02, s["sobol"][name]["ST_conf"]))
+    assert s["drivers"][0] == "x0"
+
+
+def test_interval_of_a_sum_of_two_uniforms_is_the_triangle_s():
+    # X1 + X2, X_i ~ U(0, 1): triangular, F(y) = y^2 / 2 below 1, so q05 = sqrt(0.1), q95 = 2 - sqrt(0.1), q50 = 1
+    ins = _uniform((0.0, 1.0), (0.0, 1.0))
+    _, _, st = U.propagate(lambda X: {"y": X.sum(axis=1)}, ins, samples=2048, seed=2)
+    s = st["y"]
+    assert s["q05"] == pytest.approx(math.sqrt(0.1), abs=0.01)
+    assert s["q95"] == pytest.approx(2 - math.sqrt(0.1), abs=0.01)
+    assert s["q50"] == pytest.approx(1.0, abs=0.01)
+
+
+def test_log_uniform_input_and_the_design_size():
+    ins = (U.UncertainInput("h", "W/m^2 K", 100.0, 10000.0, True, "test"),)
+    X = U.to_values(ins, U.design(ins, 1024, 0))
+    assert X.min() >= 100.0 and X.max() <= 10000.0
+    assert np.median(X) == pytest.approx(1000.0, rel=0.03)      # log-uniform: the median is the geometric mean
+    with pytest.raises(Exception, match="power of 2"):
+        U.design(ins, 100, 0)
+
+
+def test_every_input_has_a_range_a_source_and_holds_the_model_value():
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.thermal import knobs as K
+
+    ins = U.inputs()
+    names = [i.name for i in ins]
+    assert "supply_V" in names and "contact@bond" in names and len(set(names)) == len(names)
+    nominal = K.nominal_values(build_geometry(load_layout(None), "grease"))
+    from imutherm.thermal.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
+
+    nominal.update(supply_V=9.0, cavity_emissivity=ModelOptions().cavity_emissivity,
+                   **{"contact@bond": GREASE_WETTED_JOINT_W_M2K})
+    for i in ins:
+        assert i.lo < i.hi and len(i.source) > 20, i
+        assert i.lo <= nominal[i.name] <= i.hi, (i.name, nominal[i.name])
+    sup = next(i for i in ins if i.name == "supply_V")
+    assert (sup.lo, sup.hi) == (6.0, 12.0)
+
+
+def test_supply_sets_the_5v_regulator_loss():
+    # (V_in - 5 V) x I_5V: the layout's 0.813 W at the assumed 9 V is 203 mA; 6 V -> 0.203 W, 12 V -> 1.42 W
+    sm = U.SchemeModel("s", None, None, None, None, ("supply_V", "mount_h_W_m2K"), ("supply_V", "mount_h_W_m2K"),
+                       0.813 / 4, (), 0.0)
+    assert U.knob_values(sm, [6.0, 500.0])["power@reg_5v"] == pytest.approx(0.203 - 0.813, abs=1e-3)
+    assert 0.813 + U.knob_values(sm, [12.0, 500.0])["power@reg_5v"] == pytest.approx(7 * 0.813 / 4)
+    assert U.knob_values(sm, [9.0, 500.0]) == {"power@reg_5v": 0.0, "mount_h_W_m2K": 500.0}
+
+
+def test_answer_says_whether_an_advantage_exceeds_the_uncertainty():
+    st = {"diff_max_die_rise_K:air-grease": {"q05": 1.0, "q50": 3.0, "q95": 5.0, "drivers": ["supply_V"]},
+          "diff_t95_s:air-grease": {"q05": -20.0, "q50": 10.0, "q95": 40.0, "drivers": []}}
+    words = U.answer_words(st, ["air", "grease"])
+    assert "grease is lower than air" in words[0] and "larger than the model's uncertainty" in words[0]
+    assert "supply_V" in words[0]
+    assert "within the model's uncertainty" in words[1]
+
+
+@pytest.mark.slow
+def test_propagation_on_the_reduced_models_checked_on_the_full_fem():
+    res = U.run_uncertainty(None, ("air", "grease"), samples=8, seed=0, checks=1, mesh_size_mm=6, min_cells=1)
+    assert res["draws"] == 8 * (len(U.inputs()) + 2)
+    air, grease = res["stats"]["max_die_rise_K:air"], res["stats"]["max_die_rise_K:grease"]
+    assert 0 < air["q05"] < air["q50"] < air["q95"] and air["q50"] > grease["q50"]
+    assert "contact@bond" not in res["applicable"]["air"] and "contact@bond" in res["applicable"]["grease"]
+    assert res["max_check_error_K"] < 0.1, res["checks"]
+    # the reduced transient (order-2 Krylov basis) is not the study's 1 %: measured 0.1-1.9 % at the default
+    # checks (README); this guards that figure, it is not a claim of 1 %
+    assert res["max_check_t95_rel_error"] < 0.03, res["checks"]
+    assert res["answer"] and "diff_max_die_rise_K:air-grease" in res["stats"]
+
+
+def test_compare_refuses_a_bad_sample_count_before_any_solve(tmp_path, capsys):
+    from imutherm.cli import main
+
+    rc = main(["compare", "--steady-only", "--uncertainty", "--uncertainty-samples", "100", "--out",
+               str(tmp_path / "x"), "--no-progress"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "power of 2" in err[0] and not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_compare_uncertainty_writes_its_json_and_pages(tmp_path, capsys):
+    import json
+
+    from imutherm.cli import main
+
+    out = tmp_path / "c"
+    rc = main(["compare", "--steady-only", "--schemes", "air,grease", "--uncertainty", "--uncertainty-samples", "4",
+               "--uncertainty-checks", "1", "--mesh-size", "6", "--min-cells", "1", "--no-progress",
+               "--out", str(out)])
+    text = capsys.readouterr().out
+    unc = json.loads((out / "uncertainty.json").read_text())
+    assert rc == 0 and unc["draws"] == 4 * (len(U.inputs()) + 2) and "air - grease" in text
+    assert unc["max_check_error_K"] < 0.1
+    from pypdf import PdfReader
+
+    pdf = "".join(p.extract_text() for p in PdfReader(out / "uncertainty.pdf").pages)
+    assert "supply_V" in pdf and "Sobol" in pdf and "Not propagated" in pdf
