@@ -25,6 +25,8 @@ each ending once every site has settled, past its t95 (``--full-length``: run to
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from imutherm import InputError
 from imutherm.budget import check_study_cost, transient_steps
 from imutherm.cli import run_command
@@ -52,8 +54,11 @@ def add_args(parser) -> None:
                    help="units / noise draws, the same in every scheme (default 3)")
     g.add_argument("--seed", type=int, default=0, metavar="N", help="first seed (default 0)")
     g.add_argument("--profiles", default="flight,swing", help="motion profiles (default flight,swing)")
-    g.add_argument("--filters", default="gated,kf,ungated,fusion",
-                   help="attitude filters (default gated,kf,ungated,fusion)")
+    g.add_argument("--filters", default="gated,kf,ungated,fusion,vqf",
+                   help="attitude filters (default gated,kf,ungated,fusion,vqf)")
+    g.add_argument("--filter-defaults", action="store_true",
+                   help="run the filters at their defaults, not at the tuned settings of "
+                        "studies/filter_settings.toml (benchmarks/tune_study_filters.py)")
     g.add_argument("--out-of-range", default="linear", choices=("error", "hold", "linear"),
                    help="compensation beyond the calibrated range: linear (default: extrapolate the "
                         "calibration's temperature trend), hold (clamp), error (refuse)")
@@ -150,7 +155,8 @@ def _study_config(args):
         return tuple(v.strip() for v in text.split(",") if v.strip())
 
     return StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
-                       profiles=names(args.profiles), filters=names(args.filters))
+                       profiles=names(args.profiles), filters=names(args.filters),
+                       tuned=not args.filter_defaults)
 
 
 def _end_to_end(args, schemes, config) -> int:
@@ -232,5 +238,9 @@ def print_answer(summary: dict) -> None:
         print(f"{name:<8} {s['max_rise_K']:12.2f} {'-' if t95 is None else f'{t95:.0f}':>8}  " + "; ".join(cells[:2]))
         for i in range(2, len(cells), 2):
             print(" " * 32 + "; ".join(cells[i:i + 2]))
+    fs = summary.get("filter_settings", {})
+    if fs.get("tuned"):
+        print(f"filters at their tuned settings ({Path(fs['file']).name}, tuned on seeds "
+              f"{', '.join(map(str, fs['meta'].get('seeds', [])))}; --filter-defaults: at defaults)")
     for name, s in summary["schemes"].items():
         print(s["answer"])

@@ -1,7 +1,8 @@
 """``report.pdf`` of the end-to-end study, drawn from the files of :func:`imutherm.studies.end_to_end.write_study`.
 
 A design-review document, A4 landscape: the answer (attitude error per scheme,
-compensation and filter) on page 1, then the bare-calibration comparison and
+compensation and filter) on page 1 as a figure with the seed spread, its table on page 2, then the
+bare-calibration comparison and
 the swing, the unit and each scheme pictured, temperature maps on one colour
 scale, site curves, rise and settle time against the paper, residual sensor
 errors and attitude error over the warm-up, the paper-vs-model table with
@@ -24,7 +25,7 @@ from imutherm.site_table import read_site_table
 
 SCHEME_COLOURS = {"air": "#d62728", "grease": "#1f77b4", "potted": "#2ca02c"}
 A4 = (11.69, 8.27)
-FILTER_STYLE = {"gated": "-", "kf": "--", "ungated": ":", "fusion": "-."}
+FILTER_STYLE = {"gated": "-", "kf": "--", "ungated": ":", "fusion": "-.", "vqf": (0, (5, 1, 1, 1, 1, 1))}
 
 
 def _colour(scheme: str, i: int = 0) -> str:
@@ -89,15 +90,63 @@ def _main_profile(st: dict) -> str:
     return "flight" if "flight" in st["profiles"] else st["profiles"][0]
 
 
+def _settings_note(data: dict) -> str:
+    fs = data.get("filter_settings") or {}
+    if not fs.get("tuned"):
+        return "filters at their defaults"
+    seeds = ", ".join(map(str, fs.get("meta", {}).get("seeds", [])))
+    return (f"every filter at its tuned settings ({Path(fs['file']).name}: one grid procedure for ours and the "
+            f"peers, tuned on seeds {seeds}, not these)")
+
+
+def answer_figure(fig, rect, data: dict) -> None:
+    """The answer as bars: warm-up roll (top) and pitch (bottom) RMS [deg] of each filter per scheme (x) and
+    compensation (columns), calibrated in the unit, main profile; error bars the seed std."""
+    from imutherm.imu.filters.registry import color
+
+    st = data["study"]
+    prof = _main_profile(st)
+    schemes, comps, filters = list(data["schemes"]), st["compensations"], st["filters"]
+    left, bottom, width, height = rect
+    gs = fig.add_gridspec(2, len(comps), left=left, right=left + width, bottom=bottom, top=bottom + height,
+                          wspace=0.08, hspace=0.12)
+    x = np.arange(len(schemes))
+    w = 0.8 / max(len(filters), 1)
+    axes = []
+    for r, axis in enumerate(("roll", "pitch")):
+        for c, comp in enumerate(comps):
+            ax = fig.add_subplot(gs[r, c], sharey=axes[0] if axes else None)
+            axes.append(ax)
+            for k, f in enumerate(filters):
+                ms = [data["schemes"][s]["attitude"]["warmup"].get(comp, {}).get(f, {}).get(prof) for s in schemes]
+                mean = [m[f"{axis}_rms_deg"]["mean"] if m else np.nan for m in ms]
+                std = [m[f"{axis}_rms_deg"]["std"] if m else 0.0 for m in ms]
+                ax.bar(x + (k - (len(filters) - 1) / 2) * w, mean, w, yerr=std, capsize=1.5, color=color(f) or f"C{k}",
+                       label=f, error_kw={"lw": 0.6})
+            ax.set_yscale("log")
+            ax.grid(alpha=0.3, axis="y", which="both")
+            ax.set_xticks(x, schemes if r == 1 else [""] * len(schemes), fontsize=7.5)
+            ax.tick_params(labelsize=7)
+            if r == 0:
+                ax.set_title(f"compensation: {comp}", fontsize=8.5)
+            if c == 0:
+                ax.set_ylabel(f"{axis} RMS [deg], warm-up", fontsize=8)
+            else:
+                plt.setp(ax.get_yticklabels(), visible=False)
+    axes[len(comps) - 1].legend(fontsize=6.5, ncol=min(len(filters), 3), loc="upper right")
+
+
 def _answer_page(pdf, data: dict) -> None:
+    """Page 1: the answer sentences and the answer as a figure (the tables follow)."""
     st = data["study"]
     prof = _main_profile(st)
     fig = plt.figure(figsize=A4)
     _title(fig, f"Which cooling scheme, and what it does to attitude accuracy: {data['layout']}", textwrap.fill(
            f"ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; grade {st['grade']}, seeds "
-           f"{data['seeds'][0]}..{data['seeds'][-1]} (mean±std, the same seeds in every scheme); calibrated in the "
-           f"unit (oven -40..70 C with each scheme's self-heating); out-of-range policy '{data['out_of_range_policy']}'; "
-           f"{prof} profile, roll/pitch error RMS and max", 165))
+           f"{data['seeds'][0]}..{data['seeds'][-1]} (bars: mean, whiskers: std over the seeds, the same seeds in "
+           f"every scheme); calibrated in the unit (oven -40..70 C with each scheme's self-heating); out-of-range "
+           f"policy '{data['out_of_range_policy']}'; {prof} profile, attitude error RMS through the warm-up; "
+           f"{_settings_note(data)}", 165))
     y = 0.88
     model = data.get("model")
     if model:  # the study ran on a correlated model: name it and its correlation's before/after
@@ -115,6 +164,20 @@ def _answer_page(pdf, data: dict) -> None:
         lines = textwrap.wrap(s["answer"], 190)
         fig.text(0.03, y, "\n".join(lines), fontsize=7.6, va="top", color=_colour(name))
         y -= 0.022 * len(lines) + 0.008
+    answer_figure(fig, (0.07, 0.06, 0.9, y - 0.1), data)
+    pdf.savefig(fig)
+    plt.close(fig)
+
+
+def _answer_table_page(pdf, data: dict) -> None:
+    """Page 2: the answer as a table (RMS and max, warm-up and steady)."""
+    st = data["study"]
+    prof = _main_profile(st)
+    fig = plt.figure(figsize=A4)
+    _title(fig, "The answer in numbers: attitude error per scheme, compensation and filter", textwrap.fill(
+           f"{prof} profile, calibrated in the unit, mean±std over seeds {data['seeds'][0]}..{data['seeds'][-1]}; "
+           f"{_settings_note(data)}", 165))
+    y = 0.88
     schemes = list(data["schemes"])
     rows = []
     for name in schemes:
@@ -312,8 +375,7 @@ def _attitude_page(pdf, folder: Path, data: dict) -> None:
     fig.subplots_adjust(left=0.08, right=0.98, top=0.85, bottom=0.09, wspace=0.08, hspace=0.15)
     comp = data["study"]["compensations"][-1]
     _title(fig, "Attitude error over the warm-up (flight, first seed, calibrated in the unit)",
-           f"compensation '{comp}'; estimate minus truth; ungated and fusion drift in the long coordinated turns "
-           "(their accelerometer correction sees a level specific force)")
+           f"compensation '{comp}'; estimate minus truth; {_settings_note(data)}")
     for j, s in enumerate(schemes):
         header, d = _read_csv(folder / f"attitude_{s}.csv")
         for row, axis in enumerate(("roll", "pitch")):
@@ -389,6 +451,7 @@ def write_study_report(folder: str | os.PathLike, path: str | os.PathLike) -> No
     data = json.loads((folder / "summary.json").read_text())
     with PdfPages(path) as pdf:
         _answer_page(pdf, data)
+        _answer_table_page(pdf, data)
         if data.get("uncertainty"):  # imutherm compare --uncertainty
             from imutherm.reports.uncertainty_report import uncertainty_pages
 

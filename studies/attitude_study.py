@@ -217,7 +217,7 @@ def _spread(values):
 
 def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig(),
                 fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=FILTERS, params=None,
-                gnss=None, lever_comp: bool = False):
+                gnss=None, lever_comp: bool = False, settings=None):
     """Run the named filters on one record; returns ({name: AttitudeEstimate}, thresholds).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
@@ -230,8 +230,14 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     ``aekf`` removes the accelerometer's lever-arm term itself; ``lever_comp=True`` removes it
     (:func:`imutherm.imu.filters.common.lever_arm_accel`) for every gravity-referenced filter (all but
     ``aekf_gnss``), so that they are compared on the same information.
+    ``settings`` {name: {field: value}} (the tuned settings, :mod:`imutherm.studies.filter_settings`) replaces
+    fields of what each filter runs with: ``gated`` / ``ungated`` their GatedParams, ``kf`` its KFParams
+    (before the rest-window levels), the others ``params[name]`` (default: their parameter class).
     """
     params = {} if params is None else dict(params)
+    settings = {} if settings is None else settings
+    if "kf" in settings:
+        kf = replace(kf, **settings["kf"])
     init_s = gate.init_s
     g_ref, bias0 = rest_reference(gyro, accel, dt, init_s)
     accel_raw, aekf_lever = accel, lever_arm
@@ -251,8 +257,17 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     if gnss is None and any(REGISTRY[n].needs_gnss for n in names):
         raise InputError("filter aekf_gnss: needs GNSS velocity fixes (gnss=...); valid: run it from the attitude "
                          "study, which simulates them")
+    ungated = replace(gp, kp=gate.kp)
+    if "gated" in settings:
+        gp = replace(gp, **settings["gated"])
+    if "ungated" in settings:
+        ungated = replace(ungated, **settings["ungated"])
+    for n, vals in settings.items():
+        if n not in ("gated", "ungated", "kf") and n in names:
+            base = params.get(n) or (fusion if n == "fusion" else REGISTRY[n].params_cls())
+            params[n] = replace(base, **vals)
     x = FilterInputs(gyro, accel, accel_raw, dt, init_s, gp, kf_run, fusion, lever_arm=aekf_lever, gnss=gnss,
-                     ungated=replace(gp, kp=gate.kp))
+                     ungated=ungated)
     return {n: REGISTRY[n].run(x, params.get(n)) for n in names}, th
 
 

@@ -61,7 +61,10 @@ class StudyConfig:
     seeds : int, number of units / noise draws (seed0, seed0+1, ...); the same in every scheme
     profiles : motion profiles (``flight``, ``swing``; :mod:`imutherm.imu.motion`), default durations
     compensations : subset of none, conventional, improved
-    filters : subset of :data:`imutherm.imu.filters.FILTERS`
+    filters : registered filters that need no GNSS (:mod:`imutherm.imu.filters.registry`)
+    tuned : True: each filter runs at its tuned settings for the profile (``studies/filter_settings.toml``,
+        :mod:`imutherm.studies.filter_settings`: one grid procedure for ours and the peers, tuning seeds 100-101,
+        not the answer's); False: at its defaults
     out_of_range : compensation policy beyond the calibrated range (error|hold|linear)
     chamber_C : [°C] oven temperatures at which the self-heating is solved (linear between them). The
         compensation looks up *reported* temperatures, so the rise between the ends only moves where the
@@ -77,15 +80,16 @@ class StudyConfig:
     seed0: int = 0
     profiles: tuple = ("flight", "swing")
     compensations: tuple = ("none", "conventional", "improved")
-    filters: tuple = ("gated", "kf", "ungated", "fusion")
+    filters: tuple = ("gated", "kf", "ungated", "fusion", "vqf")
     out_of_range: str = "linear"
     chamber_C: tuple = (-40.0, 70.0)
     residual_window_s: float = 5.0
     calibrations: tuple = CALIBRATIONS
+    tuned: bool = True
 
     def __post_init__(self):
         from imutherm.imu.compensation import METHODS, OUT_OF_RANGE
-        from imutherm.imu.filters import FILTERS
+        from imutherm.imu.filters.registry import filter_names
         from imutherm.imu.motion import PROFILES
         from imutherm.imu.sensor_model import load_grade
 
@@ -95,7 +99,7 @@ class StudyConfig:
         if not (isinstance(self.seed0, (int, np.integer)) and self.seed0 >= 0):
             raise InputError(f"--seed: {self.seed0!r} is invalid; valid: an integer >= 0")
         for name, vals, valid in (("profiles", self.profiles, PROFILES), ("compensations", self.compensations, METHODS),
-                                  ("filters", self.filters, FILTERS)):
+                                  ("filters", self.filters, filter_names(gnss=False))):
             bad = [v for v in vals if v not in valid]
             if bad or not vals:
                 raise InputError(f"--{name}: {', '.join(bad) or 'none given'} invalid; valid: {', '.join(valid)}")
@@ -237,6 +241,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     from imutherm.imu.sensor_model import G0, T_MODEL_RANGE_C, simulate_imu
     from imutherm.studies.attitude_study import (DEFAULT_LEVER_ARM, GateConfig, error_metrics, leveling_window_s,
                                                  run_filters)
+    from imutherm.studies.filter_settings import load_settings
 
     unit, cal_ss, run_ss = _draw(grade, seed)
     chamber = np.asarray(chamber_C, float)
@@ -265,6 +270,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
         d = DEFAULT_LEVER_ARM[profile]
         traj = motion.make_profile(profile, None, rate, lever_arm=d)
         gate = replace(GateConfig(), init_s=leveling_window_s(traj, GateConfig()))
+        tuned = load_settings().for_profile(profile, config.filters) if config.tuned else None
         for ph_i, phase in enumerate(PHASES):
             if phase == "warmup":
                 temp = np.column_stack([np.interp(traj.t, curves_t, curves_T[:, j]) for j in range(6)])
@@ -285,7 +291,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
                 for comp in comps:
                     sets[(cal, comp)] = compensate(raw, cals[cal], comp, out_of_range=config.out_of_range)
             for (cal, comp), s in sets.items():
-                est, _ = run_filters(s.gyro, s.accel, dt, d, gate, names=config.filters)
+                est, _ = run_filters(s.gyro, s.accel, dt, d, gate, names=config.filters, settings=tuned)
                 m = {f: error_metrics(e.roll - traj.roll, e.pitch - traj.pitch,
                                       {"all": np.ones(traj.t.size, bool)})["all"] for f, e in est.items()}
                 cal_keys = tuple(cals) if comp == "none" else (cal,)  # uncompensated: the same for all
@@ -624,6 +630,21 @@ def _settle_order_ok(schemes: dict) -> bool:
         return False
 
 
+def _settings_json(config: StudyConfig) -> dict:
+    """The tuned filter settings the study ran with (file, procedure, per profile and filter: values, grid,
+    seeds, score), or a note that the defaults ran."""
+    if not config.tuned:
+        return {"tuned": False, "note": "every filter at its defaults"}
+    from imutherm.studies.filter_settings import load_settings
+
+    fs = load_settings()
+    return {"tuned": True, "file": fs.path, "meta": fs.meta,
+            "profiles": {p: {n: {"values": fs.profiles[p][n], **{k: fs.provenance[p][n].get(k)
+                                                                 for k in ("grid", "seeds", "score")}}
+                             for n in config.filters if n in fs.profiles.get(p, {})}
+                         for p in config.profiles}}
+
+
 def study_summary(result: StudyResult) -> dict:
     """The ``summary.json`` content (module docstring; every metric ``{mean, std}`` over the seeds)."""
     from imutherm.geometry.materials import get_material
@@ -681,6 +702,7 @@ def study_summary(result: StudyResult) -> dict:
                  "every IMU metric is {mean, std} over the seeds (population std)",
         "seeds": list(range(result.config.seed0, result.config.seed0 + result.config.seeds)),
         "study": config_dict(result.config),
+        "filter_settings": _settings_json(result.config),
         "out_of_range_policy": result.config.out_of_range,
         "phases": {"warmup": "motion starts at power-on; die temperatures follow the power-on transient",
                    "steady": "die temperatures at the steady state of the scheme"},

@@ -40,7 +40,7 @@ def test_files_and_summary_keys(study):
             assert -40.0 < lo < hi and hi > 70.0  # chamber -40..70 C plus the die's self-heating
         for phase in ("warmup", "steady"):
             for comp in ("none", "conventional", "improved"):
-                for filt in ("gated", "kf", "ungated", "fusion"):
+                for filt in ("gated", "kf", "ungated", "fusion", "vqf"):
                     for prof in ("flight", "swing"):
                         m = sch["attitude"][phase][comp][filt][prof]
                         assert set(m) == set(METRICS)
@@ -48,6 +48,9 @@ def test_files_and_summary_keys(study):
     assert s["paper"]["figures"]["thermal"]["simulated"]["scheme1_air_max_rise_K"] == 16.0
     assert s["paper"]["comparison"] and all(r["difference"] for r in s["paper"]["comparison"])
     assert s["out_of_range_policy"] == "linear"
+    fs = s["filter_settings"]  # the tuned settings the study ran with, and where they came from
+    assert fs["tuned"] and fs["file"].endswith("filter_settings.toml") and fs["meta"]["seeds"] == [100, 101]
+    assert set(fs["profiles"]["flight"]) == {"gated", "kf", "ungated", "fusion", "vqf"}
 
 
 def test_physics_orderings(study):
@@ -86,11 +89,15 @@ def test_report_content(study):
 
     out, s = study
     reader = PdfReader(out / "report.pdf")
-    assert len(reader.pages) == 12  # answer, bare/swing, 3 layouts, maps, curves, paper bars, residuals,
-    #                                 attitude, paper table, parameters
-    first = reader.pages[0].extract_text()
-    for text in ("Which cooling scheme", "warm-up roll", "steady pitch", "air", "grease", "potted", "gated", "improved"):
+    assert len(reader.pages) == 13  # answer figure, answer table, bare/swing, 3 layouts, maps, curves, paper
+    #                                 bars, residuals, attitude, paper table, parameters
+    first, second = reader.pages[0].extract_text(), reader.pages[1].extract_text()
+    for text in ("Which cooling scheme", "roll RMS [deg], warm-up", "compensation: improved", "air", "grease",
+                 "potted", "gated", "vqf", "tuned settings"):
         assert text in first, text
+    assert "warm-up roll" not in first  # the answer is a figure on page 1, before any table
+    for text in ("warm-up roll", "steady pitch", "gated", "vqf", "improved"):
+        assert text in second, text
     whole = " ".join(p.extract_text() for p in reader.pages)
     for text in ("The paper vs this model", "difference, explained", "Parameters used and their sources",
                  "temperature [C]", "time since power-on [s]"):

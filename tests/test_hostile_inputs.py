@@ -624,8 +624,9 @@ def test_study_cost_counts_the_imu_work():
 
     w = check_study_cost(StudyConfig(), 3, 2, 1e15)
     assert w["samples"] == {"flight": 40_000, "swing": 6_000}   # 400 s and 60 s at 100 Hz
-    assert (w["sets"], w["cases"]) == (5, 9) and w["filter_samples"] == 9 * 46_000 * 2 * 5 * 4
-    assert w["seconds"] == pytest.approx(9 * 1.84e6 * SECONDS_PER_FILTER_SAMPLE + 9 * SECONDS_PER_CASE)
+    nf = len(StudyConfig().filters)  # gated, kf, ungated, fusion, vqf
+    assert (w["sets"], w["cases"]) == (5, 9) and w["filter_samples"] == 9 * 46_000 * 2 * 5 * nf
+    assert w["seconds"] == pytest.approx(9 * 46_000 * 2 * 5 * nf * SECONDS_PER_FILTER_SAMPLE + 9 * SECONDS_PER_CASE)
     lean = check_study_cost(StudyConfig(seeds=1, profiles=("swing",), compensations=("improved",),
                                         filters=("gated",), calibrations=("unit",)), 1, 1, 1e15)
     assert (lean["sets"], lean["filter_samples"]) == (1, 6_000 * 2)

@@ -1,0 +1,119 @@
+"""The attitude filters' tuned settings for the study, read from ``filter_settings.toml`` beside this module.
+
+Every filter of the study's answer runs at its *fair best*: one procedure for ours and the peers
+(:mod:`benchmarks.tune_study_filters`, which writes the file): a small stated grid per filter over its main
+gain / time-constant parameters, scored by the mean roll/pitch RMS on simulated-profile seeds the study's
+answer is not computed on. The file holds, per profile and filter, the chosen values, the grid, the tuning
+seeds, the scores and the command that produced them.
+
+The values are fields of the object a filter's runner reads (:func:`imutherm.studies.attitude_study.run_filters`
+applies them with :func:`dataclasses.replace`): ``gated`` / ``ungated`` :class:`GatedParams` (after its
+thresholds are set from the rest window), ``kf`` :class:`KFParams` (before its rest-window levels are added),
+every other filter its registry ``params_cls``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+from imutherm import InputError
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python < 3.11
+    import tomli as tomllib
+
+SETTINGS_PATH = Path(__file__).with_name("filter_settings.toml")
+#: provenance fields every tuned entry must carry
+PROVENANCE = ("grid", "seeds", "score", "command")
+
+
+def target_class(name: str):
+    """The dataclass whose fields a filter's settings name (InputError for an unknown filter)."""
+    from imutherm.imu.filters import GatedParams, KFParams
+    from imutherm.imu.filters.registry import REGISTRY
+
+    if name in ("gated", "ungated"):
+        return GatedParams
+    if name == "kf":
+        return KFParams
+    spec = REGISTRY.get(name)
+    if spec is None or spec.params_cls is None:
+        raise InputError(f"filter settings: filter {name!r} is unknown; valid: {', '.join(REGISTRY)}")
+    return spec.params_cls
+
+
+@dataclass(frozen=True)
+class FilterSettings:
+    """Tuned filter settings.
+
+    path : str                 the file read
+    meta : dict                file-level provenance (procedure, objective, data, date, command)
+    profiles : dict            profile -> filter -> {field: value}
+    provenance : dict          profile -> filter -> {grid, seeds, score, command, ...}
+    """
+
+    path: str
+    meta: dict
+    profiles: dict = field(repr=False)
+    provenance: dict = field(repr=False)
+
+    def for_profile(self, profile: str, names) -> dict:
+        """{filter: {field: value}} of ``names`` on ``profile`` (filters not in the file: absent, i.e. their
+        defaults)."""
+        by = self.profiles.get(profile, {})
+        return {n: dict(by[n]) for n in names if n in by}
+
+
+def parse_settings(data: dict, path: str = "<dict>") -> FilterSettings:
+    """Check the TOML content and build :class:`FilterSettings`; one-line InputError naming the file, the
+    profile, the filter and the field on anything wrong."""
+    meta = data.get("meta", {})
+    if not isinstance(meta, dict):
+        raise InputError(f"{path}: [meta] must be a table")
+    profiles, prov = {}, {}
+    for prof, filters in data.items():
+        if prof == "meta":
+            continue
+        if not isinstance(filters, dict):
+            raise InputError(f"{path}: [{prof}] must be a table of filters")
+        for name, entry in filters.items():
+            where = f"{path}: [{prof}.{name}]"
+            cls = target_class(name)
+            values = entry.get("values")
+            if not isinstance(values, dict):
+                raise InputError(f"{where}: 'values' missing; valid: a table of {cls.__name__} fields")
+            fields = {f.name for f in dataclasses.fields(cls)}
+            bad = [k for k in values if k not in fields]
+            if bad:
+                raise InputError(f"{where}: {', '.join(bad)} not a {cls.__name__} field; valid: "
+                                 f"{', '.join(sorted(fields))}")
+            missing = [k for k in PROVENANCE if k not in entry]
+            if missing:
+                raise InputError(f"{where}: provenance {', '.join(missing)} missing; valid entries carry "
+                                 f"{', '.join(PROVENANCE)}")
+            profiles.setdefault(prof, {})[name] = dict(values)
+            prov.setdefault(prof, {})[name] = {k: v for k, v in entry.items() if k != "values"}
+    return FilterSettings(str(path), dict(meta), profiles, prov)
+
+
+@lru_cache(maxsize=8)
+def _load(path: str) -> FilterSettings:
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError(f"filter settings: {path} not found; valid: a TOML file written by "
+                         "benchmarks/tune_study_filters.py") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"filter settings: {path} is not valid TOML ({exc})") from None
+    return parse_settings(data, str(p))
+
+
+def load_settings(path=None) -> FilterSettings:
+    """Read (cached) the settings file (default :data:`SETTINGS_PATH`)."""
+    return _load(str(SETTINGS_PATH if path is None else Path(path)))

@@ -1,0 +1,186 @@
+"""The study's tuned filter settings (studies/filter_settings.toml): read, checked, applied; page 1 of the report.
+
+The file itself is produced by benchmarks/tune_study_filters.py; these tests check that it carries its
+provenance, that its grids are the script's, that the study runs each filter at the file's value (a spy
+registered in the filter's place records what it ran with), and that bad files are refused in one line.
+"""
+
+import dataclasses
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from imutherm import InputError
+from imutherm.imu.filters import registry
+from imutherm.studies import filter_settings as fs
+
+ROOT = Path(__file__).resolve().parent.parent
+STUDY_FILTERS = ("gated", "kf", "ungated", "fusion", "vqf")
+
+
+def _tuner():
+    spec = importlib.util.spec_from_file_location("tune_study_filters", ROOT / "benchmarks" / "tune_study_filters.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_committed_file_has_every_study_filter_with_its_provenance():
+    s = fs.load_settings()
+    from imutherm.studies.end_to_end import StudyConfig
+
+    cfg = StudyConfig()
+    assert set(STUDY_FILTERS) <= set(cfg.filters) and cfg.tuned
+    for key in ("procedure", "objective", "data", "seeds", "command"):
+        assert s.meta[key], key
+    answer_seeds = set(range(cfg.seed0, cfg.seed0 + cfg.seeds))
+    assert not answer_seeds & set(s.meta["seeds"])  # tuned on data the answer is not computed on
+    for prof in cfg.profiles:
+        for name in cfg.filters:
+            p = s.provenance[prof][name]
+            for key in fs.PROVENANCE:
+                assert p[key] not in (None, "", []), (prof, name, key)
+            assert not answer_seeds & set(p["seeds"])
+            # the chosen value is the best of its grid, and no worse than the defaults
+            assert p["score"] == pytest.approx(min(p["scores"]), abs=1e-4)
+            assert p["score"] <= p["default_score"] + 1e-4
+            cls = fs.target_class(name)
+            assert set(s.profiles[prof][name]) <= {f.name for f in dataclasses.fields(cls)}
+
+
+def test_file_grids_are_the_tuning_script_grids():
+    """The file was regenerated with the script's current grids (else rerun the script)."""
+    tuner = _tuner()
+    s = fs.load_settings()
+    for prof, by in s.provenance.items():
+        for name, p in by.items():
+            want = {k: [list(v) if isinstance(v, tuple) else v for v in vals] for k, vals in tuner.GRIDS[name].items()}
+            assert p["grid"].keys() == want.keys(), (prof, name)
+            for k in want:
+                np.testing.assert_allclose(np.asarray(p["grid"][k], float), np.asarray(want[k], float), rtol=1e-12)
+            assert s.profiles[prof][name] in tuner.grid_points(tuner.GRIDS[name])
+
+
+def test_grid_points_split_paired_fields():
+    tuner = _tuner()
+    pts = tuner.grid_points({"a": [1, 2], "b+c": [(3, 4), (5, 6)]})
+    assert pts == [{"a": 1, "b": 3, "c": 4}, {"a": 1, "b": 5, "c": 6}, {"a": 2, "b": 3, "c": 4},
+                   {"a": 2, "b": 5, "c": 6}]
+
+
+@pytest.fixture
+def spy():
+    """Replace registered filters by spies that record the parameters they ran with (restored after)."""
+    seen = {}
+    saved = dict(registry.REGISTRY)
+
+    def install(name, pick):
+        orig = saved[name]
+
+        def run(x, p):
+            seen.setdefault(name, []).append(pick(x, p))
+            return orig.run(x, p)
+        registry.register(dataclasses.replace(orig, run=run))
+
+    yield seen, install
+    registry.REGISTRY.clear()
+    registry.REGISTRY.update(saved)
+
+
+def _swing_case(filters, tuned=True):
+    from imutherm.studies.end_to_end import StudyConfig, imu_case
+
+    cfg = StudyConfig(seeds=1, profiles=("swing",), filters=filters, compensations=("improved",),
+                      calibrations=("unit",), tuned=tuned)
+    t = np.array([0.0, 400.0])
+    T = np.array([[70.0] * 6, [75.0] * 6])
+    return imu_case("adis16355", 3, t, T, T[-1], np.array([-40.0, 70.0]), np.full((2, 6), 5.0), cfg)
+
+
+def test_study_runs_each_filter_at_the_file_value(spy):
+    seen, install = spy
+    file = fs.load_settings().profiles["swing"]
+    install("vqf", lambda x, p: p)
+    install("gated", lambda x, p: p or x.gated)
+    install("kf", lambda x, p: p or x.kf)
+    install("ungated", lambda x, p: p or x.ungated)
+    _swing_case(("gated", "kf", "ungated", "vqf"))
+    for name in ("vqf", "gated", "kf", "ungated"):
+        assert seen[name], name
+        for p in seen[name]:
+            for k, v in file[name].items():
+                assert getattr(p, k) == pytest.approx(v), (name, k)
+    # and the defaults when told so
+    seen.clear()
+    _swing_case(("vqf",), tuned=False)
+    assert all(p is None for p in seen["vqf"])
+
+
+def test_changing_the_file_value_changes_the_study(monkeypatch):
+    base = fs.load_settings()
+
+    def with_tau(tau):
+        prof = {p: {n: dict(v) for n, v in by.items()} for p, by in base.profiles.items()}
+        prof["swing"]["vqf"] = {"tauAcc": tau}
+        return dataclasses.replace(base, profiles=prof)
+
+    monkeypatch.setattr(fs, "load_settings", lambda path=None: with_tau(1.0))
+    a = _swing_case(("vqf",))["attitude"]["unit"]["steady"]["improved"]["vqf"]["swing"]
+    monkeypatch.setattr(fs, "load_settings", lambda path=None: with_tau(1000.0))
+    b = _swing_case(("vqf",))["attitude"]["unit"]["steady"]["improved"]["vqf"]["swing"]
+    assert a["roll_rms_deg"] != b["roll_rms_deg"]
+
+
+@pytest.mark.parametrize("entry, message", [
+    ({"values": {"tauAcc": 3.0, "speed": 1.0}, "grid": {}, "seeds": [100], "score": 1.0, "command": "x"},
+     "[flight.vqf]: speed not a VQFParams field"),
+    ({"values": {"tauAcc": 3.0}, "grid": {}, "score": 1.0, "command": "x"}, "provenance seeds missing"),
+    ({"grid": {}, "seeds": [100], "score": 1.0, "command": "x"}, "'values' missing"),
+])
+def test_bad_settings_are_refused_in_one_line(entry, message):
+    with pytest.raises(InputError) as e:
+        fs.parse_settings({"flight": {"vqf": entry}}, "s.toml")
+    assert message in str(e.value) and str(e.value).startswith("s.toml") and "\n" not in str(e.value)
+    with pytest.raises(InputError, match="filter 'magic' is unknown"):
+        fs.parse_settings({"flight": {"magic": {"values": {}}}}, "s.toml")
+
+
+def test_missing_file_is_refused(tmp_path):
+    with pytest.raises(InputError, match="not found"):
+        fs.load_settings(tmp_path / "none.toml")
+
+
+def _answer_data(filters=("gated", "kf", "vqf")):
+    schemes = {}
+    for i, name in enumerate(("air", "grease", "potted")):
+        att = {ph: {c: {f: {"flight": {m: {"mean": 0.3 + 0.1 * i + 0.05 * k, "std": 0.05} for m in
+                                        ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")}}
+                            for k, f in enumerate(filters)} for c in ("conventional", "improved")}
+               for ph in ("warmup", "steady")}
+        schemes[name] = {"answer": f"{name}: a sentence.", "attitude": att}
+    return {"layout": "reference", "ambient_C": 70.0, "power_W": 1.0, "seeds": [0, 1, 2],
+            "out_of_range_policy": "linear", "schemes": schemes,
+            "filter_settings": {"tuned": True, "file": "studies/filter_settings.toml", "meta": {"seeds": [100, 101]}},
+            "study": {"grade": "adis16355", "profiles": ["flight"], "compensations": ["conventional", "improved"],
+                      "filters": list(filters)}}
+
+
+def test_page_one_is_the_answer_figure_and_the_table_follows(tmp_path):
+    from matplotlib.backends.backend_pdf import PdfPages
+    from pypdf import PdfReader
+
+    from imutherm.reports import study_report as sr
+
+    data = _answer_data()
+    with PdfPages(tmp_path / "r.pdf") as pdf:
+        sr._answer_page(pdf, data)
+        sr._answer_table_page(pdf, data)
+    pages = PdfReader(tmp_path / "r.pdf").pages
+    first, second = pages[0].extract_text(), pages[1].extract_text()
+    for text in ("Which cooling scheme", "compensation: improved", "roll RMS [deg], warm-up", "pitch RMS",
+                 "air", "potted", "vqf", "tuned on seeds 100, 101"):
+        assert text in first, text
+    assert "warm-up roll" not in first  # no table on page 1
+    assert "warm-up roll" in second and "The answer in numbers" in second
