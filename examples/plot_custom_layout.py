@@ -4,9 +4,11 @@ Your own layout: a modified TOML file
 
 A layout is a TOML file (``layouts/imu_reference.toml`` is the paper's unit): the housing, the mounting,
 the boards, the parts and components with their powers, the sensor sites and the cooling schemes, every
-number with its source. Here a copy of the reference layout is changed in one place — the 5 V linear
-regulator fed from a 6 V supply instead of 9 V, so it drops (6 − 5) V × 203 mA = 0.203 W instead of
-0.813 W — and both units are drawn (``imutherm geometry``) and solved steady (``imutherm solve``).
+number with its source. Here a copy of the reference layout is changed in one place — its
+``[electrical]`` supply: 6.5 V instead of the assumed 9 V, so the 5 V linear regulator drops
+(6.5 − 5) V × 213.1 mA + 6.5 V × 5 mA = 0.352 W instead of 0.897 W (the regulators' losses follow from the
+supply and the rails' load currents) — and both units are drawn (``imutherm geometry``) and solved steady
+(``imutherm solve``).
 
 Any layout file, or a built-in name (``imu_reference``, ``imu_cardguide``), is the first argument of
 ``geometry``, ``solve``, ``compare``, ``sweep`` and ``correlate``. A layout that fails a check (a part
@@ -35,7 +37,7 @@ COARSE = ["--mesh-size", "6", "--min-cells", "1"]
 
 text = default_layout_path().read_text(encoding="utf-8")
 text = text.replace('name = "imu_reference"', 'name = "imu_6v_supply"', 1)
-text, n = re.subn(r"power_W = 0\.813 .*", "power_W = 0.203   # (6 - 5) V x 203 mA: a 6 V supply", text)
+text, n = re.subn(r"^supply_V = 9\.0 .*$", "supply_V = 6.5   # a 6.5 V supply", text, flags=re.M)
 assert n == 1
 mine = OUT / "imu_6v_supply.toml"
 mine.write_text(text, encoding="utf-8")
@@ -45,7 +47,7 @@ mine.write_text(text, encoding="utf-8")
 # ----------------------------
 assert imutherm(["geometry", str(mine), "--scheme", "grease", *COARSE, "--out", str(OUT / "geometry")]) == 0
 rises = {}
-for name, layout in (("reference (9 V)", "imu_reference"), ("6 V supply", str(mine))):
+for name, layout in (("reference (9 V)", "imu_reference"), ("6.5 V supply", str(mine))):
     out = OUT / ("solve_" + Path(layout).stem)
     assert imutherm(["solve", layout, "--scheme", "grease", *COARSE, "--no-progress", "--out", str(out)]) == 0
     rises[name] = json.loads((out / "result.json").read_text())
@@ -60,7 +62,7 @@ ax.set_axis_off()
 # %%
 # What the change does at the sensor sites
 # ----------------------------------------
-sites = list(rises["6 V supply"]["sites"])
+sites = list(rises["6.5 V supply"]["sites"])
 fig, ax = plt.subplots(figsize=(9, 3.6))
 width = 0.4
 for i, (name, res) in enumerate(rises.items()):

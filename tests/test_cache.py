@@ -45,7 +45,7 @@ def test_any_key_change_misses():
     k0 = cache.key_of("reduced_model", *base)
     assert k0 == cache.key_of("reduced_model", *base)   # deterministic
     changed = [("grease",) + base[1:], ("air", 70.0 + 1e-9) + base[2:], base[:2] + (3.0,) + base[3:],
-               base[:3] + (ModelOptions(cavity_law="s2s"),) + base[4:],
+               base[:3] + (ModelOptions(cavity_law="effective"),) + base[4:],
                base[:4] + (np.array([0.0, 1.0, 2.5]),) + base[5:], base[:5] + ({"h": 1.0, "e": 0.5},)]
     keys = {cache.key_of("reduced_model", *c) for c in changed}
     assert k0 not in keys and len(keys) == len(changed)
@@ -128,7 +128,7 @@ def test_the_correlation_keeps_its_reduced_models(folder, monkeypatch):
     assert len(calls) == 1
     C.build_models([("air", 25.0)], lay, mesh_size_mm=6.0, min_cells=1)
     C.build_models([("air", 70.0)], lay, mesh_size_mm=8.0, min_cells=1)
-    C.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1, options=ModelOptions(cavity_law="s2s"))
+    C.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1, options=ModelOptions(cavity_law="effective"))
     C.build_models([("air", 70.0)], replace(lay, description=lay.description + " (rev B)"),
                    mesh_size_mm=6.0, min_cells=1)
     assert len(calls) == 5

@@ -154,11 +154,13 @@ def test_updated_model_toml_reads_back(tmp_path):
     from imutherm.studies.correlation import CorrelationResult, Fit, updated_model_toml
 
     vals = {"power_scale": 0.9, "mount_h_W_m2K": 1234.5, "power@reg_5v": -0.3}
-    after = Fit("power@reg_5v", vals, 0.2, 0.3, 4, 4.0, 3, float("nan"), 0.25, 0.3)
+    after = Fit("power@reg_5v", vals, 0.2, 0.3, 4, 4.0, 3, float("nan"), 0.25, 0.3, effects=("power@reg_5v",))
     retune = Fit("none", {"power_scale": 0.95}, 1.1, 1.5, 4, 4.0, 2, float("nan"), 1.3, 1.6)
     res = CorrelationResult("effect", "power@reg_5v", (), {"rms_K": 2.0, "max_K": 3.0, "heldout_rms_K": 2.1},
                             after, retune, (after,), {}, {}, 0.5, {}, (), {}, {"reason": "test", "total_s": 1.0},
-                            "a test", {"rms_K": 0.22, "max_K": 0.31})
+                            "a test", {"rms_K": 0.22, "max_K": 0.31}, named_effects=("power@reg_5v",),
+                            steps=({"verdict": "effect", "named": "power@reg_5v", "base": retune, "ranking": (after,),
+                                    "ambiguous_set": (), "reason": "test"},))
     opts = ModelOptions(cavity_law="s2s", mounting_conductance_W_m2K=800.0)
     path = tmp_path / "updated_model.toml"
     path.write_text(updated_model_toml(res, load_layout(None).path, opts))

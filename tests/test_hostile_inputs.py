@@ -763,7 +763,7 @@ def test_s2s_default_patches_pass_the_cost_model_with_margin():
         n = s2s_patches(build_geometry(load_layout(None), scheme), opts, DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS)
         mem, sec = s2s_cost(n, opts.cavity_rays)
         assert n < MAX_PATCHES / 5 and sec < MAX_S2S_S / 10 and mem < 2**30, (scheme, n, mem, sec)
-    assert s2s_patches(build_geometry(load_layout(None), "grease"), ModelOptions(), 6, 1) == 0  # effective law
+    assert s2s_patches(build_geometry(load_layout(None), "grease"), ModelOptions(cavity_law="effective"), 6, 1) == 0
 
 
 def test_s2s_library_refuses_before_the_dense_arrays(monkeypatch):
