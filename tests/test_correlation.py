@@ -194,7 +194,7 @@ def test_cli_end_to_end_writes_the_outputs(tmp_path):
     j = json.loads((out / "correlation.json").read_text())
     for k in KEYS:
         assert k in j
-    assert j["verdict"] in ("effect", "none", "ambiguous", "not_in_library")
+    assert j["verdict"] in ("effect", "none", "ambiguous", "not_in_library", "discrepancy")
     assert math.isfinite(j["rms_after_K"]) and j["rms_after_K"] < j["rms_before_K"]
     assert "[retune]" in (out / "updated_model.toml").read_text()
     assert len(PdfReader(out / "correlation.pdf").pages) >= 3
