@@ -41,6 +41,10 @@ def add_args(parser) -> None:
                              "of 5 %% of each site's rise): the re-tune and the library's effects only")
     parser.add_argument("--max-effects", type=int, default=None, metavar="N",
                         help="forward selection names at most N library effects (default 3; 1: one effect)")
+    parser.add_argument("--cavity-emissivity-as-effect", action="store_true",
+                        help="offer the cavity's emissivity as a candidate effect to be named (default: re-tuned "
+                             "beside the other uncertain parameters, since the cavity radiation's law is itself "
+                             "uncertain and a model-form mismatch looks like a change of it)")
     parser.add_argument("--no-report", action="store_true", help="no correlation.pdf")
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor keep the reduced models and the re-run in the disk cache "
@@ -117,7 +121,7 @@ def run(args) -> int:
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                     options=model_options(args), rerun=not args.no_rerun, jobs=jobs, use_cache=not args.no_cache,
                     progress=lambda s: print(f"  {s}", flush=True), discrepancy=not args.no_discrepancy,
-                    max_effects=max_effects)
+                    max_effects=max_effects, form_retune=not args.cavity_emissivity_as_effect)
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "correlation.json", data)

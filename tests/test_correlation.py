@@ -371,3 +371,31 @@ def test_the_discrepancy_term_takes_a_smooth_form_error_that_an_effect_would_oth
     assert res.retune.heldout_rms_K < 0.5 * res.retune_plain.heldout_rms_K
     plain = correlate(runs, models=models, candidates=_TOY_CANDIDATES, rerun=False, discrepancy=False)
     assert plain.verdict == "effect"  # the old workflow names an effect for what is the model's form
+
+
+def test_the_cavity_emissivity_is_re_tuned_not_named():
+    """The cavity's emissivity is a form knob (correlation.FORM_RETUNE): a weaker cavity radiation hidden in toy
+    data is re-tuned to its value (its interval covering it) and reported among the re-tuned parameters, no
+    library effect is named, and a power error hidden on top is still named alone; offered as a candidate
+    (``form_retune=False``, the CLI's ``--cavity-emissivity-as-effect``) it is named, as before issue 22."""
+    from _toy_reduced import toy_models, toy_runs
+    from imutherm.studies.correlation import FORM_RETUNE
+    models = toy_models()
+    cands = ("power@reg_5v", "power@processor", "contact@bond")
+    runs = toy_runs({**_TOY_NUISANCE, "cavity_emissivity": 0.3}, np.random.default_rng(4))
+    res = correlate(runs, models=models, candidates=cands, rerun=False)
+    assert res.named_effects == () and res.verdict in ("none", "discrepancy"), res.timings["reason"]
+    assert res.retune.values["cavity_emissivity"] == pytest.approx(0.3, abs=0.05)
+    j = result_json(res)
+    p = j["retuned_parameters"]["cavity_emissivity"]
+    assert p["kind"] == "retune" and p["source"] == FORM_RETUNE["cavity_emissivity"]
+    assert p["ci95"][0] <= 0.3 <= p["ci95"][1]
+    assert '"cavity_emissivity" = { eps = ' in updated_model_toml(res)  # applied by --model, with the re-tune
+    both = correlate(toy_runs({**_TOY_NUISANCE, "cavity_emissivity": 0.3, "power@reg_5v": 0.3},
+                              np.random.default_rng(5)), models=models, candidates=cands, rerun=False)
+    assert both.named_effects == ("power@reg_5v",), both.timings["reason"]
+    assert both.after.values["power@reg_5v"] == pytest.approx(0.3, abs=0.1)
+    old = correlate(runs, models=models, candidates=cands + ("cavity_emissivity",), rerun=False)
+    assert old.named_effects[:1] == ("cavity_emissivity",), old.timings["reason"]
+    off = correlate(runs, models=models, candidates=cands, rerun=False, form_retune=False)
+    assert "cavity_emissivity" not in off.retune.values and off.verdict != "none"

@@ -101,6 +101,26 @@ def effect_knob(name: str, options: ModelOptions | None = None, min_power_W: flo
     return Knob(name, p.unit, p.lo, p.hi, nodes=2)  # linear in the parameter
 
 
+def cavity_pair_nominal(geometry: Geometry, options: ModelOptions | None = None) -> float:
+    """The ``cavity_emissivity`` knob's value [-] at which the model is nominal: under the ``effective`` law its
+    ``cavity_emissivity`` option; under ``s2s`` the pair emissivity 1/(1/e1 + 1/e2 - 1) of a
+    :data:`~imutherm.thermal.effects.PAIR_PARTNER_EMISSIVITY` board and the housing's inner wall (the
+    ``cavity_wall_emissivity`` option, or ``cavity_surface_emissivity``, or the housing material's emissivity:
+    0.84 anodised -> 0.766), the inverse of :func:`~imutherm.thermal.effects.wall_emissivity_for_pair`."""
+    from imutherm.thermal.effects import PAIR_PARTNER_EMISSIVITY
+    options = options or ModelOptions()
+    if options.cavity_law != "s2s":
+        return float(options.cavity_emissivity)
+    wall = options.cavity_wall_emissivity
+    if wall is None:
+        wall = options.cavity_surface_emissivity
+    if wall is None:
+        wall = options.material(geometry.part("housing").material).emissivity or 0.0
+    if wall <= 0:
+        return 0.0
+    return float(1.0 / (1.0 / PAIR_PARTNER_EMISSIVITY + 1.0 / wall - 1.0))
+
+
 def power_floor_W(geometries, name: str, power_scales=(1.0,)) -> float:
     """The smallest power [W] part ``name`` (``power@part``) can have in a fit: its layout power times the
     re-tune's lowest ``power_scale`` times the smallest measured run's ``power_scale``, over ``geometries``.
