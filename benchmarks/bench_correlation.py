@@ -32,7 +32,8 @@ import numpy as np
 from imutherm.io import write_json
 from imutherm.measured import read_measured
 from imutherm.studies.correlation import FORM_RETUNE, _Forward, build_models, correlate, result_json
-from imutherm.studies.hidden_effect import OUT_OF_LIBRARY_KINDS, HiddenCase, make_case, model_form_options
+from imutherm.studies.hidden_effect import (MODEL_FORMS, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case,
+                                           model_form_options)
 
 DEFAULT_EFFECTS = ("contact@bond", "emissivity", "cavity_emissivity", "power@reg_5v", "fixture_leak",
                    "probe_lag", "contact@standoff")
@@ -57,9 +58,11 @@ def main(argv=None) -> int:
     ap.add_argument("--gen-min-cells", type=int, default=1, help="generator: cells across the thinnest part")
     ap.add_argument("--no-generate", action="store_true",
                     help="re-invert the cases already generated in --out, skip the others")
-    ap.add_argument("--model-form", action="store_true",
-                    help="model-form cases: generate with the other cavity-radiation law than the inversion's "
-                         "(hidden_effect.model_form_options), so the data differ from the inverted model in form")
+    ap.add_argument("--model-form", nargs="?", const="cavity-law", default=None, choices=MODEL_FORMS,
+                    help="model-form cases (hidden_effect.model_form_options): 'cavity-law' (the default of the "
+                         "flag) generates with the other cavity-radiation law than the inversion's, "
+                         "'discretisation' with the s2s cavity discretised otherwise, so the data differ from "
+                         "the inverted model in form")
     ap.add_argument("--no-discrepancy", action="store_true", help="invert without the discrepancy term")
     ap.add_argument("--max-effects", type=int, default=3, help="forward selection's largest number of effects")
     ap.add_argument("--cavity-emissivity-as-effect", action="store_true",
@@ -81,16 +84,17 @@ def main(argv=None) -> int:
     # the inversion's reduced models depend only on the layout, mesh and experiments: built once, reused
     models = build_models(experiments, mesh_size_mm=args.mesh_size, min_cells=args.min_cells, progress=print)
     print(f"reduced models built in {time.perf_counter() - t0:.0f} s", flush=True)
-    gen_options = model_form_options(models.options) if args.model_form else None
-    form = "model-form" if args.model_form else "same-model"
+    gen_options = model_form_options(models.options, args.model_form) if args.model_form else None
+    form = f"model-form ({args.model_form})" if args.model_form else "same-model"
     tag = "" if args.kinds is None and not args.first_case else f"_{'_'.join(kinds)}_from{args.first_case}"
-    tag += "_mf" if args.model_form else ""
+    tag += {"cavity-law": "_mf", "discretisation": "_mfd", None: ""}[args.model_form]
     rows_path = out / f"campaign_rows{tag}.json"
     rows = []
     for hidden in kinds:
         for c in range(args.first_case, args.first_case + args.cases):
             seed = _seed(args.seed, hidden, c)
-            d = out / f"{'mf_' if args.model_form else ''}{hidden.replace('@', '_')}_{c}"
+            pre = {"cavity-law": "mf_", "discretisation": "mfd_", None: ""}[args.model_form]
+            d = out / f"{pre}{hidden.replace('@', '_')}_{c}"
             t0 = time.perf_counter()
             meta = d / "case.json"
             if not meta.exists() and args.no_generate:

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from imutherm import InputError
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MIN_CELLS, build_mesh
@@ -86,14 +87,31 @@ class HiddenCase:
     extra: dict = field(default_factory=dict)
 
 
-def model_form_options(inversion: ModelOptions | None = None) -> ModelOptions:
-    """The generator's laws for a model-form case: the cavity-radiation law the inversion does not use
-    (``s2s`` view factors and radiosity against the ``effective`` conductivity of the air, or the reverse),
-    everything else as the inversion has it. The two laws differ in form, not by a parameter: on the
-    reference unit the nominal air-scheme rise at tp1 is 24.1 K with s2s against 16.9 K effective (README,
-    "The paper's own data"), more than any re-tune knob moves it alone."""
+#: the model-form paths of :func:`model_form_options`
+MODEL_FORMS = ("cavity-law", "discretisation")
+#: the ``discretisation`` path's s2s patches [mm] and rays per patch (the inversion's defaults: 5 mm, 400)
+FORM_PATCH_MM, FORM_RAYS = 3.0, 1200
+
+
+def model_form_options(inversion: ModelOptions | None = None, kind: str = "cavity-law") -> ModelOptions:
+    """The generator's laws for a model-form case, given the inversion's.
+
+    ``cavity-law``: the cavity-radiation law the inversion does not use (``s2s`` view factors and radiosity
+    against the ``effective`` conductivity of the air, or the reverse), everything else as the inversion has
+    it. The two laws differ in form, not by a parameter: on the reference unit the nominal air-scheme rise at
+    tp1 is 24.1 K with s2s against 16.9 K effective (README, "The paper's own data"), more than any re-tune
+    knob moves it alone. ``discretisation``: the same laws, the s2s cavity discretised otherwise (patches of
+    :data:`FORM_PATCH_MM` with :data:`FORM_RAYS` rays each, against the inversion's; the generator's finer
+    mesh does the rest), as an independent implementation of one law would be; the inversion must use s2s.
+    """
     inv = inversion or ModelOptions()
-    return inv.with_(cavity_law="effective" if inv.cavity_law == "s2s" else "s2s")
+    if kind == "cavity-law":
+        return inv.with_(cavity_law="effective" if inv.cavity_law == "s2s" else "s2s")
+    if kind == "discretisation":
+        if inv.cavity_law != "s2s":
+            raise InputError("model_form_options: the 'discretisation' path needs an s2s inversion")
+        return inv.with_(cavity_patch_mm=FORM_PATCH_MM, cavity_rays=FORM_RAYS)
+    raise InputError(f"model_form_options: unknown kind {kind!r}; valid: {', '.join(MODEL_FORMS)}")
 
 
 def draw_value(name: str, rng: np.random.Generator) -> float:

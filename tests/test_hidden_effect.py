@@ -174,3 +174,20 @@ def test_model_form_path_differs_from_the_inversion_model_on_a_null_case(tmp_pat
     rel = [bb / aa - 1 for aa, bb in zip(a, b)]
     assert np.all((rel[0] > 0.15) & (rel[0] < 0.60)), rel
     assert np.mean(rel[1]) < np.mean(rel[0]), rel
+
+
+def test_model_form_paths_and_their_refusals():
+    """The 'cavity-law' path swaps the law; the 'discretisation' path keeps s2s and changes its patches and
+    rays (finer than the inversion's defaults); an effective-law inversion has no s2s to discretise otherwise."""
+    from imutherm import InputError
+    from imutherm.studies.hidden_effect import FORM_PATCH_MM, FORM_RAYS, MODEL_FORMS, model_form_options
+    s2s = ModelOptions(cavity_law="s2s")
+    assert MODEL_FORMS == ("cavity-law", "discretisation")
+    assert model_form_options(s2s, "cavity-law").cavity_law == "effective"
+    d = model_form_options(s2s, "discretisation")
+    assert (d.cavity_law, d.cavity_patch_mm, d.cavity_rays) == ("s2s", FORM_PATCH_MM, FORM_RAYS)
+    assert d.cavity_patch_mm < s2s.cavity_patch_mm and d.cavity_rays > s2s.cavity_rays
+    with pytest.raises(InputError, match="needs an s2s inversion"):
+        model_form_options(ModelOptions(cavity_law="effective"), "discretisation")
+    with pytest.raises(InputError, match="unknown kind 'element'"):
+        model_form_options(s2s, "element")
