@@ -100,6 +100,9 @@ def run(args) -> int:
     from imutherm.thermal.effects import list_effects
     if args.list_effects:
         print(list_effects())
+        from imutherm.studies.correlation import FORM_RETUNE
+        for name, why in FORM_RETUNE.items():
+            print(f"\nnote: {name} is re-tuned, not named, unless --cavity-emissivity-as-effect: {why}")
         return 0
     if not args.measured:
         raise InputError("--measured: give at least one measured CSV file")

@@ -165,3 +165,18 @@ def test_cavity_emissivity_under_s2s_sets_the_housing_inner_emissivity():
     assert K.effect_knob("cavity_emissivity", opts).nodes == K.S2S_EMISSIVITY_NODES
     assert K.effect_knob("cavity_emissivity", ModelOptions(cavity_law="effective")).nodes == 2  # linear in eps
     assert K.effect_knob("cavity_emissivity", ModelOptions()).nodes == K.S2S_EMISSIVITY_NODES  # s2s: the default
+
+
+def test_the_cavity_emissivity_knob_is_nominal_at_the_models_own_emissivities():
+    """The form knob's nominal value (correlation.FORM_RETUNE): under s2s the pair emissivity of a 0.9 board and
+    the anodised housing's 0.84 inner wall, 1 / (1/0.9 + 1/0.84 - 1) = 0.7683 (Incropera eq. 13.24), whose
+    wall emissivity is 0.84 again; under the effective law the option itself; a wall option wins."""
+    from imutherm.thermal import knobs as K
+    from imutherm.thermal.effects import wall_emissivity_for_pair
+    g = build_geometry(None, "air")
+    pair = K.cavity_pair_nominal(g, ModelOptions(cavity_law="s2s"))
+    assert pair == pytest.approx(1 / (1 / 0.9 + 1 / 0.84 - 1), rel=1e-12)
+    assert wall_emissivity_for_pair(pair) == pytest.approx(0.84, rel=1e-12)
+    assert K.cavity_pair_nominal(g, ModelOptions(cavity_law="effective", cavity_emissivity=0.5)) == 0.5
+    assert K.cavity_pair_nominal(g, ModelOptions(cavity_law="s2s", cavity_wall_emissivity=0.05)) == pytest.approx(
+        1 / (1 / 0.9 + 1 / 0.05 - 1), rel=1e-12)
