@@ -76,20 +76,8 @@ EXPLAIN_MIN_NOISE = 1.0
 SPARSE_NOISE_K = 0.5
 #: signal effects handled outside the reduced model
 SIGNAL = ("probe_lag", "ambient_drift")
-#: effect knobs the re-tune carries as uncertain parameters (fitted beside :data:`~imutherm.thermal.knobs.RETUNE`,
-#: never named as a missing effect), with the reason their value is not known well enough to name a change:
-#: the cavity's radiation is known only as well as its law's form. Our two verified laws differ by 40 % of the
-#: air-scheme rise at one emissivity (tp1 16.9 K effective, 24.1 K s2s: README), an independent finite-volume
-#: model of the unit (issue 22) lies between them, and the paper states neither the inside finish of the
-#: housing (bare 0.05 .. anodised 0.84, Incropera Table A.11) nor the boards' solder mask. A change of it
-#: is what a model-form mismatch looks like (last campaign: named 7 times, right once), so, as in spacecraft
-#: thermal correlation practice, where internal emissivities are correlation parameters, it is re-tuned over
-#: its source range and reported with the re-tuned values (``retuned_parameters``), not named.
-FORM_RETUNE = {
-    "cavity_emissivity": "cavity pair emissivity, re-tuned over its source range 0.02..0.9 (inside finish not "
-                         "stated: bare Al 0.05 .. anodised 0.84, Incropera Table A.11) because the cavity "
-                         "radiation's law is itself uncertain (effective vs s2s: 40 % of the air rise)",
-}
+#: the form knobs: re-tuned, never named (:data:`imutherm.thermal.knobs.FORM_RETUNE`)
+FORM_RETUNE = K.FORM_RETUNE
 #: the times at which the model curve is evaluated for a probe lag (plus the measured ones) [s]
 _DENSE = np.concatenate([[0.0], np.geomspace(0.5, 2.0e4, 240)])
 
@@ -1336,13 +1324,10 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
     for k, _ in K.RETUNE:
         if k.name in res.after.values:
             lines.append(f"{k.name} = {res.after.values[k.name]:.6g}   # {K.RETUNE_SOURCES[k.name]}")
-    lines += ["", "# the named effects, in the order forward selection added them (one line each); the re-tuned "
-              "form knobs (the cavity's emissivity: re-tuned, not named) first", "[effects]"]
-    for name in FORM_RETUNE:
+    for name, why in FORM_RETUNE.items():
         if name in res.after.values and name not in res.named_effects:
-            e = effect_of(name)
-            lines.append(f'"{name}" = {{ {e.params[0].name} = {res.after.values[name]:.6g} }}   # re-tuned: '
-                         f'{FORM_RETUNE[name]}')
+            lines.append(f"{name} = {res.after.values[name]:.6g}   # {why}")
+    lines += ["", "# the named effects, in the order forward selection added them (one line each)", "[effects]"]
     for name in res.named_effects:
         e = effect_of(name)
         lines.append(f'"{name}" = {{ {e.params[0].name} = {res.after.values[name]:.6g} }}')

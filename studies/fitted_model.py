@@ -1,7 +1,8 @@
 """The model ``imutherm correlate`` fitted, read back from its ``updated_model.toml`` so that ``solve``,
 ``compare`` and ``sweep`` run on it (``--model FILE``).
 
-The file holds ``[retune]`` (re-tune knob -> value, :data:`imutherm.thermal.knobs.RETUNE`), ``[effects]``
+The file holds ``[retune]`` (re-tune knob -> value, :data:`imutherm.thermal.knobs.RETUNE` and the form knobs
+:data:`~imutherm.thermal.knobs.FORM_RETUNE`), ``[effects]``
 (``"name@target" = { param = value }``, one entry per named effect), and, from this version on,
 ``[model]`` (the layout and the model switches correlate ran with) and ``[correlation]`` (verdict and
 RMS before / after). A fitted model acts on a run as:
@@ -24,8 +25,8 @@ from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec
 from imutherm.geometry.materials import with_properties
 from imutherm.textio import read_text
-from imutherm.thermal.effects import EFFECTS, apply_model_effects, effect_of, setting
-from imutherm.thermal.knobs import RETUNE
+from imutherm.thermal.effects import EFFECTS, apply_model_effects, effect_of, setting, wall_emissivity_for_pair
+from imutherm.thermal.knobs import FORM_RETUNE, RETUNE, effect_knob
 from imutherm.thermal.model import ModelOptions
 
 try:  # Python >= 3.11
@@ -89,7 +90,7 @@ def load_fitted_model(path) -> FittedModel:
     unknown = sorted(set(data) - {"model", "correlation", "retune", "effects"})
     if unknown:
         raise InputError(f"{path}: unknown table(s) {', '.join(unknown)}; valid: model, correlation, retune, effects")
-    bounds = {k.name: k for k, _ in RETUNE}
+    bounds = {k.name: k for k, _ in RETUNE} | {n: effect_knob(n) for n in FORM_RETUNE}
     retune = {}
     for name, v in data.get("retune", {}).items():
         if name not in bounds:
@@ -139,6 +140,9 @@ def fitted_options(model: FittedModel, options: ModelOptions | None = None, layo
         opts = opts.with_(convection_scale=r["convection_scale"])
     if "emissivity_ext" in r:
         opts = opts.with_(emissivity=r["emissivity_ext"])
+    if "cavity_emissivity" in r:  # the form knob (knobs.FORM_RETUNE): as the effect sets it, under either law
+        opts = opts.with_(cavity_emissivity=r["cavity_emissivity"],
+                          cavity_wall_emissivity=wall_emissivity_for_pair(r["cavity_emissivity"]))
     if "k_board_W_mK" in r:
         if layout is None:
             raise InputError("fitted_options: k_board_W_mK needs the layout (its boards' materials)")

@@ -373,7 +373,7 @@ def test_the_discrepancy_term_takes_a_smooth_form_error_that_an_effect_would_oth
     assert plain.verdict == "effect"  # the old workflow names an effect for what is the model's form
 
 
-def test_the_cavity_emissivity_is_re_tuned_not_named():
+def test_the_cavity_emissivity_is_re_tuned_not_named(tmp_path):
     """The cavity's emissivity is a form knob (correlation.FORM_RETUNE): a weaker cavity radiation hidden in toy
     data is re-tuned to its value (its interval covering it) and reported among the re-tuned parameters, no
     library effect is named, and a power error hidden on top is still named alone; offered as a candidate
@@ -390,7 +390,14 @@ def test_the_cavity_emissivity_is_re_tuned_not_named():
     p = j["retuned_parameters"]["cavity_emissivity"]
     assert p["kind"] == "retune" and p["source"] == FORM_RETUNE["cavity_emissivity"]
     assert p["ci95"][0] <= 0.3 <= p["ci95"][1]
-    assert '"cavity_emissivity" = { eps = ' in updated_model_toml(res)  # applied by --model, with the re-tune
+    from imutherm.studies.fitted_model import fitted_options, load_fitted_model
+    path = Path(tmp_path) / "updated_model.toml"
+    path.write_text(updated_model_toml(res))
+    m = load_fitted_model(path)  # read back into the re-tune, and applied by --model
+    assert m.retune["cavity_emissivity"] == pytest.approx(res.retune.values["cavity_emissivity"], rel=1e-5)
+    assert m.effects == ()
+    from imutherm.geometry.layout import load_layout
+    assert fitted_options(m, layout=load_layout(None)).cavity_emissivity == m.retune["cavity_emissivity"]
     both = correlate(toy_runs({**_TOY_NUISANCE, "cavity_emissivity": 0.3, "power@reg_5v": 0.3},
                               np.random.default_rng(5)), models=models, candidates=cands, rerun=False)
     assert both.named_effects == ("power@reg_5v",), both.timings["reason"]
