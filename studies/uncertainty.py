@@ -399,7 +399,7 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
             say(f"uncertainty: {scheme} checked on the full FEM at draw {i}" + (" (with the transient)" if k == 0 else ""))
             c = {"draw": i, **check_point(sm, X[i], t_end, transient=(k == 0))}
             if len(rows):  # the IMU draws' oven self-heating map, against the full FEM at each chamber temperature
-                c.update(UI.oven_check(sm, X[i], knob_values(sm, x0), nominal_chains[scheme], knob_values(sm, X[i])))
+                c.update(UI.oven_check(sm, knob_values(sm, x0), nominal_chains[scheme], knob_values(sm, X[i])))
             check[scheme].append(c)
         timings[scheme]["check_s"] = time.perf_counter() - t2
     for a, b in _pairs(list(schemes)):

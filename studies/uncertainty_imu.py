@@ -92,7 +92,7 @@ def draw_chain(nom: Chain, rom, values: dict, values0: dict, t_end: float) -> Ch
     T = base + d[:-1]
     steady = nom.steady_C + d[-1]
     ss0 = rom.rise(values0, [np.inf])[0, idx]
-    ratio = (ss0 + d[-1]) / ss0
+    ratio = np.divide(ss0 + d[-1], ss0, out=np.ones_like(ss0), where=ss0 > 0)
     rise = np.array([nom.rise_K[k] + d[-1] if c == nom.ambient_C else nom.rise_K[k] * ratio
                      for k, c in enumerate(nom.chamber_C)])
     return Chain(t, T, steady, nom.chamber_C, rise, nom.ambient_C)
@@ -244,9 +244,10 @@ def pair_stats(values: dict, schemes, names) -> dict:
 
 
 def answer_words(stats: dict, nominal: dict, schemes, config) -> list:
-    """One sentence per pair of schemes on the answer's attitude error (warm-up roll RMS of the answer's filter):
-    is one scheme's advantage larger than what the model does not know (the interval of the draw-by-draw
-    difference excludes zero)? The nominal study's seed spread of the difference is quoted beside it."""
+    """One sentence per pair of schemes and axis on the answer's attitude error (warm-up roll / pitch RMS of the
+    answer's filter): is one scheme's advantage larger than what the model does not know (the interval of the
+    draw-by-draw difference excludes zero)? And is it larger than the nominal study's seed-to-seed spread of the
+    difference (the unit-to-unit and noise draw, which the draws hold fixed)?"""
     comp, filters, prof = answer_setting(config)
     lines = []
     for i, a in enumerate(schemes):
@@ -257,22 +258,27 @@ def answer_words(stats: dict, nominal: dict, schemes, config) -> list:
                 if not s or s["n"] == 0:
                     continue
                 lo, mid, hi = (f"{s[q]:+.3f}" for q in ("lo", "q50", "hi"))
+                na, nb = nominal.get(f"{name}:{a}"), nominal.get(f"{name}:{b}")
+                spread = math.hypot(na["std"], nb["std"]) if na and nb else None
                 if s["lo"] > 0 or s["hi"] < 0:
                     better, worse = (b, a) if s["lo"] > 0 else (a, b)
-                    verdict = (f"{better}'s attitude error is lower than {worse}'s in every draw of the interval: "
-                               f"the advantage is larger than the model's uncertainty")
+                    verdict = (f"{better}'s attitude error is lower than {worse}'s over the whole interval: the "
+                               f"advantage is larger than the model's uncertainty")
+                    if spread is not None and min(abs(s["lo"]), abs(s["hi"])) < spread:
+                        verdict += (f", but not larger than the sensors' seed-to-seed spread of the difference in the "
+                                    f"nominal study (+/-{spread:.3f} deg): not an advantage beyond the unit-to-unit "
+                                    f"and noise draw")
                 else:
                     verdict = "the interval includes zero: the difference is within the model's uncertainty"
-                na, nb = nominal.get(f"{name}:{a}"), nominal.get(f"{name}:{b}")
-                seed = (f"; the nominal study's seed spread of it is +/-{math.hypot(na['std'], nb['std']):.3f} deg"
-                        if na and nb else "")
+                seed = (f" (the nominal study's difference {na['mean'] - nb['mean']:+.3f} deg, its seed spread "
+                        f"+/-{spread:.3f} deg)" if spread is not None else "")
                 lines.append(f"attitude error ({filters[0]}, {prof} warm-up, {ax} RMS, {comp} compensation calibrated "
                              f"in the unit), {a} - {b}: median {mid} deg ({s['interval']} over {s['n']} draws through "
-                             f"the IMU chain: {lo} .. {hi} deg); {verdict}{seed}.")
+                             f"the IMU chain: {lo} .. {hi} deg){seed}; {verdict}.")
     return lines
 
 
-def oven_check(sm, row, values0: dict, nom: Chain, values: dict) -> dict:
+def oven_check(sm, values0: dict, nom: Chain, values: dict) -> dict:
     """The draw's oven self-heating table (:func:`draw_chain`) against the full FEM solved at each chamber
     temperature other than the ambient with the draw's knobs: largest error [K] and the full FEM's rises."""
     from imutherm.imu.sensor_model import SITES

@@ -108,8 +108,12 @@ def test_answer_words_on_the_attitude_error():
           "diff_warmup_gated_pitch_rms_deg:air-grease": UI.draw_stats([-0.01, 0.02, 0.04])}
     roll, pitch = UI.answer_words(st, nominal, ["air", "grease"], CONFIG)
     assert "grease's attitude error is lower than air's" in roll and "larger than the model's uncertainty" in roll
-    assert "min-max over 3 draws" in roll and "seed spread of it is +/-0.028" in roll
+    assert "min-max over 3 draws" in roll and "difference +0.050 deg, its seed spread +/-0.028 deg" in roll
+    assert "not larger than the sensors' seed-to-seed spread" in roll       # 0.01 deg of the interval < 0.028 deg
     assert "within the model's uncertainty" in pitch
+    st["diff_warmup_gated_roll_rms_deg:air-grease"] = UI.draw_stats([-0.3, -0.2, -0.1])
+    roll, _ = UI.answer_words(st, nominal, ["air", "grease"], CONFIG)
+    assert "air's attitude error is lower than grease's" in roll and "seed-to-seed" not in roll
 
 
 def test_imu_section_json_keys():
