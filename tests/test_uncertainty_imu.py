@@ -159,24 +159,25 @@ def test_compare_refuses_bad_imu_draws_in_one_line(argv, words, tmp_path, capsys
 
 @pytest.mark.slow
 def test_nominal_draws_through_the_real_chain_reproduce_the_study():
-    """On the FEM (6 mm mesh): the study of two schemes, each scheme's reduced model, the draws pinned at the
-    nominal inputs through the IMU chain give the study's attitude and residual figures exactly."""
+    """On the FEM (6 mm mesh, the model's default cavity law): the study of the air scheme, its reduced model, a
+    draw pinned at the nominal inputs through the IMU chain gives the study's attitude and residual figures
+    exactly (measured 13 min wall for two schemes on the shared machine; one scheme here)."""
     from imutherm.studies import uncertainty as U
     from imutherm.studies.end_to_end import run_study
 
     cfg = StudyConfig(seeds=1, profiles=("flight",), compensations=("improved",), filters=("gated",))
-    study = run_study(None, ("air", "grease"), config=cfg, jobs=1, mesh_size_mm=6, min_cells=1)
+    study = run_study(None, ("air",), config=cfg, jobs=1, mesh_size_mm=6, min_cells=1)
     from imutherm.geometry.build import build_geometry
 
     ins = U.inputs(build_geometry(None, "air"))
     x0 = U.nominal_row(ins)
     chains = {}
-    for s in ("air", "grease"):
+    for s in ("air",):
         sm = U.build_scheme_model(None, s, ins, mesh_size_mm=6, min_cells=1)
         v0 = U.knob_values(sm, x0)
         chains[s] = [UI.draw_chain(UI.nominal_chain(study.schemes[s]), sm.rom, dict(v0), v0, 2400.0)]
     res = UI.run_imu_draws(chains, cfg)
-    for s in ("air", "grease"):
+    for s in ("air",):
         fig = UI.study_figures(study.schemes[s], cfg)
         for name in UI.output_names(cfg):
             assert res["values"][f"{name}:{s}"][0] == fig[name]["mean"], (s, name)
