@@ -181,3 +181,29 @@ def test_nominal_draws_through_the_real_chain_reproduce_the_study():
         fig = UI.study_figures(study.schemes[s], cfg)
         for name in UI.output_names(cfg):
             assert res["values"][f"{name}:{s}"][0] == fig[name]["mean"], (s, name)
+
+
+@pytest.mark.slow
+def test_compare_uncertainty_end_to_end_writes_the_imu_draws(tmp_path, capsys):
+    """``compare --uncertainty --uncertainty-imu-draws 2`` on one scheme (6 mm mesh, the model's default cavity
+    law): uncertainty.json's IMU keys, the printed lines and the report's IMU page."""
+    import json
+
+    from imutherm.cli import main
+
+    out = tmp_path / "c"
+    rc = main(["compare", "--schemes", "air", "--seeds", "1", "--profiles", "flight", "--filters", "gated",
+               "--uncertainty", "--uncertainty-samples", "2", "--uncertainty-checks", "0", "--uncertainty-imu-draws",
+               "2", "--mesh-size", "6", "--min-cells", "1", "--jobs", "1", "--no-progress", "--out", str(out)])
+    text = capsys.readouterr().out
+    unc = json.loads((out / "uncertainty.json").read_text())
+    assert rc == 0 and unc["imu"]["n"] == 2 and unc["not_propagated"] is None
+    assert unc == json.loads((out / "summary.json").read_text())["uncertainty"]
+    st = unc["imu"]["stats"]["warmup_gated_roll_rms_deg:air"]
+    assert st["n"] == 2 and st["interval"] == "min-max" and st["min"] <= st["q50"] <= st["max"]
+    assert unc["imu"]["nominal"]["warmup_gated_roll_rms_deg:air"]["std"] == 0.0   # one seed
+    assert "IMU chain: 2 draws x 1 schemes" in text and "supply_V 6.2..12 V" in text
+    from pypdf import PdfReader
+
+    pdf = "".join(p.extract_text() for p in PdfReader(out / "report.pdf").pages)
+    assert "Residual sensor errors and attitude error under the model's uncertainty" in pdf
