@@ -14,7 +14,9 @@ files: ``report.pdf``, ``compare.json``, ``probes_<s>.csv``, ``map_<s>.npz``, ``
 scheme's reduced model to the sensor-die rises, the settle time and the differences between schemes
 (:mod:`imutherm.studies.uncertainty`): 5-95 % intervals and Sobol' indices in ``uncertainty.json``
 (and ``summary.json``), pages in ``report.pdf`` (``uncertainty.pdf`` with ``--thermal-only``), checked
-against the full FEM at ``--uncertainty-checks`` drawn points per scheme.
+against the full FEM at ``--uncertainty-checks`` drawn points per scheme; in the end-to-end study,
+``--uncertainty-imu-draws`` of the draws also go through the full IMU chain to the residual sensor errors
+and the attitude error (:mod:`imutherm.studies.uncertainty_imu`; the study's seeds fixed).
 
 Transients: on a reduced model of each scheme's steady field that checks itself against the full model
 (every site within 0.05 K, every t95 within 1 %; :mod:`imutherm.thermal.reduced_transient`), the full
