@@ -59,8 +59,12 @@ IGNORED = (
     Ignored(("solve",), ("--effect",), lambda a: not a.transient and _signal_effects(a), "without --transient",
             "a signal effect (probe_lag, ambient_drift) changes the transient's site curves, and a steady "
             "solve has none; drop it or add --transient"),
-    Ignored(("compare",), ("--uncertainty-samples", "--uncertainty-checks"), lambda a: not a.uncertainty,
+    Ignored(("compare",), ("--uncertainty-samples", "--uncertainty-checks", "--uncertainty-imu-draws"),
+            lambda a: not a.uncertainty,
             "without --uncertainty", "they size the uncertainty propagation; drop them or add --uncertainty"),
+    Ignored(("compare",), ("--uncertainty-imu-draws",), lambda a: a.thermal_only or a.steady_only,
+            "with --thermal-only or --steady-only", "the thermal comparison has no IMU chain to run the draws "
+            "through; drop it or run the end-to-end study"),
     Ignored(("sweep",), ("--verify", "--verify-tol"), lambda a: a.surrogate == "none", "with --surrogate none",
             "they check a reduced-model sweep against the full FEM, and every case of this one runs on the full "
             "FEM; drop them or use --surrogate auto|reduced"),

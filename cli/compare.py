@@ -14,7 +14,9 @@ files: ``report.pdf``, ``compare.json``, ``probes_<s>.csv``, ``map_<s>.npz``, ``
 scheme's reduced model to the sensor-die rises, the settle time and the differences between schemes
 (:mod:`imutherm.studies.uncertainty`): 5-95 % intervals and Sobol' indices in ``uncertainty.json``
 (and ``summary.json``), pages in ``report.pdf`` (``uncertainty.pdf`` with ``--thermal-only``), checked
-against the full FEM at ``--uncertainty-checks`` drawn points per scheme.
+against the full FEM at ``--uncertainty-checks`` drawn points per scheme; in the end-to-end study,
+``--uncertainty-imu-draws`` of the draws also go through the full IMU chain to the residual sensor errors
+and the attitude error (:mod:`imutherm.studies.uncertainty_imu`; the study's seeds fixed).
 
 Transients: on a reduced model of each scheme's steady field that checks itself against the full model
 (every site within 0.05 K, every t95 within 1 %; :mod:`imutherm.thermal.reduced_transient`), the full
@@ -72,6 +74,9 @@ def add_args(parser) -> None:
                    help="Saltelli base samples N, a power of 2: N x (inputs + 2) draws (default 256)")
     u.add_argument("--uncertainty-checks", type=int, default=2, metavar="N",
                    help="drawn points per scheme re-run on the full FEM (the first with the transient; default 2)")
+    u.add_argument("--uncertainty-imu-draws", type=int, default=None, metavar="N",
+                   help="draws per scheme also run through the full IMU chain to the residual sensor errors and the "
+                        "attitude error, the study's seeds fixed (default min(16, --uncertainty-samples); 0: none)")
     add_progress_argument(parser)
     add_model_arguments(parser)
     add_fitted_model_argument(parser)
@@ -101,11 +106,13 @@ def run(args) -> int:
     layout, options, effects, fitted = run_inputs(args)
     args.run_model = (layout, options, effects, fitted)
     if args.uncertainty:
-        from imutherm.studies.uncertainty import design, inputs
+        from imutherm.studies.uncertainty import UncertainInput, design, imu_draw_rows
 
         if args.uncertainty_checks < 0:
             raise InputError(f"--uncertainty-checks must be an integer >= 0, got {args.uncertainty_checks}")
-        design(inputs(), args.uncertainty_samples, 0)  # a bad sample count is refused before any solve
+        # a bad sample or draw count is refused before any solve
+        design((UncertainInput("x", "-", 0.0, 1.0, False, "-"),), args.uncertainty_samples, 0)
+        imu_draw_rows(args.uncertainty_imu_draws, args.uncertainty_samples, 1)
     unknown = [s for s in schemes if s not in layout.schemes]
     if unknown:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
@@ -170,7 +177,7 @@ def _end_to_end(args, schemes, config) -> int:
     from imutherm.reports.layout_plot import plot_layout
     from imutherm.reports.study_report import write_study_report
 
-    unc = _uncertainty(args, res.layout, schemes, options)
+    unc = _uncertainty(args, res.layout, schemes, options, study=res)
     with atomic_outdir(args.out) as tmp:
         summary = study_summary(res)
         if fitted is not None:
@@ -192,8 +199,9 @@ def _end_to_end(args, schemes, config) -> int:
     return 0
 
 
-def _uncertainty(args, layout, schemes, options):
-    """The propagation of ``--uncertainty`` (None without it); prints its answer."""
+def _uncertainty(args, layout, schemes, options, study=None):
+    """The propagation of ``--uncertainty`` (None without it; with the end-to-end ``study``, its IMU draws too);
+    prints its answer."""
     if not args.uncertainty:
         return None
     from imutherm.studies.uncertainty import run_uncertainty
@@ -202,7 +210,8 @@ def _uncertainty(args, layout, schemes, options):
     unc = run_uncertainty(layout, schemes, options=options, samples=args.uncertainty_samples,
                           seed=args.seed if hasattr(args, "seed") else 0, checks=args.uncertainty_checks,
                           t_end=args.t_end or args.t_end_default, mesh_size_mm=args.mesh_size,
-                          min_cells=args.min_cells, progress=say)
+                          min_cells=args.min_cells, progress=say, study=study,
+                          imu_draws=args.uncertainty_imu_draws, jobs=getattr(args, "jobs", None))
     print(f"uncertainty ({len(unc['inputs'])} inputs, {unc['draws']} draws on the reduced models; checked on the "
           f"full FEM: largest site error {unc['max_check_error_K']:.3f} K):" if unc["max_check_error_K"] is not None
           else f"uncertainty ({len(unc['inputs'])} inputs, {unc['draws']} draws, not checked on the full FEM):")
@@ -211,8 +220,26 @@ def _uncertainty(args, layout, schemes, options):
         print(f"  {s:<8} hottest die rise {r['q50']:.2f} K (5-95 %: {r['q05']:.2f} .. {r['q95']:.2f}), t95 "
               f"{t['q50']:.0f} s ({t['q05']:.0f} .. {t['q95']:.0f})" if t["q05"] is not None else
               f"  {s:<8} hottest die rise {r['q50']:.2f} K (5-95 %: {r['q05']:.2f} .. {r['q95']:.2f})")
+    imu = unc.get("imu")
+    if imu:
+        print(f"  IMU chain: {imu['n']} draws x {len(schemes)} schemes, seeds {imu['seeds'][0]}..{imu['seeds'][-1]} "
+              f"fixed (the spread is the thermal model's, not the sensor noise draw); {imu['profile']}, "
+              f"{imu['compensation']} compensation, calibrated in the unit"
+              + (f"; {len({f['draw'] for f in imu['failed']})} draw(s) failed in the chain" if imu["failed"] else ""))
+        f0 = imu["filters"][0]
+        for s in schemes:
+            a, g, c = (imu["stats"][f"{k}:{s}"] for k in (f"warmup_{f0}_roll_rms_deg", "gyro_rms_dps", "accel_rms_mg"))
+            if a["n"]:
+                print(f"  {s:<8} {f0} warm-up roll RMS {a['q50']:.3f} deg ({a['interval']}: {a['lo']:.3f} .. "
+                      f"{a['hi']:.3f}; study {imu['nominal'][f'warmup_{f0}_roll_rms_deg:{s}']['mean']:.3f}), residual "
+                      f"gyro {g['q50']:.4f} deg/s ({g['lo']:.4f} .. {g['hi']:.4f}), accel {c['q50']:.2f} mg "
+                      f"({c['lo']:.2f} .. {c['hi']:.2f})")
+    for note in unc.get("notes", []):
+        print(f"  {note}")
     for line in unc["answer"]:
         print(f"  {line}")
+    if unc.get("not_propagated"):
+        print(f"  not propagated: {unc['not_propagated']}")
     return unc
 
 

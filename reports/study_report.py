@@ -164,6 +164,12 @@ def _answer_page(pdf, data: dict) -> None:
         lines = textwrap.wrap(s["answer"], 190)
         fig.text(0.03, y, "\n".join(lines), fontsize=7.6, va="top", color=_colour(name))
         y -= 0.022 * len(lines) + 0.008
+    imu = (data.get("uncertainty") or {}).get("imu")
+    if imu:  # compare --uncertainty: is each scheme's attitude advantage larger than what the model does not know?
+        lines = textwrap.wrap("Under the model's uncertainty (pages 'Residual sensor errors and attitude error'): "
+                              + " ".join(a for a in imu["answer"] if " roll RMS" in a), 190)
+        fig.text(0.03, y, "\n".join(lines), fontsize=7.6, va="top")
+        y -= 0.022 * len(lines) + 0.008
     answer_figure(fig, (0.07, 0.06, 0.9, y - 0.1), data)
     pdf.savefig(fig)
     plt.close(fig)

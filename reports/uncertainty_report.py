@@ -3,7 +3,9 @@
 Page 1: each scheme's largest sensor-die rise and settle time with their 5-95 % intervals, the
 differences between schemes, the answer in words (is each advantage larger than the model's
 uncertainty?), the reduced model's check against the full FEM, and what was not propagated.
-Page 2: the inputs' Sobol' indices (total and first order, 95 % confidence) for each of those
+With the IMU draws (end-to-end study): a page of the residual sensor errors and the attitude error over
+the draws through the full IMU chain, each difference between schemes taken draw by draw, beside the
+nominal study's figures. Then the inputs' Sobol' indices (total and first order, 95 % confidence) for each of those
 outputs: which unknowns drive each figure. Page 3: the inputs with their ranges and sources.
 """
 
@@ -69,8 +71,59 @@ def _summary_page(pdf, unc: dict) -> None:
                      f"site error {chk:.3f} K" + (f", largest transient site error {curve:.3f} K" if curve is not None
                                                    else "") + (f", t95 within {100 * t95:.2f} %" if t95 is not None
                                                                else "") + ".")
-    words.append("Not propagated: " + unc.get("not_propagated", "") + ".")
+    oven = unc.get("max_check_oven_error_K")
+    if oven is not None:
+        words.append(f"The IMU draws' oven self-heating map (the study's cold-oven rise scaled by the reduced model's "
+                     f"steady ratio) against the full FEM at the same point(s): within {oven:.3f} K.")
+    words.extend(unc.get("notes", []))
+    if unc.get("not_propagated"):
+        words.append("Not propagated: " + unc["not_propagated"] + ".")
     fig.text(0.04, 0.38, "\n".join(textwrap.fill(w, 165) for w in words), fontsize=8.5, va="top")
+    pdf.savefig(fig)
+    plt.close(fig)
+
+
+#: (output, label, unit, format) of the IMU page's rows
+_IMU_ROWS = (("residual gyro RMS", "gyro_rms_dps", "deg/s", "{:.4f}"),
+             ("residual accel RMS", "accel_rms_mg", "mg", "{:.2f}"))
+
+
+def _imu_page(pdf, unc: dict) -> None:
+    imu = unc.get("imu")
+    if not imu:
+        return
+    fig = plt.figure(figsize=A4_LANDSCAPE)
+    fig.text(0.04, 0.96, "Residual sensor errors and attitude error under the model's uncertainty", fontsize=13,
+             va="top", weight="bold")
+    fig.text(0.04, 0.92, textwrap.fill(imu["method"] + ".", 170), fontsize=8.5, va="top")
+    schemes = list(unc["applicable"])
+    rows = []
+    f0 = imu["filters"][0]  # the answer's filter (the others are in uncertainty.json)
+    att = [(f"{ph} {f0} {ax} RMS", f"{ph}_{f0}_{ax}_rms_deg", "deg", "{:.3f}")
+           for ph in ("warmup", "steady") for ax in ("roll", "pitch")]
+    for label, name, unit, f in att + list((lab, n, u, fm) for lab, n, u, fm in _IMU_ROWS):
+        for s in schemes:
+            st, nom = imu["stats"][f"{name}:{s}"], imu["nominal"].get(f"{name}:{s}", {})
+            rows.append([f"{label}, {s}", unit, st["interval"] or "-", _fmt(st["lo"], f), _fmt(st["q50"], f),
+                         _fmt(st["hi"], f), _fmt(nom.get("mean"), f) + " +/- " + _fmt(nom.get("std"), f)])
+        for i, a in enumerate(schemes):
+            for b in schemes[i + 1:]:
+                st = imu["stats"][f"diff_{name}:{a}-{b}"]
+                rows.append([f"{label}, {a} - {b}", unit, st["interval"] or "-", _fmt(st["lo"], f),
+                             _fmt(st["q50"], f), _fmt(st["hi"], f), "-"])
+    ax = fig.add_axes([0.04, 0.2, 0.92, 0.62])
+    ax.axis("off")
+    t = ax.table(cellText=rows, colLabels=["output", "unit", "interval", "low", "median", "high",
+                                           "study (mean +/- seed std)"],
+                 loc="upper center", cellLoc="center", colWidths=[0.3, 0.06, 0.08, 0.09, 0.09, 0.09, 0.17])
+    t.auto_set_font_size(False)
+    t.set_fontsize(6.5 if len(rows) > 24 else 7.5)
+    t.scale(1.0, 0.85 if len(rows) > 24 else 1.2)
+    words = list(imu["answer"])
+    if imu["failed"]:
+        words.append(f"{len({f['draw'] for f in imu['failed']})} draw(s) failed in the IMU chain and are left out in "
+                     f"every scheme: " + "; ".join(sorted({f['error'] for f in imu['failed']}))[:400])
+    fig.text(0.04, 0.17, "\n".join(textwrap.fill(w, 175) for w in words), fontsize=8, va="top")
     pdf.savefig(fig)
     plt.close(fig)
 
@@ -116,6 +169,7 @@ def _inputs_page(pdf, unc: dict) -> None:
         lo, hi = i["range"]
         lines.append(textwrap.fill(f"{i['name']} [{i['unit']}]: {lo:g} .. {hi:g}, {i['distribution']}. {i['source']}",
                                    160, subsequent_indent="    "))
+    lines.extend(unc.get("notes", []))
     app = unc.get("applicable", {})
     for s, names in app.items():
         missing = [i["name"] for i in unc["inputs"] if i["name"] not in names]
@@ -129,6 +183,7 @@ def _inputs_page(pdf, unc: dict) -> None:
 def uncertainty_pages(pdf, unc: dict) -> None:
     """Append the uncertainty pages of ``unc`` (:func:`imutherm.studies.uncertainty.run_uncertainty`) to ``pdf``."""
     _summary_page(pdf, unc)
+    _imu_page(pdf, unc)
     _sobol_page(pdf, unc)
     _inputs_page(pdf, unc)
 

@@ -1,11 +1,13 @@
 """What the model does not know, carried to the study's answer: ``imutherm compare --uncertainty``.
 
 Every uncertain input of the thermal model is a knob of the scheme's reduced model
-(:mod:`imutherm.thermal.reduced`) with its range and its source (:data:`INPUTS`): the re-tune knobs
-of :data:`imutherm.thermal.knobs.RETUNE` (powers' scale, mount, convection, housing emissivity, board
-conductivity), the cavity pair emissivity, the grease bond lines' contact and the supply voltage,
-which sets the 5 V linear regulator's loss ((V_in - 5 V) x its load current; the layout assumes 9 V,
-the paper states none; 6-12 V is the range issue 23 states).
+(:mod:`imutherm.thermal.reduced`) with its range, its source and its nominal value (:func:`inputs`): the
+model's own uncertain inputs as :func:`imutherm.thermal.knobs.uncertain_inputs` states them (the re-tune
+knobs of :data:`~imutherm.thermal.knobs.RETUNE`: powers' scale, mount, convection, housing emissivity,
+board conductivity; and the supply voltage, from the layout's electrical design: its ``supply_range_V``
+and the loss slope of the linear regulator it feeds, :func:`supply_input`; a layout without an electrical
+design has no supply input, and the result's ``notes`` say so), the cavity pair emissivity and the grease
+bond lines' contact.
 
 :func:`propagate` draws SALib's Saltelli design over the inputs (uniform in each knob's coordinate:
 uniform over a linear range, log-uniform over a conductance's), evaluates a model on every row and
@@ -17,10 +19,8 @@ draw by draw), for each sensor die's steady rise, the largest die rise, the hott
 their differences between schemes, and checks the reduced model against the full FEM at a few
 drawn points (steady at every check point, the power-on transient at the first).
 
-Residual sensor errors and the attitude error are not propagated here: the chain from die
-temperatures to attitude (calibration in the oven, compensation, filters) is the full IMU study of
-:mod:`imutherm.studies.end_to_end`, a few seconds per (scheme, seed) but not a function of the rise
-alone, and no cheap map from rise to residual error has been validated. The report says so.
+With the nominal end-to-end study (``study``), a few of the draws also run through the full IMU chain
+to the residual sensor errors and the attitude error (:mod:`imutherm.studies.uncertainty_imu`).
 """
 
 from __future__ import annotations
@@ -33,10 +33,6 @@ import numpy as np
 
 from imutherm import InputError
 
-#: the 5 V regulator: the layout's 9 V input is assumed (layouts/imu_reference.toml, power budget)
-ASSUMED_SUPPLY_V = 9.0
-REG_5V_OUT_V = 5.0
-SUPPLY_RANGE_V = (6.0, 12.0)
 #: time grid of the reduced transient, x t_end [s]
 _T_GRID = np.concatenate([[0.0], np.geomspace(1e-4, 1.0, 600)])
 QUANTILES = (0.05, 0.5, 0.95)
@@ -48,7 +44,12 @@ DEFAULT_CHECKS = 2
 class UncertainInput:
     """One uncertain input: ``name`` (a knob of :func:`imutherm.thermal.knobs.variant`, or ``supply_V``),
     ``unit``, range ``lo``..``hi`` [unit], ``log`` (log-uniform), ``source`` (where the range comes from),
-    ``nominal`` [unit] (the model's value) or None (the layout's)."""
+    ``nominal`` [unit] (the model's value) or None (the layout's).
+
+    ``knob`` / ``per_unit``: an input that is not itself a model knob sets the knob ``knob`` to
+    ``(value - nominal) x per_unit`` [knob unit] (the supply voltage [V]: the extra loss [W] of the linear
+    regulator it feeds, ``per_unit`` its input current [A] = W/V); None for a model knob.
+    """
 
     name: str
     unit: str
@@ -57,37 +58,73 @@ class UncertainInput:
     log: bool
     source: str
     nominal: float | None = None
+    knob: str | None = None
+    per_unit: float | None = None
 
 
-def _retune(name: str):
+def supply_input(geometry) -> tuple:
+    """(UncertainInput or None, note): the supply voltage [V] as an uncertain input, read from the layout's
+    electrical design (``[electrical]`` ``supply_V``, ``supply_range_V`` and the regulator it feeds:
+    :func:`imutherm.thermal.knobs.supply_power_knob`, the one place the range and the loss slope come from).
+    None, with the reason in ``note``, if the layout has no electrical design, states its supply exactly,
+    or its supply's voltage moves no single linear regulator's loss."""
     from imutherm.thermal import knobs as K
 
-    return next(k for k, _ in K.RETUNE if k.name == name), K.RETUNE_SOURCES[name]
+    lay = geometry.layout
+    spec = lay.electrical
+    if spec is None:
+        return None, (f"no supply-voltage input: layout {lay.name!r} states no electrical design ([electrical] and "
+                      f"[[rails]]), so its regulators' powers are given, not derived from a supply voltage")
+    v_lo, v_hi = spec.supply_range_V
+    if v_hi <= v_lo:
+        return None, (f"no supply-voltage input: layout {lay.name!r} states its supply exactly ({spec.supply_V:g} V, "
+                      f"no supply_range_V)")
+    try:
+        knob, source = K.supply_power_knob(geometry)
+    except InputError as e:
+        return None, f"no supply-voltage input: {e}"
+    slope = (knob.hi - knob.lo) / (v_hi - v_lo)  # the regulator's input current [A] = its loss per volt [W/V]
+    reg = knob.part
+    return (UncertainInput("supply_V", "V", v_lo, v_hi, False,
+                           f"{source}; sets {reg}'s loss by {slope * 1e3:.4g} mA per volt "
+                           f"({knob.lo:+.3f} .. {knob.hi:+.3f} W around its nominal)", spec.supply_V,
+                           knob=knob.name, per_unit=slope),
+            f"supply_V {v_lo:g}..{v_hi:g} V (nominal {spec.supply_V:g} V) moves {reg}'s loss {knob.lo:+.3f} .. "
+            f"{knob.hi:+.3f} W (the layout's electrical design)")
 
 
-def inputs() -> tuple:
-    """The uncertain inputs with their ranges and sources (the re-tune knobs as :data:`~imutherm.thermal.knobs.RETUNE`
-    states them; the supply, cavity emissivity and bond contact here)."""
+def inputs(geometry, options=None) -> tuple:
+    """The uncertain inputs of ``geometry``'s unit with their ranges, sources and nominal values: the model's
+    own (:func:`imutherm.thermal.knobs.uncertain_inputs`: the re-tune knobs of
+    :data:`~imutherm.thermal.knobs.RETUNE` and the supply voltage from the layout's electrical design,
+    :func:`supply_input`), the cavity pair emissivity and the grease bond lines' contact."""
+    from imutherm.thermal import knobs as K
+    from imutherm.thermal.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
+
+    options = options or ModelOptions()
+    nominal = K.nominal_values(geometry, options)
+    sup, _ = supply_input(geometry)
     out = []
-    out.append(UncertainInput("supply_V", "V", *SUPPLY_RANGE_V, False,
-                              "input supply: the paper states none; the layout assumes 9 V; 6-12 V (issue 23: "
-                              "a 6 V supply makes the 5 V regulator's loss ~0.2 W, which the correlation of the "
-                              "paper's data points to). Sets the 5 V linear regulator's loss (V - 5 V) x I_5V",
-                              ASSUMED_SUPPLY_V))
-    for name in ("power_scale", "mount_h_W_m2K", "convection_scale", "emissivity_ext", "k_board_W_mK"):
-        k, src = _retune(name)
-        if name == "power_scale":
-            src = "every power x p: datasheet typical vs worst-case load currents (the supply is its own input here)"
-        out.append(UncertainInput(name, k.unit, k.lo, k.hi, k.log, src))
+    for k, src in K.uncertain_inputs(geometry):
+        if k.name in nominal:
+            out.append(UncertainInput(k.name, k.unit, k.lo, k.hi, k.log, src, nominal[k.name]))
+        elif sup is not None and k.name == sup.knob:
+            out.append(sup)
     out.append(UncertainInput("cavity_emissivity", "-", 0.63, 0.86, False,
                               "pair emissivity of facing board / housing surfaces: boards 0.80-0.95 (solder "
                               "mask, assumed), anodised inner walls 0.75-0.90 (Incropera Table A.11, widened) "
-                              "-> 1/(1/e1 + 1/e2 - 1) = 0.63-0.86 (model default 0.77)", 0.77))
+                              "-> 1/(1/e1 + 1/e2 - 1) = 0.63-0.86 (model default 0.77)", options.cavity_emissivity))
     out.append(UncertainInput("contact@bond", "W/m^2 K", 3.6e3, 2.0e4, True,
                               "each face of a grease bond line: from an unwetted (air-filled) Al joint, "
                               "R'' = 2.75e-4 m^2 K/W (Incropera & DeWitt Table 3.1b), up to the contact effect's "
-                              "physical bound 2e4 (the model's default, the silicone-oil-filled joint, is 1.9e4)"))
+                              "physical bound 2e4 (the model's default, the silicone-oil-filled joint, is 1.9e4)",
+                              GREASE_WETTED_JOINT_W_M2K))
     return tuple(out)
+
+
+def nominal_row(ins) -> np.ndarray:
+    """The inputs' nominal values (D,) [units], in design order."""
+    return np.array([i.nominal for i in ins], float)
 
 
 # ------------------------------------------------------------------ generic propagation
@@ -150,9 +187,9 @@ def propagate(fn, ins, samples: int = DEFAULT_SAMPLES, seed: int = 0) -> tuple:
 class SchemeModel:
     """The reduced model of one scheme and how an input row becomes its knob values.
 
-    geometry, grid, options; rom : ReducedModel; names : input names in design order, applicable :
-    the inputs this scheme has (``contact@bond`` needs bond lines); reg_current_A [A] the 5 V rail's load;
-    sites : sensor sites; build_s [s]
+    geometry, grid, options; rom : ReducedModel; inputs : the UncertainInputs in design order, applicable :
+    the names of the inputs this scheme has (``contact@bond`` needs bond lines); sites : sensor sites;
+    build_s [s]
     """
 
     scheme: str
@@ -160,23 +197,23 @@ class SchemeModel:
     grid: object
     options: object
     rom: object
-    names: tuple
+    inputs: tuple
     applicable: tuple
-    reg_current_A: float
     sites: tuple
     build_s: float
 
 
 def knob_values(sm: SchemeModel, row) -> dict:
-    """Knob values (name -> value) of one input row: the supply as the 5 V regulator's extra loss [W]."""
+    """Knob values (name -> value) of one input row; an input with a ``knob`` (the supply voltage [V]) sets it to
+    ``(value - nominal) x per_unit`` (its regulator's extra loss [W])."""
     vals = {}
-    for name, v in zip(sm.names, row):
-        if name not in sm.applicable:
+    for i, v in zip(sm.inputs, row):
+        if i.name not in sm.applicable:
             continue
-        if name == "supply_V":
-            vals["power@reg_5v"] = (float(v) - ASSUMED_SUPPLY_V) * sm.reg_current_A
+        if i.knob is not None:
+            vals[i.knob] = (float(v) - i.nominal) * i.per_unit
         else:
-            vals[name] = float(v)
+            vals[i.name] = float(v)
     return vals
 
 
@@ -187,7 +224,6 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
     from imutherm.site_table import ACCEL_SITES, GYRO_SITES
     from imutherm.thermal import knobs as K
-    from imutherm.thermal.effects import power_part
     from imutherm.thermal.model import ModelOptions
     from imutherm.thermal.reduced import Knob, build_reduced
 
@@ -196,14 +232,12 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     geo = build_geometry(layout, scheme)
     grid = build_mesh(geo, DEFAULT_MAX_CELL_MM if mesh_size_mm is None else mesh_size_mm,
                       DEFAULT_MIN_CELLS if min_cells is None else min_cells)
-    p5 = power_part(geo, "reg_5v").power_W
-    current = p5 / (ASSUMED_SUPPLY_V - REG_5V_OUT_V)
     knobs, applicable = [], []
     retune = {k.name: k for k, _ in K.RETUNE}
     for i in ins:
-        if i.name == "supply_V":
-            knobs.append(Knob("power@reg_5v", "W", (i.lo - ASSUMED_SUPPLY_V) * current,
-                              (i.hi - ASSUMED_SUPPLY_V) * current, part="reg_5v"))
+        if i.knob is not None:  # the supply voltage: its regulator's extra loss [W] over the voltage range
+            knobs.append(Knob(i.knob, "W", (i.lo - i.nominal) * i.per_unit, (i.hi - i.nominal) * i.per_unit,
+                              part=i.knob.split("@", 1)[1]))
         elif i.name in retune:
             knobs.append(replace(retune[i.name], lo=i.lo, hi=i.hi))
         elif K.applicable(i.name, geo):
@@ -218,8 +252,8 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
         progress(f"uncertainty: reduced model of {scheme} ({len(knobs)} knobs, {grid.n_nodes} unknowns)")
     rom = build_reduced(lambda v: K.variant(geo, options, v), grid, knobs, {s: geo.sites[s] for s in sites},
                         pairs=pairs, load_directions=True)
-    return SchemeModel(scheme, geo, grid, options, rom, tuple(i.name for i in ins), tuple(applicable), current,
-                       sites, time.perf_counter() - t0)
+    return SchemeModel(scheme, geo, grid, options, rom, tuple(ins), tuple(applicable), sites,
+                       time.perf_counter() - t0)
 
 
 def scheme_outputs(sm: SchemeModel, X: np.ndarray, t_end: float) -> dict:
@@ -256,7 +290,7 @@ def check_point(sm: SchemeModel, row, t_end: float, transient: bool) -> dict:
     t0 = time.perf_counter()
     full = full_rise(K.variant(sm.geometry, sm.options, vals), sm.grid, probes, times, rtol=STUDY_CG_RTOL)
     red = sm.rom.rise(vals, times)
-    out = {"inputs": {n: float(v) for n, v in zip(sm.names, row)},
+    out = {"inputs": {i.name: float(v) for i, v in zip(sm.inputs, row)},
            "site_error_K": float(np.max(np.abs(full[-1] - red[-1]))),
            "full_max_die_rise_K": float(full[-1].max()), "reduced_max_die_rise_K": float(red[-1].max()),
            "seconds": None}
@@ -296,16 +330,36 @@ def answer_words(stats: dict, schemes) -> list:
     return lines
 
 
+def imu_draw_rows(n_draws, samples: int, n_inputs: int) -> np.ndarray:
+    """Design rows of the IMU draws: the first ``n_draws`` points of the design's base Sobol' sequence (its A
+    matrix: every (D + 2)-th row), which fill the input space evenly. ``n_draws`` None: the default
+    (:data:`~imutherm.studies.uncertainty_imu.DEFAULT_IMU_DRAWS`, at most ``samples``)."""
+    from imutherm.studies.uncertainty_imu import DEFAULT_IMU_DRAWS
+
+    n = min(DEFAULT_IMU_DRAWS, samples) if n_draws is None else n_draws
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 0 <= n <= samples:
+        raise InputError(f"--uncertainty-imu-draws must be an integer in 0..{samples} (the draws are points of the "
+                         f"design's base sample of --uncertainty-samples {samples}), got {n_draws!r}")
+    return np.arange(int(n)) * (n_inputs + 2)
+
+
 def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAMPLES, seed: int = 0,
                     checks: int = DEFAULT_CHECKS, t_end: float = 2400.0, mesh_size_mm=None, min_cells=None,
-                    progress=None) -> dict:
+                    progress=None, study=None, imu_draws: int | None = None, jobs: int | None = 1) -> dict:
     """Propagate :func:`inputs` through each scheme's reduced model; the result is JSON-ready.
 
-    Returns {"inputs": [...], "samples", "draws", "seed", "stats": {"<output>:<scheme>" or
+    ``study``: the nominal end-to-end study (:class:`~imutherm.studies.end_to_end.StudyResult`) of the same
+    layout, schemes and options: with it, ``imu_draws`` of the draws (:func:`imu_draw_rows`) also run through
+    the full IMU chain (:mod:`imutherm.studies.uncertainty_imu`) in ``jobs`` processes.
+
+    Returns {"inputs": [...], "notes": [...], "samples", "draws", "seed", "stats": {"<output>:<scheme>" or
     "diff_<output>:<a>-<b>": :func:`statistics`}, "checks": {scheme: [check_point ...]}, "max_check_error_K",
-    "max_check_t95_rel_error", "answer": [sentences], "not_propagated": str, "timings": {...}}.
+    "max_check_t95_rel_error", "imu": {...} or None, "answer": [sentences], "not_propagated": str or None,
+    "timings": {...}}.
     """
+    from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import LayoutSpec, load_layout
+    from imutherm.studies import uncertainty_imu as UI
 
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
@@ -313,9 +367,15 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
         layout = load_layout(layout)
     if checks < 0:
         raise InputError(f"--uncertainty-checks must be an integer >= 0, got {checks}")
-    ins = inputs()
+    jobs = UI.check_jobs(jobs)
+    geo0 = build_geometry(layout, schemes[0])
+    ins = inputs(geo0, options)
+    notes = [supply_input(geo0)[1]]
     U = design(ins, samples, seed)
     X = to_values(ins, U)
+    rows = imu_draw_rows(imu_draws, samples, len(ins)) if study is not None else np.zeros(0, int)
+    x0 = nominal_row(ins)
+    chains, nominal_chains = {}, {}
     stats, per, check, timings, applicable = {}, {}, {}, {}, {}
     rng = np.random.default_rng(seed)
     for scheme in schemes:
@@ -327,21 +387,33 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
         timings[scheme] = {"build_s": sm.build_s, "evaluate_s": time.perf_counter() - t1}
         for name, y in per[scheme].items():
             stats[f"{name}:{scheme}"] = statistics(ins, y, seed)
+        if len(rows):
+            nominal_chains[scheme] = UI.nominal_chain(study.schemes[scheme])
+            v0 = knob_values(sm, x0)
+            chains[scheme] = [UI.draw_chain(nominal_chains[scheme], sm.rom, knob_values(sm, X[r]), v0, t_end)
+                              for r in rows]
         ids = sorted(int(i) for i in rng.choice(len(X), size=min(checks, len(X)), replace=False))
         t2 = time.perf_counter()
         check[scheme] = []
         for k, i in enumerate(ids):
             say(f"uncertainty: {scheme} checked on the full FEM at draw {i}" + (" (with the transient)" if k == 0 else ""))
-            check[scheme].append({"draw": i, **check_point(sm, X[i], t_end, transient=(k == 0))})
+            c = {"draw": i, **check_point(sm, X[i], t_end, transient=(k == 0))}
+            if len(rows):  # the IMU draws' oven self-heating map, against the full FEM at each chamber temperature
+                c.update(UI.oven_check(sm, knob_values(sm, x0), nominal_chains[scheme], knob_values(sm, X[i])))
+            check[scheme].append(c)
         timings[scheme]["check_s"] = time.perf_counter() - t2
     for a, b in _pairs(list(schemes)):
         for name in ("max_die_rise_K", "t95_s"):
             stats[f"diff_{name}:{a}-{b}"] = statistics(ins, per[a][name] - per[b][name], seed)
+    imu = None
+    if len(rows):
+        imu = _imu_section(UI, chains, study, list(schemes), rows, jobs, say)
     flat = [c for cs in check.values() for c in cs]
     t95e = [c["t95_rel_error"] for c in flat if c.get("t95_rel_error") is not None]
     return {
-        "inputs": [{"name": i.name, "unit": i.unit, "range": [i.lo, i.hi], "distribution":
+        "inputs": [{"name": i.name, "unit": i.unit, "range": [i.lo, i.hi], "nominal": i.nominal, "distribution":
                     "log-uniform" if i.log else "uniform", "source": i.source} for i in ins],
+        "notes": notes,
         "method": "SALib Saltelli design (first and total order), quantiles over every draw, Sobol' indices "
                   "with 95 % bootstrap confidence; each scheme on its reduced model (the same draws in every "
                   "scheme)",
@@ -351,10 +423,42 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
         "max_check_error_K": max((c["site_error_K"] for c in flat), default=None),
         "max_check_curve_error_K": max((c["curve_error_K"] for c in flat if "curve_error_K" in c), default=None),
         "max_check_t95_rel_error": max(t95e, default=None),
-        "answer": answer_words(stats, list(schemes)),
-        "not_propagated": ("residual sensor errors and attitude error: the IMU chain (oven calibration, "
-                           "compensation, filters) is not a function of the die rise alone and no cheap map "
-                           "from rise to residual error is validated; they are the nominal study's figures"),
-        "timings": {**timings, "total_s": time.perf_counter() - t0},
+        "max_check_oven_error_K": max((c["oven_error_K"] for c in flat if "oven_error_K" in c), default=None),
+        "imu": imu,
+        "answer": answer_words(stats, list(schemes)) + (imu["answer"] if imu else []),
+        "not_propagated": None if imu else (
+            "residual sensor errors and attitude error: " + (
+                "--uncertainty-imu-draws 0 runs no draw through the IMU chain" if study is not None else
+                "the thermal comparison (--thermal-only / --steady-only) has no IMU chain to run the draws through")
+            + "; they are the nominal study's figures"),
+        "timings": {**timings, **({"imu_cpu_s": imu["cpu_s"], "imu_wall_s": imu["wall_s"]} if imu else {}),
+                    "total_s": time.perf_counter() - t0},
     }
 
+
+def _imu_section(UI, chains, study, schemes, rows, jobs, say) -> dict:
+    """The IMU draws' part of the result (JSON-ready)."""
+    cfg = study.config
+    res = UI.run_imu_draws(chains, cfg, jobs=jobs, progress=say)
+    names = UI.output_names(cfg)
+    stats = UI.pair_stats(res["values"], schemes, names)
+    nominal = {f"{n}:{s}": v for s in schemes for n, v in UI.study_figures(study.schemes[s], cfg).items()}
+    comp, filters, prof = UI.answer_setting(cfg)
+    n = len(rows)
+    return {
+        "method": (f"{n} of the design's draws (the first points of its base Sobol' sequence) through the full IMU "
+                   f"chain (oven calibration with the draw's self-heating, {comp} compensation, filters "
+                   f"{', '.join(filters)}, {prof} profile, calibrated in the unit); each draw's site curves are the "
+                   f"nominal study's moved by the reduced model from the nominal inputs to the draw's; the IMU seeds "
+                   f"{cfg.seed0}..{cfg.seed0 + cfg.seeds - 1} (grade {cfg.grade}) fixed in every draw and scheme, so "
+                   f"the spread is the thermal model's uncertainty, not the sensor noise draw; each draw's figure "
+                   f"is the mean over the seeds; "
+                   + ("5-95 % intervals" if n >= UI.MIN_DRAWS_FOR_QUANTILES else
+                      f"min .. max over the {n} draws (fewer than {UI.MIN_DRAWS_FOR_QUANTILES}: no 5-95 % quantiles)")),
+        "n": n, "rows": [int(r) for r in rows], "seeds": list(range(cfg.seed0, cfg.seed0 + cfg.seeds)),
+        "grade": cfg.grade, "compensation": comp, "filters": list(filters), "profile": prof,
+        "outputs": list(names), "stats": stats, "nominal": nominal,
+        "values": {k: [None if not math.isfinite(x) else float(x) for x in v] for k, v in res["values"].items()},
+        "failed": res["failed"], "answer": UI.answer_words(stats, nominal, schemes, cfg),
+        "cpu_s": res["cpu_s"], "wall_s": res["wall_s"],
+    }

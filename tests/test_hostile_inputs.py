@@ -694,6 +694,8 @@ ISSUE26 = {  # name -> (argv without --out, expected tokens); files from _issue2
                                    "--cavity-patch-mm", "2"], ["--cavity-patch-mm", "without --cavity-law s2s"]),
     "ignored_uncertainty_size": (["compare", "--uncertainty-samples", "64"], ["--uncertainty-samples",
                                                                                "without --uncertainty"]),
+    "ignored_uncertainty_imu_thermal": (["compare", "--thermal-only", "--uncertainty", "--uncertainty-imu-draws", "4"],
+                                        ["--uncertainty-imu-draws", "with --thermal-only", "no IMU chain"]),
     "ignored_filter_defaults": (["compare", "--thermal-only", "--filter-defaults"], ["--filter-defaults"]),
     "ignored_verify_full_fem": (["sweep", "--set", "environment.ambient_C=20,30", "--surrogate", "none", "--verify",
                                  "3"], ["--verify", "--surrogate none"]),

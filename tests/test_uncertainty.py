@@ -51,33 +51,79 @@ def test_log_uniform_input_and_the_design_size():
         U.design(ins, 100, 0)
 
 
-def test_every_input_has_a_range_a_source_and_holds_the_model_value():
+def _geo(layout=None, scheme="grease"):
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
+
+    return build_geometry(load_layout(layout), scheme)
+
+
+def test_every_input_has_a_range_a_source_and_holds_the_model_value():
     from imutherm.thermal import knobs as K
 
-    ins = U.inputs()
+    geo = _geo()
+    ins = U.inputs(geo)
     names = [i.name for i in ins]
     assert "supply_V" in names and "contact@bond" in names and len(set(names)) == len(names)
-    nominal = K.nominal_values(build_geometry(load_layout(None), "grease"))
+    nominal = K.nominal_values(geo)
     from imutherm.thermal.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
 
     nominal.update(supply_V=9.0, cavity_emissivity=ModelOptions().cavity_emissivity,
                    **{"contact@bond": GREASE_WETTED_JOINT_W_M2K})
     for i in ins:
         assert i.lo < i.hi and len(i.source) > 20, i
-        assert i.lo <= nominal[i.name] <= i.hi, (i.name, nominal[i.name])
-    sup = next(i for i in ins if i.name == "supply_V")
-    assert (sup.lo, sup.hi) == (6.0, 12.0)
+        assert i.nominal == pytest.approx(nominal[i.name]) and i.lo <= i.nominal <= i.hi, (i.name, i.nominal)
 
 
-def test_supply_sets_the_5v_regulator_loss():
-    # (V_in - 5 V) x I_5V: the layout's 0.813 W at the assumed 9 V is 203 mA; 6 V -> 0.203 W, 12 V -> 1.42 W
-    sm = U.SchemeModel("s", None, None, None, None, ("supply_V", "mount_h_W_m2K"), ("supply_V", "mount_h_W_m2K"),
-                       0.813 / 4, (), 0.0)
-    assert U.knob_values(sm, [6.0, 500.0])["power@reg_5v"] == pytest.approx(0.203 - 0.813, abs=1e-3)
-    assert 0.813 + U.knob_values(sm, [12.0, 500.0])["power@reg_5v"] == pytest.approx(7 * 0.813 / 4)
-    assert U.knob_values(sm, [9.0, 500.0]) == {"power@reg_5v": 0.0, "mount_h_W_m2K": 500.0}
+def test_supply_input_and_its_regulator_loss_from_the_reference_toml_by_hand():
+    # layouts/imu_reference.toml: supply 9 V, supply_range_V [6.2, 12]; reg_5v (LDO, I_q 5 mA) feeds the 5 V rail's
+    # 3 gyros x 6 mA + 3 accels x 0.7 mA + ADC 7 mA + reg_3v3's input (25 + 1 + 150 + 5 + 5 mA) = 213.1 mA
+    geo = _geo()
+    sup = next(i for i in U.inputs(geo) if i.name == "supply_V")
+    i_in = 0.2131 + 0.005                                   # reg_5v's input current: its loss per volt [W/V]
+    assert (sup.lo, sup.hi, sup.nominal, sup.unit) == (6.2, 12.0, 9.0, "V")
+    assert sup.knob == "power@reg_5v" and sup.per_unit == pytest.approx(i_in, rel=1e-12)
+    assert "supply_range_V" in sup.source and "6.2..12 V" in sup.source
+    sm = U.SchemeModel("grease", geo, None, None, None, (sup,), ("supply_V",), (), 0.0)
+    from imutherm.thermal.effects import power_part
+
+    p9 = power_part(geo, "reg_5v").power_W
+    assert p9 == pytest.approx((9.0 - 5.0) * 0.2131 + 9.0 * 0.005, rel=1e-12)          # 0.8974 W
+    for v in (6.2, 9.0, 12.0):                                                        # (V - 5 V) I_load + V I_q
+        extra = U.knob_values(sm, [v])["power@reg_5v"]
+        assert p9 + extra == pytest.approx((v - 5.0) * 0.2131 + v * 0.005, rel=1e-12)  # 0.287 .. 1.555 W
+    assert not hasattr(U, "ASSUMED_SUPPLY_V") and not hasattr(U, "SUPPLY_RANGE_V")   # one place: the layout
+
+
+def test_a_layout_with_another_supply_range_changes_the_input(write_layout):
+    def supply(d):
+        d["electrical"]["supply_V"] = 12.0
+        d["electrical"]["supply_range_V"] = [10.0, 15.0]
+    sup = next(i for i in U.inputs(_geo(write_layout(supply))) if i.name == "supply_V")
+    assert (sup.lo, sup.hi, sup.nominal) == (10.0, 15.0, 12.0)
+    assert sup.per_unit == pytest.approx(0.2131 + 0.005, rel=1e-12) and "10..15 V" in sup.source
+
+
+def test_a_layout_without_a_variable_supply_has_no_supply_input(write_layout):
+    def none(d):
+        del d["electrical"], d["rails"]
+        for name, w in (("reg_5v", 0.813), ("reg_3v3", 0.299), ("reg_1v8", 0.225)):
+            next(c for c in d["components"] if c["name"] == name)["power_W"] = w
+
+    def buck(d):
+        r = next(r for r in d["rails"] if r["name"] == "rail_5v")
+        r["kind"], r["efficiency"] = "switching", 0.85
+        del r["dropout_V"], r["quiescent_A"]
+
+    def exact(d):
+        d["electrical"]["supply_range_V"] = [9.0, 9.0]
+
+    for mutate, words in ((none, "states no electrical design"), (buck, "linear regulator"),
+                          (exact, "states its supply exactly")):
+        geo = _geo(write_layout(mutate))
+        assert "supply_V" not in [i.name for i in U.inputs(geo)]
+        inp, note = U.supply_input(geo)
+        assert inp is None and note.startswith("no supply-voltage input") and words in note, note
 
 
 def test_answer_says_whether_an_advantage_exceeds_the_uncertainty():
@@ -92,7 +138,7 @@ def test_answer_says_whether_an_advantage_exceeds_the_uncertainty():
 @pytest.mark.slow
 def test_propagation_on_the_reduced_models_checked_on_the_full_fem():
     res = U.run_uncertainty(None, ("air", "grease"), samples=8, seed=0, checks=1, mesh_size_mm=6, min_cells=1)
-    assert res["draws"] == 8 * (len(U.inputs()) + 2)
+    assert res["draws"] == 8 * (len(U.inputs(_geo())) + 2) and res["imu"] is None and res["not_propagated"]
     air, grease = res["stats"]["max_die_rise_K:air"], res["stats"]["max_die_rise_K:grease"]
     assert 0 < air["q05"] < air["q50"] < air["q95"] and air["q50"] > grease["q50"]
     assert "contact@bond" not in res["applicable"]["air"] and "contact@bond" in res["applicable"]["grease"]
@@ -124,7 +170,7 @@ def test_compare_uncertainty_writes_its_json_and_pages(tmp_path, capsys):
                "--out", str(out)])
     text = capsys.readouterr().out
     unc = json.loads((out / "uncertainty.json").read_text())
-    assert rc == 0 and unc["draws"] == 4 * (len(U.inputs()) + 2) and "air - grease" in text
+    assert rc == 0 and unc["draws"] == 4 * (len(U.inputs(_geo())) + 2) and "air - grease" in text
     assert unc["max_check_error_K"] < 0.1
     from pypdf import PdfReader
 

@@ -1,0 +1,309 @@
+"""The residual sensor errors and the attitude error under what the thermal model does not know.
+
+``imutherm compare --uncertainty`` (end-to-end) runs ``--uncertainty-imu-draws`` N of the uncertainty
+design's draws (the first N points of its base Sobol' sequence, which fill the input space evenly)
+through the **full IMU chain** of :func:`imutherm.studies.end_to_end.imu_case`: oven calibration with
+the draw's self-heating, compensation, filters. Each draw's hand-off to the chain (:func:`draw_chain`)
+is the nominal study's, moved by the scheme's reduced model from the nominal inputs to the draw's:
+
+* power-on transient: the study's die-temperature curves plus the reduced model's change of the
+  site curves, ``T(t) = T_study(t) + [rom(draw, t) - rom(nominal, t)]`` (on the study's time grid,
+  extended to ``t_end`` past its end: the study's curve is held there, as the chain reads it);
+* steady die temperatures: the same with the steady rises;
+* the oven self-heating table: at the layout's ambient the draw's steady rise; at the other chamber
+  temperatures the study's rise times the reduced model's ratio of the draw's steady site rise to the
+  nominal one (the rise scales with the heat and the paths; checked against the full FEM at the
+  uncertainty's check points, ``oven_error_K``).
+
+So a draw at the nominal inputs *is* the nominal study (bit for bit), and the reduced model's own
+error against the full FEM cancels at the nominal point. The chain runs with the study's grade,
+seeds and filter settings: the **same IMU seeds in every draw and scheme**, so the spread over the
+draws is the thermal model's uncertainty, not the sensor noise draw; each draw's figure is the mean
+over the seeds, as the study quotes it, and each difference between schemes is taken draw by draw.
+Only the answer's configuration runs (its compensation, filter(s) and profile, calibrated in the unit).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from imutherm import InputError
+
+#: below this many draws the interval quoted is min .. max (5 / 95 % quantiles of a handful mean little)
+MIN_DRAWS_FOR_QUANTILES = 20
+DEFAULT_IMU_DRAWS = 16
+RESIDUALS = ("gyro_rms_dps", "accel_rms_mg")
+
+
+@dataclass(frozen=True)
+class Chain:
+    """One scheme's hand-off to the IMU chain (:func:`imutherm.studies.end_to_end.imu_case`).
+
+    t_s (M,) [s], T_C (M, 6) [°C]: die temperatures over the power-on transient (``SITES`` order);
+    steady_C (6,) [°C]; chamber_C (k,) [°C], rise_K (k, 6) [K]: self-heating in the oven; ambient_C [°C]
+    """
+
+    t_s: np.ndarray
+    T_C: np.ndarray
+    steady_C: np.ndarray
+    chamber_C: np.ndarray
+    rise_K: np.ndarray
+    ambient_C: float
+
+
+def nominal_chain(scheme_study) -> Chain:
+    """The nominal study's hand-off of one scheme (a :class:`~imutherm.studies.end_to_end.SchemeStudy`)."""
+    from imutherm.imu.sensor_model import SITES
+    from imutherm.studies.end_to_end import site_curves
+
+    res = scheme_study.thermal
+    t, T = site_curves(res)
+    idx = [res.steady.probe_names.index(s) for s in SITES]
+    return Chain(t, T, np.asarray(res.steady.probe_C, float)[idx], np.asarray(scheme_study.chamber_C, float),
+                 np.asarray(scheme_study.rise_K, float), float(res.geometry.layout.ambient_C))
+
+
+def _site_index(rom) -> list:
+    from imutherm.imu.sensor_model import SITES
+
+    missing = [s for s in SITES if s not in rom.site_names]
+    if missing:
+        raise InputError(f"the IMU chain needs a site per sensor die; the reduced model has no {', '.join(missing)}")
+    return [list(rom.site_names).index(s) for s in SITES]
+
+
+def draw_chain(nom: Chain, rom, values: dict, values0: dict, t_end: float) -> Chain:
+    """The hand-off of one draw (module docstring): ``nom`` moved by ``rom`` from knob values ``values0`` (the
+    nominal inputs) to ``values`` (the draw's); ``t_end`` [s] the transient's extent (beyond the study's end,
+    the study's last reading is held and the reduced model's change goes on)."""
+    idx = _site_index(rom)
+    t = np.asarray(nom.t_s, float)
+    if t_end > t[-1]:
+        t = np.concatenate([t, np.linspace(t[-1], t_end, 41)[1:]])
+    times = np.append(t, np.inf)
+    d = rom.rise(values, times)[:, idx] - rom.rise(values0, times)[:, idx]
+    base = np.column_stack([np.interp(t, nom.t_s, nom.T_C[:, j]) for j in range(nom.T_C.shape[1])])
+    T = base + d[:-1]
+    steady = nom.steady_C + d[-1]
+    ss0 = rom.rise(values0, [np.inf])[0, idx]
+    ratio = np.divide(ss0 + d[-1], ss0, out=np.ones_like(ss0), where=ss0 > 0)
+    rise = np.array([nom.rise_K[k] + d[-1] if c == nom.ambient_C else nom.rise_K[k] * ratio
+                     for k, c in enumerate(nom.chamber_C)])
+    return Chain(t, T, steady, nom.chamber_C, rise, nom.ambient_C)
+
+
+def answer_setting(config) -> tuple:
+    """(compensation, filters, profile) of the study's answer: what the draws run (the answer's filter first,
+    then ``kf`` if the study has it)."""
+    from imutherm.studies.end_to_end import ANSWER_COMPENSATION, ANSWER_FILTER, ANSWER_PROFILE
+
+    comp = ANSWER_COMPENSATION if ANSWER_COMPENSATION in config.compensations else config.compensations[-1]
+    filt = ANSWER_FILTER if ANSWER_FILTER in config.filters else config.filters[0]
+    prof = ANSWER_PROFILE if ANSWER_PROFILE in config.profiles else config.profiles[0]
+    filters = (filt,) + (("kf",) if "kf" in config.filters and filt != "kf" else ())
+    return comp, filters, prof
+
+
+def draw_config(config):
+    """The study's :class:`~imutherm.studies.end_to_end.StudyConfig` cut to the answer's configuration, with
+    the same random streams: the profiles up to the answer's (each profile's noise stream is its position's),
+    calibrated in the unit."""
+    comp, filters, prof = answer_setting(config)
+    profiles = config.profiles[:config.profiles.index(prof) + 1]
+    return replace(config, profiles=profiles, compensations=(comp,), filters=filters, calibrations=("unit",))
+
+
+def _attitude_outputs(config) -> list:
+    """(name, phase, filter, axis) of the attitude outputs."""
+    from imutherm.studies.end_to_end import PHASES
+
+    _, filters, _ = answer_setting(config)
+    return [(f"{ph}_{f}_{ax}_rms_deg", ph, f, ax) for f in filters for ph in PHASES for ax in ("roll", "pitch")]
+
+
+def output_names(config) -> tuple:
+    """The propagated outputs: ``<phase>_<filter>_<roll|pitch>_rms_deg`` [deg] (the answer's profile and
+    compensation, calibrated in the unit) and the warm-up residuals ``gyro_rms_dps`` [°/s], ``accel_rms_mg`` [mg]."""
+    return tuple(n for n, *_ in _attitude_outputs(config)) + RESIDUALS
+
+
+def case_outputs(case: dict, config, key: str | None = None) -> dict:
+    """The outputs (:func:`output_names`) of one :func:`~imutherm.studies.end_to_end.imu_case` result, or with
+    ``key`` ("mean", "std") of :func:`~imutherm.studies.end_to_end.reduce_cases`' statistics over the seeds."""
+    comp, _, prof = answer_setting(config)
+
+    def leaf(v):
+        return v[key] if key else v
+
+    att = case["attitude"]["unit"]
+    out = {n: leaf(att[ph][comp][f][prof][f"{ax}_rms_deg"]) for n, ph, f, ax in _attitude_outputs(config)}
+    out.update({k: leaf(case["residuals"]["unit"][comp][k]) for k in RESIDUALS})
+    return out
+
+
+def study_figures(scheme_study, config) -> dict:
+    """The nominal study's figure of each output: {name: {mean, std}} over its seeds."""
+    m, s = case_outputs(scheme_study.imu, config, "mean"), case_outputs(scheme_study.imu, config, "std")
+    return {k: {"mean": float(m[k]), "std": float(s[k])} for k in m}
+
+
+def _case(grade, seed, chain: Chain, config):
+    """One (draw, scheme, seed) through the chain: (outputs or None, error or None, CPU seconds)."""
+    from imutherm.studies.end_to_end import imu_case
+
+    c0 = time.process_time()
+    try:
+        case = imu_case(grade, seed, chain.t_s, chain.T_C, chain.steady_C, chain.chamber_C, chain.rise_K, config)
+    except InputError as e:
+        return None, str(e), time.process_time() - c0
+    return case_outputs(case, config), None, time.process_time() - c0
+
+
+def draw_stats(y) -> dict:
+    """n, min, median, max (and q05 / q95 from :data:`MIN_DRAWS_FOR_QUANTILES` draws) of one output over the
+    draws, and the interval quoted (``lo``, ``hi``, ``interval``: "5-95 %" or "min-max")."""
+    y = np.asarray(y, float)
+    y = y[np.isfinite(y)]
+    if not y.size:
+        return {"n": 0, "min": None, "q50": None, "max": None, "lo": None, "hi": None, "interval": None}
+    out = {"n": int(y.size), "min": float(y.min()), "q50": float(np.median(y)), "max": float(y.max()),
+           "mean": float(y.mean())}
+    if y.size >= MIN_DRAWS_FOR_QUANTILES:
+        out.update(q05=float(np.quantile(y, 0.05)), q95=float(np.quantile(y, 0.95)))
+        out.update(lo=out["q05"], hi=out["q95"], interval="5-95 %")
+    else:
+        out.update(lo=out["min"], hi=out["max"], interval="min-max")
+    return out
+
+
+def _one_blas_thread() -> None:
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
+
+
+def run_imu_draws(chains: dict, config, *, jobs: int = 1, progress=None) -> dict:
+    """Every draw of every scheme through the IMU chain, the study's seeds in each.
+
+    chains : {scheme: [Chain, ...]} (the same draws, in the same order, in every scheme); config : the study's
+    StudyConfig (cut by :func:`draw_config`); jobs : processes. Returns {"values": {"<output>:<scheme>": [per draw,
+    mean over the seeds]}, "failed": [{draw, scheme, seed, error}], "cpu_s", "wall_s"}; a draw that fails in any
+    scheme or seed (e.g. a die beyond the sensor model's range) is NaN in every scheme.
+    """
+    cfg = draw_config(config)
+    seeds = tuple(range(config.seed0, config.seed0 + config.seeds))
+    names = output_names(config)
+    tasks = [(s, k, seed) for s, cs in chains.items() for k in range(len(cs)) for seed in seeds]
+    t0 = time.perf_counter()
+    if progress:
+        progress(f"uncertainty: {len(next(iter(chains.values())))} draws x {len(chains)} schemes x {len(seeds)} seeds "
+                 f"through the IMU chain ({', '.join(cfg.filters)}, {cfg.compensations[0]}, {cfg.profiles[-1]}) ...")
+    if jobs > 1 and len(tasks) > 1:
+        import multiprocessing
+
+        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context(method),
+                                 initializer=_one_blas_thread) as pool:
+            futs = [pool.submit(_case, config.grade, seed, chains[s][k], cfg) for s, k, seed in tasks]
+            results = [f.result() for f in futs]
+    else:
+        results = [_case(config.grade, seed, chains[s][k], cfg) for s, k, seed in tasks]
+    n = len(next(iter(chains.values())))
+    acc = {(name, s): np.zeros((n, len(seeds))) for name in names for s in chains}
+    failed, bad = [], set()
+    for (s, k, seed), (out, err, _) in zip(tasks, results):
+        if err is not None:
+            failed.append({"draw": k, "scheme": s, "seed": seed, "error": err})
+            bad.add(k)
+            continue
+        for name in names:
+            acc[(name, s)][k, seeds.index(seed)] = out[name]
+    values = {}
+    for (name, s), a in acc.items():
+        v = a.mean(axis=1)
+        v[sorted(bad)] = np.nan
+        values[f"{name}:{s}"] = v
+    return {"values": values, "failed": failed, "cpu_s": float(sum(r[2] for r in results)),
+            "wall_s": time.perf_counter() - t0}
+
+
+def pair_stats(values: dict, schemes, names) -> dict:
+    """{"<output>:<scheme>": draw_stats, "diff_<output>:<a>-<b>": draw_stats of the draw-by-draw difference}."""
+    out = {k: draw_stats(v) for k, v in values.items()}
+    for i, a in enumerate(schemes):
+        for b in schemes[i + 1:]:
+            for name in names:
+                out[f"diff_{name}:{a}-{b}"] = draw_stats(values[f"{name}:{a}"] - values[f"{name}:{b}"])
+    return out
+
+
+def answer_words(stats: dict, nominal: dict, schemes, config) -> list:
+    """One sentence per pair of schemes and axis on the answer's attitude error (warm-up roll / pitch RMS of the
+    answer's filter): is one scheme's advantage larger than what the model does not know (the interval of the
+    draw-by-draw difference excludes zero)? And is it larger than the nominal study's seed-to-seed spread of the
+    difference (the unit-to-unit and noise draw, which the draws hold fixed)?"""
+    comp, filters, prof = answer_setting(config)
+    lines = []
+    for i, a in enumerate(schemes):
+        for b in schemes[i + 1:]:
+            for ax in ("roll", "pitch"):
+                name = f"warmup_{filters[0]}_{ax}_rms_deg"
+                s = stats.get(f"diff_{name}:{a}-{b}")
+                if not s or s["n"] == 0:
+                    continue
+                lo, mid, hi = (f"{s[q]:+.3f}" for q in ("lo", "q50", "hi"))
+                na, nb = nominal.get(f"{name}:{a}"), nominal.get(f"{name}:{b}")
+                spread = math.hypot(na["std"], nb["std"]) if na and nb else None
+                if s["lo"] > 0 or s["hi"] < 0:
+                    better, worse = (b, a) if s["lo"] > 0 else (a, b)
+                    verdict = (f"{better}'s attitude error is lower than {worse}'s over the whole interval: the "
+                               f"advantage is larger than the model's uncertainty")
+                    if spread is not None and min(abs(s["lo"]), abs(s["hi"])) < spread:
+                        verdict += (f", but not larger than the sensors' seed-to-seed spread of the difference in the "
+                                    f"nominal study (+/-{spread:.3f} deg): not an advantage beyond the unit-to-unit "
+                                    f"and noise draw")
+                else:
+                    verdict = "the interval includes zero: the difference is within the model's uncertainty"
+                seed = (f" (the nominal study's difference {na['mean'] - nb['mean']:+.3f} deg, its seed spread "
+                        f"+/-{spread:.3f} deg)" if spread is not None else "")
+                lines.append(f"attitude error ({filters[0]}, {prof} warm-up, {ax} RMS, {comp} compensation calibrated "
+                             f"in the unit), {a} - {b}: median {mid} deg ({s['interval']} over {s['n']} draws through "
+                             f"the IMU chain: {lo} .. {hi} deg){seed}; {verdict}.")
+    return lines
+
+
+def oven_check(sm, values0: dict, nom: Chain, values: dict) -> dict:
+    """The draw's oven self-heating table (:func:`draw_chain`) against the full FEM solved at each chamber
+    temperature other than the ambient with the draw's knobs: largest error [K] and the full FEM's rises."""
+    from imutherm.imu.sensor_model import SITES
+    from imutherm.studies.forward import full_rise
+    from imutherm.studies.thermal_study import STUDY_CG_RTOL
+    from imutherm.thermal import knobs as K
+
+    ch = draw_chain(nom, sm.rom, values, values0, float(nom.t_s[-1]))
+    geo = sm.geometry
+    probes = {s: geo.sites[s] for s in SITES}
+    err, full = 0.0, {}
+    for k, Tc in enumerate(nom.chamber_C):
+        if Tc == nom.ambient_C:
+            continue
+        lay = replace(geo.layout, ambient_C=float(Tc), mounting=replace(geo.layout.mounting, temperature_C=float(Tc)))
+        f = full_rise(K.variant(replace(geo, layout=lay), sm.options, values), sm.grid, probes, np.array([np.inf]),
+                      rtol=STUDY_CG_RTOL)[0]
+        full[f"{Tc:g}"] = f.tolist()
+        err = max(err, float(np.max(np.abs(f - ch.rise_K[k]))))
+    return {"oven_error_K": err, "oven_full_rise_K": full,
+            "oven_mapped_rise_K": {f"{c:g}": ch.rise_K[k].tolist() for k, c in enumerate(nom.chamber_C)}}
+
+
+def check_jobs(jobs) -> int:
+    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
+    if jobs < 1:
+        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    return jobs
