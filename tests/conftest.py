@@ -13,6 +13,16 @@ import pytest
 # tests never draw to a screen
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+# one BLAS thread per test worker when pytest-xdist runs one worker per core (the default `-n 2`): two
+# workers of two OpenBLAS threads each on two cores spin against each other (measured: each worker at ~50 %
+# of a core while four threads ran); the environment also reaches the commands the tests start as processes
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_var, "1")
+    from threadpoolctl import threadpool_limits
+
+    _BLAS_LIMIT = threadpool_limits(limits=1)  # kept for the worker's life
+
 
 @pytest.fixture(scope="session")
 def reference_dict():
