@@ -36,9 +36,10 @@ def add_args(parser) -> None:
                              "the full FEM, one transient per file)")
     add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
                                     "(default: 2, or 1 on one core)")
-    parser.add_argument("--no-discrepancy", action="store_true",
-                        help="no model-discrepancy term (the model's own error, fitted beside the knobs with a prior "
-                             "of 5 %% of each site's rise): the re-tune and the library's effects only")
+    parser.add_argument("--discrepancy", action="store_true",
+                        help="fit a model-discrepancy term (the model's own error, a prior of 5 %% of each site's "
+                             "rise) beside the knobs; off by default: at that fixed prior it also absorbs real "
+                             "effects on data of the model's own form (README, correlation)")
     parser.add_argument("--max-effects", type=int, default=None, metavar="N",
                         help="forward selection names at most N library effects (default 3; 1: one effect)")
     parser.add_argument("--cavity-emissivity-as-effect", action="store_true",
@@ -123,7 +124,7 @@ def run(args) -> int:
     from imutherm.studies.correlation import correlate, result_json, updated_model_toml
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                     options=model_options(args), rerun=not args.no_rerun, jobs=jobs, use_cache=not args.no_cache,
-                    progress=lambda s: print(f"  {s}", flush=True), discrepancy=not args.no_discrepancy,
+                    progress=lambda s: print(f"  {s}", flush=True), discrepancy=args.discrepancy,
                     max_effects=max_effects, form_retune=not args.cavity_emissivity_as_effect)
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:

@@ -321,7 +321,7 @@ def test_a_model_form_null_case_names_no_library_effect(tmp_path, models_effecti
     case = make_case(tmp_path / "case", "none", np.random.default_rng(11), mesh_size_mm=MF_GEN_MM, min_cells=1,
                      samples=30, options=model_form_options(models_effective.options))
     runs = [read_measured(f) for f in case.files]
-    res = correlate(runs, models=models_effective, rerun=False)
+    res = correlate(runs, models=models_effective, rerun=False, discrepancy=True)
     assert res.verdict != "effect" and res.named_effects == (), (res.named_effects, res.timings["reason"])
     assert res.before["heldout_rms_K"] > 10 * res.noise_K  # a real form mismatch
     assert res.retune.values["cavity_emissivity"] < 0.5  # re-tuned from 0.77 towards the s2s coupling
@@ -364,7 +364,7 @@ def test_the_discrepancy_term_takes_a_smooth_form_error_that_an_effect_would_oth
     from _toy_reduced import toy_models, toy_runs
     runs = toy_runs(dict(_TOY_NUISANCE), np.random.default_rng(2), _toy_form(0.12))
     models = toy_models()
-    res = correlate(runs, models=models, candidates=_TOY_CANDIDATES, rerun=False)
+    res = correlate(runs, models=models, candidates=_TOY_CANDIDATES, rerun=False, discrepancy=True)
     assert res.named_effects == () and res.verdict == "discrepancy", res.timings["reason"]
     assert res.discrepancy["supported"] and "not explained by any library effect" in res.words
     assert "too cool" in res.discrepancy["words"] and "air" in res.discrepancy["words"]

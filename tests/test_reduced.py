@@ -71,13 +71,13 @@ def test_knob_bound_solutions_are_in_the_basis(grease):
     stated here), so the change solve put the right direction in the basis."""
     import scipy.sparse.linalg as spla
 
-    from imutherm.thermal.reduced import linearised
+    from imutherm.thermal.reduced import linearised, sparse_part
     from imutherm.thermal.solve import amg_preconditioner, probe_matrix
     g, grid, rom = grease
     pb = effect_problem(K.variant(g, ModelOptions(), {}), grid)
     st = solve_steady(pb)
     A0, b0 = linearised(assemble(pb), st.T_C)
-    pc = amg_preconditioner(A0)
+    pc = amg_preconditioner(sparse_part(A0))  # under s2s A0 is sparse plus the exchange's low-rank term
     P = probe_matrix(grid, np.array([g.sites[n] for n in rom.site_names]))
     for k in (k for k in rom.knobs.values() if not k.is_load):
         for bound in (k.lo, k.hi):
@@ -118,15 +118,19 @@ def test_closed_form_step_response_of_one_mode():
 def test_coupled_knobs_are_interpolated_jointly():
     """The board's conductivity and a contact on the board change the same conductances, so their changes do
     not add: summed, a low conductivity with a board-joint contact made the reduced operator indefinite
-    (a 4e10 K rise at 2 mm). Interpolated jointly, the steady rises match the full model within 0.5 %."""
+    (a 4e10 K rise at 2 mm). Interpolated jointly, the steady rises match the full model within 0.5 %. With the
+    effective cavity law: under s2s the reduced model's secant of the T^4 exchange adds up to 1.3 % at these
+    knobs (0.148 K measured at k 30 W/m K with a 300 W/m^2 K board joint), the known limit of the s2s reduced
+    model, which is not what this test is about."""
     g = build_geometry(load_layout(None), "air")
     grid = build_mesh(g, **MESH)
-    knobs = [k for k, _ in K.RETUNE] + [K.effect_knob(n) for n in ("contact@board", "contact@standoff")]
-    rom = build_reduced(lambda v: K.variant(g, ModelOptions(), v), grid, knobs, dict(g.sites), pairs=K.COUPLED)
+    opts = ModelOptions(cavity_law="effective")
+    knobs = [k for k, _ in K.RETUNE] + [K.effect_knob(n, opts) for n in ("contact@board", "contact@standoff")]
+    rom = build_reduced(lambda v: K.variant(g, opts, v), grid, knobs, dict(g.sites), pairs=K.COUPLED)
     for values in ({"k_board_W_mK": 12.0, "contact@board": 100.0}, {"k_board_W_mK": 17.28, "contact@board": 3614.0},
                    {"k_board_W_mK": 30.0, "contact@board": 300.0}, {"k_board_W_mK": 11.0, "contact@standoff": 50.0},
                    {"power_scale": 0.85, "mount_h_W_m2K": 1529.0, "k_board_W_mK": 15.0, "contact@board": 3614.0}):
-        pb = effect_problem(K.variant(g, ModelOptions(), values), grid)
+        pb = effect_problem(K.variant(g, opts, values), grid)
         full = solve_steady(pb, probes=dict(g.sites)).probe_C - pb.ambient_C
         red = rom.rise(values, [np.inf])[0]
         np.testing.assert_allclose(red, full, rtol=0, atol=0.005 * full.max(), err_msg=str(values))

@@ -135,7 +135,6 @@ def test_answer_says_whether_an_advantage_exceeds_the_uncertainty():
     assert "within the model's uncertainty" in words[1]
 
 
-@pytest.mark.slow
 #: the laws of the full-FEM checks below: the effective cavity law, whose reduced model is exact to ~2e-3 K at
 #: drawn points (the FEM's effective conductivity is linear in the field). Under the s2s default the reduced
 #: model's secant of the T^4 exchange about the nominal field is off by 0.13-0.18 K at the same checks (about
@@ -144,6 +143,7 @@ def test_answer_says_whether_an_advantage_exceeds_the_uncertainty():
 CHECK_LAW = "effective"
 
 
+@pytest.mark.slow
 def test_propagation_on_the_reduced_models_checked_on_the_full_fem():
     from imutherm.thermal.model import ModelOptions
     res = U.run_uncertainty(None, ("air", "grease"), samples=8, seed=0, checks=1, mesh_size_mm=6, min_cells=1,
