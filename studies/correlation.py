@@ -76,8 +76,10 @@ EXPLAIN_MIN_NOISE = 1.0
 SPARSE_NOISE_K = 0.5
 #: signal effects handled outside the reduced model
 SIGNAL = ("probe_lag", "ambient_drift")
-#: the form knobs: re-tuned, never named (:data:`imutherm.thermal.knobs.FORM_RETUNE`)
+#: the form knobs: re-tuned, never named (:data:`imutherm.thermal.knobs.FORM_RETUNE`), and each one's value at
+#: which the model is nominal (geometry, options) -> value
 FORM_RETUNE = K.FORM_RETUNE
+_FORM_NOMINAL = {"cavity_emissivity": K.cavity_pair_nominal}
 #: the times at which the model curve is evaluated for a probe lag (plus the measured ones) [s]
 _DENSE = np.concatenate([[0.0], np.geomspace(0.5, 2.0e4, 240)])
 
@@ -162,14 +164,15 @@ class CorrelationResult:
 class _Forward:
     """Site rises of every run from knob values, through the runs' reduced models."""
 
-    def __init__(self, runs, roms, geometries, options: ModelOptions | None = None):
+    def __init__(self, runs, roms, geometries, options: ModelOptions | None = None, form=tuple(FORM_RETUNE)):
         self.runs, self.roms, self.geometries, self.options = runs, roms, geometries, options or ModelOptions()
+        geo = next(iter(geometries.values())) if geometries else None
         #: the re-tune knobs' nominal values, from the layout and materials (every scheme shares them)
-        self.nominal = K.nominal_values(next(iter(geometries.values())), self.options) if geometries else {}
-        #: the form knobs (:data:`FORM_RETUNE`) the reduced models carry, re-tuned beside the others
-        self.form = tuple(n for n in FORM_RETUNE if roms and all(n in rom.knobs for rom in roms.values()))
+        self.nominal = K.nominal_values(geo, self.options) if geo is not None else {}
+        #: the form knobs of ``form`` (:data:`FORM_RETUNE`) the reduced models carry, re-tuned beside the others
+        self.form = tuple(n for n in form if roms and all(n in rom.knobs for rom in roms.values()))
         for n in self.form:
-            self.nominal[n] = K.cavity_pair_nominal(next(iter(geometries.values())), self.options)
+            self.nominal[n] = _FORM_NOMINAL[n](geo, self.options)
 
     def rise(self, i: int, values: dict, times=None) -> np.ndarray:
         """Model rise [K] of run ``i`` at its times (or ``times``), its sites (n, m)."""
@@ -1028,10 +1031,9 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         raise InputError(f"correlate: no reduced model for {', '.join(f'{s} at {a:g} C' for s, a in missing)}")
     roms, geometries = models.roms, models.geometries
     t_rom = time.perf_counter() - t0
-    fwd = _Forward(runs, roms, geometries, models.options)
-    if candidates is not None or not form_retune:  # a form knob asked for as a candidate is not re-tuned
-        fwd.form = tuple(n for n in fwd.form if form_retune and n not in candidates)
-        fwd.nominal = {k: v for k, v in fwd.nominal.items() if k not in FORM_RETUNE or k in fwd.form}
+    # a form knob asked for as a candidate (or every one, without form_retune) is not re-tuned
+    form = tuple(n for n in FORM_RETUNE if form_retune and n not in (candidates or ()))
+    fwd = _Forward(runs, roms, geometries, models.options, form)
     for i, run in enumerate(runs):  # a file must reach the model's time constant (or give a steady row)
         if not np.isinf(run.times_s).any():
             loc, _ = localise(_Forward((run,), roms, geometries), {})
