@@ -182,12 +182,6 @@ def draw_stats(y) -> dict:
     return out
 
 
-def _one_blas_thread() -> None:
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(1)
-
-
 def run_imu_draws(chains: dict, config, *, jobs: int = 1, progress=None) -> dict:
     """Every draw of every scheme through the IMU chain, the study's seeds in each.
 
@@ -206,6 +200,8 @@ def run_imu_draws(chains: dict, config, *, jobs: int = 1, progress=None) -> dict
                  f"through the IMU chain ({', '.join(cfg.filters)}, {cfg.compensations[0]}, {cfg.profiles[-1]}) ...")
     if jobs > 1 and len(tasks) > 1:
         import multiprocessing
+
+        from imutherm.studies.end_to_end import _one_blas_thread  # the study's worker start-up
 
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context(method),
