@@ -87,14 +87,14 @@ def main(argv=None) -> int:
     gen_options = model_form_options(models.options, args.model_form) if args.model_form else None
     form = f"model-form ({args.model_form})" if args.model_form else "same-model"
     tag = "" if args.kinds is None and not args.first_case else f"_{'_'.join(kinds)}_from{args.first_case}"
-    tag += {"cavity-law": "_mf", "discretisation": "_mfd", None: ""}[args.model_form]
+    form_tag = {"cavity-law": "mf", "discretisation": "mfd", None: ""}[args.model_form]  # in file and case names
+    tag += f"_{form_tag}" if form_tag else ""
     rows_path = out / f"campaign_rows{tag}.json"
     rows = []
     for hidden in kinds:
         for c in range(args.first_case, args.first_case + args.cases):
             seed = _seed(args.seed, hidden, c)
-            pre = {"cavity-law": "mf_", "discretisation": "mfd_", None: ""}[args.model_form]
-            d = out / f"{pre}{hidden.replace('@', '_')}_{c}"
+            d = out / f"{form_tag + '_' if form_tag else ''}{hidden.replace('@', '_')}_{c}"
             t0 = time.perf_counter()
             meta = d / "case.json"
             if not meta.exists() and args.no_generate:
