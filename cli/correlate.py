@@ -37,9 +37,10 @@ def add_args(parser) -> None:
     add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
                                     "(default: 2, or 1 on one core)")
     parser.add_argument("--discrepancy", action="store_true",
-                        help="fit a model-discrepancy term (the model's own error, a prior of 5 %% of each site's "
-                             "rise) beside the knobs; off by default: at that fixed prior it also absorbs real "
-                             "effects on data of the model's own form (README, correlation)")
+                        help="fit a model-discrepancy term (the model's own error: a smooth gain and time-constant "
+                             "correction per file and site, its scale estimated from the data) beside the knobs; "
+                             "verdict 'discrepancy' when the model's form is off and no effect explains it; "
+                             "about 3x the fitting time (README, correlation)")
     parser.add_argument("--max-effects", type=int, default=None, metavar="N",
                         help="forward selection names at most N library effects (default 3; 1: one effect)")
     parser.add_argument("--cavity-emissivity-as-effect", action="store_true",
