@@ -129,7 +129,9 @@ def _register_builtin() -> None:
                                                          init_s=x.init_s), MadgwickParams, "peer",
                    "ahrs Madgwick defaults", "tab:orange"),
         FilterSpec("mahony", lambda x, p: run_mahony(x.gyro, x.accel, x.dt, p or MahonyParams(), init_s=x.init_s),
-                   MahonyParams, "peer", "ahrs Mahony defaults", "tab:pink"),
+                   MahonyParams, "peer",
+                   "ahrs Mahony defaults (k_P 1.0, k_I 0.3); recorded logs: studies.recorded.PLATFORM_MAHONY",
+                   "tab:pink"),
         FilterSpec("ekf", lambda x, p: run_ekf(x.gyro, x.accel, x.dt, p or EKFParams(), init_s=x.init_s), EKFParams,
                    "peer", "ahrs EKF defaults", "tab:olive"),
     ]
