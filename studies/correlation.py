@@ -1147,6 +1147,13 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     h = _pooled(fwd, "none", folds, ratio, noise)
     plain = _with(plain, heldout_rms_K=h[0], heldout_max_K=h[1])
     disc, none_fit = None, plain
+    disc_note = ""
+    if discrepancy and all(len(r.times_s) < SPARSE_READINGS for r in runs):
+        # two coefficients per series fit a sparse file's few readings exactly: nothing is left to judge by
+        disc_note = (f"discrepancy term not fitted: every file has fewer than {SPARSE_READINGS} readings per "
+                     f"site, which its two coefficients per site would fit exactly")
+        say(disc_note)
+        discrepancy = False
     if discrepancy:
         # the residual level σ of the evidence: what the re-tune with the term leaves, not below the noise
         disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR)
@@ -1179,6 +1186,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         v, named, amb_set, reason = steps[0]["verdict"], None, steps[0]["ambiguous_set"], steps[0]["reason"]
     else:
         v, named, amb_set, reason = "none", None, (), "no candidate effect applies"
+    if disc_note:
+        reason += f" ({disc_note})"
     after = chosen[-1] if chosen else none_fit
     dsum = None
     if disc is not None:

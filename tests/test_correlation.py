@@ -358,6 +358,20 @@ def test_with_the_discrepancy_term_a_real_effect_is_named_and_the_term_vanishes(
     assert "no candidate explains the model's error: the best, power@reg_5v" in res.timings["reason"]
 
 
+def test_the_discrepancy_term_is_not_fitted_on_sparse_files():
+    """Files of a few readings (the paper's kind): the term's two coefficients per site would fit them exactly,
+    so it is not fitted, and the result says why."""
+    from dataclasses import replace
+
+    from _toy_reduced import toy_models, toy_runs
+    runs = toy_runs({**_TOY_NUISANCE, "power@reg_5v": 0.3}, np.random.default_rng(1))
+    idx = np.array([5, 15, len(runs[0].times_s) - 1])
+    sparse = [replace(r, times_s=r.times_s[idx], values_C=r.values_C[idx], lines=tuple(np.array(r.lines)[idx]))
+              for r in runs]
+    res = correlate(sparse, models=toy_models(), candidates=_TOY_CANDIDATES, rerun=False, discrepancy=True)
+    assert res.discrepancy is None and "discrepancy term not fitted" in res.timings["reason"]
+
+
 @pytest.mark.slow
 def test_forward_selection_names_two_hidden_effects_and_stops_at_two(tmp_path, models_effective):
     """0.35 W more at the 5 V regulator and a poor bond line (h = 120 W/m^2 K: grease scheme only) hidden
