@@ -215,6 +215,10 @@ def summarise(rows, effects, form=()) -> dict:
         if named else None,
         "null_no_library_effect": (sum(r["verdict"] != "effect" for r in nulls) / len(nulls)) if nulls else None,
         "null_discrepancy": sum(r["verdict"] == "discrepancy" for r in nulls),
+        "null_verdicts": dict(Counter(r["verdict"] for r in nulls)),
+        # cases of any kind that name a library effect that was not hidden (first or later in named_effects)
+        "cases_naming_an_effect_not_hidden": sum(any(n != r["hidden"] for n in r.get("named_effects") or ())
+                                                 for r in rows),
         "out_of_library_abstained_or_discrepancy": (sum(r["verdict"] in ("not_in_library", "ambiguous", "discrepancy")
                                                         for r in ool) / len(ool)) if ool else None,
         "heldout_after_over_before_median_named": float(np.median(

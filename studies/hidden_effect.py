@@ -30,7 +30,7 @@ from imutherm.geometry.mesh import DEFAULT_MIN_CELLS, build_mesh
 from imutherm.measured import write_measured
 from imutherm.thermal import knobs as K
 from imutherm.studies.forward import full_rise, switched_rise
-from imutherm.thermal.effects import EFFECTS, ModelVariant, effect_of, setting
+from imutherm.thermal.effects import EFFECTS, ModelVariant, effect_of, power_part, setting
 from imutherm.thermal.model import ModelOptions
 from imutherm.thermal.problem import HeatFlux
 
@@ -118,7 +118,7 @@ def draw_value(name: str, rng: np.random.Generator) -> float:
     """A random magnitude of effect ``name`` within its bounds (log-uniform for log parameters).
 
     Contacts are drawn from their lower two decades (a joint that matters), powers as a missing or
-    extra 0.1..0.5 W.
+    extra 0.1..0.5 W (make_case keeps a missing power above 10 % of the part's own).
     """
     if name == OUT_OF_LIBRARY:
         return float(rng.uniform(*OUT_OF_LIBRARY_RANGE))
@@ -167,6 +167,8 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
                  "phase_rad": [float(rng.uniform(0, 2 * np.pi)) for _ in experiments]}
     elif hidden == POWER_MODE_STEP:
         extra = {"t_switch_s": [float(rng.uniform(*POWER_MODE_T_S)) for _ in experiments]}
+    if value is None and hidden.startswith("power@"):  # a drawn missing power leaves the part >= 10 % of its own
+        v = max(v, -0.9 * power_part(build_geometry(layout, experiments[0][0]), hidden.split("@", 1)[1]).power_W)
     # nuisance about the unit's own nominal values (its layout and materials), not the reference's
     nom = K.nominal_values(build_geometry(layout, experiments[0][0]), options)
     nz = {"k_board_W_mK": nom["k_board_W_mK"] * (1 + rng.uniform(-nuisance, nuisance)),
