@@ -63,7 +63,8 @@ def main(argv=None) -> int:
                          "flag) generates with the other cavity-radiation law than the inversion's, "
                          "'discretisation' with the s2s cavity discretised otherwise, so the data differ from "
                          "the inverted model in form")
-    ap.add_argument("--discrepancy", action="store_true", help="invert with the discrepancy term (off by default)")
+    ap.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=True,
+                    help="invert with the discrepancy term (default, as correlate); --no-discrepancy without it")
     ap.add_argument("--max-effects", type=int, default=3, help="forward selection's largest number of effects")
     ap.add_argument("--cavity-emissivity-as-effect", action="store_true",
                     help="offer the cavity's emissivity as a candidate effect (default: re-tuned, correlation.FORM_RETUNE)")

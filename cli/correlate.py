@@ -13,6 +13,7 @@ residuals, fingerprints), ``updated_model.toml`` (the fitted re-tune values and 
 
 from __future__ import annotations
 
+import argparse
 import os
 
 from imutherm import InputError
@@ -36,11 +37,12 @@ def add_args(parser) -> None:
                              "the full FEM, one transient per file)")
     add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
                                     "(default: 2, or 1 on one core)")
-    parser.add_argument("--discrepancy", action="store_true",
+    parser.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=True,
                         help="fit a model-discrepancy term (the model's own error: a smooth gain and time-constant "
-                             "correction per file and site, its scale estimated from the data) beside the knobs; "
-                             "verdict 'discrepancy' when the model's form is off and no effect explains it; "
-                             "about 3x the fitting time (README, correlation)")
+                             "correction per file and site, its scale estimated from the data) beside the knobs, "
+                             "verdict 'discrepancy' when the model's form is off and no effect explains it "
+                             "(default; not fitted on sparse files); --no-discrepancy: about 3x faster fits "
+                             "(README, correlation)")
     parser.add_argument("--max-effects", type=int, default=None, metavar="N",
                         help="forward selection names at most N library effects (default 3; 1: one effect)")
     parser.add_argument("--cavity-emissivity-as-effect", action="store_true",
