@@ -63,8 +63,9 @@ def main(argv=None) -> int:
                          "flag) generates with the other cavity-radiation law than the inversion's, "
                          "'discretisation' with the s2s cavity discretised otherwise, so the data differ from "
                          "the inverted model in form")
-    ap.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=True,
-                    help="invert with the discrepancy term (default, as correlate); --no-discrepancy without it")
+    ap.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=None,
+                    help="the discrepancy term: default as correlate's ('auto': where the library does not explain "
+                         "the data); --discrepancy always, --no-discrepancy never")
     ap.add_argument("--max-effects", type=int, default=3, help="forward selection's largest number of effects")
     ap.add_argument("--cavity-emissivity-as-effect", action="store_true",
                     help="offer the cavity's emissivity as a candidate effect (default: re-tuned, correlation.FORM_RETUNE)")
@@ -112,7 +113,8 @@ def main(argv=None) -> int:
                                   "files": list(case.files), "seed": seed, "extra": case.extra})
             t_gen = time.perf_counter() - t0
             runs = [read_measured(f) for f in case.files]
-            res = correlate(runs, models=models, rerun=False, discrepancy=args.discrepancy,
+            res = correlate(runs, models=models, rerun=False,
+                            discrepancy="auto" if args.discrepancy is None else args.discrepancy,
                             max_effects=args.max_effects, form_retune=not args.cavity_emissivity_as_effect)  # held-out figures come from the reduced model
             j = result_json(res)
             called = res.named_effect if res.verdict == "effect" else res.verdict

@@ -37,11 +37,12 @@ def add_args(parser) -> None:
                              "the full FEM, one transient per file)")
     add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
                                     "(default: 2, or 1 on one core)")
-    parser.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=True,
-                        help="fit a model-discrepancy term (the model's own error: a smooth gain and time-constant "
-                             "correction per file and site, its scale estimated from the data) beside the knobs, "
-                             "verdict 'discrepancy' when the model's form is off and no effect explains it "
-                             "(default; not fitted on sparse files); --no-discrepancy: about 3x faster fits "
+    parser.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=None,
+                        help="the model-discrepancy term (the model's own error: a smooth gain and time-constant "
+                             "correction per file and site, its scale estimated from the data), verdict "
+                             "'discrepancy' when the model's form is off and no effect explains it. Default: used "
+                             "only where the library's effects leave held-out data more than 2 noise sigmas off; "
+                             "--discrepancy always, --no-discrepancy never; not fitted on sparse files "
                              "(README, correlation)")
     parser.add_argument("--max-effects", type=int, default=None, metavar="N",
                         help="forward selection names at most N library effects (default 3; 1: one effect)")
@@ -127,7 +128,8 @@ def run(args) -> int:
     from imutherm.studies.correlation import correlate, result_json, updated_model_toml
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                     options=model_options(args), rerun=not args.no_rerun, jobs=jobs, use_cache=not args.no_cache,
-                    progress=lambda s: print(f"  {s}", flush=True), discrepancy=args.discrepancy,
+                    progress=lambda s: print(f"  {s}", flush=True),
+                    discrepancy="auto" if args.discrepancy is None else args.discrepancy,
                     max_effects=max_effects, form_retune=not args.cavity_emissivity_as_effect)
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:

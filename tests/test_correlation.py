@@ -454,6 +454,11 @@ def test_the_discrepancy_term_takes_a_smooth_form_error_that_an_effect_would_oth
     assert res.retune.heldout_rms_K < 0.5 * res.retune_plain.heldout_rms_K
     plain = correlate(runs, models=models, candidates=_TOY_CANDIDATES, rerun=False, discrepancy=False)
     assert plain.verdict == "effect"  # the old workflow names an effect for what is the model's form
+    # the default ('auto'): the library's choice leaves held-out data above 2 noise sigmas, so the term decides
+    assert plain.after.heldout_rms_K > 2 * plain.noise_K
+    auto = correlate(runs, models=models, candidates=_TOY_CANDIDATES, rerun=False)
+    assert auto.verdict == "discrepancy" and auto.named_effects == (), auto.timings["reason"]
+    assert "judged with the discrepancy term" in auto.timings["reason"]
 
 
 def test_the_cavity_emissivity_is_re_tuned_not_named(tmp_path):
