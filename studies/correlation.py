@@ -279,19 +279,12 @@ class Discrepancy:
         -2 log of the evidence up to a constant (the data term with the coefficients integrated out).
         Closed form per series from the eigen-decomposition of ΦᵀΦ (2 x 2), so the search is cheap."""
         rr, lam_g, proj = 0.0, [], []
-        for i, m in mask.items():
-            if not m.any():
-                continue
-            r = fwd.rise(i, values) - fwd.runs[i].rise_K
-            for j in range(r.shape[1]):
-                rows = m[:, j]
-                if not rows.any():
-                    continue
-                F, x = self.basis[(i, j)][rows], r[rows, j]
-                w, Q = np.linalg.eigh(F.T @ F)
-                rr += float(x @ x)
-                lam_g.append(np.maximum(w, 0.0))
-                proj.append((Q.T @ (F.T @ x)) ** 2)
+        for i, j, rows, r in _series(fwd, values, mask):
+            F, x = self.basis[(i, j)][rows], r[rows]
+            w, Q = np.linalg.eigh(F.T @ F)
+            rr += float(x @ x)
+            lam_g.append(np.maximum(w, 0.0))
+            proj.append((Q.T @ (F.T @ x)) ** 2)
         if not lam_g:
             return self.prior, 0.0
         g, b = np.concatenate(lam_g), np.concatenate(proj)
@@ -335,6 +328,18 @@ def build_discrepancy(fwd: _Forward, values: dict, sigma_K: float, ratio: float,
     return Discrepancy(basis, prior, float(sigma_K), float(ratio))
 
 
+def _series(fwd: _Forward, values: dict, mask: dict):
+    """(run i, site j, rows of run i with data in ``mask``, residual model - measured [K] of site j at every
+    reading of run i) for every series with data."""
+    for i, m in mask.items():
+        if not m.any():
+            continue
+        r = fwd.rise(i, values) - fwd.runs[i].rise_K
+        for j in range(r.shape[1]):
+            if m[:, j].any():
+                yield i, j, m[:, j], r[:, j]
+
+
 def _residuals_disc(fwd: _Forward, values: dict, mask: dict, disc: Discrepancy | None, coefs=None):
     """(residual after the discrepancy [K] over ``mask``, its prior term sqrt(λ) c [K], coefficients).
 
@@ -343,18 +348,11 @@ def _residuals_disc(fwd: _Forward, values: dict, mask: dict, disc: Discrepancy |
     if disc is None:
         return _residuals(fwd, values, mask), np.zeros(0), {}
     out, pen, cs = [], [], {}
-    for i, m in mask.items():
-        if not m.any():
-            continue
-        r = fwd.rise(i, values) - fwd.runs[i].rise_K
-        for j in range(r.shape[1]):
-            rows = m[:, j]
-            if not rows.any():
-                continue
-            c = disc.coefficients(r[:, j], i, j, rows) if coefs is None else coefs.get((i, j), np.zeros(2))
-            cs[(i, j)] = c
-            out.append(r[rows, j] - disc.basis[(i, j)][rows] @ c)
-            pen.append(math.sqrt(disc.lam) * c)
+    for i, j, rows, r in _series(fwd, values, mask):
+        c = disc.coefficients(r, i, j, rows) if coefs is None else coefs.get((i, j), np.zeros(2))
+        cs[(i, j)] = c
+        out.append(r[rows] - disc.basis[(i, j)][rows] @ c)
+        pen.append(math.sqrt(disc.lam) * c)
     return (np.concatenate(out) if out else np.zeros(0)), (np.concatenate(pen) if pen else np.zeros(0)), cs
 
 
