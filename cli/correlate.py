@@ -8,7 +8,8 @@ parameters within their sources' ranges, fits every candidate effect of the libr
 size, and writes in ``--out DIR``: ``correlation.json`` (verdict, named effect, parameters with
 95 % intervals, ranking, RMS/max before and after, held-out RMS before and after, per-site
 residuals, fingerprints), ``updated_model.toml`` (the fitted re-tune values and effect, as
-``imutherm solve --effect`` takes them) and ``correlation.pdf``.
+``imutherm solve --effect`` takes them), ``readings.csv`` (every reading side by side: measured, nominal,
+corrected, as rises [K]) and ``correlation.pdf``.
 """
 
 from __future__ import annotations
@@ -125,7 +126,7 @@ def run(args) -> int:
     sites = tuple(build_geometry(layout, None).sites)
     runs = [read_measured(p, sites=sites, schemes=tuple(layout.schemes)) for p in args.measured]
     _check_build_cost(layout, runs, args, jobs)
-    from imutherm.studies.correlation import correlate, result_json, updated_model_toml
+    from imutherm.studies.correlation import correlate, reading_rows, result_json, updated_model_toml
     res = correlate(runs, layout, holdout=args.holdout, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
                     options=model_options(args), rerun=not args.no_rerun, jobs=jobs, use_cache=not args.no_cache,
                     progress=lambda s: print(f"  {s}", flush=True),
@@ -135,6 +136,7 @@ def run(args) -> int:
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "correlation.json", data)
         (tmp / "updated_model.toml").write_text(updated_model_toml(res, layout.path, model_options(args)))
+        _write_readings(tmp / "readings.csv", reading_rows(res))
         if not args.no_report:
             from imutherm.reports.correlation_report import write_report
             write_report(tmp / "correlation.pdf", res)
@@ -147,6 +149,23 @@ def run(args) -> int:
     for f in data["ranking"][:6]:
         print(f"  {f['name']:<22} dAICc {f['delta_aicc_vs_none']:8.1f}  RMS {f['rms_K']:.3f} K  "
               f"held-out {f['heldout_rms_K'] if f['heldout_rms_K'] is not None else float('nan'):.3f} K")
-    print(f"  {res.timings['total_s']:.0f} s; wrote {args.out}/correlation.json updated_model.toml"
+    print(f"  {res.timings['total_s']:.0f} s; wrote {args.out}/correlation.json updated_model.toml readings.csv"
           + ("" if args.no_report else " correlation.pdf"))
     return 0
+
+
+#: the columns of ``readings.csv`` (rises over the file's ambient [K]; time_s inf: the steady reading)
+READING_COLUMNS = ("file", "scheme", "ambient_C", "site", "time_s", "measured_K", "nominal_K", "corrected_K",
+                   "corrected_with_term_K", "corrected_full_K")
+
+
+def _write_readings(path, rows) -> None:
+    """``readings.csv``: one line per reading, a column left empty where the fit has no such figure."""
+    import csv
+
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(READING_COLUMNS)
+        for r in rows:
+            w.writerow([("" if r.get(k) is None else r[k] if isinstance(r[k], str) else f"{r[k]:.6g}")
+                        for k in READING_COLUMNS])

@@ -403,6 +403,63 @@ def _attitude_page(pdf, folder: Path, data: dict) -> None:
     plt.close(fig)
 
 
+def _study_rise_at(folder: Path, data: dict, scheme: str, site: str, time_s) -> float:
+    """This study's rise [K] of ``site`` in ``scheme`` at ``time_s`` [s] (None/inf: steady), or NaN."""
+    sc = data["schemes"].get(scheme)
+    if sc is None or site not in sc["sites"]:
+        return float("nan")
+    if time_s is None or not np.isfinite(time_s):
+        return float(sc["sites"][site]["rise_K"])
+    path = folder / f"curves_{scheme}.csv"
+    if not path.exists():
+        return float("nan")
+    t, T, names = read_site_table(path, None)
+    if site not in names or time_s > t[-1]:
+        return float("nan")
+    return float(np.interp(time_s, t, T[:, list(names).index(site)])) - data["ambient_C"]
+
+
+def _readings_page(pdf, folder: Path, data: dict) -> None:
+    """The readings the model was correlated on, side by side: measured, nominal, corrected (the correlation's
+    figures) and this study on the corrected model; with the paper's own FEM where the study has it."""
+    model = data.get("model") or {}
+    rows_in = model.get("readings") or []
+    if not rows_in:
+        return
+    rows = []
+    for r in rows_in:
+        t = r.get("time_s")
+        steady = t is None or not np.isfinite(t)
+        full = r.get("corrected_full_K")
+        rows.append([r["file"], r["site"], "steady" if steady else f"{t:g}", f"{r['measured_K']:.1f}",
+                     f"{r['nominal_K']:.1f}", f"{r['corrected_K']:.1f}", "-" if full is None else f"{full:.1f}",
+                     f"{_study_rise_at(folder, data, r['scheme'], r['site'], t):.1f}"])
+    mesh = ", ".join(f"{k} {v['nodes']:,} nodes" for k, v in data["mesh"].items())
+    fig = plt.figure(figsize=A4)
+    _title(fig, "The readings this model was correlated on, side by side",
+           textwrap.fill(f"{model['file']}: rises over the ambient [K]; nominal and corrected from the correlation "
+                         f"(reduced model; full: the corrected model re-run on the full FEM at the correlation's "
+                         f"mesh), this study: the corrected model on this study's own mesh "
+                         f"({mesh}). Verdict {model.get('verdict', 'not recorded')}; "
+                         f"effects {', '.join(model.get('effects', [])) or 'none'}.", 150))
+    ax = fig.add_axes([0.04, 0.08, 0.92, 0.72])
+    ax.axis("off")
+    tab = ax.table(cellText=rows, colLabels=["file", "site", "time [s]", "measured", "nominal", "corrected",
+                                             "corrected, full FEM", "this study"], loc="upper center",
+                   cellLoc="center")
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(7.5)
+    figs = (data.get("paper") or {}).get("figures", {}).get("thermal", {}).get("simulated", {})
+    if figs:
+        fig.text(0.04, 0.815, textwrap.fill(
+            "The paper's own FEM (maximum rise of the unit, not at a site): "
+            f"{figs.get('scheme1_air_max_rise_K', float('nan')):g} K air, "
+            f"{figs.get('scheme2_grease_max_rise_K', float('nan')):g} K grease; this study's maximum rise: "
+            + ", ".join(f"{k} {v['max_rise_K']:.1f} K" for k, v in data["schemes"].items()) + ".", 150), fontsize=8)
+    pdf.savefig(fig)
+    plt.close(fig)
+
+
 def _paper_table_page(pdf, data: dict) -> None:
     fig = plt.figure(figsize=A4)
     _title(fig, "The paper vs this model", data["paper"]["figures"].get("source", ""))
@@ -467,6 +524,7 @@ def write_study_report(folder: str | os.PathLike, path: str | os.PathLike) -> No
         _map_page(pdf, folder, data)
         _curves_page(pdf, folder, data)
         _paper_bars_page(pdf, data)
+        _readings_page(pdf, folder, data)
         _residual_page(pdf, folder, data)
         _attitude_page(pdf, folder, data)
         _paper_table_page(pdf, data)

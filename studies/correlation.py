@@ -1376,6 +1376,47 @@ def _with(f: Fit, **changes) -> Fit:
     return replace(f, **changes)
 
 
+#: readings kept in ``updated_model.toml``'s ``[correlation]`` for a report (a test's few points, a paper's figures);
+#: more (a dense record) go to ``readings.csv`` only
+MAX_TOML_READINGS = 64
+
+
+def reading_rows(res: CorrelationResult) -> list:
+    """Every reading side by side, as rises over the file's ambient [K] (rows of a table, file order).
+
+    ``measured_K``; ``nominal_K`` the nominal model; ``corrected_K`` the corrected model's physics (re-tuned
+    values and named effects, reduced model, without the discrepancy term); ``corrected_with_term_K`` with the
+    term (only where one was fitted); ``corrected_full_K`` the corrected model re-run on the full FEM (only if it
+    was). Also ``file``, ``scheme``, ``ambient_C`` [degC], ``site``, ``time_s`` [s] (inf: the steady reading).
+    """
+    rows = []
+    for run in res.runs:
+        c = res.curves[run.name]
+        term = np.asarray(c.get("discrepancy_K", np.zeros_like(c["after_K"])), float)
+        has_term = bool(np.any(term))
+        for k, t in enumerate(c["times_s"]):
+            for j, site in enumerate(c["sites"]):
+                if not np.isfinite(c["measured_K"][k, j]):
+                    continue
+                row = {"file": run.name, "scheme": run.scheme, "ambient_C": float(run.ambient_C), "site": site,
+                       "time_s": float(t), "measured_K": float(c["measured_K"][k, j]),
+                       "nominal_K": float(c["before_K"][k, j]), "corrected_K": float(c["after_K"][k, j] - term[k, j])}
+                if has_term:
+                    row["corrected_with_term_K"] = float(c["after_K"][k, j])
+                if "after_full_K" in c:
+                    row["corrected_full_K"] = float(c["after_full_K"][k, j] - term[k, j])
+                rows.append(row)
+    return rows
+
+
+def _toml_value(v) -> str:
+    import json
+
+    if isinstance(v, float):
+        return ("inf" if v > 0 else "-inf") if math.isinf(v) else f"{v:.6g}"
+    return json.dumps(v)
+
+
 def result_json(res: CorrelationResult) -> dict:
     """The ``correlation.json`` content."""
     def params(f: Fit):
@@ -1445,7 +1486,8 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
                        options: ModelOptions | None = None) -> str:
     """``updated_model.toml``: the fitted re-tune values and the named effect, as ``imutherm solve`` takes them;
     ``[model]`` the layout and model switches the fit ran with (``layout_path``, ``options``), ``[correlation]``
-    its verdict and RMS before / after, so that ``solve`` / ``compare`` / ``sweep --model FILE`` run on it and
+    its verdict, RMS before / after and (up to :data:`MAX_TOML_READINGS`) the readings side by side
+    (:func:`reading_rows`), so that ``solve`` / ``compare`` / ``sweep --model FILE`` run on it and
     name it (:mod:`imutherm.studies.fitted_model`)."""
     import json
     from pathlib import Path
@@ -1470,7 +1512,13 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
         v = data.get(key)
         if v is not None and np.isfinite(v):
             lines.append(f"{key} = {float(v):.6g}")
-    lines += [f"after_from = {json.dumps(data['after_from'])}", "", "[retune]"]
+    lines.append(f"after_from = {json.dumps(data['after_from'])}")
+    rows = reading_rows(res)
+    if len(rows) <= MAX_TOML_READINGS:  # the readings side by side, for the report of a study run on this model
+        lines.append("readings = [  # rises over the ambient [K]: measured, nominal, corrected (see readings.csv)")
+        lines += ["    {" + ", ".join(f"{k} = {_toml_value(v)}" for k, v in r.items()) + "}," for r in rows]
+        lines.append("]")
+    lines += ["", "[retune]"]
     for k, _ in K.RETUNE:
         if k.name in res.after.values:
             lines.append(f"{k.name} = {res.after.values[k.name]:.6g}   # {K.RETUNE_SOURCES[k.name]}")

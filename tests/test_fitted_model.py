@@ -172,3 +172,60 @@ def test_updated_model_toml_reads_back(tmp_path):
     assert m.correlation["verdict"] == "effect" and m.correlation["rms_before_K"] == 2.0
     assert m.correlation["rms_after_K"] == 0.22 and m.correlation["after_from"] == "full model re-run"
     assert "correlation RMS 2.00 -> 0.22 K" in m.line()
+
+
+def test_the_readings_go_side_by_side_into_the_model_file_the_csv_and_the_report(tmp_path):
+    """correlate's readings (the paper's four, say) travel with the fitted model: ``[correlation] readings``
+    of updated_model.toml (the steady reading's time inf kept), ``readings.csv``, and the page of the study
+    report run on that model, beside this study's own rises; the corrected model is reported without the
+    discrepancy term (a statistical term of the fit, not a model input)."""
+    from matplotlib.backends.backend_pdf import PdfPages
+    from pypdf import PdfReader
+
+    from imutherm.cli.correlate import READING_COLUMNS, _write_readings
+    from imutherm.measured import read_measured
+    from imutherm.reports import study_report as sr
+    from imutherm.studies.correlation import CorrelationResult, Fit, reading_rows, updated_model_toml
+
+    run = read_measured(Path(__file__).parents[1] / "examples" / "measured" / "paper_000_air.csv")
+    assert list(run.times_s) == [800.0, float("inf")] and run.sites == ("tp1",)
+    col = np.array([[1.0], [2.0]])
+    curves = {run.name: {"sites": run.sites, "times_s": run.times_s, "measured_K": run.rise_K,
+                         "before_K": 20 + col, "after_K": 17 + col, "discrepancy_K": 0.5 * col,
+                         "after_full_K": 17.25 + col}}
+    after = Fit("power@reg_5v", {"power@reg_5v": -0.5}, 0.2, 0.3, 2, 2.0, 1, float("nan"), 0.25, 0.3,
+                effects=("power@reg_5v",))
+    res = CorrelationResult("effect", "power@reg_5v", (), {"rms_K": 2.0, "max_K": 3.0, "heldout_rms_K": 2.1},
+                            after, after, (after,), {}, {}, 0.5, curves, (run,), {}, {"reason": "t", "total_s": 1.0},
+                            "a test", {"rms_K": 0.22, "max_K": 0.31}, named_effects=("power@reg_5v",),
+                            steps=({"verdict": "effect", "named": "power@reg_5v", "base": after, "ranking": (after,),
+                                    "ambiguous_set": (), "reason": "t"},))
+    rows = reading_rows(res)
+    assert [(r["time_s"], r["measured_K"]) for r in rows] == [(800.0, 19.0), (float("inf"), 20.0)]
+    assert [r["corrected_K"] for r in rows] == [17.5, 18.0]            # after minus the term
+    assert [r["corrected_with_term_K"] for r in rows] == [18.0, 19.0]
+    assert [r["corrected_full_K"] for r in rows] == [17.75, 18.25] and rows[0]["nominal_K"] == 21.0
+    path = tmp_path / "updated_model.toml"
+    path.write_text(updated_model_toml(res, load_layout(None).path, ModelOptions()))
+    m = load_fitted_model(path)
+    assert m.correlation["readings"] == rows
+    _write_readings(tmp_path / "readings.csv", rows)
+    lines = (tmp_path / "readings.csv").read_text().splitlines()
+    assert lines[0] == ",".join(READING_COLUMNS)
+    assert lines[2] == "paper_000_air,air,70,tp1,inf,20,22,18,19,18.25"
+    # the study report's page: the readings beside this study's own tp1 (steady: its rise; 800 s: its curve)
+    (tmp_path / "curves_air.csv").write_text("time_s,tp1\n0,70\n1000,90\n")
+    data = {"model": m.summary(), "ambient_C": 70.0, "mesh": {"air": {"nodes": 1234}},
+            "schemes": {"air": {"max_rise_K": 30.0, "sites": {"tp1": {"rise_K": 24.5}}}},
+            "paper": {"figures": {"thermal": {"simulated": {"scheme1_air_max_rise_K": 16,
+                                                            "scheme2_grease_max_rise_K": 8}}}}}
+    with PdfPages(tmp_path / "r.pdf") as pdf:
+        sr._readings_page(pdf, tmp_path, data)
+    text = PdfReader(tmp_path / "r.pdf").pages[0].extract_text()
+    for want in ("side by side", "steady", "800", "19.0", "21.0", "17.5", "17.8", "16.0", "24.5",
+                 "paper's own FEM", "16 K air"):
+        assert want in text, want
+    # no readings (an older model file, a dense record): no page
+    with PdfPages(tmp_path / "e.pdf") as pdf:
+        sr._readings_page(pdf, tmp_path, dict(data, model={"file": "x"}))
+        assert pdf.get_pagecount() == 0
