@@ -104,10 +104,10 @@ def test_periodic_ambient_field_matches_time_stepping():
 GEN_OPTIONS = ModelOptions(cavity_law="effective")
 
 
-def _case(tmp_path, hidden, seed):
+def _case(tmp_path, hidden, seed, options=GEN_OPTIONS):
     return make_case(tmp_path / hidden, hidden, np.random.default_rng(seed), experiments=(("air", 70.0),),
                      mesh_size_mm=8.0, min_cells=1, noise_K=0.0, offset_K=0.0, nuisance=0.0, samples=61,
-                     options=GEN_OPTIONS)
+                     options=options)
 
 
 @pytest.fixture(scope="module")
@@ -115,9 +115,18 @@ def base_case(tmp_path_factory):
     return read_measured(_case(tmp_path_factory.mktemp("base"), "none", 0).files[0])
 
 
+@pytest.fixture(scope="module", params=["effective", "s2s"])
+def law_and_base(request, tmp_path_factory):
+    """A cavity law's generator options and its null case (the chamber cycling is generated under both)."""
+    opts = ModelOptions(cavity_law=request.param)
+    return opts, read_measured(_case(tmp_path_factory.mktemp(f"base_{request.param}"), "none", 0, opts).files[0])
+
+
 @pytest.mark.slow
-def test_chamber_cycling_is_an_oscillation_at_its_period(tmp_path, base_case):
-    case = _case(tmp_path, CHAMBER_CYCLING, 3)
+def test_chamber_cycling_is_an_oscillation_at_its_period(tmp_path, law_and_base):
+    """Under either cavity law (s2s: the small-signal operator with the exchange's dense Jacobian)."""
+    options, base_case = law_and_base
+    case = _case(tmp_path, CHAMBER_CYCLING, 3, options)
     a, period = case.value, case.extra["period_s"]
     assert CHAMBER_AMPLITUDE_K[0] <= a <= CHAMBER_AMPLITUDE_K[1]
     assert CHAMBER_PERIOD_S[0] <= period <= CHAMBER_PERIOD_S[1]
