@@ -44,7 +44,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         data = json.loads(args.summary.read_text(encoding="utf-8"))
-        data["study"], data["schemes"]
+        missing = [key for key in ("study", "schemes", "layout", "seeds") if key not in data]
+        if missing:
+            raise KeyError(", ".join(missing))
     except (OSError, ValueError, KeyError) as exc:
         print(f"make_answer_figure: {args.summary}: not a summary.json of imutherm compare ({exc})",
               file=sys.stderr)
