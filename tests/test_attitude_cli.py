@@ -140,7 +140,7 @@ def test_cli_vehicle_with_realistic_disturbances(tmp_path):
 def test_realistic_flight_is_of_the_papers_order_and_turbulence_shuts_the_gate():
     """With the flight's realistic disturbances the gated filter is no longer ~5x better than the paper's
     measured 2.3 / 2.5° (1σ): its whole-record RMS over seeds 0-2 lies between 0.3° and 6° in roll and
-    between 1° and 6° in pitch (README: 0.52 / 4.05° on seeds 0-5); light turbulence alone keeps the gate
+    between 1° and 6° in pitch (docs/benchmarks/attitude.md: 0.52 / 4.05° on seeds 0-5); light turbulence alone keeps the gate
     shut on most stable-flight samples (clean: open on all of them)."""
     from imutherm.imu import disturbances as D
     from imutherm.studies import filter_benchmark as fb

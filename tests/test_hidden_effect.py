@@ -176,7 +176,7 @@ def test_model_form_path_differs_from_the_inversion_model_on_a_null_case(tmp_pat
     effective conductivity) makes a null case that differs from the inversion's model in form: noise-free
     (no nuisance, no noise, no offsets), air scheme at 70 C on a 6 mm mesh, the s2s law's rises at 1500 s
     are 15-80 % above the effective law's at the board's IR points (measured +44, +70, +59 % at 6 mm) (the default mesh: tp1 24.1 K against
-    16.9 K steady, +43 %, README), while the potted-free grease scheme differs less than the air scheme."""
+    16.9 K steady, +43 %, docs/benchmarks/cavity_radiation.md), while the potted-free grease scheme differs less than the air scheme."""
     from imutherm.studies.hidden_effect import model_form_options
     inv = ModelOptions(cavity_law="effective")  # named: the library's default law may change
     assert model_form_options(inv).cavity_law == "s2s"

@@ -113,7 +113,7 @@ def test_load_dependent_truth_with_noise():
     0.012 deg/s/g; below 5 g the noise is larger: up to 3500 ppm, 1.4 mg/g^2, 0.034 deg/s/g at 1 g), and the
     D1 trend (its own-axis terms, per g) within 0.002 deg/s/g per g of the truth's (measured <= 0.0007; the
     truth's slopes are up to 0.004). The Ka and K2 trends are not asserted: this grade's noise hides them
-    (README, seed 004 section)."""
+    (docs/reference/overload.md)."""
     from imutherm.imu.overload import LoadDependence
 
     rng = np.random.default_rng(0)

@@ -138,7 +138,7 @@ def test_answer_says_whether_an_advantage_exceeds_the_uncertainty():
 #: the laws of the full-FEM checks below: the effective cavity law, whose reduced model is exact to ~2e-3 K at
 #: drawn points (the FEM's effective conductivity is linear in the field). Under the s2s default the reduced
 #: model's secant of the T^4 exchange about the nominal field is off by 0.13-0.18 K at the same checks (about
-#: 1 % of the rise; README, "compare --uncertainty"): a known limit of the s2s reduced model, reported in
+#: 1 % of the rise; docs/reference/study.md, "Uncertainty of the answer"): a known limit of the s2s reduced model, reported in
 #: uncertainty.json's max_check_error_K, not a tolerance these tests relax.
 CHECK_LAW = "effective"
 
@@ -154,7 +154,7 @@ def test_propagation_on_the_reduced_models_checked_on_the_full_fem():
     assert "contact@bond" not in res["applicable"]["air"] and "contact@bond" in res["applicable"]["grease"]
     assert res["max_check_error_K"] < 0.1, res["checks"]
     # the reduced transient (order-2 Krylov basis) is not the study's 1 %: measured 0.1-1.9 % at the default
-    # checks (README); this guards that figure, it is not a claim of 1 %
+    # checks (docs/reference/study.md); this guards that figure, it is not a claim of 1 %
     assert res["max_check_t95_rel_error"] < 0.03, res["checks"]
     assert res["answer"] and "diff_max_die_rise_K:air-grease" in res["stats"]
 
