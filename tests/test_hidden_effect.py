@@ -139,7 +139,10 @@ def test_chamber_cycling_is_an_oscillation_at_its_period(tmp_path, law_and_base)
         coef, *_ = np.linalg.lstsq(X, d[:, j], rcond=None)
         amp = float(np.hypot(*coef))
         fit_rms = float(np.sqrt(np.mean((X @ coef - d[:, j]) ** 2)))
-        assert 0.3 * a < amp <= 1.001 * a, (site, amp, a)  # attenuated by the unit, never amplified
+        # attenuated by the unit, never amplified; present at every site (tp1: 0.24 a under s2s, whose weaker
+        # coupling of the boards to the walls lags them more, > 0.3 a under the effective law). How exact the
+        # amplitude is: tests/test_small_signal.py (against time stepping and two steady solves)
+        assert 0.1 * a < amp <= 1.001 * a, (site, amp, a)
         assert fit_rms < 0.01 * amp, (site, fit_rms)       # a pure sinusoid at the stated period
         # and no other period fits it: the stated one is the best of a scan
         scan = np.linspace(0.5 * period, 2 * period, 61)
