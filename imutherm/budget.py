@@ -94,7 +94,7 @@ def add_memory_argument(parser) -> None:
 
 
 def count_time_steps(t_end: float, dt: float, dt_max: float | None = None, growth: float = 1.2) -> int:
-    """Number of transient steps [-] of :func:`imutherm.thermal.solve.time_steps` (within one), in O(1)."""
+    """Number of transient steps [-] of :func:`imutherm.thermal.transient.time_steps` (within one), in O(1)."""
     if dt_max is None or dt_max <= dt or growth <= 1.0:
         return int(math.ceil(t_end / dt - 1e-9))
     k = math.ceil(math.log(dt_max / dt) / math.log(growth))  # steps until the step reaches dt_max
@@ -109,7 +109,7 @@ def transient_steps(time_kwargs: dict) -> int:
     ``dt``, ``dt_max``): given steps are counted; for the error-controlled TR-BDF2 steps the count is
     its lower bound ``t_end / dt_max`` (steps never exceed ``dt_max``, default 300 s)."""
     from imutherm.studies.thermal_study import THETA_DT, THETA_DT_MAX
-    from imutherm.thermal.solve import DEFAULT_DT_MAX
+    from imutherm.thermal.transient import DEFAULT_DT_MAX
 
     t_end, dt, dt_max = time_kwargs["t_end"], time_kwargs.get("dt"), time_kwargs.get("dt_max")
     if time_kwargs.get("time_scheme") == "theta" and dt is None:

@@ -15,7 +15,10 @@ from imutherm import InputError
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.effects import ModelVariant, apply_signal_effects, effect_problem
 from imutherm.thermal.reduced import lag_field, linearised
-from imutherm.thermal.solve import amg_preconditioner, probe_matrix, solve_steady, solve_transient
+from imutherm.thermal.linear import amg_preconditioner
+from imutherm.thermal.probes import probe_matrix
+from imutherm.thermal.steady import solve_steady
+from imutherm.thermal.transient import solve_transient
 
 
 def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol: float | None = None,

@@ -189,7 +189,7 @@ def build_surrogate(plan, progress=None) -> SweepSurrogate:
     from imutherm.geometry.mesh import build_mesh
     from imutherm.thermal.assembly import assemble
     from imutherm.thermal.effects import ModelVariant, effect_problem, power_part
-    from imutherm.thermal.solve import solve_steady
+    from imutherm.thermal.steady import solve_steady
     from imutherm.studies.sweep import case_model
 
     t0 = time.perf_counter()

@@ -9,7 +9,7 @@ than the run's length calls for, or a power switching faster than any step can
 follow) would take unbounded time. :func:`check_step` stops both with a
 :class:`~imutherm.ConvergenceError` that names the likely cause.
 
-The time loops of :mod:`imutherm.thermal.solve` call it once per accepted
+The time loops of :mod:`imutherm.thermal.transient` call it once per accepted
 step with the new field; it costs a subtraction and two reductions over the
 field (measured 6.7 ms at 2e5 nodes, best of 5, on this machine at load 12,
 against the ~0.2 s a step of that size takes).
