@@ -641,7 +641,7 @@ def no_expensive(no_work, monkeypatch):
     """Besides :func:`no_work`: the s2s view factors, the sweep's cases, correlate's reduced models and its
     time-constant pre-check fail the test if they start (the refusal must come before them)."""
     import imutherm.studies.correlation as corr
-    import imutherm.studies.sweep as sw
+    import imutherm.studies.sweep.run as sw
     import imutherm.thermal.cavity_radiation as cr
 
     monkeypatch.setattr(cr, "view_factors", _fail)
