@@ -8,16 +8,14 @@ so the generator and the check cannot disagree on what an effect means.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from imutherm import InputError
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.effects import ModelVariant, apply_signal_effects, effect_problem
-from imutherm.thermal.reduced import lag_field, linearised
-from imutherm.thermal.linear import amg_preconditioner
 from imutherm.thermal.probes import probe_matrix
+from imutherm.thermal.reduced import lag_field, linearised
 from imutherm.thermal.steady import solve_steady
+from imutherm.thermal.tangent import periodic_ambient_response
 from imutherm.thermal.transient import solve_transient
 
 
@@ -30,7 +28,7 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
     signal : ``signal`` effect settings (probe lag, ambient drift) applied to the readings
     ambient_cycle : (amplitude [K], period [s], phase [rad]) or None: surroundings cycling as
         ``a cos(2 pi t / period + phase)`` around the ambient, added as the unit's periodic response
-        (:func:`periodic_ambient_response`; not a library effect, the generator's out-of-library kind)
+        (:func:`imutherm.thermal.tangent.periodic_ambient_response`; not a library effect, the generator's out-of-library kind)
 
     Steady: the nonlinear steady solve; transient: adaptive TR-BDF2 with error control on the probes
     (the library default tolerance) to the last finite time; ``rtol``: the CG tolerance of its stage
@@ -69,59 +67,6 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
     if cyc is not None:
         out[fin] += cyc(t[fin])
     return out
-
-
-def tangent_operator(asm, T_C: np.ndarray):
-    """A [W/K]: conduction + linear laws + the tangent dq/dT of every nonlinear law at the field ``T_C`` [°C].
-
-    The small-signal operator of the heat balance about ``T_C`` (the reduced model's
-    :func:`~imutherm.thermal.reduced.linearised` takes the secant instead, right for the whole rise).
-    """
-    if getattr(asm.problem, "exchanges", ()) or asm.dirichlet:
-        raise InputError("small-signal operator: surface-to-surface exchange and fixed-temperature faces are "
-                         "not supported (use the 'effective' cavity law and contact laws)")
-    D = np.zeros(asm.n)
-    for bc in asm.nonlinear:
-        _, dq = bc.law.flux_out(T_C[bc.nodes], bc.T_ref)
-        np.add.at(D, bc.nodes, bc.weights * dq)
-    return (asm.K + asm.H + sp.diags(D)).tocsr()
-
-
-def periodic_ambient_response(asm, T_C: np.ndarray, grid, probes: dict, period_s: float,
-                              rtol: float = 1e-8) -> np.ndarray:
-    """Complex gain [-] (m,) of each probe to surroundings cycling at ``period_s`` [s]
-    (:func:`periodic_ambient_field` at the probes)."""
-    x = periodic_ambient_field(asm, T_C, period_s, rtol)
-    return probe_matrix(grid, np.array(list(probes.values()))) @ x
-
-
-def periodic_ambient_field(asm, T_C: np.ndarray, period_s: float, rtol: float = 1e-8) -> np.ndarray:
-    """Complex gain [-] (n_nodes,) of every node to surroundings cycling at ``period_s`` [s].
-
-    The surroundings (air, radiative environment and mounting fixture: every law's reference
-    temperature) move by Re[a e^{i w t}]; about the field ``T_C`` the unit answers, once the cycling
-    has gone on for a while (a chamber cycles before the test starts), with Re[a g e^{i w t}],
-    g = (A + i w M)^-1 A 1: A the small-signal operator (:func:`tangent_operator`; A 1 is the
-    coupling to the surroundings, conduction conserves heat), M the heat capacity.
-    |g| -> 1 as the period grows (the unit follows its surroundings), and falls, with a growing
-    phase lag, when the period is short against the unit's time constants. Superposed on the
-    nonlinear rise: exact for linear laws, to first order in a for the convection and radiation laws.
-    Solved by GMRES on the complex system, preconditioned by an AMG cycle of A + w M (real).
-    """
-    if not period_s > 0:
-        raise InputError(f"ambient cycle period must be > 0 s, got {period_s!r}")
-    A = tangent_operator(asm, T_C)
-    M = asm.M.tocsr()
-    w = 2 * np.pi / period_s
-    c = A @ np.ones(A.shape[0])
-    pc = amg_preconditioner((A + w * M).tocsr())
-    n = A.shape[0]
-    pcc = spla.LinearOperator((n, n), matvec=lambda v: pc @ np.real(v) + 1j * (pc @ np.imag(v)), dtype=complex)
-    Z = (A + 1j * w * M).tocsr()
-    x, info = spla.gmres(Z, c.astype(complex), rtol=rtol, M=pcc, restart=60, maxiter=50)
-    if info:
-        raise InputError(f"ambient cycle response: GMRES did not converge (info {info})")
-    return x
 
 
 def switched_rise(before: ModelVariant, after: ModelVariant, t_switch: float, grid, probes: dict, times,

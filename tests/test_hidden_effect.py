@@ -12,7 +12,7 @@ from imutherm.geometry.layout import load_layout
 from imutherm.geometry.materials import get_material, with_properties
 from imutherm.geometry.mesh import build_mesh
 from imutherm.measured import read_measured
-from imutherm.studies.forward import periodic_ambient_field, tangent_operator
+from imutherm.thermal.tangent import periodic_ambient_field, tangent_operator
 from imutherm.studies.hidden_effect import (CHAMBER_AMPLITUDE_K, CHAMBER_CYCLING, CHAMBER_PERIOD_S,
                                             POWER_MODE_CHAIN_V, POWER_MODE_STEP, make_case)
 from imutherm.thermal import knobs as K
@@ -99,7 +99,7 @@ def test_periodic_ambient_field_matches_time_stepping():
 # --------------------------------------------------------------------------- the generator's signatures
 
 #: the generator's cavity law in the hidden-kind tests below: the effective law, because the chamber-cycling
-#: kind's periodic response (studies/forward.py:periodic_ambient_field) needs the small-signal operator, which
+#: kind's periodic response (thermal/tangent.py:periodic_ambient_field) needs the small-signal operator, which
 #: does not carry the s2s exchange (refused with an InputError under s2s: a known gap, not a tolerance)
 GEN_OPTIONS = ModelOptions(cavity_law="effective")
 
