@@ -21,12 +21,13 @@ import numpy as np
 
 from imutherm import ConvergenceError
 from imutherm.budget import MAX_TIME_STEPS
+from imutherm.constants import ZERO_C_K
 
 #: a change from the start field beyond this [K] is divergence, not physics: every material of the
 #: package (FR-4 ~400 °C, aluminium ~660 °C, silicon ~1400 °C) has decomposed or melted long before
 DIVERGED_RISE_K = 1e4
 #: absolute zero [°C]: an iterate below it has left physics (the radiation laws take T in kelvin)
-ABSOLUTE_ZERO_C = -273.15
+ABSOLUTE_ZERO_C = -ZERO_C_K
 #: most steps (accepted + rejected) of one transient: the CLI's cost limit (:data:`imutherm.budget.MAX_TIME_STEPS`),
 #: ~6 h at the ~0.2 s a step of a 2e5-unknown mesh takes here; the reference unit settles in ~20-30 adaptive steps
 MAX_STEPS = MAX_TIME_STEPS

@@ -26,6 +26,7 @@ import numpy as np
 
 from imutherm import ConvergenceError, InputError
 from imutherm.thermal.assembly import Assembly, assemble
+from imutherm.thermal.guards import DIVERGED_RISE_K  # a steady rise beyond it is divergence, not physics
 from imutherm.thermal.linear import CG_RTOL, _check_rtol, _choose, _Dirichlet, _initial_field, _LinSolver
 from imutherm.thermal.probes import _probes
 from imutherm.thermal.problem import ThermalProblem
@@ -55,8 +56,6 @@ def _dirichlet_heat_by_face(asm: Assembly, nodes, S_out: np.ndarray, heat: dict)
         heat[owner[n_]] = heat.get(owner[n_], 0.0) + s
 
 
-#: a steady rise beyond this [K] is divergence, not physics (every material here has melted long before)
-DIVERGED_RISE_K = 1e4
 
 
 def _check_diverging(problem, T, amb: float, it: int) -> None:
