@@ -6,8 +6,8 @@ reference unit's (a 10 K first-order rise with a 300 s time constant at 70 °C a
 time per filter-sample (one attitude filter over one motion sample) and its peak resident memory above
 the interpreter's base per motion sample of the longest profile. A line through the wall times of a few
 configurations gives the time per filter-sample and the fixed time per case (the calibration) that
-``imutherm.budget.SECONDS_PER_FILTER_SAMPLE`` and ``SECONDS_PER_CASE`` are rounded up from, the memory
-``BYTES_PER_SAMPLE_STUDY``; each run prints the estimate of :func:`imutherm.budget.check_study_cost` beside.
+``imutherm.studies.cost.SECONDS_PER_FILTER_SAMPLE`` and ``SECONDS_PER_CASE`` are rounded up from, the memory
+``BYTES_PER_SAMPLE_STUDY``; each run prints the estimate of :func:`imutherm.studies.cost.check_study_cost` beside.
 
     python benchmarks/bench_study_imu.py [--profiles flight,swing] [--filters gated,kf,ungated,fusion]
 """
@@ -21,7 +21,7 @@ CHILD = r"""
 import json, resource, sys, time
 import numpy as np
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-from imutherm.budget import check_study_cost
+from imutherm.studies.cost import check_study_cost
 from imutherm.studies.end_to_end import StudyConfig, bare_calibration, imu_case
 cfg = StudyConfig(profiles=tuple(sys.argv[1].split(",")), filters=tuple(sys.argv[2].split(",")), seeds=1)
 t = np.linspace(0.0, 3000.0, 301)
@@ -54,7 +54,7 @@ def main():
     print(f"peak {r['peak'] / 2**20:.0f} MiB, {(r['peak'] - r['base']) / 2**20:.0f} MiB above the imports: "
           f"{(r['peak'] - r['base']) / r['longest_samples']:.0f} bytes per sample of the longest profile "
           f"({r['longest_samples']:,} samples)")
-    print(f"estimate of imutherm.budget.check_study_cost: {r['seconds']:.1f} s")
+    print(f"estimate of imutherm.studies.cost.check_study_cost: {r['seconds']:.1f} s")
 
 
 if __name__ == "__main__":

@@ -6,9 +6,25 @@ from __future__ import annotations
 import argparse
 
 from imutherm import InputError
-from imutherm.budget import add_memory_argument, check_cost, thermal_cost
+from imutherm.budget import check_cost, parse_size, thermal_cost
 
 # the thermal modules are imported where used: commands that take only --out or --jobs do not load them
+
+
+# ------------------------------------------------------------------ memory limit
+def memory_type(text: str) -> int:
+    """argparse ``type`` of ``--max-memory``."""
+    try:
+        return parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_memory_argument(parser) -> None:
+    """``--max-memory SIZE`` (default: the machine's available memory)."""
+    parser.add_argument("--max-memory", type=memory_type, default=None, metavar="SIZE",
+                        help="refuse runs estimated to need more memory than SIZE (e.g. 8G, 500M; "
+                             "default: the memory available now, MemAvailable of /proc/meminfo)")
 
 
 # ------------------------------------------------------------------ layout and mesh

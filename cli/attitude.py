@@ -23,10 +23,10 @@ from __future__ import annotations
 import numpy as np
 
 from imutherm import InputError
-from imutherm.budget import add_memory_argument, check_attitude_cost
+from imutherm.budget import check_attitude_cost
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir, write_json
-from imutherm.cli._options import add_out_argument
+from imutherm.cli._options import add_memory_argument, add_out_argument
 from imutherm.imu.motion import PROFILES
 
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from imutherm import InputError
-from imutherm.budget import check_study_cost, transient_steps
+from imutherm.studies.cost import check_study_cost, transient_steps
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir
 from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,

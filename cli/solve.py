@@ -20,7 +20,8 @@ import math
 import numpy as np
 
 from imutherm import InputError
-from imutherm.budget import MAX_SAVED_FIELDS, transient_steps
+from imutherm.budget import MAX_SAVED_FIELDS
+from imutherm.studies.cost import transient_steps
 from imutherm.cli import run_command
 from imutherm.cli._common import FIELD_FILES, _test_pause, atomic_outdir, check_outdir, write_json
 from imutherm.cli._options import (add_effect_argument, add_fitted_model_argument, add_layout_arguments,

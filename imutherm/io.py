@@ -36,16 +36,23 @@ def plain(obj, *, finite: bool = True):
     return obj
 
 
-def atomic_write(path: str | os.PathLike, write) -> Path:
+def atomic_write(path: str | os.PathLike, write, *, sync: bool = False) -> Path:
     """Replace ``path`` in one step: ``write(tmp)`` fills a temporary file beside it (same folder, so the
     same file system), which is then renamed over ``path``; on any error the temporary file is removed
-    and ``path`` is untouched. Returns ``path``."""
+    and ``path`` is untouched. With ``sync`` the temporary file is fsynced before the rename (the sweep's
+    records, which a resume after a crash reads back). Returns ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
         write(tmp)
+        if sync:
+            fd = os.open(tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from imutherm import InputError
+from imutherm.constants import ZERO_C_K
 from imutherm.textio import read_text
 
 REQUIRED = ("scheme", "ambient_C")
@@ -88,7 +89,7 @@ MAX_LOWEST_RISE_K = 150.0
 
 def _likely_unit(reading: float, ambient_C: float, tol: float) -> str:
     """' (they look like kelvin: ...)' or Fahrenheit, if converting ``reading`` puts it near ``ambient_C``."""
-    for unit, to_c in (("kelvin", lambda v: v - 273.15), ("degF", lambda v: (v - 32.0) / 1.8)):
+    for unit, to_c in (("kelvin", lambda v: v - ZERO_C_K), ("degF", lambda v: (v - 32.0) / 1.8)):
         if abs(to_c(reading) - ambient_C) <= tol:
             return f"; the readings look like {unit} ({reading:g} {unit} = {to_c(reading):.1f} degC): convert them to degC"
     return "; give the readings in degC and the ambient at power-on as ambient_C"

@@ -18,7 +18,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 
-from imutherm.studies.sweep import key_unit
+from imutherm.io import atomic_write
+from imutherm.studies.sweep.keys import key_unit
 
 A4_LANDSCAPE = (11.69, 8.27)
 _UNIT_TEXT = {"degC": "°C", "W/m^2 K": "W/m² K", "kg/m^3": "kg/m³"}
@@ -170,15 +171,11 @@ def _scatter_pages(pdf, result) -> None:
 
 
 def write_sweep_pdf(result, path) -> None:
-    """Write ``sweep.pdf`` from a :class:`~imutherm.studies.sweep.SweepResult` (atomically: temp name, then rename)."""
-    path = os.fspath(path)
-    tmp = path + ".part"
-    try:
+    """Write ``sweep.pdf`` from a :class:`~imutherm.studies.sweep.SweepResult` (atomically: :func:`imutherm.io.atomic_write`)."""
+    def write(tmp):
         with PdfPages(tmp) as pdf:
             _ranking_page(pdf, result)
             _table_page(pdf, result)
             _scatter_pages(pdf, result)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+
+    atomic_write(path, write)

@@ -45,7 +45,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.thermal.model import ModelOptions, build_problem
-from imutherm.thermal.solve import solve_steady
+from imutherm.thermal.steady import solve_steady
 
 PHASES = ("warmup", "steady")
 CALIBRATIONS = ("unit", "bare")

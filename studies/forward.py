@@ -12,9 +12,11 @@ import numpy as np
 from imutherm import InputError
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.effects import ModelVariant, apply_signal_effects, effect_problem
+from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.reduced import lag_field, linearised
-from imutherm.thermal.small_signal import periodic_ambient_field
-from imutherm.thermal.solve import probe_matrix, solve_steady, solve_transient
+from imutherm.thermal.small_signal import periodic_ambient_response
+from imutherm.thermal.steady import solve_steady
+from imutherm.thermal.transient import solve_transient
 
 
 def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol: float | None = None,
@@ -26,7 +28,7 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
     signal : ``signal`` effect settings (probe lag, ambient drift) applied to the readings
     ambient_cycle : (amplitude [K], period [s], phase [rad]) or None: surroundings cycling as
         ``a cos(2 pi t / period + phase)`` around the ambient, added as the unit's periodic response
-        (:func:`periodic_ambient_response`; not a library effect, the generator's out-of-library kind)
+        (:func:`imutherm.thermal.small_signal.periodic_ambient_response`; not a library effect, the generator's out-of-library kind)
 
     Steady: the nonlinear steady solve; transient: adaptive TR-BDF2 with error control on the probes
     (the library default tolerance) to the last finite time; ``rtol``: the CG tolerance of its stage
@@ -65,14 +67,6 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
     if cyc is not None:
         out[fin] += cyc(t[fin])
     return out
-
-
-def periodic_ambient_response(asm, T_C: np.ndarray, grid, probes: dict, period_s: float,
-                              rtol: float = 1e-8) -> np.ndarray:
-    """Complex gain [-] (m,) of each probe to surroundings cycling at ``period_s`` [s]
-    (:func:`~imutherm.thermal.small_signal.periodic_ambient_field` at the probes)."""
-    x = periodic_ambient_field(asm, T_C, period_s, rtol)
-    return probe_matrix(grid, np.array(list(probes.values()))) @ x
 
 
 def switched_rise(before: ModelVariant, after: ModelVariant, t_switch: float, grid, probes: dict, times,

@@ -189,8 +189,8 @@ def build_surrogate(plan, progress=None) -> SweepSurrogate:
     from imutherm.geometry.mesh import build_mesh
     from imutherm.thermal.assembly import assemble
     from imutherm.thermal.effects import ModelVariant, effect_problem, power_part
-    from imutherm.thermal.solve import solve_steady
-    from imutherm.studies.sweep import case_model
+    from imutherm.thermal.steady import solve_steady
+    from imutherm.studies.sweep.plan import case_model
 
     t0 = time.perf_counter()
     say = progress or (lambda s: None)
@@ -227,7 +227,7 @@ def build_surrogate(plan, progress=None) -> SweepSurrogate:
 
 # ------------------------------------------------------------------ evaluate
 def evaluate(sur: SweepSurrogate, row, transient: bool = False, t_end: float = 1200.0) -> dict:
-    """Outputs of one case on the reduced model, named as :func:`imutherm.studies.sweep.case_outputs` names
+    """Outputs of one case on the reduced model, named as :func:`imutherm.studies.sweep.case.case_outputs` names
     them: ``max_rise_K``, ``rise_<site>_K`` [K], with ``transient`` ``t95_s`` [s] of the hottest site (None
     if not settled by ``t_end``)."""
     from imutherm.thermal.metrics import T95_FRACTION, settle_time

@@ -23,7 +23,9 @@ from imutherm.thermal.assembly import assemble
 from imutherm.site_table import ACCEL_SITES, GYRO_SITES
 from imutherm.thermal.effects import EFFECTS, apply_model_effects, apply_signal_effects, effect_problem
 from imutherm.thermal.reduced import lag_field, linearised
-from imutherm.thermal.solve import probe_matrix, solve_steady, solve_transient, time_steps
+from imutherm.thermal.probes import probe_matrix
+from imutherm.thermal.steady import solve_steady
+from imutherm.thermal.transient import solve_transient, time_steps
 
 
 
@@ -112,7 +114,7 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     time_scheme : 'trbdf2' (default: second order, L-stable; error-controlled unless ``dt`` is given)
         or 'theta' (θ-scheme with given steps; 1 backward Euler, 0.5 Crank-Nicolson)
     tol_K : float [K] local error tolerance of the adaptive TR-BDF2 steps on the sites
-        (default 0.01 K, see :func:`imutherm.thermal.solve.solve_transient`)
+        (default 0.01 K, see :func:`imutherm.thermal.transient.solve_transient`)
     dt, dt_max : float [s] given steps: first step ``dt`` growing by 1.2 up to ``dt_max``
         (``dt_max`` None: constant ``dt``); the θ-scheme defaults to 2 s up to 60 s. Without ``dt``
         (TR-BDF2), ``dt_max`` is the largest adaptive step (default 300 s).

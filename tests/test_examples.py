@@ -91,3 +91,30 @@ def test_script_layout_is_a_builtin_or_an_error(monkeypatch, tmp_path):
     with pytest.raises(InputError, match="built-in layouts: .*imu_cardguide"):
         script.main([str(tmp_path / "o")])
     assert not (tmp_path / "o").exists()
+
+
+def test_one_study_script_serves_every_layout(monkeypatch, tmp_path):
+    """studies/study_<layout>.py are imutherm.studies.study with the layout fixed; --layout picks it there."""
+    from imutherm.studies import study
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def fake_run_study(layout, schemes, **kw):
+        seen.append((layout.name, schemes, kw["mesh_size_mm"]))
+        raise Stop
+
+    monkeypatch.setattr(study, "run_study", fake_run_study)
+    calls = [lambda: load_script("study_reference").main([str(tmp_path / "a"), "--mesh-size", "6"]),
+             lambda: load_script("study_cardguide").main([str(tmp_path / "b"), "--mesh-size", "6"]),
+             lambda: study.main([str(tmp_path / "c"), "--mesh-size", "6"]),
+             lambda: study.main([str(tmp_path / "d"), "--layout", "imu_cardguide", "--mesh-size", "6"])]
+    for call in calls:
+        with pytest.raises(Stop):
+            call()
+    assert seen == [(n, ("air", "grease", "potted"), 6.0)
+                    for n in ("imu_reference", "imu_cardguide", "imu_reference", "imu_cardguide")]
+    with pytest.raises(SystemExit):      # the fixed-layout scripts take no --layout
+        load_script("study_reference").main([str(tmp_path / "e"), "--layout", "imu_cardguide"])

@@ -619,7 +619,7 @@ def test_steady_divergence_names_the_power(nonlinear):
 def test_study_cost_counts_the_imu_work():
     """The compare estimate counts what imu_case runs: per (scheme, seed) every profile's samples in both
     phases, for the uncompensated set and each calibration x compensation, through every filter."""
-    from imutherm.budget import SECONDS_PER_CASE, SECONDS_PER_FILTER_SAMPLE, check_study_cost
+    from imutherm.studies.cost import SECONDS_PER_CASE, SECONDS_PER_FILTER_SAMPLE, check_study_cost
     from imutherm.studies.end_to_end import StudyConfig
 
     w = check_study_cost(StudyConfig(), 3, 2, 1e15)
@@ -641,7 +641,7 @@ def no_expensive(no_work, monkeypatch):
     """Besides :func:`no_work`: the s2s view factors, the sweep's cases, correlate's reduced models and its
     time-constant pre-check fail the test if they start (the refusal must come before them)."""
     import imutherm.studies.correlation as corr
-    import imutherm.studies.sweep as sw
+    import imutherm.studies.sweep.run as sw
     import imutherm.thermal.cavity_radiation as cr
 
     monkeypatch.setattr(cr, "view_factors", _fail)

@@ -14,6 +14,7 @@ import pytest
 
 from imutherm.cli import main
 from imutherm.studies import sweep as sweep_mod
+from imutherm.studies.sweep import run as sweep_run
 from imutherm.studies.sweep import plan_sweep, sensitivity
 
 COARSE = ["--mesh-size", "6", "--min-cells", "1", "--no-progress"]
@@ -75,7 +76,7 @@ def reference(tmp_path_factory):
     ("options.emissivity=0.5,1.5", "emissivity must be in [0, 1]"),             # the model options' check
 ])
 def test_bad_set_refused_before_any_case(tmp_path, monkeypatch, capsys, item, expect):
-    monkeypatch.setattr(sweep_mod, "run_case", _no_run)
+    monkeypatch.setattr(sweep_run, "run_case", _no_run)
     out = tmp_path / "s"
     assert main(["sweep", "--scheme", "grease", "--set", item, "--out", str(out), *COARSE]) == 2
     err = capsys.readouterr().err
@@ -84,7 +85,7 @@ def test_bad_set_refused_before_any_case(tmp_path, monkeypatch, capsys, item, ex
 
 
 def test_bad_design_options_refused(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(sweep_mod, "run_case", _no_run)
+    monkeypatch.setattr(sweep_run, "run_case", _no_run)
     out = str(tmp_path / "s")
     cases = [
         (["--set", f"{POWER}=0.4,0.8", "--set", f"{POWER}=1"], "given twice"),
@@ -233,7 +234,7 @@ def test_existing_sweep_needs_resume_and_same_design(reference, tmp_path, monkey
 
     out = tmp_path / "copy"
     shutil.copytree(reference, out)
-    monkeypatch.setattr(sweep_mod, "run_case", _no_run)
+    monkeypatch.setattr(sweep_run, "run_case", _no_run)
     assert main(["sweep", *DESIGN, "--out", str(out), *COARSE]) == 2
     assert "add --resume" in capsys.readouterr().err
     assert main(["sweep", "--scheme", "grease", "--surrogate", "none", "--set", f"{POWER}=0.4,0.8,1.3", "--resume",

@@ -109,12 +109,12 @@ def test_inexact_newton_with_single_precision_amg_matches_direct():
 
 
 def test_amg_public_fallback_gives_the_same_field(monkeypatch):
-    """pyamg's private V-cycle (solve._private_vcycle) is the one use of a pyamg private; without it the
+    """pyamg's private V-cycle (linear._private_vcycle) is the one use of a pyamg private; without it the
     preconditioner falls back to the public ``aspreconditioner``. Forced here: the same field to the
     solver tolerance, steady (inexact Newton) and transient."""
     import pyamg
 
-    from imutherm.thermal import solve as solve_mod
+    from imutherm.thermal import linear as solve_mod
 
     pr = _fine_nonlinear_problem()
     calls = {"private": 0, "public": 0}

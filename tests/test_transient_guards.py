@@ -1,7 +1,7 @@
 """Divergence and step-count guards of the transient (issue 14 §4), and ConvergenceError's exit status.
 
 :func:`imutherm.thermal.guards.check_step` is tested on its own and, once the
-time loops of :mod:`imutherm.thermal.solve` call it, through real runs: a power
+time loops of :mod:`imutherm.thermal.transient` call it, through real runs: a power
 of 1e30 W/m^3 stops at the first step with a message naming the power (before
 the guard the adaptive run stepped on at ~1e-3 s steps, a hang), and an
 error-controlled run whose step stays small stops at the step cap.
@@ -18,8 +18,10 @@ from imutherm.thermal import guards
 from imutherm.thermal.guards import ABSOLUTE_ZERO_C, DIVERGED_RISE_K, check_step
 
 solve_mod = sys.modules.get("imutherm.thermal.solve") or __import__("imutherm.thermal.solve", fromlist=["x"])
-WIRED = hasattr(solve_mod, "check_step")
-needs_wiring = pytest.mark.skipif(not WIRED, reason="thermal/solve.py does not call guards.check_step yet")
+transient_mod = sys.modules.get("imutherm.thermal.transient") or __import__("imutherm.thermal.transient",
+                                                                            fromlist=["x"])
+WIRED = hasattr(transient_mod, "check_step")
+needs_wiring = pytest.mark.skipif(not WIRED, reason="thermal/transient.py does not call guards.check_step yet")
 
 KW = dict(start_C=20.0, t_end=100.0, power_W=2.5)
 
@@ -120,7 +122,7 @@ def test_exploding_power_scale_stops_where_it_explodes():
 def test_adaptive_run_stops_at_the_step_cap(monkeypatch):
     """A power switching every 0.1 s under a 1e-6 K tolerance keeps the step small: with the cap set to
     40 steps the run stops there, naming the count, instead of taking ~1e4 steps to reach t_end."""
-    from imutherm.thermal import solve as S
+    from imutherm.thermal import transient as S
 
     monkeypatch.setattr(S, "MAX_STEPS", 40)
     with pytest.raises(ConvergenceError, match=r"reached the limit of 40 .*t_end = 1000 s"):

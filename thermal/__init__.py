@@ -11,8 +11,11 @@ from imutherm.thermal.output import write_pvd, write_result, write_vtu
 from imutherm.thermal.problem import (SIGMA, Contact, Convection, FixedTemperature, HeatFlux, NaturalConvection,
                                       Radiation, ThermalProblem, contact_layer_conductivity, fields_from_parts,
                                       natural_convection_C, natural_convection_h, radiation_flux)
-from imutherm.thermal.solve import (ConvergenceError, SteadyResult, ThermalResult, TransientResult, probe_matrix,
-                                    solve_steady, solve_transient, time_steps)
+from imutherm import ConvergenceError
+from imutherm.thermal.probes import probe_matrix
+from imutherm.thermal.results import SteadyResult, ThermalResult, TransientResult
+from imutherm.thermal.steady import solve_steady
+from imutherm.thermal.transient import solve_transient, time_steps
 
 __all__ = [
     "Assembly", "assemble", "ThermalMetrics", "settle_time", "thermal_metrics", "write_pvd", "write_result",

@@ -1,6 +1,6 @@
 """Export a linear :class:`ThermalProblem` to CalculiX (``ccx``) and read the result back.
 
-The deck uses the same discretisation as :mod:`imutherm.thermal.solve`:
+The deck uses the same discretisation as :mod:`imutherm.thermal.steady`:
 8-node heat-transfer bricks ``DC3D8`` on the grid nodes (node id = grid node
 index + 1, element id = cell index + 1), one ``*MATERIAL`` per distinct
 (kx, ky, kz, rho_c) with ``*CONDUCTIVITY, TYPE=ORTHO`` (three values in the

@@ -9,7 +9,7 @@ than the run's length calls for, or a power switching faster than any step can
 follow) would take unbounded time. :func:`check_step` stops both with a
 :class:`~imutherm.ConvergenceError` that names the likely cause.
 
-The time loops of :mod:`imutherm.thermal.solve` call it once per accepted
+The time loops of :mod:`imutherm.thermal.transient` call it once per accepted
 step with the new field; it costs a subtraction and two reductions over the
 field (measured 6.7 ms at 2e5 nodes, best of 5, on this machine at load 12,
 against the ~0.2 s a step of that size takes).
@@ -21,12 +21,13 @@ import numpy as np
 
 from imutherm import ConvergenceError
 from imutherm.budget import MAX_TIME_STEPS
+from imutherm.constants import ZERO_C_K
 
 #: a change from the start field beyond this [K] is divergence, not physics: every material of the
 #: package (FR-4 ~400 °C, aluminium ~660 °C, silicon ~1400 °C) has decomposed or melted long before
 DIVERGED_RISE_K = 1e4
 #: absolute zero [°C]: an iterate below it has left physics (the radiation laws take T in kelvin)
-ABSOLUTE_ZERO_C = -273.15
+ABSOLUTE_ZERO_C = -ZERO_C_K
 #: most steps (accepted + rejected) of one transient: the CLI's cost limit (:data:`imutherm.budget.MAX_TIME_STEPS`),
 #: ~6 h at the ~0.2 s a step of a 2e5-unknown mesh takes here; the reference unit settles in ~20-30 adaptive steps
 MAX_STEPS = MAX_TIME_STEPS

@@ -29,13 +29,11 @@ from typing import Callable, Union
 import numpy as np
 
 from imutherm import InputError
-from imutherm.constants import STANDARD_GRAVITY
+from imutherm.constants import STANDARD_GRAVITY, ZERO_C_K  # noqa: F401  (ZERO_C_K re-exported)
 from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 
 #: Stefan–Boltzmann constant [W/m^2 K^4] (CODATA 2018, exact in the 2019 SI).
 SIGMA = 5.670374419e-8
-#: 0 °C in kelvin [K].
-ZERO_C_K = 273.15
 
 #: Laminar natural-convection coefficients C in h = C (|ΔT|/L)^(1/4) [W/m^2 K^1.25 m^0.25]
 #: for air at atmospheric pressure (Holman, *Heat Transfer*, 10th ed., Table 7-2,

@@ -43,7 +43,9 @@ import scipy.sparse.linalg as spla
 from imutherm import InputError
 from imutherm.thermal.assembly import EXCHANGE_FACE, assemble, volume_load
 from imutherm.thermal.effects import ModelVariant, effect_problem
-from imutherm.thermal.solve import amg_preconditioner, probe_matrix, solve_steady
+from imutherm.thermal.linear import amg_preconditioner
+from imutherm.thermal.probes import probe_matrix
+from imutherm.thermal.steady import solve_steady
 
 #: relative CG tolerance of the basis solves
 BASIS_RTOL = 1e-4

@@ -37,7 +37,10 @@ from scipy.integrate import solve_ivp
 from imutherm import InputError
 from imutherm.thermal.metrics import T95_FRACTION, settle_time
 from imutherm.thermal.reduced import linearised, sparse_part
-from imutherm.thermal.solve import SETTLE_FRACTION, TransientResult, amg_preconditioner, probe_matrix
+from imutherm.thermal.linear import amg_preconditioner
+from imutherm.thermal.probes import probe_matrix
+from imutherm.thermal.results import TransientResult
+from imutherm.thermal.transient import SETTLE_FRACTION
 
 #: site error the check accepts [K] (issue 25: every site curve within 0.05 K of the full adaptive FEM)
 CHECK_TOL_K = 0.05

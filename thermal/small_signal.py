@@ -28,7 +28,8 @@ import scipy.sparse.linalg as spla
 
 from imutherm import ConvergenceError, InputError
 from imutherm.thermal.problem import SIGMA, ZERO_C_K
-from imutherm.thermal.solve import amg_preconditioner
+from imutherm.thermal.linear import amg_preconditioner
+from imutherm.thermal.probes import probe_matrix
 
 
 @dataclass(frozen=True)
@@ -156,3 +157,11 @@ def periodic_ambient_field(asm, T_C: np.ndarray, period_s: float, rtol: float = 
         raise ConvergenceError(f"ambient cycle response: GMRES did not converge to rtol {rtol:g} "
                                f"(info {info}; period {period_s:g} s)")
     return x
+
+
+def periodic_ambient_response(asm, T_C: np.ndarray, grid, probes: dict, period_s: float,
+                              rtol: float = 1e-8) -> np.ndarray:
+    """Complex gain [-] (m,) of each probe (dict site -> point [m] on ``grid``) to surroundings cycling at
+    ``period_s`` [s]: :func:`periodic_ambient_field` at the probes."""
+    x = periodic_ambient_field(asm, T_C, period_s, rtol)
+    return probe_matrix(grid, np.array(list(probes.values()))) @ x

@@ -40,7 +40,8 @@ from imutherm.thermal.metrics import T63_FRACTION, settle_time
 from imutherm.thermal.problem import (NATURAL_CONVECTION_C, SIGMA, ZERO_C_K, Convection, FixedTemperature,
                                       NaturalConvection, Radiation, ThermalProblem, contact_layer_conductivity,
                                       natural_convection_h)
-from imutherm.thermal.solve import solve_steady, solve_transient
+from imutherm.thermal.steady import solve_steady
+from imutherm.thermal.transient import solve_transient
 
 
 #: published reference values (quoted in the notes beside the exact solutions the cases compare with)
@@ -547,7 +548,7 @@ def _semi_discrete_exact(problem, points):
     import scipy.linalg as sla
 
     from imutherm.thermal.assembly import assemble
-    from imutherm.thermal.solve import probe_matrix
+    from imutherm.thermal.probes import probe_matrix
 
     asm = assemble(problem)
     L = asm.pattern.csr(asm.K_data + asm.H_data).toarray()
