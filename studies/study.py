@@ -9,9 +9,10 @@ Give it your own layout file (or a built-in name: imu_reference, imu_cardguide) 
 For each cooling scheme (air, grease, potted) it solves the steady field and the power-on
 transient, calibrates the assembled unit in the oven with its own self-heating, and carries
 each sensor's die temperature through the IMU error model, compensation and the attitude
-filters (imutherm.studies.end_to_end.run_study, the same study as `imutherm compare`). It
-writes into the folder summary.json, curves_/residuals_/attitude_<scheme>.csv,
-steady_<scheme>.vtu, maps_<scheme>.npz, layout_<scheme>.png and report.pdf, then prints
+filters (imutherm.studies.end_to_end.run_study, the same study as ``imutherm compare``). It
+writes into the folder ``summary.json``, ``curves_<scheme>.csv``, ``residuals_<scheme>.csv``,
+``attitude_<scheme>.csv``, ``steady_<scheme>.vtu``, ``maps_<scheme>.npz``, ``layout_<scheme>.png``
+and ``report.pdf``, then prints
 the answer: how hot each scheme runs and what that does to the attitude error.
 ``studies/study_reference.py`` and ``studies/study_cardguide.py`` are this script with the layout fixed.
 """
