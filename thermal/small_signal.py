@@ -53,12 +53,15 @@ class Tangent:
     def shape(self) -> tuple:
         return self.S.shape
 
-    def __matmul__(self, v):
-        """``A v`` for a real or complex vector (n,)."""
-        out = self.S @ v
+    def _add_exchanges(self, v, out):
+        """``out += (the exchanges' Jacobian) v``; returns ``out``."""
         for nodes, Pn, J in self.exchanges:
             out[nodes] += Pn.T @ (J @ (Pn @ v[nodes]))
         return out
+
+    def __matmul__(self, v):
+        """``A v`` for a real or complex vector (n,)."""
+        return self._add_exchanges(v, self.S @ v)
 
     def operator(self, shift=None, dtype=float) -> spla.LinearOperator | sp.csr_matrix:
         """``A + shift`` as a sparse matrix when there is no exchange, else as a LinearOperator.
@@ -72,10 +75,7 @@ class Tangent:
 
         def matvec(v):
             v = np.asarray(v).ravel()
-            out = Z @ v
-            for nodes, Pn, J in self.exchanges:
-                out[nodes] += Pn.T @ (J @ (Pn @ v[nodes]))
-            return out
+            return self._add_exchanges(v, Z @ v)
 
         return spla.LinearOperator((n, n), matvec=matvec, dtype=dtype)
 
