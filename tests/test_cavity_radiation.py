@@ -180,6 +180,31 @@ def test_enclosure_energy_balance_and_exchange_matrix():
     assert r0.T_C[block].mean() > r.T_C[block].mean() + 1.0
 
 
+def test_steady_newton_solves_with_the_exchange_coupling(monkeypatch):
+    """The steady Newton step carries the exchange's dense coupling (its symmetric Jacobian, a low-rank
+    product inside CG): the same field as the fixed-point iteration on the diagonal slope alone, to the
+    Newton tolerance, in under half the iterations: the symmetric form is within a few per cent of the
+    exact Jacobian (the T_p^3 spread), so each step contracts the error far more than the diagonal slope's."""
+    from imutherm.thermal import steady
+
+    pb, ex = _heated_box()
+    coupled = solve_steady(pb, tol=1e-12)
+    real = steady._with_exchanges
+    monkeypatch.setattr(steady, "_with_exchanges", lambda A, *a: A)   # the diagonal slope only, as before
+    diagonal = solve_steady(pb, tol=1e-12)
+    monkeypatch.setattr(steady, "_with_exchanges", real)
+    rise = coupled.T_C.max() - pb.ambient_C
+    assert np.abs(coupled.T_C - diagonal.T_C).max() < 1e-9 * rise
+    # measured: 9 against 24 iterations to 1e-12 (6 against 16 at the default 1e-8)
+    assert 2 * coupled.newton_iterations <= diagonal.newton_iterations
+    s, D = ex.symmetric_jacobian(coupled.T_C[ex.nodes])
+    v = np.random.default_rng(0).normal(size=len(ex.nodes))
+    J_exact = ex.PnT @ (ex.X @ (s**2 * (ex.Pn @ v)))          # the exact Jacobian Pn^T X diag(4 sigma T^3) Pn
+    J_sym = ex.PnT @ (s * (ex.X @ (s * (ex.Pn @ v))))
+    assert np.linalg.norm(J_sym - J_exact) < 0.05 * np.linalg.norm(J_exact)
+    assert np.all(D >= 0)
+
+
 def test_single_emissivity_exchange_of_two_patches():
     """Two facing patches that see only each other (F12 = 1): X12 = -A / (1/e1 + 1/e2 - 1)."""
     F = np.array([[0.0, 1.0], [1.0, 0.0]])

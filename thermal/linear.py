@@ -118,20 +118,22 @@ class _LinSolver:
         x, info = spla.cg(A, b, x0=x0, rtol=rtol, atol=0.0, maxiter=self.maxiter, M=self.pc, callback=cb)
         return x, info, its[0]
 
-    def solve(self, A, b, x0=None, rtol=None):
+    def solve(self, A, b, x0=None, rtol=None, pc_matrix=None):
         """Return (x, iterations, relative residual).
 
         ``rtol`` overrides the solver's tolerance for this solve only (e.g. a loose
         error-estimate solve); such solves do not set the iteration baseline that
-        triggers a preconditioner rebuild.
+        triggers a preconditioner rebuild. ``pc_matrix``: the sparse matrix the
+        preconditioner is built from when ``A`` is an operator (a LinearOperator).
         """
         if rtol is not None:
             return self._solve_loose(A, b, rtol)
         bn = np.linalg.norm(b)
         if bn == 0.0:
             return np.zeros_like(b), 0, 0.0
+        P = A if pc_matrix is None else pc_matrix
         if self.pc is None:
-            self.prepare(A)
+            self.prepare(P)
         if x0 is not None:
             # best multiple of the predictor (one matvec), dropped if it does not beat zero
             w = A @ x0
@@ -147,17 +149,17 @@ class _LinSolver:
         else:
             x, info, its = self._cg(A, b, x0)
             slow = self.base_its is not None and its > 2 * self.base_its + 10
-            if self.method == "direct" and its > 10:
+            if self.method == "direct" and its > 10 and pc_matrix is None:
                 slow = True
             if info != 0 or slow:
-                self.prepare(A)
-                if self.method == "direct":
+                self.prepare(P)
+                if self.method == "direct" and pc_matrix is None:
                     x, its = self.lu.solve(b), its + 1
                 else:
                     x, info, its2 = self._cg(A, b, x0)
                     its += its2
                     if info != 0:
-                        raise ConvergenceError(f"AMG-preconditioned CG did not reach rtol={self.rtol:g} "
+                        raise ConvergenceError(f"preconditioned CG did not reach rtol={self.rtol:g} "
                                                f"in {self.maxiter} iterations (info={info})")
                     self.base_its = its2
             elif self.base_its is None:

@@ -7,7 +7,9 @@ Radiation) use nodal (lumped) face quadrature, so their Jacobian is diagonal.
 
 :func:`solve_steady` runs Newton's method on ``(K + H) T + N(T) = F`` with a
 backtracking line search; the natural-convection slope is floored at ΔT → 0 (see
-:meth:`~imutherm.thermal.problem.NaturalConvection.flux_out`). A linear
+:meth:`~imutherm.thermal.problem.NaturalConvection.flux_out`). A surface-to-surface cavity
+exchange enters each Newton step with its dense coupling (a low-rank product inside CG, see
+:mod:`imutherm.thermal.cavity_radiation`), not only its diagonal slope. A linear
 problem takes one solve. Non-convergence raises :class:`ConvergenceError`.
 
 Linear solves (:mod:`imutherm.thermal.linear`): sparse LU below ``DIRECT_LIMIT`` unknowns, else CG
@@ -23,9 +25,11 @@ import math
 import time
 
 import numpy as np
+import scipy.sparse.linalg as spla
 
 from imutherm import ConvergenceError, InputError
 from imutherm.thermal.assembly import Assembly, assemble
+from imutherm.thermal.cavity_radiation import CavityExchange
 from imutherm.thermal.guards import DIVERGED_RISE_K  # a steady rise beyond it is divergence, not physics
 from imutherm.thermal.linear import CG_RTOL, _check_rtol, _choose, _Dirichlet, _initial_field, _LinSolver
 from imutherm.thermal.probes import _probes
@@ -153,6 +157,7 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
     base = D.eliminate(L.data)
     r, N, J = residual(T)
     A = asm.pattern.csr(base)
+    exchanges = [bc.law for bc in asm.nonlinear if isinstance(bc.law, CavityExchange)]
     lin_its = 0
     it = 0
     for it in range(1, max_iter + 1):
@@ -160,7 +165,10 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
             data = base.copy()
             data[D.free_diag] += J[free]
             A = asm.pattern.csr(data)
-        dT, its, _ = lin.solve(A, -r)
+        if exchanges:   # the exchange's coupling itself, not its diagonal slope (cavity_radiation's docstring)
+            dT, its, _ = lin.solve(_with_exchanges(A, exchanges, T, D.mask), -r, pc_matrix=A)
+        else:
+            dT, its, _ = lin.solve(A, -r)
         lin_its += its
         if not nonlinear:
             T += dT
@@ -185,6 +193,28 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
     raise ConvergenceError(f"solve_steady: Newton did not converge in {max_iter} iterations "
                            f"(last max|ΔT| = {change:.3g} K, residual norm {np.linalg.norm(r):.3g} W); "
                            f"raise max_iter or check the boundary laws")
+
+
+def _with_exchanges(A, exchanges, T, fixed) -> spla.LinearOperator:
+    """The Newton matrix ``A`` (sparse, each exchange's diagonal slope in it) with each surface-to-surface
+    exchange's symmetric Jacobian at ``T`` [°C] in place of that slope, as an SPD operator for CG
+    (fixed-temperature nodes, ``fixed`` True, keep their identity rows)."""
+    terms = []
+    for law in exchanges:
+        s, D = law.symmetric_jacobian(T[law.nodes])
+        terms.append((law, s, D))
+
+    def matvec(v):
+        v = np.ravel(v)
+        out = A @ v
+        w = np.where(fixed, 0.0, v)
+        for law, s, D in terms:
+            u = w[law.nodes]
+            out[law.nodes] += law.PnT @ (s * (law.X @ (s * (law.Pn @ u)))) - D * u
+        out[fixed] = v[fixed]
+        return out
+
+    return spla.LinearOperator(A.shape, matvec=matvec, dtype=float)
 
 
 def _steady_balance(asm: Assembly, T, dnodes, F, LT, N):
