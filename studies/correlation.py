@@ -692,25 +692,33 @@ PRECHECK_MESH_MM = 6.0
 
 
 def model_t63_s(layout: LayoutSpec, scheme: str, amb: float, sites, mesh_size_mm: float, min_cells: int,
-                options: ModelOptions) -> dict:
+                options: ModelOptions, use_cache: bool = True) -> dict:
     """Nominal t63 [s] of ``sites`` of one (scheme, ambient [degC]): a reduced model without knobs (one
-    nonlinear steady solve and the nominal Krylov basis: a small part of a full build), rise to 2e4 s."""
+    nonlinear steady solve and the nominal Krylov basis: a small part of a full build), rise to 2e4 s.
+    Kept in the disk cache (:mod:`imutherm.cache`) under the key of everything it depends on."""
     from dataclasses import replace
+
+    from imutherm.cache import cached
     lay = replace(layout, ambient_C=amb, mounting=replace(layout.mounting, temperature_C=amb))
     geo = build_geometry(lay, scheme)
-    grid = build_mesh(geo, mesh_size_mm, min_cells)
-    rom = build_reduced(lambda v: K.variant(geo, options, v), grid, [], {s: geo.sites[s] for s in sites})
-    fine = np.geomspace(1.0, 2.0e4, 400)
-    curves = rom.rise({}, fine)
-    out = {}
-    for j, s in enumerate(rom.site_names):
-        fin = curves[-1, j]
-        out[s] = float(np.interp(0.632 * fin, curves[:, j], fine)) if fin > 0 else math.nan
-    return out
+    probes = {s: geo.sites[s] for s in sites}
+
+    def build():
+        grid = build_mesh(geo, mesh_size_mm, min_cells)
+        rom = build_reduced(lambda v: K.variant(geo, options, v), grid, [], probes)
+        fine = np.geomspace(1.0, 2.0e4, 400)
+        curves = rom.rise({}, fine)
+        out = {}
+        for j, s in enumerate(rom.site_names):
+            fin = curves[-1, j]
+            out[s] = float(np.interp(0.632 * fin, curves[:, j], fine)) if fin > 0 else math.nan
+        return out
+    parts = (replace(lay, path=""), scheme, float(amb), float(mesh_size_mm), int(min_cells), options, probes)
+    return cached("model_t63", parts, build, use_cache=use_cache)[0]
 
 
 def check_inputs(runs, layout: LayoutSpec, holdout: str | None, *, mesh_size_mm: float, min_cells: int,
-                 options: ModelOptions, say=None) -> None:
+                 options: ModelOptions, say=None, use_cache: bool = True) -> None:
     """Everything about the measured files that can be refused before the reduced models are built:
     a ``holdout`` naming no file, and a file without a steady row that ends before
     :data:`PRECHECK_T63_FRACTION` of its slowest site's t63 (:func:`model_t63_s` on a mesh of at least
@@ -727,7 +735,7 @@ def check_inputs(runs, layout: LayoutSpec, holdout: str | None, *, mesh_size_mm:
                 say(f"time constants of {run.scheme} at {run.ambient_C:g} C (a reduced model without knobs)")
             sites = sorted({s for r in runs if (r.scheme, r.ambient_C) == key for s in r.sites})
             t63[key] = model_t63_s(layout, run.scheme, run.ambient_C, sites, max(mesh_size_mm, PRECHECK_MESH_MM),
-                                   1, options)
+                                   1, options, use_cache=use_cache)
         slowest = max(t63[key][s] for s in run.sites)
         last = float(run.times_s.max())
         if last < PRECHECK_T63_FRACTION * slowest:
@@ -1129,7 +1137,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         layout = load_layout(layout)
     options = options or ModelOptions()
     if models is None:
-        check_inputs(runs, layout, holdout, mesh_size_mm=mesh_size_mm, min_cells=min_cells, options=options, say=say)
+        check_inputs(runs, layout, holdout, mesh_size_mm=mesh_size_mm, min_cells=min_cells, options=options, say=say,
+                     use_cache=use_cache)
         models = build_models(sorted({(r.scheme, r.ambient_C) for r in runs}), layout, mesh_size_mm=mesh_size_mm,
                               min_cells=min_cells, options=options, jobs=jobs, progress=say, use_cache=use_cache)
     missing = sorted({(r.scheme, r.ambient_C) for r in runs} - set(models.roms))

@@ -134,3 +134,25 @@ def test_the_correlation_keeps_its_reduced_models(folder, monkeypatch):
     assert len(calls) == 5
     C.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1, use_cache=False)
     assert len(calls) == 6
+
+
+def test_the_time_constant_precheck_is_kept(folder, monkeypatch):
+    """correlate's pre-check (a knobless reduced model per scheme) is read back on the next run of the same
+    unit, and a changed input (the ambient) computes it again."""
+    from imutherm.geometry.layout import load_layout
+    from imutherm.studies import correlation as C
+
+    calls = []
+    real = C.build_reduced
+
+    def counting(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+    monkeypatch.setattr(C, "build_reduced", counting)
+    lay = load_layout(None)
+    first = C.model_t63_s(lay, "potted", 70.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
+    again = C.model_t63_s(lay, "potted", 70.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
+    assert len(calls) == 1 and first == again and 10.0 < first["tp1"] < 1e4
+    C.model_t63_s(lay, "potted", 25.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
+    C.model_t63_s(lay, "potted", 70.0, ["tp1"], 14.0, 1, ModelOptions(), use_cache=False)
+    assert len(calls) == 3

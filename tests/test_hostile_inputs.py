@@ -743,7 +743,7 @@ def test_correlate_short_file_refused_before_the_build(out, tmp_path, capsys, no
 
     seen = []
 
-    def t63(layout, scheme, amb, sites, mesh, min_cells, options):
+    def t63(layout, scheme, amb, sites, mesh, min_cells, options, use_cache=True):
         seen.append((scheme, amb, mesh))
         return {s: 100.0 for s in sites}
 
