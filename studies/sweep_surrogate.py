@@ -136,6 +136,19 @@ class SweepSurrogate:
     build_s: float
 
 
+def _powered_nodes(grid, geometry, knobs=()) -> np.ndarray:
+    """Every node of the powered parts (and of the parts a power knob heats) [-]: where the largest steady
+    rise is (the field has no maximum where there is no source, so it lies in the closure of the parts
+    that dissipate)."""
+    from imutherm.thermal.effects import power_part
+    conn = grid.hex_connectivity()
+    cells = np.asarray(grid.cell_part).ravel()
+    names = {p.name for p in geometry.parts if p.power_W} | {power_part(geometry, k.part).name for k in knobs
+                                                             if k.part is not None}
+    ids = [grid.part_names.index(n) for n in sorted(names) if n in grid.part_names]
+    return np.unique(conn[np.isin(cells, ids)])
+
+
 def _hot_spots(grid, geometry, T_C) -> dict:
     """``hot@<part>`` -> the coordinates [m] of the hottest node of each powered part in the field ``T_C``."""
     conn = grid.hex_connectivity()
@@ -221,7 +234,8 @@ def build_surrogate(plan, progress=None) -> SweepSurrogate:
     say(f"reduced model: building ({len(knobs)} knobs{', pairs ' + str(pairs) if pairs else ''})")
     probes = dict(geometry.sites)
     probes.update(hot)
-    rom = build_reduced(variant_fn, grid, knobs, probes, pairs=pairs, load_directions=True)
+    rom = build_reduced(variant_fn, grid, knobs, probes, pairs=pairs, load_directions=True,
+                        max_nodes=_powered_nodes(grid, geometry, knobs))
     return SweepSurrogate(rom, knobs, base_power, tuple(geometry.sites), pairs, time.perf_counter() - t0)
 
 
@@ -238,7 +252,7 @@ def evaluate(sur: SweepSurrogate, row, transient: bool = False, t_end: float = 1
     x = np.linalg.solve(A, b)
     rise = rom.P @ x
     m = len(sur.sites)
-    out = {"max_rise_K": float(rise.max())}
+    out = {"max_rise_K": rom.max_rise(x)}
     if transient:
         j = int(np.argmax(rise[:m]))
         t = _T_GRID * t_end
