@@ -32,6 +32,7 @@ power, ...) and asks for site curves at a few times. Here:
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -268,19 +269,35 @@ class ReducedModel:
             elif name not in joint:
                 T = self._cheb_row(name, v)
                 dA, dc = self.cheb[name]
-                A += np.tensordot(T, dA, axes=1)
+                A += (T @ dA.reshape(len(T), -1)).reshape(A.shape)
                 c += T @ dc
         return A, c, scale * b + extra
 
     def _cheb_row(self, name: str, v: float) -> np.ndarray:
+        """T_0(u) .. T_{N-1}(u) at the knob's coordinate u of ``v`` (the recurrence of ``chebvander``)."""
         k = self.knobs[name]
-        u = float(np.clip(k.to_u(v), -1.0, 1.0))
-        return np.polynomial.chebyshev.chebvander(np.array([u]), k.nodes - 1)[0]
+        u = min(max(float(k.to_u(v)), -1.0), 1.0)
+        T = [1.0, u]
+        for _ in range(2, k.nodes):
+            T.append(2.0 * u * T[-1] - T[-2])
+        return np.array(T[:k.nodes])
+
+    @functools.cached_property
+    def _M_chol_inv(self) -> np.ndarray:
+        """L^-1 of the heat capacity's Cholesky factor M = L L^T: the modes of (A, M) from a standard
+        symmetric eigenproblem of L^-1 A L^-T (cheaper than the generalized one, the same modes)."""
+        return sla.solve_triangular(np.linalg.cholesky(self.M), np.eye(len(self.M)), lower=True)
+
+    def modes(self, A: np.ndarray) -> tuple:
+        """(λ [1/s], Φ): A Φ = M Φ diag(λ), Φ^T M Φ = I, for the symmetric part of A."""
+        Li = self._M_chol_inv
+        lam, Q = np.linalg.eigh(Li @ (0.5 * (A + A.T)) @ Li.T)
+        return lam, Li.T @ Q
 
     def rise(self, values: dict, times, drift_K_s: float = 0.0) -> np.ndarray:
         """Site rises [K] (len(times), m) after power-on at t = 0 (time inf: steady, no drift)."""
         A, c, b = self.operators(values)
-        lam, Phi = sla.eigh(0.5 * (A + A.T), self.M)
+        lam, Phi = self.modes(A)
         lam = np.maximum(lam, 1e-12)
         g0 = Phi.T @ b
         g1 = drift_K_s * (Phi.T @ c)
