@@ -103,7 +103,7 @@ def run(args) -> int:
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.measured import read_measured
-    from imutherm.thermal.effects import list_effects
+    from imutherm.unit.effects import list_effects
     if args.list_effects:
         print(list_effects())
         from imutherm.studies.correlation import FORM_RETUNE

@@ -25,7 +25,7 @@ from imutherm.geometry.materials import get_material, with_properties
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, grid_shape
 from imutherm.studies.sweep.case import attitude_columns
 from imutherm.studies.sweep.keys import _split_set, _tidy, _unknown_key, parse_values, valid_keys
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.model import ModelOptions
 
 try:  # Python >= 3.11
     import tomllib
