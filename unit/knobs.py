@@ -14,8 +14,8 @@ from dataclasses import replace
 from imutherm import InputError
 from imutherm.geometry.build import Geometry
 from imutherm.geometry.materials import with_properties
-from imutherm.unit.effects import (EFFECTS, ModelVariant, apply_model_effects, candidate_names, effect_of,
-                                      power_part, setting)
+from imutherm.unit.effects import (CONTACT_NODES, EFFECTS, S2S_EMISSIVITY_NODES, ModelVariant,  # noqa: F401
+                                   apply_model_effects, candidate_names, effect_of, power_part, setting)
 from imutherm.unit.model import ModelOptions
 from imutherm.thermal.reduced import Knob
 
@@ -60,9 +60,6 @@ RETUNE_NOMINAL = {"power_scale": 1.0, "convection_scale": 1.0}
 #: contact made the summed reduced operator indefinite)
 COUPLED = (("k_board_W_mK", "contact@board"), ("k_board_W_mK", "contact@standoff"))
 
-#: Chebyshev nodes of the knobs whose law is not linear in the parameter (contacts: series resistance)
-CONTACT_NODES = 6
-
 
 def nominal_values(geometry: Geometry, options: ModelOptions | None = None) -> dict:
     """The re-tune knobs' nominal values for a unit, read from its layout and materials.
@@ -91,10 +88,6 @@ def nominal_values(geometry: Geometry, options: ModelOptions | None = None) -> d
             "emissivity_ext": float(eps), "k_board_W_mK": float(k)}
 
 
-#: Chebyshev nodes of ``cavity_emissivity`` under the s2s cavity law: the radiosity exchange is nearly linear in
-#: the pair emissivity, not exactly (reference unit, 6 mm mesh: the exchange matrix X interpolated over
-#: 0.02..0.9 from 2 / 3 / 4 / 5 nodes is off by 4.4 % / 0.3 % / 0.03 % / 0.005 % of its norm)
-S2S_EMISSIVITY_NODES = 4
 
 
 def effect_knob(name: str, options: ModelOptions | None = None, min_power_W: float | None = None) -> Knob:
@@ -106,14 +99,8 @@ def effect_knob(name: str, options: ModelOptions | None = None, min_power_W: flo
     if e.kind != "model" or len(e.params) != 1:
         raise InputError(f"effect {name!r} is not a one-parameter model effect")
     p = e.params[0]
-    if e.name == "power":
-        lo = p.lo if min_power_W is None else max(p.lo, -float(min_power_W))
-        return Knob(name, p.unit, lo, p.hi, part=name.split("@", 1)[1])
-    if e.name == "contact":
-        return Knob(name, p.unit, p.lo, p.hi, log=True, nodes=CONTACT_NODES)
-    if e.name == "cavity_emissivity" and options is not None and options.cavity_radiation \
-            and options.cavity_law == "s2s":
-        return Knob(name, p.unit, p.lo, p.hi, nodes=S2S_EMISSIVITY_NODES)
+    if e.knob is not None:  # declared with the effect in imutherm.unit.effects
+        return e.knob(name, p, options, min_power_W)
     return Knob(name, p.unit, p.lo, p.hi, nodes=2)  # linear in the parameter
 
 
