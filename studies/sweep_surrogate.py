@@ -140,7 +140,7 @@ def _powered_nodes(grid, geometry, knobs=()) -> np.ndarray:
     """Every node of the powered parts (and of the parts a power knob heats) [-]: where the largest steady
     rise is (the field has no maximum where there is no source, so it lies in the closure of the parts
     that dissipate)."""
-    from imutherm.thermal.effects import power_part
+    from imutherm.unit.effects import power_part
     conn = grid.hex_connectivity()
     cells = np.asarray(grid.cell_part).ravel()
     names = {p.name for p in geometry.parts if p.power_W} | {power_part(geometry, k.part).name for k in knobs
