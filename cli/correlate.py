@@ -44,7 +44,7 @@ def add_args(parser) -> None:
                              "'discrepancy' when the model's form is off and no effect explains it. Default: used "
                              "only where the library's effects leave held-out data more than 2 noise sigmas off; "
                              "--discrepancy always, --no-discrepancy never; not fitted on sparse files "
-                             "(README, correlation)")
+                             "(docs: correlation.md)")
     parser.add_argument("--max-effects", type=int, default=None, metavar="N",
                         help="forward selection names at most N library effects (default 3; 1: one effect)")
     parser.add_argument("--cavity-emissivity-as-effect", action="store_true",

@@ -221,7 +221,7 @@ def _residuals(fwd: _Forward, values: dict, mask: dict) -> np.ndarray:
 
 #: starting value of the discrepancy's prior scale [-] (fraction of each site's nominal rise), before the data
 #: estimate it (:meth:`Discrepancy.profile`, type-II maximum likelihood per fit). From physics: two independent
-#: models of one unit differ by 12-20 % of the rise before any effect (issue 22: cavity-radiation law and grid)
+#: models of one unit differ by 12-20 % of the rise before any effect (the cavity-radiation law and the grid)
 #: and the paper's own FEM was 20 % under its measurement, but the re-tune takes the common part: what that
 #: campaign's re-tune left was 2-12 % per site and scheme, so a typical form error of 5 %. A fixed 5 % (before)
 #: let the term take real effects on data of the model's own form (a 0.35 W regulator error came out
@@ -813,7 +813,7 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
         elif k in K.RETUNE_SOURCES or K.applicable(k, geo):
             model_vals[k] = v
     model_vals["power_scale"] = values.get("power_scale", 1.0) * run.power_scale
-    # the study's CG tolerance: the same t95 to 0.1 s as 1e-6, 18 % fewer iterations (README, issue 10)
+    # the study's CG tolerance: the same t95 to 0.1 s as 1e-6, 18 % fewer iterations (see STUDY_CG_RTOL)
     from imutherm.studies.thermal_study import STUDY_CG_RTOL
     probes = {s: geo.sites[s] for s in run.sites}
 
@@ -1117,7 +1117,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         False: never. The term is not fitted on sparse files.
     max_effects : forward selection names at most this many library effects (1: one effect, as before)
     form_retune : re-tune the form knobs (:data:`FORM_RETUNE`: the cavity's emissivity) beside the others
-        instead of offering them as candidate effects (default); False: candidates, as before issue 22
+        instead of offering them as candidate effects (default); False: offered as candidates (``--cavity-emissivity-as-effect``)
     candidates : names to consider (default: every effect applicable to at least one run's scheme)
     rerun : re-run the corrected model on the full FEM (:func:`rerun_full`) for the after figures
     jobs : worker processes for the reduced models' builds, the candidates' fits and the re-runs

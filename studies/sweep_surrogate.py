@@ -35,9 +35,9 @@ from imutherm.thermal.reduced import Knob, SparsePlusLowRank, build_reduced, lin
 SURROGATES = ("auto", "reduced", "none")
 #: default number of cases re-run on the full FEM
 VERIFY_DEFAULT = 5
-#: largest site / hot-spot error [K] a verified case may show (issue 25: checked cases within 0.1 K)
+#: largest site / hot-spot error [K] a verified case may show (the sweep's accuracy target: checked cases within 0.1 K)
 VERIFY_TOL_K = 0.1
-#: largest relative t95 error of a verified case with the transient (issue 25's 1 % for the study's t95)
+#: largest relative t95 error of a verified case with the transient (the study's t95 target, 1 %)
 VERIFY_T95_REL = 0.01
 #: relative size of a non-additive part of two knobs' operator changes that makes them a coupled pair
 ADDITIVE_RTOL = 1e-8

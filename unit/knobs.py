@@ -40,8 +40,8 @@ RETUNE_SOURCES = {k.name: src for k, src in RETUNE}
 #: effect knobs the re-tune carries as uncertain parameters (fitted beside :data:`RETUNE`,
 #: never named as a missing effect), with the reason their value is not known well enough to name a change:
 #: the cavity's radiation is known only as well as its law's form. Our two verified laws differ by 40 % of the
-#: air-scheme rise at one emissivity (tp1 16.9 K effective, 24.1 K s2s: README), an independent finite-volume
-#: model of the unit (issue 22) lies between them, and the paper states neither the inside finish of the
+#: air-scheme rise at one emissivity (tp1 16.9 K effective, 24.1 K s2s: the thermal solver reference of the docs), an independent
+#: finite-volume model of the unit, made outside this package, lies between them, and the paper states neither the inside finish of the
 #: housing (bare 0.05 .. anodised 0.84, Incropera Table A.11) nor the boards' solder mask. A change of it
 #: is what a model-form mismatch looks like (last campaign: named 7 times, right once), so, as in spacecraft
 #: thermal correlation practice, where internal emissivities are correlation parameters, it is re-tuned over
