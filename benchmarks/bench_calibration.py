@@ -8,7 +8,7 @@ thermal-misalignment scale (1 = the grade's estimate, 2e-3 °/K per element; the
 test data are identical across cases of a seed), and evaluates on a new power-on at random temperatures,
 orientations and rates. Printed: the accelerometer max residual [mg] and gyro max residual [°/s] for
 uncompensated / conventional / improved, mean and range over the seeds.
-Paper (seed 000): conventional 30 mg, improved 5 mg.
+Paper (Liu et al. 2012): conventional 30 mg, improved 5 mg.
 """
 
 from __future__ import annotations

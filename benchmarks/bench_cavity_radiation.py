@@ -27,7 +27,7 @@ from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
 from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM, DEFAULT_RAYS
 from imutherm.thermal.metrics import thermal_metrics
-from imutherm.thermal.model import ModelOptions, build_problem
+from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.solve import solve_steady, solve_transient
 
 SITES = ("tp1", "gyro_x", "gyro_y", "gyro_z")

@@ -29,7 +29,7 @@ from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
 from imutherm.studies.fixture import fixture_response, t95
 from imutherm.thermal.assembly import assemble
-from imutherm.thermal.model import ModelOptions, build_problem
+from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.solve import solve_steady, solve_transient
 
 RHO_C_AL = 2700.0 * 896.0          # [J/m^3 K]

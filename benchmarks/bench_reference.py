@@ -30,7 +30,7 @@ def one_scheme(scheme: str, mesh_mm: float, min_cells: int, transient: bool, ccx
     from imutherm.geometry.mesh import build_mesh
     from imutherm.thermal.assembly import assemble
     from imutherm.thermal.metrics import thermal_metrics
-    from imutherm.thermal.model import ModelOptions, build_problem
+    from imutherm.unit.model import ModelOptions, build_problem
     from imutherm.thermal.solve import solve_steady, solve_transient, time_steps
 
     g = build_geometry(None, scheme)

@@ -30,7 +30,7 @@ from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build
 from imutherm.studies.thermal_study import STUDY_CG_RTOL
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.metrics import T63_FRACTION, T95_FRACTION, settle_time
-from imutherm.thermal.model import ModelOptions, build_problem
+from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.solve import solve_steady, solve_transient, time_steps
 
 TARGET = 0.02

@@ -28,7 +28,7 @@ TIME_OPTIONS = ("--t-end", "--time-tol", "--dt", "--dt-max", "--theta")
 
 
 def _signal_effects(args) -> bool:
-    from imutherm.thermal.effects import EFFECTS
+    from imutherm.unit.effects import EFFECTS
 
     names = [str(e).partition(":")[0].partition("@")[0].strip() for e in args.effect]
     return any(n in EFFECTS and EFFECTS[n].kind == "signal" for n in names)

@@ -66,7 +66,7 @@ def check_cavity_cost(geometry, args, what: str, other_bytes: float = 0.0, worke
     print the exchange's estimate and refuse it (:func:`imutherm.budget.check_s2s_cost`) beyond its time
     limit or, ``workers`` at once beside ``other_bytes``, beyond ``--max-memory``. Returns the patch count."""
     from imutherm.budget import check_s2s_cost, fmt_bytes
-    from imutherm.thermal.model import s2s_patches
+    from imutherm.unit.model import s2s_patches
 
     options = model_options(args)
     n = s2s_patches(geometry, options, args.mesh_size, args.min_cells)
@@ -80,7 +80,7 @@ def check_cavity_cost(geometry, args, what: str, other_bytes: float = 0.0, worke
 
 # ------------------------------------------------------------------ the physical model
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
-    """Switches of the physical model (see ``imutherm.thermal.model.ModelOptions``)."""
+    """Switches of the physical model (see ``imutherm.unit.model.ModelOptions``)."""
     g = parser.add_argument_group("model")
     g.add_argument("--exterior", choices=("natural", "fixed", "none"), default="natural",
                    help="exterior convection: face-orientation natural convection (default), fixed h, or none")
@@ -91,7 +91,7 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
                    help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
     from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM
-    from imutherm.thermal.model import CAVITY_LAWS
+    from imutherm.unit.model import CAVITY_LAWS
     g.add_argument("--cavity-law", choices=CAVITY_LAWS, default="s2s",
                    help="radiation inside the cavity: s2s (default: surface-to-surface exchange, view factors and "
                         "radiosity), effective (an effective conductivity of the air: faster, but it runs the air "
@@ -101,8 +101,8 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def model_options(args):
-    """The :class:`imutherm.thermal.model.ModelOptions` of the options of :func:`add_model_arguments`."""
-    from imutherm.thermal.model import ModelOptions
+    """The :class:`imutherm.unit.model.ModelOptions` of the options of :func:`add_model_arguments`."""
+    from imutherm.unit.model import ModelOptions
 
     return ModelOptions(exterior=args.exterior, h_fixed_W_m2K=args.h, radiation=not args.no_radiation,
                         emissivity=args.emissivity, mounting_conductance_W_m2K=args.mount_conductance,
@@ -125,7 +125,7 @@ def run_inputs(args) -> tuple:
     command line is refused (the fitted values belong to those laws). Without LAYOUT, the model's layout.
     """
     from imutherm.geometry.layout import load_layout
-    from imutherm.thermal.model import ModelOptions
+    from imutherm.unit.model import ModelOptions
 
     cli = model_options(args)
     if getattr(args, "model", None) is None:
@@ -146,7 +146,7 @@ def run_inputs(args) -> tuple:
 
 
 def add_effect_argument(parser: argparse.ArgumentParser) -> None:
-    """``--effect``: candidate effects of :mod:`imutherm.thermal.effects` switched on."""
+    """``--effect``: candidate effects of :mod:`imutherm.unit.effects` switched on."""
     parser.add_argument("--effect", action="append", default=[], metavar="NAME[@TARGET]:PARAM=VALUE",
                         help="switch on a candidate effect of the correlation library (repeatable; "
                              "`--list-effects` lists them), e.g. contact@bond:h_W_m2K=500")

@@ -5,8 +5,8 @@
 Outputs in ``--out DIR``:
 
 * ``attitude.json``: ``filters.<name>.<segment>.<metric>`` for names ``gated``
-  (seed 000), ``kf`` (seed 003), ``ungated`` (complementary baseline),
-  ``fusion`` (imufusion peer), ``aekf`` / ``aekf_gnss`` (seed 001's adaptive
+  (Liu et al. 2012), ``kf`` (the horizontal-attitude KF paper), ``ungated`` (complementary baseline),
+  ``fusion`` (imufusion peer), ``aekf`` / ``aekf_gnss`` (Wang et al.'s adaptive
   EKF without / with simulated GNSS velocity, ``--gnss-rate``, ``--gnss-vel-std``;
   these two also carry ``heading`` ``{rms_deg, max_deg}``); segments ``overall``, ``stable``, ``manoeuvre``;
   metrics ``roll_rms_deg``, ``pitch_rms_deg``, ``roll_max_deg``,

@@ -11,17 +11,17 @@ Outputs in ``--out DIR``:
   and the drawn ``unit`` truth.
 * ``calibration_residuals.png``: residual vs temperature for the three cases.
 
-``--procedure roll-coupling`` (seed 001, :mod:`imutherm.imu.roll_coupling`) writes
+``--procedure roll-coupling`` (Wang et al., :mod:`imutherm.imu.roll_coupling`) writes
 ``roll_coupling.json`` instead: gyro RMSE over 29 test roll rates after the
 least-squares rate-table calibration alone (``linear``) and with the high-rate
 roll coupling compensated by a cubic (``poly``) or a 30-node network (``mlp``),
-beside seed 001's figures, the fitted and true coefficients.
+beside Wang et al.'s figures, the fitted and true coefficients.
 
-``--procedure overload`` (seed 004, :mod:`imutherm.studies.overload_study`) writes
+``--procedure overload`` (Lin et al., :mod:`imutherm.studies.overload_study`) writes
 ``overload.json``: Ka, K2, D1 per load (1..10 g) and power-on, the joint
 values and the unit's truth, and the attitude filters on the ``shake`` profile
 (1.2 g and 5 g) with and without the recovered terms compensated. With
-``--load-dependence`` the unit's Ka, K2, D1 follow seed 004's findings
+``--load-dependence`` the unit's Ka, K2, D1 follow Lin et al.'s findings
 (:class:`imutherm.imu.overload.LoadDependence`) and ``overload.json`` adds
 ``load_dependence`` (the truth per load and the recovered vs true trends).
 """
@@ -55,7 +55,7 @@ def _roll_coupling(args) -> int:
     r = res.rmse_dps
     print("imutherm calibrate --procedure roll-coupling: gyro RMSE over 29 test roll rates [deg/s] x/y/z: "
           + "; ".join(f"{k} " + "/".join(f"{v:.4f}" for v in r[k]) for k in ("linear", "poly", "mlp"))
-          + f" (seed 001: {'/'.join(str(v) for v in res.to_json()['paper_rmse_dps'])}) -> {args.out}")
+          + f" (Wang et al.: {'/'.join(str(v) for v in res.to_json()['paper_rmse_dps'])}) -> {args.out}")
     return 0
 
 
@@ -95,10 +95,10 @@ def add_args(parser) -> None:
     parser.add_argument("--interp", default="segment", choices=INTERPS,
                         help="temperature lookup at compensation (default segment)")
     parser.add_argument("--procedure", default="temperature", choices=PROCEDURES,
-                        help="temperature: seed 000 two-step rig (default); roll-coupling: seed 001 rate table "
-                             "and roll-coupling compensation; overload: seed 004 sinusoidal overload table")
+                        help="temperature: Liu et al. 2012 two-step rig (default); roll-coupling: Wang et al. rate table "
+                             "and roll-coupling compensation; overload: Lin et al. sinusoidal overload table")
     parser.add_argument("--load-dependence", action="store_true",
-                        help="overload: Ka grows and K2, D1 shrink with load and change per power-on (seed 004's "
+                        help="overload: Ka grows and K2, D1 shrink with load and change per power-on (Lin et al.'s "
                              "findings as the truth model)")
     add_out_argument(parser)
 

@@ -44,7 +44,7 @@ def add_args(parser) -> None:
                              "'discrepancy' when the model's form is off and no effect explains it. Default: used "
                              "only where the library's effects leave held-out data more than 2 noise sigmas off; "
                              "--discrepancy always, --no-discrepancy never; not fitted on sparse files "
-                             "(README, correlation)")
+                             "(docs: correlation.md)")
     parser.add_argument("--max-effects", type=int, default=None, metavar="N",
                         help="forward selection names at most N library effects (default 3; 1: one effect)")
     parser.add_argument("--cavity-emissivity-as-effect", action="store_true",
@@ -103,7 +103,7 @@ def run(args) -> int:
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.measured import read_measured
-    from imutherm.thermal.effects import list_effects
+    from imutherm.unit.effects import list_effects
     if args.list_effects:
         print(list_effects())
         from imutherm.studies.correlation import FORM_RETUNE

@@ -26,7 +26,7 @@ except ModuleNotFoundError:  # pragma: no cover
 AXES = ("x", "y", "z")
 SCHEME_NAMES = ("air", "grease", "potted")
 
-# Physical-sense bounds of every layout value, checked before any meshing (stated in the README).
+# Physical-sense bounds of every layout value, checked before any meshing (each with its reason).
 #: ambient and fixture temperatures [degC]: the material data are near-room-temperature handbook values;
 #: FR-4 boards soften at their glass transition (Tg 130-180 degC, IPC-4101) and the usual military
 #: operating range is -55..125 degC, so anything outside -60..150 degC is outside the model's validity.

@@ -26,7 +26,7 @@ from imutherm import InputError
 from imutherm.geometry.build import MM, Geometry
 from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 
-DEFAULT_MAX_CELL_MM = 2.0  # [mm] default largest cell edge; see the convergence study in the README
+DEFAULT_MAX_CELL_MM = 2.0  # [mm] default largest cell edge; the mesh convergence study: docs/benchmarks/reference.md
 DEFAULT_MIN_CELLS = 2      # cells across the thinnest dimension of every part
 BOARD_CELLS_FACTOR = 2     # boards, via fields, standoffs: this many times min_cells across
 _FACTOR_KINDS = ("board", "vias", "box")

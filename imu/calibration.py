@@ -1,19 +1,19 @@
-"""Simulated two-step calibration rig of seed 000 (with seed 001's schemes) and both fits.
+"""Simulated two-step calibration rig of Liu et al. 2012 (with Wang et al.'s schemes) and both fits.
 
 The rig is generated from the truth model (:mod:`imutherm.imu.sensor_model`):
 
 1. **Room temperature, 25 °C, one mounting on a two-axis table** in a
    precision fixture whose small misalignment (``table_mount_deg``, 0.05°) is
-   *not* known to the fits either (issue 12: the improved fit is not given the
+   *not* known to the fits either (as on a real rig: the improved fit is not given the
    table's true misalignment; K_room absorbs it). Accelerometers: the 18-position scheme
-   of seed 001 (6 orthogonal + 12 tilted at 30° and 45°). Gyros: rate table,
-   ±10..±300 °/s in 10 °/s steps, CW and CCW, about each axis (seed 001).
-   Least squares gives K_room (3x3) and D_room (3) per triad (seed 000 eq. 1).
+   of Wang et al. (6 orthogonal + 12 tilted at 30° and 45°). Gyros: rate table,
+   ±10..±300 °/s in 10 °/s steps, CW and CCW, about each axis (Wang et al.).
+   Least squares gives K_room (3x3) and D_room (3) per triad (Liu et al. 2012 eq. 1).
 2. **Temperature segments on a single-axis oven table**, every 5 °C over
    -40..70 °C (setpoints at the 22 segment centres, soaked, plus a 25 °C
    reference), in a **second mounting** whose misalignment is *unknown*: a
    rotation about a random axis by ``oven_mount_deg`` (default **1.4°**).
-   Seed 000 gives no number, only that the second mounting "seriously"
+   Liu et al. 2012 gives no number, only that the second mounting "seriously"
    corrupts the calibration. With the mechanism below, the conventional
    residual is about floor + g·θ (17.5 mg per degree): a good fixture with
    dowel pins (0.2-0.5°) would give 4-9 mg, the paper's 30 mg (over a 5 mg
@@ -30,7 +30,7 @@ Fits
   error of about g·θ (17.5 mg at 1°; ω·θ for gyros) that no amount of data removes.
 * improved (eq. 2-3): K_room, D_room from step 1 (one mounting); per segment
   and axis ``sigma = a N^2 + b N + c`` fitted to ``N(T) - N(25 °C)`` at the same
-  oven position / rate (seed 000: "the difference between the output at the
+  oven position / rate (Liu et al. 2012: "the difference between the output at the
   segment temperature and at room temperature"). The mounting rotation is
   the same in both terms of the difference, so it cancels; the oven session's
   turn-on bias cancels too. The fitted *data* N(T) - N(25 °C) is zero at 25 °C,
@@ -80,8 +80,8 @@ class RigConfig:
     dwell_s : float [s]                 recorded time per position / rate
     settle_s : float [s]                discarded at the start of each dwell
     room_temp_C : float [°C]            room temperature of step 1 and of the oven reference
-    segment_width_C : float [°C]        temperature segment width (seed 000: 5 °C)
-    range_C : tuple [°C]                calibrated range (seed 000: -40..70 °C)
+    segment_width_C : float [°C]        temperature segment width (Liu et al. 2012: 5 °C)
+    range_C : tuple [°C]                calibrated range (Liu et al. 2012: -40..70 °C)
     table_mount_deg : float [°]         misalignment of the two-axis table's precision fixture (unknown to the fits)
     oven_mount_deg : float [°]          unknown misalignment of the oven mounting (rotation angle)
     room_rates_dps : tuple [°/s]        gyro rate magnitudes at room temperature (CW and CCW)
@@ -95,7 +95,7 @@ class RigConfig:
     range_C: tuple = T_RANGE_C
     table_mount_deg: float = 0.05
     # calibrated, not measured: the rig's unknown oven-mounting rotation is set so the
-    # conventional accelerometer residual lands on seed 000's 30 mg (it grows ~g * theta,
+    # conventional accelerometer residual lands on Liu et al.'s 30 mg (it grows ~g * theta,
     # 17.5 mg per degree, on a ~6 mg floor: see benchmarks/bench_calibration.py --sweep);
     # the improved model's residual does not depend on it and is not tuned
     oven_mount_deg: float = 1.4
@@ -126,7 +126,7 @@ class RigConfig:
 
 
 def accel_positions_18() -> np.ndarray:
-    """Up-direction unit vectors of seed 001's 18 positions (6 orthogonal + 12 tilted at 30°, 45°); (18,3) [-]."""
+    """Up-direction unit vectors of Wang et al.'s 18 positions (6 orthogonal + 12 tilted at 30°, 45°); (18,3) [-]."""
     pos = [s * e for e in np.eye(3) for s in (1.0, -1.0)]
     for i, j in ((0, 1), (1, 2), (2, 0)):
         for ang in (30.0, 45.0):
@@ -180,7 +180,7 @@ def _lsq_KD(E: np.ndarray, N: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 def _fit_sigma(N: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per axis fit d_i = a N_i^2 + b N_i + c (seed 000 eq. 3); returns (3,3) [a, b, c], rms (3,)."""
+    """Per axis fit d_i = a N_i^2 + b N_i + c (Liu et al. 2012 eq. 3); returns (3,3) [a, b, c], rms (3,)."""
     out, rms = np.zeros((3, 3)), np.zeros(3)
     for i in range(3):
         x = N[:, i]
@@ -471,7 +471,7 @@ class _KDFit:
 
 @dataclass(frozen=True)
 class _SigmaFit:
-    """The improved model's per-segment fit d = a N^2 + b N + c of one triad (seed 000 eq. 3)."""
+    """The improved model's per-segment fit d = a N^2 + b N + c of one triad (Liu et al. 2012 eq. 3)."""
 
     sigma: np.ndarray  # (S,3,3) [a, b, c] per axis
     rms: np.ndarray    # (S,3) [unit]

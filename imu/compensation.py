@@ -3,14 +3,14 @@
 Methods
 -------
 ``none``          raw samples returned unchanged.
-``conventional``  seed 000 eq. 1 per temperature segment: ``N = K_s E + D_s`` ->
+``conventional``  Liu et al. 2012 eq. 1 per temperature segment: ``N = K_s E + D_s`` ->
                   ``E = K_s^-1 (N - D_s)``. Row i of ``K_s`` and ``D_s`` (sensor i)
                   is taken from the segment of sensor i's own reported temperature.
-``improved``      seed 000 eq. 2-3: ``N - sigma_s(N) = K_room E + D_room`` with
+``improved``      Liu et al. 2012 eq. 2-3: ``N - sigma_s(N) = K_room E + D_room`` with
                   ``sigma_s,i = a N_i^2 + b N_i + c`` per axis and segment ->
                   ``E = K_room^-1 (N - sigma - D_room)``.
 
-Temperature lookup (``interp``): ``"segment"`` (default, as in seed 000: each
+Temperature lookup (``interp``): ``"segment"`` (default, as in Liu et al. 2012: each
 5 °C segment has its own parameter group; the segment is found from the
 *reported* temperature) or ``"linear"`` (parameters interpolated linearly
 between the temperatures at which the segments were calibrated, extrapolated
@@ -31,7 +31,7 @@ its sensors' self-heating in it). A reported temperature outside it is
 result can say how much of it was extrapolated.
 
 Room-temperature node of the improved model: sigma is defined relative to the
-room-temperature (25 °C) calibration, so it is zero there (seed 000: "the
+room-temperature (25 °C) calibration, so it is zero there (Liu et al. 2012: "the
 coefficients are zero at room temperature"). The fitted segments do not
 contain that point (their nodes are the segment centres, 22.5 and 27.5 °C
 next to it, and the room temperature is a segment *edge*), so the improved

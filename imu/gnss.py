@@ -1,9 +1,9 @@
-"""Simulated GNSS velocity for aided attitude filters (seed 001: the IKF uses the receiver's velocity).
+"""Simulated GNSS velocity for aided attitude filters (Wang et al.: the IKF uses the receiver's velocity).
 
 The receiver reports the NED velocity of the IMU (antenna at the IMU: no
 antenna lever arm) at ``rate_hz`` with white noise of ``vel_std`` [m/s] per
 axis. Defaults are assumed values of a low-cost receiver, not taken from
-seed 001 (it gives none): 5 Hz output and 0.05 m/s (1 sigma) Doppler velocity
+Wang et al. (it gives none): 5 Hz output and 0.05 m/s (1 sigma) Doppler velocity
 accuracy, the order a u-blox M8-class datasheet states (recalled, not
 verified).
 """

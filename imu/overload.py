@@ -1,13 +1,13 @@
-"""Seed 004's dynamic calibration on a sinusoidal linear-overload table (simulated).
+"""Lin et al.'s dynamic calibration on a sinusoidal linear-overload table (simulated).
 
 The table (a Scotch-yoke crank, so the motion is a pure sinusoid) moves the
 unit along one body axis, ``x(t) = r sin(ω t)``, ``A(t) = -r ω² sin(ω t)``,
-peak ``A0 = r ω²`` = 1..10 g; crank radius ``r`` = 0.25 m [ASSUMED: seed 004
+peak ``A0 = r ω²`` = 1..10 g; crank radius ``r`` = 0.25 m [ASSUMED: Lin et al.
 gives none; 10 g then needs 3.2 Hz]. A linear grating ruler gives the table
-position, hence A(t) and the half periods. Three mountings (seed 004 §5.2):
+position, hence A(t) and the half periods. Three mountings (Lin et al. §5.2):
 the moved axis x, y or z, another axis up (1 g). Before each load the table
 rests 10 s at its zero (the routine static test that gives the bias, which
-seed 004 takes as known).
+Lin et al. takes as known).
 
 Model (:mod:`imutherm.imu.sensor_model`), per accelerometer on the moved axis,
 ``y = b + K1 A + (Ka/2)|A| + K2 A²`` (Ka = scale-factor asymmetry: the + and -
@@ -18,12 +18,12 @@ Estimators, from pulse sums (``Σ y dt``: velocity / angle increments, what a
 pulse-output unit counts) over the positive and negative half periods of
 each cycle, with the half periods from the ruler:
 
-* **D1** (seed 004 eq. 15-16): positive minus negative half-period sums of the
+* **D1** (Lin et al. eq. 15-16): positive minus negative half-period sums of the
   gyro, divided by the same difference of the ruler's ``Σ A dt`` (the velocity
   change ``V_max - V_min``); the bias cancels.
 * **K1** the same way from the accelerometer (the difference holds the odd terms).
 * **Ka and K2**: the *sum* of the two half periods holds the even terms
-  ``b T + (Ka/2) Σ|A| dt + K2 Σ A² dt``, which one sum cannot split (seed 004's
+  ``b T + (Ka/2) Σ|A| dt + K2 Σ A² dt``, which one sum cannot split (Lin et al.'s
   own equations 8-11 separate them by dropping small products of a model whose
   equations are images we do not have). We sum the pulses of both halves in
   ``bands`` bands of |A| (equal phase widths of each quarter period): the
@@ -37,7 +37,7 @@ Checked against the unit's truth (:func:`truth_coefficients`). By default the
 truth model holds Ka, K2 and D1 constant with load and across power-ons. With
 a :class:`LoadDependence` (``calibrate_overload(..., dependence=...)``,
 ``imutherm calibrate --procedure overload --load-dependence``) the unit behaves
-as seed 004 reports its unit did: Ka grows with load, K2 and D1 shrink with
+as Lin et al. reports its unit did: Ka grows with load, K2 and D1 shrink with
 load, and all three change from power-on to power-on; the procedure's per-load
 values are then checked against the truth's per-load values.
 """
@@ -53,7 +53,7 @@ from imutherm import InputError
 from imutherm.imu.sensor_model import G0, ImuSamples, ImuUnit, draw_power_on, simulate_imu, zero_power_on
 
 AXES = "xyz"
-#: seed 004 §5.2: (moved axis, up axis) of the three mountings
+#: Lin et al. §5.2: (moved axis, up axis) of the three mountings
 MOUNTINGS = ((0, 1), (1, 0), (2, 0))
 
 
@@ -79,7 +79,7 @@ class OverloadRig:
 
 @dataclass(frozen=True)
 class LoadDependence:
-    """Seed 004's findings as a truth model: the dynamic coefficients of a run at peak load A0.
+    """Lin et al.'s findings as a truth model: the dynamic coefficients of a run at peak load A0.
 
     Form (amplitude-dependent, as a describing function: the unit's response to a sinusoid of peak A0 is the
     model ``y = b + K1 A + (Ka/2)|A| + K2 A²`` with coefficients that depend on A0), for each power-on p::
@@ -89,7 +89,7 @@ class LoadDependence:
         D1(A0) = D1 (1 + d1_per_g  (A0/g0 - 1)) (1 + power_on_rel ε_p'')
 
     (Ka, K2, D1 the unit's 1 g values; ε ~ N(0, 1) per power-on, coefficient and axis / matrix term).
-    Sizes [ASSUMED]: seed 004 plots its results in normalised units (its figures 5-9), so it gives trends, not
+    Sizes [ASSUMED]: Lin et al. plots its results in normalised units (its figures 5-9), so it gives trends, not
     sizes: Ka +6 %/g (x1.54 at 10 g), K2 and D1 -5 %/g (x0.55 at 10 g), power-on change 10 % (1 sigma).
     asym_per_g, k2_per_g, d1_per_g [1/g]; power_on_rel [-].
     """
@@ -156,7 +156,7 @@ class OverloadResult:
         """JSON-ready dict in datasheet units (ppm, mg/g², °/s/g)."""
         pl = self.per_load
         return {
-            "procedure": "overload (seed 004 sinusoidal linear-overload table)",
+            "procedure": "overload (Lin et al. sinusoidal linear-overload table)",
             "loads_g": self.loads_g.tolist(),
             "joint": self.joint.to_json(), "truth": self.truth.to_json(),
             "per_load": {"asym_ppm": (pl["asym"] * 1e6).tolist(),

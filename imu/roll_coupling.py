@@ -1,9 +1,9 @@
-"""Seed 001's composite gyro calibration: rate table, least squares, then the high-rate roll coupling.
+"""Wang et al.'s composite gyro calibration: rate table, least squares, then the high-rate roll coupling.
 
 Procedure (simulated on one drawn unit, 25 °C, one power-on, rate axis
 vertical, the unit's axes on the table's axes):
 
-1. **Initial calibration** (seed 001): rate table about each axis at ±10..±300
+1. **Initial calibration** (Wang et al.): rate table about each axis at ±10..±300
    °/s in 10 °/s steps, CW and CCW (180 runs); least squares ``N = K ω + D``
    (:func:`imutherm.imu.calibration._lsq_KD`). This removes scale factor,
    misalignment and bias, and the part of the roll coupling a linear map can
@@ -12,16 +12,16 @@ vertical, the unit's axes on the table's axes):
    residual after step 1 as a function of the calibrated roll rate, fitted by
 
    * ``poly``: a cubic polynomial per axis (least squares; 4 coefficients);
-   * ``mlp``: seed 001's network, one hidden layer of 30 nodes (scikit-learn
+   * ``mlp``: Wang et al.'s network, one hidden layer of 30 nodes (scikit-learn
      ``MLPRegressor``, tanh, L-BFGS, L2 alpha 1e-3, input scaled by 300 °/s,
      ``random_state`` 0): 122 weights on 60 rates.
 
 3. **Test**: 29 roll rates drawn uniformly in ±(10..300) °/s off the 10 °/s
-   grid (seed 001's 29 test rates; none used in the fits), about the roll
+   grid (Wang et al.'s 29 test rates; none used in the fits), about the roll
    axis; RMSE over them of each gyro's calibrated output minus the true
    rate [°/s], for step 1 alone and with each coupling model.
 
-Seed 001's figures (RMSE 0.0204 / 0.0459 / 0.0154 for x / y / z after
+Wang et al.'s figures (RMSE 0.0204 / 0.0459 / 0.0154 for x / y / z after
 calibration, its figure 2) are over its 29 test rates about each axis; it
 shows the coupling only as a figure (3) and a table of coefficients we do
 not have.
@@ -43,7 +43,7 @@ from imutherm.imu.calibration import _lsq_KD
 from imutherm.imu.sensor_model import G0, ImuUnit, draw_power_on, simulate_imu
 
 _DEG = np.pi / 180.0
-#: seed 001 figure 2: gyro RMSE after its calibration over 29 test rates, x / y / z [°/s]
+#: Wang et al. figure 2: gyro RMSE after its calibration over 29 test rates, x / y / z [°/s]
 PAPER_RMSE_DPS = (0.0204, 0.0459, 0.0154)
 MODELS = ("poly", "mlp")
 
@@ -54,7 +54,7 @@ class RollCouplingRig:
     settle_s [s] discarded at the start of each dwell, n_test [-] test rates, test_range_dps [°/s]."""
 
     rates_dps: tuple = tuple(float(r) for r in range(10, 301, 10))
-    dwell_s: float = 10.0  # [ASSUMED] table dwell; seed 001 does not state one
+    dwell_s: float = 10.0  # [ASSUMED] table dwell; Wang et al. does not state one
     settle_s: float = 0.2
     n_test: int = 29
     test_range_dps: tuple = (10.0, 300.0)
@@ -96,10 +96,10 @@ class RollCouplingResult:
     def to_json(self) -> dict:
         """JSON-ready dict (angles in °/s)."""
         return {
-            "procedure": "roll-coupling (seed 001 composite calibration)",
+            "procedure": "roll-coupling (Wang et al. composite calibration)",
             "rmse_dps": {k: list(map(float, v)) for k, v in self.rmse_dps.items()},
             "paper_rmse_dps": list(PAPER_RMSE_DPS),
-            "paper_source": "seed 001 figure 2 (29 test rates per axis, after calibration)",
+            "paper_source": "Wang et al. figure 2 (29 test rates per axis, after calibration)",
             "poly_coefficients_dps": self.poly.tolist(),
             "poly_form": "residual_j = p0 w^3 + p1 w^2 + p2 w + p3, w = calibrated roll rate [deg/s]",
             "truth_coupling": {"c2_per_radps": self.truth_coupling[:, 0].tolist(),

@@ -19,17 +19,17 @@ Measurement model of one sensor triad (gyro shown; accelerometer alike)::
 * ``s_i(T)``, ``b_i(T)``: strongly nonlinear, unit-specific smooth curves (a
   cubic in x = (T - 25)/55 plus a smooth sine wiggle), zero at 25 °C, scaled so
   the peak over -40..70 °C equals the grade's amplitude times a unit factor
-  drawn in 0.5..1.5 (seed 000: units of one type differ strongly).
+  drawn in 0.5..1.5 (Liu et al. 2012: units of one type differ strongly).
 * ``p_i(T) = p0 + p1 x + p2 x^2``: the power-on-to-power-on component (a
   turn-on bias plus a small random change of the curve), drawn once per
   power-on (:class:`PowerOn`), larger for accelerometers than for gyros.
 * ``h_i dT_i/dt``: thermal-gradient / hysteresis term, per °C/min of the true
   die temperature rate.
-* Seed 004 dynamic terms: accelerometer scale-factor asymmetry ``a_i`` and
+* Lin et al.'s dynamic terms: accelerometer scale-factor asymmetry ``a_i`` and
   quadratic coefficient ``K2_i``; gyro g-sensitivity ``G`` (3x3) [rad/s per m/s^2].
-* Seed 001 high-rate roll coupling: the y and z gyros read ``c2 ω_x² + c3 ω_x³``
+* Wang et al.'s high-rate roll coupling: the y and z gyros read ``c2 ω_x² + c3 ω_x³``
   more, ω_x the body roll rate (:func:`draw_roll_coupling`; sizes in the grade).
-  Seed 001 shows the effect (a rolling projectile's non-rolling axes, figure 3)
+  Wang et al. shows the effect (a rolling projectile's non-rolling axes, figure 3)
   but gives no form or number; the form is the lowest-order nonlinear one
   (an even term, as a centrifugal change of the sense-mode stiffness would
   give, and an odd one beyond the linear misalignment, which the ordinary
@@ -65,7 +65,7 @@ from imutherm.imu.grades import GRADES
 from imutherm.site_table import SITES  # noqa: F401  (the site names, defined once; re-exported)
 
 T_REF_C = 25.0  # [°C] room (reference) temperature of the curves
-T_RANGE_C = (-40.0, 70.0)  # [°C] the paper's operating / calibrated range (seed 000)
+T_RANGE_C = (-40.0, 70.0)  # [°C] the paper's operating / calibrated range (Liu et al. 2012)
 #: [°C] die temperatures the truth model accepts: the curves are scaled over T_RANGE_C and continue
 #: smoothly (cubic + wiggle) beyond it; ADIS16355 / ADXRS150 datasheets rate operation to +85 °C and
 #: storage to +125 °C; 105 °C leaves room for a hot scheme's sensor dies at 70 °C ambient (assumed limit)
@@ -256,7 +256,7 @@ class TriadTruth:
     k2 : ndarray (3,) [1/unit]      quadratic coefficient (zero for gyros)
     dM_dT : ndarray (3,3) [1/K]     temperature coefficient of the misalignment (off-diagonal; board /
                                     housing thermal strain): M(T) = M0 + dM_dT (T - 25 °C), row i at sensor i's T
-    roll_coupling : ndarray (3,2)   gyro only (seed 001): per gyro [c2 [1/(rad/s)], c3 [1/(rad/s)^2]], the error
+    roll_coupling : ndarray (3,2)   gyro only (Wang et al.): per gyro [c2 [1/(rad/s)], c3 [1/(rad/s)^2]], the error
                                     c2 ω_x² + c3 ω_x³ [rad/s] the body roll rate ω_x adds to it (row 0, the roll
                                     gyro itself, is zero)
     """
@@ -415,7 +415,7 @@ def draw_unit(grade: str | SensorGrade, rng: np.random.Generator, *, ideal: bool
     trng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (0x7E3C,)))
     gyro = replace(gyro, dM_dT=_offdiag(trng, g.gyro.misalignment_tempco))
     accel = replace(accel, dM_dT=_offdiag(trng, g.accel.misalignment_tempco))
-    # seed 001's high-rate roll coupling, from a third keyed stream (the unit's other draws are unchanged)
+    # Wang et al.'s high-rate roll coupling, from a third keyed stream (the unit's other draws are unchanged)
     crng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (0x5011,)))
     gyro = replace(gyro, roll_coupling=draw_roll_coupling(g.gyro, crng))
     off = np.clip(rng.normal(0.0, g.temp_sensor_offset_std_C, 6), -3 * g.temp_sensor_offset_std_C,
@@ -551,7 +551,7 @@ def _triad_output(triad: TriadTruth, spec: SensorSpec, x, T, dTdt_min, f_b, p_on
     y = sf * u + triad.k2 * u**2 + triad.bias0 + triad.bias_T(T) + triad.temp_rate_coeff * dTdt_min
     if kind == "gyro":
         y = y + f_b @ triad.g_sens.T
-        if np.any(triad.roll_coupling):  # seed 001: high roll rate couples into the other gyros
+        if np.any(triad.roll_coupling):  # Wang et al.: high roll rate couples into the other gyros
             wx = x[:, :1]
             y = y + triad.roll_coupling[:, 0] * wx**2 + triad.roll_coupling[:, 1] * wx**3
     y = y + p_on[:, 0] + p_on[:, 1] * xx + p_on[:, 2] * xx**2

@@ -199,7 +199,7 @@ SECONDS_PER_PATCH_CUBE = 1.6e-10
 #: most estimated CPU time of the s2s exchange of one run [s]: an hour (the default 5 mm patches of the
 #: reference unit take seconds); more is a patch size typed wrong, e.g. ``--cavity-patch-mm 0.001``
 MAX_S2S_S = 3600.0
-#: most s2s patches whatever the memory: the README's convergence study has the reference unit's sites within
+#: most s2s patches whatever the memory: the patch-size convergence study (docs/benchmarks/cavity_radiation.md) has the reference unit's sites within
 #: 0.1 K at 2 mm patches (~5,600 at the default mesh); 1e4 patches are ~5.3 GiB and ~4 min of CPU here, and
 #: more only repeats face cells (a patch never gets smaller than its mesh face)
 MAX_PATCHES = 10_000

@@ -37,10 +37,10 @@ _SUFFIX = ".pkl"
 
 
 def _code_version() -> str:
-    """SHA-256 (16 hex) of the source of the modules a cached model depends on (thermal, geometry, layouts)."""
+    """SHA-256 (16 hex) of the source of the modules a cached model depends on (thermal, unit, geometry, layouts)."""
     root = Path(__file__).resolve().parent
     h = hashlib.sha256()
-    for pkg in ("thermal", "geometry", "layouts"):
+    for pkg in ("thermal", "unit", "geometry", "layouts"):
         try:
             import importlib
             d = Path(importlib.import_module(f"imutherm.{pkg}").__file__).resolve().parent

@@ -26,7 +26,7 @@ def _table_page(pdf, data: dict) -> None:
     fig.text(0.05, 0.94, "imutherm: three cooling schemes of the MEMS attitude unit", fontsize=16, weight="bold")
     any_s = next(iter(data["schemes"].values()))
     fig.text(0.05, 0.90, f"layout {any_s['layout']}, ambient {any_s['ambient_C']:.0f} C, power {any_s['power_W']:.3f} W, "
-             f"mesh {any_s['mesh']['nodes']} nodes; rises in K over ambient; paper = seed 000", fontsize=10)
+             f"mesh {any_s['mesh']['nodes']} nodes; rises in K over ambient; paper = Liu et al. 2012", fontsize=10)
     from imutherm.studies.compare import PAPER_TABLE_COLUMNS, paper_table
 
     cols, rows = list(PAPER_TABLE_COLUMNS), paper_table(data)

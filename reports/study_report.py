@@ -315,7 +315,7 @@ def _paper_bars_page(pdf, data: dict) -> None:
     settle = {"air": figs["measured"]["no_grease_near_steady_s"], "grease": figs["measured"]["grease_steady_s"]}
     fig, (a, b) = plt.subplots(1, 2, figsize=A4)
     fig.subplots_adjust(left=0.08, right=0.97, top=0.84, bottom=0.12, wspace=0.25)
-    _title(fig, "Maximum rise and settle time against the paper (seed 000)",
+    _title(fig, "Maximum rise and settle time against the paper (Liu et al. 2012)",
            "paper: FEM max rise 16 / 8 / 4 K; measured (IR, main board) > 20 K near steady at ~800 s without "
            "grease, <= 8 K steady at ~300 s with grease")
     x = np.arange(len(schemes))
@@ -500,7 +500,7 @@ def _parameters_page(pdf, data: dict) -> None:
     st = data["study"]
     lines += ["", "IMU study: " + ", ".join(f"{k}={v}" for k, v in st.items())]
     lines += ["  sensor grade: imu/grades.py (datasheet values tagged [DS], assumed ones [ASSUMED]); "
-              "calibration rig: seed 000 two-step procedure, imu/calibration.py"]
+              "calibration rig: Liu et al. 2012 two-step procedure, imu/calibration.py"]
     lines += ["  mesh: " + ", ".join(f"{s} {m['nodes']} nodes" for s, m in data["mesh"].items())
               + f"; study wall time {data['wall_s']:.0f} s"]
     fig.text(0.03, 0.9, "\n".join(lines), fontsize=6.8, va="top", family="monospace")

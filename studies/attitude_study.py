@@ -1,13 +1,13 @@
 """Attitude study chain: trajectory → unit → calibration → samples → compensation → filters → metrics.
 
-:func:`run_attitude_study` runs the four attitude filters (``gated`` seed 000,
-``kf`` seed 003, ``ungated`` complementary baseline, ``fusion`` the imufusion
+:func:`run_attitude_study` runs the four attitude filters (``gated`` Liu et al. 2012,
+``kf`` the horizontal-attitude KF paper, ``ungated`` complementary baseline, ``fusion`` the imufusion
 peer) on the same compensated samples for several seeds and reduces the roll
 and pitch errors to RMS and maximum per phase (``overall``, ``stable``,
 ``manoeuvre``). Each metric is reported as ``{"mean": ..., "std": ...}`` over
 the seeds (population std, ddof=0); ``None`` where a phase has no samples.
 
-Gate parameters of the seed-000 filter (defaults of :class:`GateConfig`),
+Gate parameters of Liu et al.'s filter (defaults of :class:`GateConfig`),
 chosen from the physics of the flight profile, not fitted to one run:
 
 * ``xi_a = 3.7e-4 m/s^2``: the |f| error of a horizontal acceleration that tilts
@@ -36,7 +36,7 @@ from imutherm.imu.filters import FILTERS, FusionParams, GatedParams, KFParams, d
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.imu.filters.gate import rest_reference
 from imutherm.imu.filters.common import lever_arm_accel
-from imutherm.imu.filters.kf003 import kf_params_from_rest
+from imutherm.imu.filters.gravity_kf import kf_params_from_rest
 
 SEGMENTS = ("overall", "stable", "manoeuvre")
 METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
@@ -50,7 +50,7 @@ DEFAULT_LEVER_ARM = {"static": (0.0, 0.0, 0.0), "swing": (0.0, 0.03, 0.05), "sha
 
 @dataclass(frozen=True)
 class GateConfig:
-    """Design parameters of the seed-000 gated filter (see the module docstring).
+    """Design parameters of Liu et al.'s gated filter (see the module docstring).
 
     xi_a [m/s^2], xi_w [m/s^2], L [m], kp [1/s], ki [1/s^2], tau [s], hold_s [s],
     init_s [s] steady initial window used for leveling, the bias, the |f| reference and the R(·) widening,

@@ -19,7 +19,7 @@ def _paper() -> dict:
     c = load_paper()["calibration"]
     return {"conventional_max_residual_mg": c["conventional_max_residual_mg"],
             "improved_max_residual_mg": c["improved_max_residual_mg"],
-            "source": "seed 000 section 2.2.2 (studies/paper_targets.toml [calibration])"}
+            "source": "Liu et al. 2012 section 2.2.2 (studies/paper_targets.toml [calibration])"}
 
 
 PAPER = _paper()

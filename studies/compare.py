@@ -22,7 +22,7 @@ from imutherm.site_table import write_site_table
 from imutherm.studies.thermal_study import SchemeResult, probe_table, result_summary, run_scheme
 
 def _paper() -> dict:
-    """The paper's thermal figures (seed 000) in the shape the thermal comparison files use."""
+    """The paper's thermal figures (Liu et al. 2012) in the shape the thermal comparison files use."""
     from imutherm.studies.paper import load_paper
 
     th = load_paper()["thermal"]
@@ -35,7 +35,7 @@ def _paper() -> dict:
                          "grease": {"rise_K_at_most": meas["grease_rise_K_at_most"], "steady_s": meas["grease_steady_s"]}}}
 
 
-#: the paper's numbers (seed 000), read from studies/paper_targets.toml
+#: the paper's numbers (Liu et al. 2012), read from studies/paper_targets.toml
 PAPER = _paper()
 
 

@@ -7,10 +7,10 @@
    of the residual with physical fingerprints (the site's rise = power map / ΔT, its dT/dt, its
    T^4 - T_amb^4, its distance to the mount face).
 2. **Re-tune**: a bounded least-squares fit of the model's uncertain parameters
-   (:data:`imutherm.thermal.knobs.RETUNE`, each within its source's range), and of the parameter whose
+   (:data:`imutherm.unit.knobs.RETUNE`, each within its source's range), and of the parameter whose
    value is uncertain because the model's form is (:data:`FORM_RETUNE`: the cavity's emissivity, since
    the cavity radiation's law is): re-tuned, reported, never named as a missing effect.
-3. **Candidates**: each effect of the library (:mod:`imutherm.thermal.effects`) fitted on top of
+3. **Candidates**: each effect of the library (:mod:`imutherm.unit.effects`) fitted on top of
    the re-tune parameters.
 4. **Rank**: held-out RMS (default: fit each file's first 60 % of its time, predict the rest;
    ``holdout=FILE`` leaves that file out; sparse files: leave one reading out) and AICc with an
@@ -53,9 +53,9 @@ from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
 from imutherm.measured import MeasuredRun
-from imutherm.thermal import knobs as K
-from imutherm.thermal.effects import EFFECTS, apply_signal_effects, effect_of, setting
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit import knobs as K
+from imutherm.unit.effects import EFFECTS, apply_signal_effects, effect_of, setting
+from imutherm.unit.model import ModelOptions
 from imutherm.thermal.reduced import Knob, build_reduced
 
 #: ΔAICc a candidate must gain over the re-tuned model (Burnham & Anderson 2002: > 10, essentially
@@ -79,7 +79,7 @@ EXPLAIN_MIN_NOISE = 1.0
 SPARSE_NOISE_K = 0.5
 #: signal effects handled outside the reduced model
 SIGNAL = ("probe_lag", "ambient_drift")
-#: the form knobs: re-tuned, never named (:data:`imutherm.thermal.knobs.FORM_RETUNE`), and each one's value at
+#: the form knobs: re-tuned, never named (:data:`imutherm.unit.knobs.FORM_RETUNE`), and each one's value at
 #: which the model is nominal (geometry, options) -> value
 FORM_RETUNE = K.FORM_RETUNE
 _FORM_NOMINAL = {"cavity_emissivity": K.cavity_pair_nominal}
@@ -221,7 +221,7 @@ def _residuals(fwd: _Forward, values: dict, mask: dict) -> np.ndarray:
 
 #: starting value of the discrepancy's prior scale [-] (fraction of each site's nominal rise), before the data
 #: estimate it (:meth:`Discrepancy.profile`, type-II maximum likelihood per fit). From physics: two independent
-#: models of one unit differ by 12-20 % of the rise before any effect (issue 22: cavity-radiation law and grid)
+#: models of one unit differ by 12-20 % of the rise before any effect (the cavity-radiation law and the grid)
 #: and the paper's own FEM was 20 % under its measurement, but the re-tune takes the common part: what that
 #: campaign's re-tune left was 2-12 % per site and scheme, so a typical form error of 5 %. A fixed 5 % (before)
 #: let the term take real effects on data of the model's own form (a 0.35 W regulator error came out
@@ -370,7 +370,7 @@ def _label(effects: tuple) -> str:
 def _knobs_for(name, fwd: _Forward) -> list:
     """Re-tune knobs (with the form knobs, :data:`FORM_RETUNE`) plus the candidate's (none: re-tune only); an
     emissivity effect replaces the re-tune's, a form knob given as a candidate leaves the re-tune;
-    a ``power@part`` candidate cannot take the part below zero power (:func:`~imutherm.thermal.knobs.power_floor_W`).
+    a ``power@part`` candidate cannot take the part below zero power (:func:`~imutherm.unit.knobs.power_floor_W`).
     ``name``: one effect, 'none', or several ('a+b' or a tuple: one knob each, in that order)."""
     ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n, fwd.options) for n in fwd.form]
     effects = _effects_of(name)
@@ -813,7 +813,7 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
         elif k in K.RETUNE_SOURCES or K.applicable(k, geo):
             model_vals[k] = v
     model_vals["power_scale"] = values.get("power_scale", 1.0) * run.power_scale
-    # the study's CG tolerance: the same t95 to 0.1 s as 1e-6, 18 % fewer iterations (README, issue 10)
+    # the study's CG tolerance: the same t95 to 0.1 s as 1e-6, 18 % fewer iterations (see STUDY_CG_RTOL)
     from imutherm.studies.thermal_study import STUDY_CG_RTOL
     probes = {s: geo.sites[s] for s in run.sites}
 
@@ -1047,7 +1047,7 @@ MAX_EFFECTS = 3
 def _compatible(selected: tuple, name: str) -> bool:
     """Whether effect ``name`` can be added to ``selected``: not the same effect twice, and not two effects
     that each share a jointly-interpolated conductance with the same re-tune knob (the reduced model
-    interpolates each :data:`~imutherm.thermal.knobs.COUPLED` pair jointly, not a triple)."""
+    interpolates each :data:`~imutherm.unit.knobs.COUPLED` pair jointly, not a triple)."""
     if name in selected:
         return False
     partners = {a if b in selected else b for a, b in K.COUPLED if a in selected or b in selected}
@@ -1117,7 +1117,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         False: never. The term is not fitted on sparse files.
     max_effects : forward selection names at most this many library effects (1: one effect, as before)
     form_retune : re-tune the form knobs (:data:`FORM_RETUNE`: the cavity's emissivity) beside the others
-        instead of offering them as candidate effects (default); False: candidates, as before issue 22
+        instead of offering them as candidate effects (default); False: offered as candidates (``--cavity-emissivity-as-effect``)
     candidates : names to consider (default: every effect applicable to at least one run's scheme)
     rerun : re-run the corrected model on the full FEM (:func:`rerun_full`) for the after figures
     jobs : worker processes for the reduced models' builds, the candidates' fits and the re-runs

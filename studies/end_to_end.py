@@ -44,7 +44,7 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec, load_layout
-from imutherm.thermal.model import ModelOptions, build_problem
+from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.steady import solve_steady
 
 PHASES = ("warmup", "steady")

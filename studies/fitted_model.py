@@ -1,8 +1,8 @@
 """The model ``imutherm correlate`` fitted, read back from its ``updated_model.toml`` so that ``solve``,
 ``compare`` and ``sweep`` run on it (``--model FILE``).
 
-The file holds ``[retune]`` (re-tune knob -> value, :data:`imutherm.thermal.knobs.RETUNE` and the form knobs
-:data:`~imutherm.thermal.knobs.FORM_RETUNE`), ``[effects]``
+The file holds ``[retune]`` (re-tune knob -> value, :data:`imutherm.unit.knobs.RETUNE` and the form knobs
+:data:`~imutherm.unit.knobs.FORM_RETUNE`), ``[effects]``
 (``"name@target" = { param = value }``, one entry per named effect), and, from this version on,
 ``[model]`` (the layout and the model switches correlate ran with) and ``[correlation]`` (verdict and
 RMS before / after). A fitted model acts on a run as:
@@ -25,9 +25,9 @@ from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec
 from imutherm.geometry.materials import with_properties
 from imutherm.textio import read_text
-from imutherm.thermal.effects import EFFECTS, apply_model_effects, effect_of, setting, wall_emissivity_for_pair
-from imutherm.thermal.knobs import FORM_RETUNE, RETUNE, effect_knob
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.effects import EFFECTS, apply_model_effects, effect_of, setting, wall_emissivity_for_pair
+from imutherm.unit.knobs import FORM_RETUNE, RETUNE, effect_knob
+from imutherm.unit.model import ModelOptions
 
 try:  # Python >= 3.11
     import tomllib

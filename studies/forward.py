@@ -11,7 +11,7 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.thermal.assembly import assemble
-from imutherm.thermal.effects import ModelVariant, apply_signal_effects, effect_problem
+from imutherm.unit.effects import ModelVariant, apply_signal_effects, effect_problem
 from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.reduced import lag_field, linearised
 from imutherm.thermal.small_signal import periodic_ambient_response
@@ -23,7 +23,7 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
               ambient_cycle=None) -> np.ndarray:
     """Site rises [K] (len(times), len(probes)) over the ambient after power-on at t = 0.
 
-    variant : the model (:func:`imutherm.thermal.knobs.variant`), grid : its mesh
+    variant : the model (:func:`imutherm.unit.knobs.variant`), grid : its mesh
     probes : dict site -> point [m]; times : [s], ``inf`` for the steady reading
     signal : ``signal`` effect settings (probe lag, ambient drift) applied to the readings
     ambient_cycle : (amplitude [K], period [s], phase [rad]) or None: surroundings cycling as

@@ -8,7 +8,7 @@ adaptive time steps) for each experiment with
   test chamber cycling under its thermostat, an unlogged power-mode change part way through the test),
 - nuisance errors: the board conductivity, the convection coefficient and the mount conductance
   each off by a uniform ±``nuisance`` (default 10 %) from the unit's nominal values
-  (:func:`imutherm.thermal.knobs.nominal_values`: its layout and materials),
+  (:func:`imutherm.unit.knobs.nominal_values`: its layout and materials),
 - probe noise (Gaussian, ``noise_K``) and a fixed offset per site (uniform ±``offset_K``),
 
 and writes one measured file per experiment. Everything is drawn from the ``numpy.random.Generator``
@@ -28,10 +28,10 @@ from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MIN_CELLS, build_mesh
 from imutherm.measured import write_measured
-from imutherm.thermal import knobs as K
+from imutherm.unit import knobs as K
 from imutherm.studies.forward import full_rise, switched_rise
-from imutherm.thermal.effects import EFFECTS, ModelVariant, effect_of, power_part, setting
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.effects import EFFECTS, ModelVariant, effect_of, power_part, setting
+from imutherm.unit.model import ModelOptions
 from imutherm.thermal.problem import HeatFlux
 
 #: an effect outside the library: a radiant load on the lid (a lamp or the sun), q [W/m^2]

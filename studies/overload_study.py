@@ -1,4 +1,4 @@
-"""Seed 004's overload-table calibration carried to attitude: recover Ka, K2, D1, then shake the unit.
+"""Lin et al.'s overload-table calibration carried to attitude: recover Ka, K2, D1, then shake the unit.
 
 :func:`run_overload_study` draws a unit, runs the overload table
 (:func:`imutherm.imu.overload.calibrate_overload`), and on the ``shake``

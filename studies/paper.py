@@ -1,4 +1,4 @@
-"""The source paper's figures (seed 000), read from ``paper_targets.toml`` beside this module.
+"""The source paper's figures (Liu et al. 2012), read from ``paper_targets.toml`` beside this module.
 
 Only what the paper's text states; every comparison in the studies and reports
 reads it from here, so the numbers have one home and one named source.
@@ -16,7 +16,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 PAPER_FILE = Path(__file__).with_name("paper_targets.toml")
-SOURCE = "seed 000 (NUAA 2012), figures stated in its text: studies/paper_targets.toml"
+SOURCE = "Liu et al. 2012 (NUAA), figures stated in its text: studies/paper_targets.toml"
 
 
 @lru_cache(maxsize=1)

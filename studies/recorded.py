@@ -38,7 +38,7 @@ PLATFORMS = {
 #: low-pass does not remove: on the simulated vehicle profile the low-pass mode doubled the roll error).
 PLATFORM_GATE = {"handheld": {"tau_acc": 1.0, "kp_lp": 1.0}, "vehicle": {}, "aircraft": {}}
 
-#: platform settings of the seed-003 KF (KFParams fields) beside its defaults. handheld: the measurement low-passed
+#: platform settings of the horizontal-attitude KF paper's KF (KFParams fields) beside its defaults. handheld: the measurement low-passed
 #: in a strapdown frame with the same tau_acc = 1 s, one measurement per sample (the low-pass replaces the seed's
 #: window mean), and the gyro scale-factor uncertainty sf_std = 0.03 in the process noise (the ±3 % sensitivity
 #: tolerance of a consumer MEMS gyro, e.g. InvenSense MPU-6000/6050 product specification, at 25 °C). Same grid
@@ -46,13 +46,13 @@ PLATFORM_GATE = {"handheld": {"tau_acc": 1.0, "kp_lp": 1.0}, "vehicle": {}, "air
 #: 0.01° of each other). vehicle / aircraft: the seed's filter.
 PLATFORM_KF = {"handheld": {"tau_acc": 1.0, "n_window": 1, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
 
-#: platform settings of seed 001's adaptive EKF (AEKFParams fields). handheld: the same low-pass (tau_acc 1 s,
+#: platform settings of Wang et al.'s adaptive EKF (AEKFParams fields). handheld: the same low-pass (tau_acc 1 s,
 #: an update every sample: lp_update_s 0.1 s was 0.9° worse on the mean) and sf_std 0.03 (as PLATFORM_KF;
 #: without it the filter diverged on 02a/3: 35.8°). vehicle / aircraft: the seed's filter.
 PLATFORM_AEKF = {"handheld": {"tau_acc": 1.0, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
 
 #: platform settings of the ``mahony`` peer (MahonyParams: k_P [1/s], k_I [1/s²]) instead of the ahrs defaults
-#: (1.0, 0.3), which are a trap on real motion (issue 24: 9.5° mean and 46° on one held-out record; 3.44° on
+#: (1.0, 0.3), which are a trap on real motion (with them: 9.5° mean and 46° on one held-out record; 3.44° on
 #: RepoIMU). handheld: k_P 0.5 is the proportional gain of Madgwick's open-source MahonyAHRS.c (x-io
 #: Technologies, 2011: twoKpDef = 2 x 0.5, integral off); k_I 0.03 a weak integral (a bias time constant of
 #: ~30 s instead of ~2 s, so sustained accelerations do not wind the bias estimate up), chosen by the grid

@@ -35,9 +35,9 @@ from imutherm.thermal.reduced import Knob, SparsePlusLowRank, build_reduced, lin
 SURROGATES = ("auto", "reduced", "none")
 #: default number of cases re-run on the full FEM
 VERIFY_DEFAULT = 5
-#: largest site / hot-spot error [K] a verified case may show (issue 25: checked cases within 0.1 K)
+#: largest site / hot-spot error [K] a verified case may show (the sweep's accuracy target: checked cases within 0.1 K)
 VERIFY_TOL_K = 0.1
-#: largest relative t95 error of a verified case with the transient (issue 25's 1 % for the study's t95)
+#: largest relative t95 error of a verified case with the transient (the study's t95 target, 1 %)
 VERIFY_T95_REL = 0.01
 #: relative size of a non-additive part of two knobs' operator changes that makes them a coupled pair
 ADDITIVE_RTOL = 1e-8
@@ -76,7 +76,7 @@ def key_kind(key: str) -> str | None:
 
 def surrogate_keys(factors, geometry) -> tuple:
     """(ok, reason): whether every factor is a knob of the reduced model of ``geometry``'s scheme."""
-    from imutherm.thermal.effects import power_part
+    from imutherm.unit.effects import power_part
 
     for f in factors:
         kind = key_kind(f.key)
@@ -97,7 +97,7 @@ def surrogate_keys(factors, geometry) -> tuple:
 def knob_of(factor, geometry) -> Knob:
     """The reduced model's :class:`Knob` of a sweep factor, over the factor's range; a power's knob value is
     the change from the layout's power [W] (:func:`knob_values`)."""
-    from imutherm.thermal.effects import power_part
+    from imutherm.unit.effects import power_part
 
     kind = key_kind(factor.key)
     lo, hi = (float(v) for v in factor.bounds)
@@ -140,7 +140,7 @@ def _powered_nodes(grid, geometry, knobs=()) -> np.ndarray:
     """Every node of the powered parts (and of the parts a power knob heats) [-]: where the largest steady
     rise is (the field has no maximum where there is no source, so it lies in the closure of the parts
     that dissipate)."""
-    from imutherm.thermal.effects import power_part
+    from imutherm.unit.effects import power_part
     conn = grid.hex_connectivity()
     cells = np.asarray(grid.cell_part).ravel()
     names = {p.name for p in geometry.parts if p.power_W} | {power_part(geometry, k.part).name for k in knobs
@@ -167,7 +167,7 @@ def _hot_spots(grid, geometry, T_C) -> dict:
 def _coupled_pairs(variant_fn, grid, T_C, knobs) -> tuple:
     """Pairs of (non-load) knobs whose operator changes do not add, found on the assembled operators."""
     from imutherm.thermal.assembly import assemble
-    from imutherm.thermal.effects import effect_problem
+    from imutherm.unit.effects import effect_problem
 
     def op(values):
         A, _ = linearised(assemble(effect_problem(variant_fn(values), grid), mass=False), T_C)
@@ -201,7 +201,7 @@ def build_surrogate(plan, progress=None) -> SweepSurrogate:
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.mesh import build_mesh
     from imutherm.thermal.assembly import assemble
-    from imutherm.thermal.effects import ModelVariant, effect_problem, power_part
+    from imutherm.unit.effects import ModelVariant, effect_problem, power_part
     from imutherm.thermal.steady import solve_steady
     from imutherm.studies.sweep.plan import case_model
 

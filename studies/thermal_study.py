@@ -18,10 +18,10 @@ from imutherm.geometry.grid import TensorGrid
 from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
 from imutherm.thermal.metrics import ThermalMetrics, thermal_metrics
-from imutherm.thermal.model import ModelOptions, build_problem
+from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.assembly import assemble
 from imutherm.site_table import ACCEL_SITES, GYRO_SITES
-from imutherm.thermal.effects import EFFECTS, apply_model_effects, apply_signal_effects, effect_problem
+from imutherm.unit.effects import EFFECTS, apply_model_effects, apply_signal_effects, effect_problem
 from imutherm.thermal.reduced import lag_field, linearised
 from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.steady import solve_steady
@@ -122,7 +122,7 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     until_settled : bool, stop the transient once every site is within 0.5 % of its steady rise
         (and past its t95): the steady solution is computed first
     save_times : sequence [s], times at which the transient keeps the whole field
-    effects : sequence of :class:`~imutherm.thermal.effects.EffectSetting`, candidate effects switched
+    effects : sequence of :class:`~imutherm.unit.effects.EffectSetting`, candidate effects switched
         on (model effects change the problem; signal effects, probe lag and ambient drift, change the
         sites' curves of the transient, and its metrics; an ambient drift needs ``transient``)
     transient_model : 'full' (the adaptive FEM) or 'reduced': the transient on a reduced model of the

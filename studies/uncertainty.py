@@ -2,8 +2,8 @@
 
 Every uncertain input of the thermal model is a knob of the scheme's reduced model
 (:mod:`imutherm.thermal.reduced`) with its range, its source and its nominal value (:func:`inputs`): the
-model's own uncertain inputs as :func:`imutherm.thermal.knobs.uncertain_inputs` states them (the re-tune
-knobs of :data:`~imutherm.thermal.knobs.RETUNE`: powers' scale, mount, convection, housing emissivity,
+model's own uncertain inputs as :func:`imutherm.unit.knobs.uncertain_inputs` states them (the re-tune
+knobs of :data:`~imutherm.unit.knobs.RETUNE`: powers' scale, mount, convection, housing emissivity,
 board conductivity; and the supply voltage, from the layout's electrical design: its ``supply_range_V``
 and the loss slope of the linear regulator it feeds, :func:`supply_input`; a layout without an electrical
 design has no supply input, and the result's ``notes`` say so), the cavity pair emissivity and the grease
@@ -42,7 +42,7 @@ DEFAULT_CHECKS = 2
 
 @dataclass(frozen=True)
 class UncertainInput:
-    """One uncertain input: ``name`` (a knob of :func:`imutherm.thermal.knobs.variant`, or ``supply_V``),
+    """One uncertain input: ``name`` (a knob of :func:`imutherm.unit.knobs.variant`, or ``supply_V``),
     ``unit``, range ``lo``..``hi`` [unit], ``log`` (log-uniform), ``source`` (where the range comes from),
     ``nominal`` [unit] (the model's value) or None (the layout's).
 
@@ -65,10 +65,10 @@ class UncertainInput:
 def supply_input(geometry) -> tuple:
     """(UncertainInput or None, note): the supply voltage [V] as an uncertain input, read from the layout's
     electrical design (``[electrical]`` ``supply_V``, ``supply_range_V`` and the regulator it feeds:
-    :func:`imutherm.thermal.knobs.supply_power_knob`, the one place the range and the loss slope come from).
+    :func:`imutherm.unit.knobs.supply_power_knob`, the one place the range and the loss slope come from).
     None, with the reason in ``note``, if the layout has no electrical design, states its supply exactly,
     or its supply's voltage moves no single linear regulator's loss."""
-    from imutherm.thermal import knobs as K
+    from imutherm.unit import knobs as K
 
     lay = geometry.layout
     spec = lay.electrical
@@ -95,11 +95,11 @@ def supply_input(geometry) -> tuple:
 
 def inputs(geometry, options=None) -> tuple:
     """The uncertain inputs of ``geometry``'s unit with their ranges, sources and nominal values: the model's
-    own (:func:`imutherm.thermal.knobs.uncertain_inputs`: the re-tune knobs of
-    :data:`~imutherm.thermal.knobs.RETUNE` and the supply voltage from the layout's electrical design,
+    own (:func:`imutherm.unit.knobs.uncertain_inputs`: the re-tune knobs of
+    :data:`~imutherm.unit.knobs.RETUNE` and the supply voltage from the layout's electrical design,
     :func:`supply_input`), the cavity pair emissivity and the grease bond lines' contact."""
-    from imutherm.thermal import knobs as K
-    from imutherm.thermal.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
+    from imutherm.unit import knobs as K
+    from imutherm.unit.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
 
     options = options or ModelOptions()
     nominal = K.nominal_values(geometry, options)
@@ -223,8 +223,8 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
     from imutherm.site_table import ACCEL_SITES, GYRO_SITES
-    from imutherm.thermal import knobs as K
-    from imutherm.thermal.model import ModelOptions
+    from imutherm.unit import knobs as K
+    from imutherm.unit.model import ModelOptions
     from imutherm.thermal.reduced import Knob, build_reduced
 
     t0 = time.perf_counter()
@@ -280,7 +280,7 @@ def check_point(sm: SchemeModel, row, t_end: float, transient: bool) -> dict:
     """The reduced model against the full FEM at one drawn point: largest site error [K], t95 error [-]."""
     from imutherm.studies.forward import full_rise
     from imutherm.studies.thermal_study import STUDY_CG_RTOL
-    from imutherm.thermal import knobs as K
+    from imutherm.unit import knobs as K
     from imutherm.thermal.metrics import T95_FRACTION, settle_time
 
     vals = knob_values(sm, row)

@@ -280,7 +280,7 @@ def oven_check(sm, values0: dict, nom: Chain, values: dict) -> dict:
     from imutherm.imu.sensor_model import SITES
     from imutherm.studies.forward import full_rise
     from imutherm.studies.thermal_study import STUDY_CG_RTOL
-    from imutherm.thermal import knobs as K
+    from imutherm.unit import knobs as K
 
     ch = draw_chain(nom, sm.rom, values, values0, float(nom.t_s[-1]))
     geo = sm.geometry

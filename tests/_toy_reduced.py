@@ -3,7 +3,7 @@ and time constant, so the correlation's selection logic can be tested in seconds
 
 import numpy as np
 
-from imutherm.thermal import knobs as K
+from imutherm.unit import knobs as K
 
 SITES = ("tp1", "tp2", "tp3", "gyro_x", "gyro_y", "gyro_z")
 #: nominal steady rise [K] and time constant [s] of each site, per scheme

@@ -1,4 +1,4 @@
-"""Seed 001's adaptive EKF: noise estimates converge at rest, attitude with and without GNSS, bad input."""
+"""Wang et al.'s adaptive EKF: noise estimates converge at rest, attitude with and without GNSS, bad input."""
 
 import numpy as np
 import pytest
@@ -11,7 +11,7 @@ from imutherm.imu.sensor_model import G0, draw_unit, load_grade, simulate_imu
 from imutherm.studies.attitude_study import run_filters
 
 GRADE = load_grade("adis16355")
-#: accelerometer noise std of one sample [m/s^2]: white 3.5 mg (seed 003) and the 2.52 mg LSB's quantisation
+#: accelerometer noise std of one sample [m/s^2]: white 3.5 mg (the horizontal-attitude KF paper) and the 2.52 mg LSB's quantisation
 ACC_STD = float(np.hypot(GRADE.accel.noise_density * np.sqrt(GRADE.sample_rate_hz), GRADE.accel.lsb / np.sqrt(12)))
 
 

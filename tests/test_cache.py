@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from imutherm import cache
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.model import ModelOptions
 
 
 @dataclass(frozen=True)

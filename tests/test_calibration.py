@@ -19,7 +19,7 @@ QUIET = {"bias_instability": 0.0, "rate_random_walk": 0.0, "lsb": 0.0, "turn_on_
 
 
 def _linear_unit(seed=0, quiet=True):
-    """An adis16355 unit whose model is exactly N = K(T) E + D(T): seed-004 terms and seed 001's roll coupling off;
+    """An adis16355 unit whose model is exactly N = K(T) E + D(T): Lin et al.'s terms and Wang et al.'s roll coupling off;
     optionally white noise only."""
     g = load_grade("adis16355")
     if quiet:
@@ -70,7 +70,7 @@ def test_room_fit_recovers_K_and_bias_within_noise():
 
 
 def test_noise_free_conventional_absorbs_oven_mounting_improved_cancels_it():
-    """The mechanism of seed 000: the conventional K of every segment equals K(T) R_oven (R_oven the unknown
+    """The mechanism of Liu et al. 2012: the conventional K of every segment equals K(T) R_oven (R_oven the unknown
     second mounting), while the improved sigma is fitted on N(T) - N(25 °C) in the same mounting."""
     unit = _linear_unit(seed=5, quiet=False)
     cal = calibrate_unit(unit, np.random.default_rng(6), noise=False, dwell_s=0.2, settle_s=0.0, oven_mount_deg=1.0,
@@ -124,7 +124,7 @@ def _room_only(s, cal):
 
 
 def test_improved_sigma_is_zero_at_room_temperature_and_continuous_across_it():
-    """Seed 000 eq. 2-3: sigma is relative to the 25 °C calibration, so at 25 °C the improved model is the room
+    """Liu et al. 2012 eq. 2-3: sigma is relative to the 25 °C calibration, so at 25 °C the improved model is the room
     fit. 25 °C is a segment edge (fitted nodes 22.5 / 27.5 °C): without the sigma = 0 room node the segment lookup
     applied the 27.5 °C sigma there (~1-3 mg on a noise-free unit)."""
     unit = _linear_unit(seed=7, quiet=False)  # exactly N = K(T) E + D(T): the room fit is exact

@@ -7,7 +7,7 @@ from imutherm import InputError
 from imutherm.geometry.grid import TensorGrid
 from imutherm.thermal.assembly import EXCHANGE_FACE
 from imutherm.thermal.cavity_radiation import (cavity_exchange, exchange_matrix, find_patches, view_factors)
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.model import ModelOptions
 from imutherm.thermal.problem import SIGMA, ZERO_C_K, Convection, FixedTemperature, ThermalProblem
 from imutherm.thermal.solve import solve_steady, solve_transient
 
@@ -273,7 +273,7 @@ def test_reference_unit_s2s_converges_with_patch_size():
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.geometry.mesh import build_mesh
-    from imutherm.thermal.model import build_problem
+    from imutherm.unit.model import build_problem
     g = build_geometry(load_layout(None), "air")
     m = build_mesh(g, 2.0, 2)
     rises = []
@@ -312,7 +312,7 @@ def test_ambient_drift_with_s2s():
     """The drift's lag field comes from the linearised model, which carries the s2s exchange as its secant
     (thermal/reduced.py): a drift of r adds between 0 and r t to every site (a site lags its surroundings)."""
     from imutherm.studies.thermal_study import run_scheme
-    from imutherm.thermal.effects import parse_effect
+    from imutherm.unit.effects import parse_effect
     kw = dict(options=ModelOptions(cavity_law="s2s"), transient=True, t_end=600.0, mesh_size_mm=6.0, min_cells=1)
     base = run_scheme(None, "air", **kw)
     drift = run_scheme(None, "air", effects=[parse_effect("ambient_drift:rate_K_per_h=18")], **kw)

@@ -108,8 +108,8 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.studies.correlation import _Forward, _knobs_for
-    from imutherm.thermal import knobs as K
-    from imutherm.thermal.effects import power_part
+    from imutherm.unit import knobs as K
+    from imutherm.unit.effects import power_part
 
     lay = load_layout(None)
     geos = {s: build_geometry(lay, s) for s in ("air", "grease")}
@@ -140,7 +140,7 @@ def models():
 def models_effective():
     """The inversion's reduced models with the cavity law named (the effective conductivity), for the tests
     whose data are made with the other law (s2s) or whose figures depend on the law."""
-    from imutherm.thermal.model import ModelOptions
+    from imutherm.unit.model import ModelOptions
     return build_models([("air", 70.0), ("grease", 70.0)], mesh_size_mm=INV_MM, min_cells=1,
                         options=ModelOptions(cavity_law="effective"))
 

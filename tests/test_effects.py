@@ -10,9 +10,9 @@ from imutherm.cli import main
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
-from imutherm.thermal.effects import (ambient_drift_rise, apply_model_effects, candidate_names, effect_problem,
+from imutherm.unit.effects import (ambient_drift_rise, apply_model_effects, candidate_names, effect_problem,
                                       first_order_lag, list_effects, parse_effect, setting)
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.model import ModelOptions
 from imutherm.thermal.solve import solve_steady
 
 COARSE = dict(max_cell_mm=5.0, min_cells=1)
@@ -144,9 +144,9 @@ def test_cavity_emissivity_under_s2s_sets_the_housing_inner_emissivity():
     """Under the s2s cavity law the effect changes the emissivity the radiosity exchange sees: the housing's and
     lid's inner faces get the wall emissivity whose pair emissivity with the boards' 0.9 is the parameter (bare
     Al 0.05 -> 0.05, anodised pair 0.77 -> 0.84); the other surfaces keep theirs, and the exchange weakens."""
-    from imutherm.thermal import knobs as K
-    from imutherm.thermal.effects import wall_emissivity_for_pair
-    from imutherm.thermal.model import cavity_exchange_law
+    from imutherm.unit import knobs as K
+    from imutherm.unit.effects import wall_emissivity_for_pair
+    from imutherm.unit.model import cavity_exchange_law
     assert wall_emissivity_for_pair(0.77) == pytest.approx(0.842, abs=1e-3)
     assert wall_emissivity_for_pair(0.05) == pytest.approx(0.0503, abs=1e-4)
     assert wall_emissivity_for_pair(0.9) == pytest.approx(1.0)
@@ -171,8 +171,8 @@ def test_the_cavity_emissivity_knob_is_nominal_at_the_models_own_emissivities():
     """The form knob's nominal value (correlation.FORM_RETUNE): under s2s the pair emissivity of a 0.9 board and
     the anodised housing's 0.84 inner wall, 1 / (1/0.9 + 1/0.84 - 1) = 0.7683 (Incropera eq. 13.24), whose
     wall emissivity is 0.84 again; under the effective law the option itself; a wall option wins."""
-    from imutherm.thermal import knobs as K
-    from imutherm.thermal.effects import wall_emissivity_for_pair
+    from imutherm.unit import knobs as K
+    from imutherm.unit.effects import wall_emissivity_for_pair
     g = build_geometry(None, "air")
     pair = K.cavity_pair_nominal(g, ModelOptions(cavity_law="s2s"))
     assert pair == pytest.approx(1 / (1 / 0.9 + 1 / 0.84 - 1), rel=1e-12)

@@ -8,7 +8,7 @@ from imutherm.cli import main
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.electrical import rail_losses
 from imutherm.geometry.layout import load_layout
-from imutherm.thermal.knobs import supply_power_knob
+from imutherm.unit.knobs import supply_power_knob
 
 
 def rail(d, name):
@@ -47,7 +47,7 @@ def test_supply_voltage_moves_only_the_first_regulator():
     assert knob.lo == pytest.approx((6.2 - 9.0) * i_in, rel=1e-12)
     assert knob.hi == pytest.approx((12.0 - 9.0) * i_in, rel=1e-12)
     assert "the paper states none" in source and "6.2..12 V" in source
-    from imutherm.thermal.knobs import RETUNE, uncertain_inputs
+    from imutherm.unit.knobs import RETUNE, uncertain_inputs
     inputs = uncertain_inputs(build_geometry(None, "air"))
     assert inputs[:len(RETUNE)] == RETUNE and inputs[-1] == (knob, source)
 

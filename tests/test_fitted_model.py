@@ -1,7 +1,7 @@
 """``--model DIR/updated_model.toml``: solve, compare and sweep run on the model correlate fitted.
 
 The fitted model acts through the layout (powers) and the model options; the correlation defines its corrected
-model through :func:`imutherm.thermal.knobs.variant`. The two must be the same model: same mesh, same problem,
+model through :func:`imutherm.unit.knobs.variant`. The two must be the same model: same mesh, same problem,
 the same site rises to round-off. The round trip from hidden-effect data through ``correlate`` is slow."""
 
 import json
@@ -16,9 +16,9 @@ from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
 from imutherm.studies.fitted_model import apply_fitted, load_fitted_model
 from imutherm.studies.thermal_study import run_scheme
-from imutherm.thermal import knobs as K
-from imutherm.thermal.effects import effect_problem
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit import knobs as K
+from imutherm.unit.effects import effect_problem
+from imutherm.unit.model import ModelOptions
 from imutherm.thermal.solve import solve_steady
 
 MESH = ["--mesh-size", "8", "--min-cells", "1"]

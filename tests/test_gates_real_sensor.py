@@ -70,7 +70,7 @@ def test_every_gate_opens_at_rest(rec):
     for e in est.values():
         # fusion: its Bias stage needs time to learn the 0.58 °/s (steady error ≈ bias / gain before it has)
         assert _deg_err(e, tr, rest & (tr.t > (25 if e.name == "fusion" else 0))) < 0.3, e.name
-    # the defects the gates had: raw rate and nominal g keep the seed-000 gate shut at rest
+    # the defects the gates had: raw rate and nominal g keep Liu et al.'s gate shut at rest
     old = run_gated(gyro, accel, DT, GatedParams(th, g=G0), init_s=8.0, bias0=(0.0, 0.0, 0.0))
     assert old.accel_used[rest].mean() < 0.01
 
@@ -109,7 +109,7 @@ def test_kf_relevels_after_a_stated_time_at_rest(rec):
     35° off (the recording the issue saw); with reject_timeout_s = 20 s it re-levels after 20 s of rest."""
     tr, gyro, accel = rec
     r0 = gravity_dir_body(np.array([np.cos(np.radians(17.5)), np.sin(np.radians(17.5)), 0.0, 0.0]))
-    from imutherm.imu.filters.kf003 import kf_params_from_rest
+    from imutherm.imu.filters.gravity_kf import kf_params_from_rest
 
     p = kf_params_from_rest(gyro, accel, DT, 8.0, KFParams())
     stuck = run_kf(gyro, accel, DT, KFParams(**{**p.__dict__, "reject_timeout_s": 1e9}), r0)

@@ -15,10 +15,10 @@ from imutherm.measured import read_measured
 from imutherm.thermal.small_signal import periodic_ambient_field, tangent_operator
 from imutherm.studies.hidden_effect import (CHAMBER_AMPLITUDE_K, CHAMBER_CYCLING, CHAMBER_PERIOD_S,
                                             POWER_MODE_CHAIN_V, POWER_MODE_STEP, make_case)
-from imutherm.thermal import knobs as K
+from imutherm.unit import knobs as K
 from imutherm.thermal.assembly import assemble
-from imutherm.thermal.effects import effect_problem
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.effects import effect_problem
+from imutherm.unit.model import ModelOptions
 from imutherm.thermal.solve import amg_preconditioner, solve_steady
 
 

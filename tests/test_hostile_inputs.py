@@ -763,7 +763,7 @@ def test_s2s_default_patches_pass_the_cost_model_with_margin():
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS
-    from imutherm.thermal.model import ModelOptions, s2s_patches
+    from imutherm.unit.model import ModelOptions, s2s_patches
 
     opts = ModelOptions(cavity_law="s2s")
     for scheme in ("air", "grease", "potted"):

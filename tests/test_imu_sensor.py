@@ -33,7 +33,7 @@ def test_unknown_grade_lists_valid_ones():
 
 def test_grades_in_si():
     g = load_grade("adis16355")
-    # seed 003: gyro noise 0.6 deg/s and accel noise 3.5 mg, read as rms at 100 Hz
+    # the horizontal-attitude KF paper: gyro noise 0.6 deg/s and accel noise 3.5 mg, read as rms at 100 Hz
     assert g.gyro.noise_density * np.sqrt(100.0) == pytest.approx(np.radians(0.6))
     assert g.accel.noise_density * np.sqrt(100.0) == pytest.approx(3.5e-3 * G0)
     assert g.gyro.bias_instability == pytest.approx(np.radians(0.015))
@@ -156,7 +156,7 @@ def test_bias_instability_is_the_allan_deviation_floor():
 
 @pytest.mark.parametrize("grade", ["adis16355", "adis16488"])
 def test_accels_repeat_worse_than_gyros_relative_to_their_curve(grade):
-    """Seed 000: accelerometers repeat worse than gyros. The power-on change of the bias (turn-on bias and the
+    """Liu et al. 2012: accelerometers repeat worse than gyros. The power-on change of the bias (turn-on bias and the
     change of the temperature curve, combined in quadrature) as a fraction of the curve amplitude must be larger
     for the accelerometers (adis16355: 5.3 % vs 3.9 %)."""
     g = load_grade(grade)
@@ -184,7 +184,7 @@ def test_temperature_rate_term_per_degC_per_min():
     np.testing.assert_allclose(s_ramp.gyro[k] - s_soak.gyro[0], 2.0 * unit.gyro.temp_rate_coeff, rtol=1e-6, atol=1e-15)
 
 
-def test_seed004_dynamic_terms():
+def test_lin_dynamic_terms():
     """Accelerometer asymmetry and K2, gyro g-sensitivity, isolated on an otherwise ideal unit."""
     ideal = draw_unit("adis16355", np.random.default_rng(0), ideal=True)
     asym, k2 = np.array([1e-3, -2e-3, 5e-4]), np.array([1e-4, 0.0, -1e-4])

@@ -1,28 +1,35 @@
-"""The package's layers point one way (issue 27 item 4): base -> geometry, imu -> thermal -> studies -> reports -> cli.
+"""The package's layers point one way: base -> geometry, imu -> thermal (the FEM core) -> unit (the unit model)
+-> studies -> reports -> cli.
 
 Every ``import`` of every module, at the top or inside a function (a hidden upward import is still a
 cycle), is read with :mod:`ast`; nothing is imported or run. A module's layer is its top folder
-(``imutherm/`` is the base package). The study scripts (``studies/study_*.py``, run as ``python -m``) are
+(``imutherm/`` is the base package). ``thermal/model.py``, ``effects.py`` and ``knobs.py`` are façades
+that keep the unit model's old import paths alive (:data:`FACADES`): they are the unit layer's, not the FEM
+core's. The study scripts (``studies/study_*.py``, run as ``python -m``) are
 entry points like the CLI and may write the report.
 """
 
 import ast
+import importlib
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ("imutherm", "geometry", "imu", "layouts", "thermal", "studies", "reports", "cli")
+LAYERS = ("imutherm", "geometry", "imu", "layouts", "thermal", "unit", "studies", "reports", "cli")
 #: what each layer must not import
 FORBIDDEN = {
-    "imutherm": {"geometry", "imu", "thermal", "studies", "reports", "cli"},
-    "geometry": {"imu", "thermal", "studies", "reports", "cli"},
-    "imu": {"geometry", "thermal", "studies", "reports", "cli"},
-    "thermal": {"imu", "studies", "reports", "cli"},
+    "imutherm": {"geometry", "imu", "thermal", "unit", "studies", "reports", "cli"},
+    "geometry": {"imu", "thermal", "unit", "studies", "reports", "cli"},
+    "imu": {"geometry", "thermal", "unit", "studies", "reports", "cli"},
+    "thermal": {"imu", "unit", "studies", "reports", "cli"},
+    "unit": {"imu", "studies", "reports", "cli"},
     "studies": {"reports", "cli"},
     "reports": {"cli"},
 }
 ENTRY_POINTS = {"studies/study_reference.py", "studies/study_cardguide.py", "studies/study.py"}
+#: the unit model's old homes in thermal/: each only re-exports its module of unit/
+FACADES = {"thermal/model.py", "thermal/effects.py", "thermal/knobs.py"}
 
 
 def imports_of(path: Path):
@@ -45,7 +52,7 @@ def violations(layer: str) -> list:
     bad = []
     for path in sorted((ROOT / layer).rglob("*.py")):
         rel = path.relative_to(ROOT).as_posix()
-        if rel in ENTRY_POINTS:
+        if rel in ENTRY_POINTS or rel in FACADES:
             continue
         bad += [f"{rel}:{line} imports {name}" for line, target, name in imports_of(path)
                 if target in FORBIDDEN[layer]]
@@ -64,3 +71,12 @@ def test_the_check_sees_an_upward_import(tmp_path):
                  "from imutherm import studies, InputError\n")
     assert sorted((line, target) for line, target, _ in imports_of(f)) == [(2, "studies"), (3, "cli"), (4, "imutherm"),
                                                                       (4, "studies")]
+
+
+def test_the_facades_only_re_export_the_unit_model():
+    """Each façade imports its own module of unit/ and nothing else, so the FEM core stays free of the unit model."""
+    for rel in sorted(FACADES):
+        names = [name for _, _, name in imports_of(ROOT / rel)]
+        assert names == ["imutherm.unit"], (rel, names)  # ``from imutherm.unit import <its module>``
+        assert importlib.import_module(f"imutherm.{rel[:-3].replace('/', '.')}") is \
+            importlib.import_module(f"imutherm.unit.{Path(rel).stem}")

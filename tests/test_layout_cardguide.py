@@ -11,7 +11,7 @@ from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.layout import builtin_layouts, default_layout_path, load_layout, resolve_layout
 from imutherm.geometry.materials import get_material
 from imutherm.geometry.mesh import build_mesh, mesh_info
-from imutherm.thermal.model import AL_AL_AIR_JOINT_W_M2K, ModelOptions, build_problem, unit_interfaces
+from imutherm.unit.model import AL_AL_AIR_JOINT_W_M2K, ModelOptions, build_problem, unit_interfaces
 
 GUIDES = [f"guide_{s}_{p}" for s in "sn" for p in ("lower", "slot", "upper")]
 STANDOFFS = ["xstandoff_1", "xstandoff_2", "ystandoff_1", "ystandoff_2"]

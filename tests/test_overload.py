@@ -1,4 +1,4 @@
-"""Seed 004's overload table: estimator algebra (noise-free), recovery within tolerance, CLI, attitude effect."""
+"""Lin et al.'s overload table: estimator algebra (noise-free), recovery within tolerance, CLI, attitude effect."""
 
 import json
 
@@ -79,7 +79,7 @@ def test_bad_rig():
 
 
 def test_load_dependent_truth_recovered_per_load_noise_free():
-    """Seed 004's findings as the truth model (LoadDependence: Ka +6 %/g, K2 and D1 -5 %/g): without noise the
+    """Lin et al.'s findings as the truth model (LoadDependence: Ka +6 %/g, K2 and D1 -5 %/g): without noise the
     procedure's per-load Ka, K2, D1 equal the truth's per-load values (0.5 %), and the trends it reports equal
     the model's."""
     from imutherm.imu.overload import LoadDependence

@@ -175,12 +175,12 @@ def test_read_semicolon_log_refuses_missing_imu_value(tmp_path):
 @pytest.mark.parametrize("name", ["kf", "aekf"])
 def test_kf_aekf_inertial_lowpass_known_answer(name):
     """The same known motion (swing + yaw + 2 m/s² oscillating linear acceleration: 11.5° of apparent tilt
-    amplitude, 8° RMS, unfiltered; tilt 0 known) with gyro and accelerometer noise through seed 003's KF and
-    seed 001's AEKF in the low-pass mode (the handheld settings). Tolerance 0.8° RMS: the 1 s low-pass leaves
+    amplitude, 8° RMS, unfiltered; tilt 0 known) with gyro and accelerometer noise through the horizontal-attitude KF paper's KF and
+    Wang et al.'s AEKF in the low-pass mode (the handheld settings). Tolerance 0.8° RMS: the 1 s low-pass leaves
     8 % of the 0.8 Hz term (0.9° amplitude, 0.65° RMS), which these filters follow more closely than the
     gated filter's kp = 1/s loop."""
     from imutherm.imu.filters import AEKFParams, KFParams, run_aekf, run_kf
-    from imutherm.imu.filters.kf003 import kf_params_from_rest
+    from imutherm.imu.filters.gravity_kf import kf_params_from_rest
 
     t, q, gyro, f = _motion()
     rng = np.random.default_rng(3)

@@ -6,10 +6,10 @@ import pytest
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
-from imutherm.thermal import knobs as K
+from imutherm.unit import knobs as K
 from imutherm.thermal.assembly import assemble
-from imutherm.thermal.effects import effect_problem
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.effects import effect_problem
+from imutherm.unit.model import ModelOptions
 from imutherm.thermal.reduced import build_reduced
 from imutherm.thermal.solve import solve_steady, solve_transient
 

@@ -10,7 +10,7 @@ import pytest
 
 from imutherm.studies.thermal_study import run_scheme
 from imutherm.thermal import reduced_transient as RT
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.model import ModelOptions
 
 COARSE = dict(mesh_size_mm=6.0, min_cells=1)
 

@@ -16,7 +16,7 @@ import pytest
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.mesh import build_mesh
 from imutherm.thermal.calculix import ccx_executable, run_ccx
-from imutherm.thermal.model import ModelOptions, build_problem
+from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.solve import solve_steady
 
 

@@ -1,4 +1,4 @@
-"""Seed 001's high-rate roll coupling: truth-model term, rate-table fit, compensation on held-out rates."""
+"""Wang et al.'s high-rate roll coupling: truth-model term, rate-table fit, compensation on held-out rates."""
 
 import json
 
@@ -40,7 +40,7 @@ def test_fit_recovers_the_coupling_and_compensation_reduces_the_error():
     the floor is the gyro's bias instability (0.024 deg/s, 1 sigma, 100 s correlation time) wandering over the
     30-min table session, not the white noise of the 10 s dwells (0.019 deg/s). And on the 29 held-out rates the y and z RMSE after
     compensation is at most the linear calibration's plus 0.005 deg/s (noise) and below 0.045 deg/s, the level
-    of seed 001's post-calibration figures (0.0204 / 0.0459 / 0.0154)."""
+    of Wang et al.'s post-calibration figures (0.0204 / 0.0459 / 0.0154)."""
     for seed in range(4):
         rng = np.random.default_rng(seed)
         unit = draw_unit("adis16355", rng)

@@ -19,7 +19,7 @@ def test_site_names_are_defined_once():
 def coarse_run():
     """A real power-on transient of the reference unit (coarse mesh, linear laws: a few seconds)."""
     from imutherm.studies.thermal_study import run_scheme
-    from imutherm.thermal.model import ModelOptions
+    from imutherm.unit.model import ModelOptions
 
     opts = ModelOptions(exterior="fixed", radiation=False, cavity_radiation=False)
     return run_scheme(None, "grease", mesh_size_mm=6.0, min_cells=1, options=opts, transient=True, t_end=300.0)

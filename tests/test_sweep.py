@@ -317,7 +317,7 @@ def test_transient_sweep_adds_t95_of_the_hottest_site(tmp_path):
 def test_attitude_columns_are_the_end_to_end_metrics_of_the_case(tmp_path):
     from imutherm.studies.end_to_end import scheme_attitude_metrics
     from imutherm.studies.thermal_study import run_scheme
-    from imutherm.thermal.model import ModelOptions
+    from imutherm.unit.model import ModelOptions
 
     out = tmp_path / "a"
     assert main(["sweep", "--scheme", "grease", "--set", "options.emissivity=0.5", "--attitude",

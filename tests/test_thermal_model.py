@@ -9,7 +9,7 @@ from imutherm.geometry.grid import TensorGrid
 from imutherm.geometry.layout import AXES
 from imutherm.geometry.materials import get_material
 from imutherm.geometry.mesh import build_mesh
-from imutherm.thermal.model import (GREASE_WETTED_JOINT_W_M2K, Interface, ModelOptions, _apply_interface, _run_lengths,
+from imutherm.unit.model import (GREASE_WETTED_JOINT_W_M2K, Interface, ModelOptions, _apply_interface, _run_lengths,
                                     build_problem, cavity_radiation_conductivity, unit_interfaces)
 from imutherm.thermal.problem import (SIGMA, Contact, FixedTemperature, NaturalConvection, Radiation,
                                       ThermalProblem)

@@ -253,11 +253,11 @@ def test_saved_fields_and_probes_and_initial_field():
     assert warm.T0_C[0] == 40.0
 
 
-def test_power_scale_switches_power_off():
+def test_power_profile_switches_power_off():
     g, k, rc, q = _box()
     pr = ThermalProblem(g, k, rc, q, 25.0, {"zmax": (Convection(10.0), Radiation(0.8))})
     on = solve_transient(pr, 100.0, 10.0)
-    off = solve_transient(pr, 100.0, 10.0, power_scale=lambda t: 0.0)
+    off = solve_transient(pr, 100.0, 10.0, power_profile=lambda t: 0.0)
     assert on.T_C.max() > 25.1 and abs(off.T_C.max() - 25.0) < 1e-9
     assert off.energy_in_J == 0.0
 

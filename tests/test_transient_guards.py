@@ -106,14 +106,14 @@ def test_transient_of_a_power_past_physical_sense_stops_at_the_first_step(nonlin
 
 
 @needs_wiring
-def test_exploding_power_scale_stops_where_it_explodes():
-    """A power_scale jumping to 1e24 at t = 30 s: the run stops at the first step past 30 s."""
+def test_exploding_power_profile_stops_where_it_explodes():
+    """A power_profile jumping to 1e24 at t = 30 s: the run stops at the first step past 30 s."""
     from imutherm.thermal.solve import solve_transient
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        with pytest.raises(ConvergenceError, match="diverging at t = .*power_scale") as info:
-            solve_transient(_cube(1e6), 600.0, scheme="trbdf2", power_scale=lambda t: 1.0 if t < 30.0 else 1e24)
+        with pytest.raises(ConvergenceError, match="diverging at t = .*power_profile") as info:
+            solve_transient(_cube(1e6), 600.0, scheme="trbdf2", power_profile=lambda t: 1.0 if t < 30.0 else 1e24)
     t = float(str(info.value).split("at t = ")[1].split(" s")[0])
     assert 30.0 <= t < 600.0   # the first step whose end sees the jump
 
@@ -127,7 +127,7 @@ def test_adaptive_run_stops_at_the_step_cap(monkeypatch):
     monkeypatch.setattr(S, "MAX_STEPS", 40)
     with pytest.raises(ConvergenceError, match=r"reached the limit of 40 .*t_end = 1000 s"):
         S.solve_transient(_cube(1e6), 1000.0, scheme="trbdf2", tol_K=1e-6,
-                          power_scale=lambda t: float(int(t / 0.1) % 2))
+                          power_profile=lambda t: float(int(t / 0.1) % 2))
     monkeypatch.setattr(S, "MAX_STEPS", 10_000)   # the same run with room: the guard is not in its way
     r = S.solve_transient(_cube(1e6), 10.0, scheme="trbdf2", tol_K=1e-3)
     assert r.times[-1] == pytest.approx(10.0) and r.steps < 10_000

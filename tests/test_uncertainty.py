@@ -59,14 +59,14 @@ def _geo(layout=None, scheme="grease"):
 
 
 def test_every_input_has_a_range_a_source_and_holds_the_model_value():
-    from imutherm.thermal import knobs as K
+    from imutherm.unit import knobs as K
 
     geo = _geo()
     ins = U.inputs(geo)
     names = [i.name for i in ins]
     assert "supply_V" in names and "contact@bond" in names and len(set(names)) == len(names)
     nominal = K.nominal_values(geo)
-    from imutherm.thermal.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
+    from imutherm.unit.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
 
     nominal.update(supply_V=9.0, cavity_emissivity=ModelOptions().cavity_emissivity,
                    **{"contact@bond": GREASE_WETTED_JOINT_W_M2K})
@@ -85,7 +85,7 @@ def test_supply_input_and_its_regulator_loss_from_the_reference_toml_by_hand():
     assert sup.knob == "power@reg_5v" and sup.per_unit == pytest.approx(i_in, rel=1e-12)
     assert "supply_range_V" in sup.source and "6.2..12 V" in sup.source
     sm = U.SchemeModel("grease", geo, None, None, None, (sup,), ("supply_V",), (), 0.0)
-    from imutherm.thermal.effects import power_part
+    from imutherm.unit.effects import power_part
 
     p9 = power_part(geo, "reg_5v").power_W
     assert p9 == pytest.approx((9.0 - 5.0) * 0.2131 + 9.0 * 0.005, rel=1e-12)          # 0.8974 W
@@ -145,7 +145,7 @@ CHECK_LAW = "effective"
 
 @pytest.mark.slow
 def test_propagation_on_the_reduced_models_checked_on_the_full_fem():
-    from imutherm.thermal.model import ModelOptions
+    from imutherm.unit.model import ModelOptions
     res = U.run_uncertainty(None, ("air", "grease"), samples=8, seed=0, checks=1, mesh_size_mm=6, min_cells=1,
                             options=ModelOptions(cavity_law=CHECK_LAW))
     assert res["draws"] == 8 * (len(U.inputs(_geo())) + 2) and res["imu"] is None and res["not_propagated"]

@@ -57,17 +57,17 @@ from imutherm import InputError
 from imutherm.geometry.grid import TensorGrid
 from imutherm.thermal.problem import SIGMA, ZERO_C_K
 
-#: default patch edge [mm]: the convergence study in the README (air scheme tp1 within 0.1 K of 2 mm patches)
+#: default patch edge [mm]: the convergence study in docs/benchmarks/cavity_radiation.md (air scheme tp1 within 0.1 K of 2 mm patches)
 DEFAULT_PATCH_MM = 5.0
 #: default rays per patch (stratified); the view-factor noise is ~sqrt(F/rays) per pair before
-#: reciprocity averaging, and the unit's rises change by < 0.05 K from 256 to 1024 rays (README)
+#: reciprocity averaging, and the unit's rises change by < 0.05 K from 256 to 1024 rays (docs/benchmarks/cavity_radiation.md)
 DEFAULT_RAYS = 400
 #: emissivity of an interior surface whose material gives none [-]. Assumed: nylon standoffs, solder mask
 #: over via fields and silicone grease are non-metallic surfaces, 0.85-0.95 (Incropera & DeWitt, 6th ed.,
 #: Table A.11: paints, plastics, rubber ~0.9); the bare copper edges of exposed pads are < 1 % of the area.
 DEFAULT_INTERIOR_EMISSIVITY = 0.9
 #: fraction of the Gershgorin bound of the exchange's Jacobian handed to the solver as its diagonal slope
-#: (>= 1/2 keeps the iteration convergent, see the module docstring; the README gives the measured rates)
+#: (>= 1/2 keeps the iteration convergent, see the module docstring; docs/benchmarks/cavity_radiation.md gives the measured rates)
 JACOBI_FRACTION = 0.5
 
 

@@ -1,7 +1,7 @@
 """Guards of a transient time loop: divergence and a step-count cap, checked once per accepted step.
 
 A transient whose iterates turn non-finite or explode (a power far beyond
-physical sense, a ``power_scale`` returning nonsense, a radiation law fed an
+physical sense, a ``power_profile`` returning nonsense, a radiation law fed an
 overflowing temperature) would otherwise step on to ``t_end`` carrying NaN (the
 adaptive TR-BDF2 controller accepts a NaN error estimate: ``nan > 1`` is False),
 and an error-controlled run whose step stays small (a tolerance far tighter
@@ -73,16 +73,16 @@ def check_step(T_C: np.ndarray, t: float, steps: int, *, start_C, t_end: float, 
         what = ("a non-finite temperature" if not np.isfinite(change)
                 else f"max |T - T(0)| = {change:.3g} K, beyond {DIVERGED_RISE_K:g} K")
         raise ConvergenceError(f"solve_transient: diverging {where}: {what}; likely cause: a power far beyond "
-                               f"physical sense (total {power_W:.3g} W), a power_scale returning non-finite or "
+                               f"physical sense (total {power_W:.3g} W), a power_profile returning non-finite or "
                                f"huge values, or boundary laws that remove no heat")
     coldest = float(T.min()) if T.size else 0.0
     if coldest < ABSOLUTE_ZERO_C:
         raise ConvergenceError(f"solve_transient: diverging {where}: a temperature of {coldest:.4g} °C, below "
                                f"absolute zero; likely cause: a negative power (total {power_W:.3g} W) or "
-                               f"power_scale, or boundary laws driving heat in without bound")
+                               f"power_profile, or boundary laws driving heat in without bound")
     if max_steps is not None and steps + rejected > max_steps and t < t_end * (1 - 1e-12):
         raise ConvergenceError(f"solve_transient: {steps} steps ({rejected} rejected) reached the limit of "
                                f"{max_steps:,} {where}, of t_end = {t_end:.6g} s; likely cause: a tolerance "
                                f"(tol_K) far tighter than a run this long needs, dt_max too small for t_end, or a "
-                               f"power_scale switching faster than the steps can follow; raise tol_K or dt_max, "
+                               f"power_profile switching faster than the steps can follow; raise tol_K or dt_max, "
                                f"or shorten t_end")

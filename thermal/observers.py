@@ -57,7 +57,7 @@ class _EnergyAccount:
         self.E_in = self.E_out = 0.0
 
     def observe(self, st: _Step):
-        self.E_in += st.h * (st.power_scale * self.sumFq + self.flux_in)
+        self.E_in += st.h * (st.power_mean * self.sumFq + self.flux_in)
         self.E_out += st.h * st.heat_out_W
         if st.fixed_in_J is not None:
             self.E_out -= st.fixed_in_J

@@ -43,7 +43,6 @@ import scipy.sparse.linalg as spla
 
 from imutherm import InputError
 from imutherm.thermal.assembly import EXCHANGE_FACE, assemble, volume_load
-from imutherm.thermal.effects import ModelVariant, effect_problem
 from imutherm.thermal.linear import amg_preconditioner
 from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.steady import solve_steady
@@ -332,12 +331,11 @@ def _cg(A, b, pc, rtol=BASIS_RTOL, atol=0.0):
     return x
 
 
-def _part_load(variant: ModelVariant, grid, component: str) -> np.ndarray:
+def _part_load(variant, grid, component: str) -> np.ndarray:
     """Nodal load [W] of 1 W spread over the die (or body) of ``component``."""
-    from imutherm.thermal.effects import power_part
     g = variant.geometry
-    part = power_part(g, component)
-    pb = effect_problem(variant, grid)
+    part = variant.power_part(component)
+    pb = variant.problem(grid)
     q = np.where(grid.cell_part.ravel() == grid.part_names.index(part.name), 1.0 / g.volumes[part.name], 0.0)
     from dataclasses import replace
     return volume_load(replace(pb, q=q))
@@ -347,8 +345,11 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
                   progress=None, load_directions: bool = False, max_nodes=None) -> ReducedModel:
     """Build the :class:`ReducedModel` of a scheme.
 
-    variant_fn : callable, ``variant_fn(values: dict) -> ModelVariant`` (values: knob name -> value;
-        {} is the nominal model)
+    variant_fn : callable, ``variant_fn(values: dict) -> variant`` (values: knob name -> value;
+        {} is the nominal model); a variant has ``.geometry`` (the parts' volumes), ``.problem(grid)``
+        (its ThermalProblem) and ``.power_part(component)`` (the part carrying a power knob's load), as the
+        unit model's :class:`~imutherm.unit.effects.ModelVariant` has: the FEM core does not import the
+        unit model, its caller hands the variants in
     grid : TensorGrid of the variants' geometry
     knobs : sequence of Knob
     sites : dict name -> point [m]
@@ -364,7 +365,7 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
     t0 = time.perf_counter()
     timings = {}
     nominal = variant_fn({})
-    pb = effect_problem(nominal, grid)
+    pb = nominal.problem(grid)
     asm = assemble(pb)
     st = solve_steady(pb, probes=sites, assembly=asm)
     timings["steady_s"] = time.perf_counter() - t0
@@ -418,7 +419,7 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
 
     def knob_operator(values: dict):
         """A_k, the secant operator with the knobs of ``values`` (no heat capacity: it does not change)."""
-        return linearised(assemble(effect_problem(variant_fn(values), grid), mass=False), st.T_C)[0]
+        return linearised(assemble(variant_fn(values).problem(grid), mass=False), st.T_C)[0]
 
     def delta(Ak):
         """A_k - A0 with only its nonzero entries (the cells and faces the knob touches): both share the
@@ -494,6 +495,5 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
     return rom
 
 
-def _power_part_W(variant: ModelVariant, component: str) -> float:
-    from imutherm.thermal.effects import power_part
-    return power_part(variant.geometry, component).power_W
+def _power_part_W(variant, component: str) -> float:
+    return variant.power_part(component).power_W

@@ -42,9 +42,9 @@ from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.results import TransientResult
 from imutherm.thermal.transient import SETTLE_FRACTION
 
-#: site error the check accepts [K] (issue 25: every site curve within 0.05 K of the full adaptive FEM)
+#: site error the check accepts [K] (the study's accuracy target: every site curve within 0.05 K of the full adaptive FEM)
 CHECK_TOL_K = 0.05
-#: relative t95 error the check accepts [-] (issue 25: 1 %)
+#: relative t95 error the check accepts [-] (the study's t95 target: 1 %)
 CHECK_T95_REL = 0.01
 #: Krylov vectors A^-1 M ... of the first basis
 KRYLOV_ORDER = 3

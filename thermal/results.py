@@ -15,7 +15,7 @@ import numpy as np
 
 from imutherm.thermal.problem import ThermalProblem
 
-#: result fields renamed by issue 13: the old name -> what to read instead
+#: result fields renamed in an earlier version: the old name -> what to read instead
 _RENAMED = {"iterations": "newton_iterations (Newton iterations; 0 for a transient, whose nonlinear laws are "
                           "linearised once per step) or linear_iterations (inner linear-solver iterations)"}
 

@@ -60,7 +60,7 @@ class _Ctx:
     res_max: float = 0.0  # largest relative linear residual of the accepted steps
 
     @classmethod
-    def start(cls, problem, asm, P, solver, rtol, initial_C, power_scale, t_end):
+    def start(cls, problem, asm, P, solver, rtol, initial_C, power_profile, t_end):
         dnodes, g0 = asm.dirichlet_values(0.0)
         D = _Dirichlet(asm, dnodes)
         free = ~D.mask
@@ -69,7 +69,7 @@ class _Ctx:
         T[dnodes] = g0
         L_data = asm.K_data + asm.H_data
         return cls(asm=asm, P=P, D=D, dnodes=dnodes, free=free, method=method, lin=_LinSolver(method, rtol=rtol), T0=T,
-                   scale=(lambda t: 1.0) if power_scale is None else (lambda t: float(power_scale(t))),
+                   scale=(lambda t: 1.0) if power_profile is None else (lambda t: float(power_profile(t))),
                    t_end=t_end, L_data=L_data, L=asm.pattern.csr(L_data))
 
     @property
@@ -156,7 +156,7 @@ class _Step:
     h: float               # [s] the step size the scheme integrated with
     T_prev: np.ndarray     # [°C] field at ta
     T: np.ndarray          # [°C] field at tb
-    power_scale: float     # [-] the scheme's weighted mean of the power scale s(t) over the step
+    power_mean: float      # [-] the scheme's weighted mean of the power profile s(t) over the step
     heat_out_W: float      # [W] the scheme's weighted mean heat leaving through the boundary laws
     #                        (θ-scheme: and through the fixed nodes)
     fixed_in_J: float | None = None   # [J] heat entering through the fixed nodes (TR-BDF2)

@@ -132,7 +132,7 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
                     tol_K: float | None = None, error_control: str = "nodes", dt_first: float | None = None, dt_max: float | None = None,
                     settle_C=None, settle_fraction: float = SETTLE_FRACTION, save_times=None,
                     probes=None, progress: bool = False, solver: str = "auto", lumped_mass: bool = False,
-                    initial_C=None, power_scale=None, assembly: Assembly | None = None,
+                    initial_C=None, power_profile=None, assembly: Assembly | None = None,
                     rtol: float = TRANSIENT_CG_RTOL) -> TransientResult:
     """Transient temperature history of ``problem`` from a uniform start.
 
@@ -218,7 +218,7 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
         Lumped (row-sum) heat capacity; default consistent. Ignored when ``assembly`` is given.
     initial_C : float or ndarray (n_nodes,), optional [°C]
         Start field (default ``ambient_C``: power-on from ambient).
-    power_scale : callable, optional
+    power_profile : callable, optional
         ``s(t [s]) -> [-]`` multiplying the volumetric power (default 1: power on at t = 0).
     assembly : Assembly, optional
     rtol : float [-]
@@ -264,8 +264,8 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
         raise InputError(f"theta must be in [0.5, 1] (1 backward Euler, 0.5 Crank–Nicolson), got {theta}")
     if not (0 < float(settle_fraction) < 0.05):
         raise InputError(f"settle_fraction must be in (0, 0.05), got {settle_fraction!r}")
-    if power_scale is not None and not callable(power_scale):
-        raise InputError("power_scale must be a callable s(t [s]) -> [-]")
+    if power_profile is not None and not callable(power_profile):
+        raise InputError("power_profile must be a callable s(t [s]) -> [-]")
     sv = np.sort(np.atleast_1d(np.asarray([] if save_times is None else save_times, dtype=float)))
     if sv.size and (not np.all(np.isfinite(sv)) or sv[0] < 0 or sv[-1] > t_end * (1 + 1e-12)):
         raise InputError(f"save_times must lie in [0, t_end = {t_end}] s, got {sv.tolist()}")
@@ -277,7 +277,7 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
     asm = assembly if assembly is not None else assemble(problem, lumped_mass=lumped_mass)
     assembly_s = time.perf_counter() - t0 if assembly is None else 0.0
     t1 = time.perf_counter()
-    ctx = _Ctx.start(problem, asm, P, solver, _check_rtol(rtol), initial_C, power_scale, t_end)
+    ctx = _Ctx.start(problem, asm, P, solver, _check_rtol(rtol), initial_C, power_profile, t_end)
     if scheme == "theta":
         stepper = _theta_steps(ctx, steps, theta)
     else:

@@ -1,4 +1,4 @@
-"""Attitude filters (roll / pitch): seed 000 gated strapdown, seed 003 KF, ungated baseline, peer, seed 001 AEKF.
+"""Attitude filters (roll / pitch): Liu et al. 2012 gated strapdown, the horizontal-attitude KF paper's KF, ungated baseline, peer, Wang et al.'s AEKF.
 
 ``FILTERS`` lists the names used in result files: ``gated``, ``kf``,
 ``ungated``, ``fusion``, ``aekf``, ``aekf_gnss`` (the last needs GNSS fixes). Each filter has a procedural step function, a thin
@@ -27,12 +27,12 @@ from imutherm.imu.filters.fusion_peer import FusionParams, FusionPeer, fusion_st
 from imutherm.imu.filters.gate import GateThresholds, gate_noise_std, gate_signals, gate_thresholds
 from imutherm.imu.filters.gated import (ComplementaryFilter, GatedParams, GatedState, GatedStrapdown,
                                         default_thresholds, gated_step, run_gated, run_ungated)
-from imutherm.imu.filters.kf003 import GravityKF, KFParams, KFState, kf_step, run_kf
+from imutherm.imu.filters.gravity_kf import GravityKF, KFParams, KFState, kf_step, run_kf
 
 from imutherm.imu.filters.peers import (EKFParams, MadgwickParams, MahonyParams, VQFParams, run_ekf, run_ekf_many,
                                         run_madgwick, run_mahony, run_vqf)
 
-#: seed 001's adaptive EKF without and with simulated GNSS velocity aiding (:mod:`imutherm.imu.filters.aekf`)
+#: Wang et al.'s adaptive EKF without and with simulated GNSS velocity aiding (:mod:`imutherm.imu.filters.aekf`)
 ADAPTIVE = ("aekf", "aekf_gnss")
 FILTERS = ("gated", "kf", "ungated", "fusion") + ADAPTIVE
 #: further 6D peers (VQF, ahrs Madgwick / Mahony / EKF), see :mod:`imutherm.imu.filters.peers`

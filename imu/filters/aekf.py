@@ -1,6 +1,6 @@
-"""Adaptive error-state EKF (seed 001's "intelligent KF"), with or without GNSS velocity aiding.
+"""Adaptive error-state EKF (Wang et al.'s "intelligent KF"), with or without GNSS velocity aiding.
 
-Seed 001 tunes the EKF's Q and R online with a neural network and a fuzzy
+Wang et al. tunes the EKF's Q and R online with a neural network and a fuzzy
 controller whose rules and weights it does not publish; we use two published
 adaptation laws instead:
 
@@ -29,7 +29,7 @@ adaptation laws instead:
   with the accelerometer measured every sample the gain is small and that law is neutral to first order in
   K (it drifted to 1.2-2.6× the true gyro noise in 600 s at rest, 10-25× with GNSS); it was removed.
 
-Seed 001 starts both from Allan variance; we start them from the rest
+Wang et al. starts both from Allan variance; we start them from the rest
 window (the sample variance of gyro and accelerometer over the first
 ``init_s`` [s], i.e. the Allan variance at one sample) unless given.
 
@@ -64,7 +64,7 @@ velocity ``δv`` [m/s] (NED), gyro bias ``δb`` [rad/s]::
   sensing", IEEE TBME 53(7), 2006: measurement skipped under acceleration).
   A horizontal acceleration changes |f| only to second order (1.4 m/s² passes
   a 0.1 m/s² test and tilts the apparent vertical by 8°), so the innovation
-  must also pass a chi-square test with the adapted S (seed 003's gate 2 in
+  must also pass a chi-square test with the adapted S (the horizontal-attitude KF paper's gate 2 in
   its statistical form), with a re-level after ``reject_timeout_s`` of
   rejections. The adaptation therefore estimates the noise of the samples the
   filter uses; the gates, not R, keep the manoeuvres out. Given the lever arm
@@ -118,7 +118,7 @@ class AEKFParams:
     innov_gate : float [-]          no-GNSS variant: a sample updates only if νᵀ S⁻¹ ν < innov_gate (default the
                                     99.9 % point of chi-square with 3 dof)
     reject_timeout_s : float [s]    after this much time of innovation rejections the filter re-levels
-                                    (attitude covariance reset to (10°)², as seed 003's filter does here)
+                                    (attitude covariance reset to (10°)², as the horizontal-attitude KF paper's filter does here)
     accel_avg_s : float [s]         no-GNSS variant: the accelerometer is averaged over blocks of
                                     N = round(accel_avg_s / dt) samples (rotation-compensated) before the gate and
                                     the gravity update, one update per block (≤ 1.5 dt: every sample, no averaging)

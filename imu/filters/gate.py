@@ -1,10 +1,10 @@
-"""Seed 000 motion gate: thresholds from allowed errors, and the gate signals.
+"""Liu et al. 2012 motion gate: thresholds from allowed errors, and the gate signals.
 
 The strapdown attitude is corrected toward the accelerometer attitude only when::
 
     ||f_b| - g0| < σa,   |ω_ib| < σω,   |ω̇_ib| < σω̇
 
-PAPER.md (seed 000, §3.2) derives the theoretical thresholds from the allowed
+PAPER.md (Liu et al. 2012, §3.2) derives the theoretical thresholds from the allowed
 linear-acceleration error ξa and the allowed centripetal / tangential error ξω,
 the lever arm d = [dx, dy, dz] from the CG and the turn radius L::
 
@@ -23,7 +23,7 @@ first-order low-pass of time constant ``tau`` [s] (the seed's sensor noise
 would otherwise keep ``|ω|`` and the differentiated ``|ω̇|`` above any useful
 threshold); ``ω̇`` is the backward difference of the low-passed rate.
 
-Real sensors (issue 12): the rate signal is the **bias-corrected** rate
+Real sensors: the rate signal is the **bias-corrected** rate
 ``|LP(ω) - b|`` (a 0.58 °/s gyro bias would otherwise exceed a 0.55 °/s
 threshold forever), and the specific-force signal compares ``|f|`` with the
 magnitude the accelerometer itself reads at rest, ``g_ref`` (a real part reads
@@ -49,7 +49,7 @@ from imutherm.imu.attitude_math import G0
 
 @dataclass(frozen=True)
 class GateThresholds:
-    """Gate thresholds of the seed-000 strapdown filter.
+    """Gate thresholds of Liu et al.'s strapdown filter.
 
     sigma_a : float [m/s^2]      threshold on ||f| - g0| (theory + noise widening)
     sigma_w : float [rad/s]      threshold on |ω|
@@ -71,7 +71,7 @@ class GateThresholds:
 
 def gate_thresholds(xi_a: float, xi_w: float, d, L: float, noise_std=(0.0, 0.0, 0.0),
                     g: float = G0) -> GateThresholds:
-    """Gate thresholds from PAPER.md's formulas (seed 000, §3.2).
+    """Gate thresholds from PAPER.md's formulas (Liu et al. 2012, §3.2).
 
     xi_a : allowed linear-acceleration error ξa [m/s^2] (> 0)
     xi_w : allowed centripetal / tangential acceleration error ξω [m/s^2] (> 0)

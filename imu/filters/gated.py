@@ -1,4 +1,4 @@
-"""Seed 000 gated strapdown attitude filter, and its ungated complementary baseline.
+"""Liu et al. 2012 gated strapdown attitude filter, and its ungated complementary baseline.
 
 Quaternion integration of the gyros (trapezoidal rate, exact exponential),
 corrected toward the accelerometer's gravity direction with a proportional +
@@ -11,7 +11,7 @@ for ``hold_s`` [s] without interruption (the end of a manoeuvre is not
 instantaneous; the ramp-down of an acceleration would otherwise leak into
 the attitude).
 
-Real sensors (issue 12): the rate condition tests the **bias-corrected** rate
+Real sensors: the rate condition tests the **bias-corrected** rate
 ``|LP(ω) - b|`` with the filter's current bias estimate b, the specific-force
 condition compares with ``g`` = the |f| this accelerometer reads at rest (see
 :func:`imutherm.imu.filters.gate.rest_reference`). Recovery path: if the
@@ -230,7 +230,7 @@ def gated_step(state: GatedState, gyro, accel, dt: float, params: GatedParams) -
 
 
 class GatedStrapdown:
-    """Thin class over :func:`gated_step` (seed 000 gated strapdown filter).
+    """Thin class over :func:`gated_step` (Liu et al. 2012 gated strapdown filter).
 
     params : GatedParams; q0 : (4,) initial quaternion body→nav [-]; bias0 : (3,) [rad/s].
     """
@@ -348,7 +348,7 @@ def _loop_core(wbar, m, gate_in, use_rate, lpw, ok_aw, sig_w, n_hold, n_rec, dt,
 
 def default_thresholds(gyro, accel, dt: float, *, xi_a: float, xi_w: float, d, L: float, tau: float,
                        init_s: float, g: float | None = None, bias=None) -> GateThresholds:
-    """Seed-000 thresholds widened by the gate signals' rest level over the first ``init_s`` [s] (at rest).
+    """Liu et al. 2012 thresholds widened by the gate signals' rest level over the first ``init_s`` [s] (at rest).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], xi_a/xi_w [m/s^2], d (3,) [m], L [m], tau [s];
     g [m/s^2] |f| reference and bias (3,) [rad/s] (None: estimated from the same rest window,
@@ -409,7 +409,7 @@ _LP_STATE = 38
 
 @njit(cache=True)
 def _lp_core(gyro, accel, dt, kp, ki, g, sa, sw, swd, c, S):
-    """Seed-000 strapdown with the accelerometer low-passed in the estimate's frame and a soft gate.
+    """Liu et al. 2012 strapdown with the accelerometer low-passed in the estimate's frame and a soft gate.
 
     gyro, accel (N,3) raw samples; S (38,) state (see :data:`_LP_STATE`), updated in place. Per sample:
     f_n = C_nb f, ω_n = C_nb (ω - b) low-passed (:mod:`imutherm.imu.filters.inertial_lp`, coefficients c);

@@ -11,7 +11,7 @@ frame, does not. Without the rotation a low-pass would lag the body's own turnin
 
 The same filter is applied here to the bias-corrected angular rate rotated into that frame: its low-passed
 magnitude is the *sustained* rotation (a coordinated turn: near 0 for an oscillation about a fixed axis),
-the quantity the seed-000 rate gate is meant to test (its threshold ``sqrt(ξω / L)`` is the rate at which a
+the quantity Liu et al.'s rate gate is meant to test (its threshold ``sqrt(ξω / L)`` is the rate at which a
 sustained turn of radius L makes a centripetal acceleration ξω).
 
 Coefficients: the bilinear transform with pre-warping, as ``vqf.VQF.filterCoeffs``. The state of one

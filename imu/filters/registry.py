@@ -101,7 +101,7 @@ def _register_builtin() -> None:
     from imutherm.imu.filters.aekf import AEKFParams, run_aekf
     from imutherm.imu.filters.fusion_peer import FusionParams, run_fusion
     from imutherm.imu.filters.gated import run_gated, run_ungated
-    from imutherm.imu.filters.kf003 import run_kf
+    from imutherm.imu.filters.gravity_kf import run_kf
     from imutherm.imu.filters.peers import (EKFParams, MadgwickParams, MahonyParams, VQFParams, run_ekf,
                                             run_madgwick, run_mahony, run_vqf)
 
@@ -110,19 +110,19 @@ def _register_builtin() -> None:
 
     specs = [
         FilterSpec("gated", lambda x, p: run_gated(x.gyro, x.accel, x.dt, p or x.gated, init_s=x.init_s), None,
-                   "ours", "seed 000 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue"),
+                   "ours", "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue"),
         FilterSpec("kf", lambda x, p: run_kf(x.gyro, x.accel, x.dt, p or x.kf, init_s=x.init_s), None, "ours",
-                   "seed 003 gravity-direction KF; KFParams", "tab:green"),
-        FilterSpec("ungated", ungated, None, "ours", "seed 000 update with the gate always open (baseline)",
+                   "the horizontal-attitude KF paper's gravity-direction KF; KFParams", "tab:green"),
+        FilterSpec("ungated", ungated, None, "ours", "Liu et al. 2012 update with the gate always open (baseline)",
                    "tab:gray"),
         FilterSpec("fusion", lambda x, p: run_fusion(x.gyro, x.accel, x.dt, p or x.fusion), FusionParams, "peer",
                    "x-io Fusion (imufusion) README recommended settings", "tab:red"),
         FilterSpec("aekf", lambda x, p: run_aekf(x.gyro, x.accel, x.dt, p or AEKFParams(), init_s=x.init_s,
                                                  lever_arm=x.lever_arm), AEKFParams, "ours",
-                   "seed 001 adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple"),
+                   "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple"),
         FilterSpec("aekf_gnss", lambda x, p: run_aekf(x.gyro, x.accel_raw, x.dt, p or AEKFParams(), gnss=x.gnss,
                                                       init_s=x.init_s), AEKFParams, "ours",
-                   "seed 001 adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True),
+                   "Wang et al.'s adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True),
         FilterSpec("vqf", lambda x, p: run_vqf(x.gyro, x.accel, x.dt, p or VQFParams(), init_s=x.init_s), VQFParams,
                    "peer", "VQF, Laidig & Seel, Information Fusion 91, 2023 (vqf package defaults)", "black"),
         FilterSpec("madgwick", lambda x, p: run_madgwick(x.gyro, x.accel, x.dt, p or MadgwickParams(),

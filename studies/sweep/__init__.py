@@ -8,7 +8,7 @@ A sweep varies numeric inputs named by dotted keys:
 - ``materials.<material>.<property>`` of a material the scheme uses (``k`` or ``k_in_plane`` /
   ``k_through``, ``density``, ``specific_heat``, ``emissivity``): a changed copy of the library entry is
   handed to the model (``ModelOptions.materials``), the library is not touched;
-- ``options.<field>`` of the numeric :class:`~imutherm.thermal.model.ModelOptions`, e.g. ``options.emissivity``.
+- ``options.<field>`` of the numeric :class:`~imutherm.unit.model.ModelOptions`, e.g. ``options.emissivity``.
 
 :func:`plan_sweep` checks every key and every case before anything runs (each case's values are
 applied to the layout file's dict, which is re-parsed and built, so the layout's own checks run);

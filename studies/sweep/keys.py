@@ -16,7 +16,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.materials import PROPERTY_UNITS, get_material, settable_properties
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.model import ModelOptions
 
 #: optional numeric fields a layout table may leave out (their defaults apply) but a sweep may set
 _OPTIONAL_FIELDS = {"components": ("power_W", "die_base_mm"), "parts": ("power_W",),

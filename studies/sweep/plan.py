@@ -25,7 +25,7 @@ from imutherm.geometry.materials import get_material, with_properties
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, grid_shape
 from imutherm.studies.sweep.case import attitude_columns
 from imutherm.studies.sweep.keys import _split_set, _tidy, _unknown_key, parse_values, valid_keys
-from imutherm.thermal.model import ModelOptions
+from imutherm.unit.model import ModelOptions
 
 try:  # Python >= 3.11
     import tomllib
@@ -38,8 +38,8 @@ MORRIS_LEVELS = 4
 #: CPU time per mesh unknown of one steady case [s]: benchmarks/bench_sweep.py on the 2-core development
 #: machine, 50 cases of the reference unit at the default mesh: 7.4 s per case for 185 724 unknowns
 STEADY_S_PER_UNKNOWN = 4.0e-5
-#: a case with the 1200 s power-on transient costs about this many steady cases (README thermal benchmark,
-#: grease: the transient adds 25.1 s to a ~7 s steady case; measured with the θ-scheme steps, the adaptive
+#: a case with the 1200 s power-on transient costs about this many steady cases (the thermal benchmark,
+#: benchmarks/bench_thermal_core.py, grease: the transient adds 25.1 s to a ~7 s steady case; measured with the θ-scheme steps, the adaptive
 #: TR-BDF2 default was not re-measured for this estimate)
 TRANSIENT_FACTOR = 4.5
 #: most cases of one sweep: 1e5 cases at the default mesh are ~9 days of one core (7.4 s each); more is a

@@ -1,4 +1,4 @@
-"""Seed 003 horizontal-attitude Kalman filter on the gravity direction.
+"""The horizontal-attitude KF paper's Kalman filter on the gravity direction.
 
 State r = third column of C_bn^T... i.e. the gravity (down) direction in body
 axes, ``r = C_bn [0, 0, 1]``, with ``dr/dt = -ω × r``. Covariance ``P = p I``
@@ -6,10 +6,10 @@ stays isotropic (the transition is a rotation), so the filter carries a scalar
 p: ``p += q dt`` each sample, and at a measurement ``K = p / (p + R)``,
 ``p ← (1 - K) p``. The measurement is the accelerometer direction
 ``r_m = -f̄ / |f̄|``; the correction is projected onto the tangent plane of the
-unit sphere (``(I - r rᵀ)(r_m - r)``, seed 003 eq. 31-32) and ``|r|`` is
+unit sphere (``(I - r rᵀ)(r_m - r)``, the horizontal-attitude KF paper eq. 31-32) and ``|r|`` is
 renormalised to 1.
 
-Gates (seed 003 §4): gate 1, the maximum of ``||f| - g|`` over a window of n
+Gates (the horizontal-attitude KF paper §4): gate 1, the maximum of ``||f| - g|`` over a window of n
 samples below ``a``: the measurement period becomes nT and f̄ is the window
 mean; gate 2, the innovation norm ``|r_m - r|`` below ``innov_max``. Our
 addition (not in the seed): if gate 1 has passed for a total of
@@ -18,7 +18,7 @@ addition (not in the seed): if gate 1 has passed for a total of
 ``p ← p0`` (recovery from a diverged state; accepting a single measurement
 with its small gain K would leave the next innovation above the gate again).
 
-Real sensors (issue 12): ``g`` is the |f| this accelerometer reads at rest
+Real sensors: ``g`` is the |f| this accelerometer reads at rest
 and ``a`` = a design allowance plus the level the window maximum of
 ``||f| - g|`` does not exceed at rest at the record's own sample rate and
 window (mean + 4 std): :func:`kf_params_from_rest`. With nominal g and a fixed
@@ -26,7 +26,7 @@ window (mean + 4 std): :func:`kf_params_from_rest`. With nominal g and a fixed
 re-level timer never ran either.
 
 Propagation uses the trapezoidal rate ``(ω_{k-1} + ω_k)/2 - b`` and the exact
-rotation (Rodrigues). Seed 003 notes that the plain KF (its eq. 32) ignores
+rotation (Rodrigues). The horizontal-attitude KF paper notes that the plain KF (its eq. 32) ignores
 the equivalent gyro drift and that one must either inflate the system noise
 or augment the state with it; ``kb > 0`` does the latter in the form of the
 seed's nonlinear observer (eq. 14): at each accepted measurement
@@ -51,7 +51,7 @@ from imutherm.imu.filters.inertial_lp import lp3, lp3_init
 
 @dataclass(frozen=True)
 class KFParams:
-    """Parameters of the seed-003 filter.
+    """Parameters of the horizontal-attitude KF paper's filter.
 
     n_window : int [samples]  gate-1 window and measurement period (nT)
     a : float [m/s^2]         gate 1 threshold on max ||f| - g| in the window (:func:`kf_params_from_rest`
@@ -97,7 +97,7 @@ class KFParams:
 
 @dataclass(frozen=True)
 class KFState:
-    """State of the seed-003 filter.
+    """State of the horizontal-attitude KF paper's filter.
 
     r : (3,) [-] gravity direction in body axes; p : float [-] variance (P = p I);
     bias : (3,) [rad/s] gyro-bias estimate;
@@ -183,7 +183,7 @@ def _measure(rx, ry, rz, p, b, sx, sy, sz, R, innov_max, reject_t, period, timeo
 
 
 def kf_step(state: KFState, gyro, accel, dt: float, params: KFParams) -> KFState:
-    """One step of the seed-003 filter (procedural form).
+    """One step of the horizontal-attitude KF paper's filter (procedural form).
 
     gyro (3,) [rad/s], accel (3,) [m/s^2] specific force, dt [s]. Returns the new state.
     """
@@ -218,7 +218,7 @@ def kf_step(state: KFState, gyro, accel, dt: float, params: KFParams) -> KFState
 
 
 class GravityKF:
-    """Thin class over :func:`kf_step` (seed 003 Kalman filter on the gravity direction).
+    """Thin class over :func:`kf_step` (the horizontal-attitude KF paper's Kalman filter on the gravity direction).
 
     params : KFParams; r0 : (3,) initial gravity direction in body axes [-];
     bias0 : (3,) [rad/s] initial gyro-bias estimate.
@@ -245,7 +245,7 @@ class GravityKF:
 
 def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
            init_s: float = 10.0) -> AttitudeEstimate:
-    """Run the seed-003 filter over a record (batch loop, equals repeated :func:`kf_step`).
+    """Run the horizontal-attitude KF paper's filter over a record (batch loop, equals repeated :func:`kf_step`).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], r0 (3,) [-] initial gravity
     direction (None → leveling over the first ``init_s`` [s]); bias0 (3,) [rad/s]
@@ -329,7 +329,7 @@ _KF_LP_STATE = 30
 
 @njit(cache=True)
 def _kf_lp_core(gyro, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, c, S, sf2dt):
-    """Seed-003 KF with the measurement low-passed in a strapdown (almost-inertial) frame.
+    """The horizontal-attitude KF paper's KF with the measurement low-passed in a strapdown (almost-inertial) frame.
 
     The frame q_I is the gyro-only strapdown attitude (bias-corrected with the filter's estimate, never
     corrected by the accelerometer, as VQF's inertial frame, so the low-pass is outside the feedback loop).
