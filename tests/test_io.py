@@ -1,4 +1,5 @@
-"""The one JSON writer and the one single-file atomic writer (issue 13 §2)."""
+"""The one JSON writer, the one single-file atomic writer and the folder moves beside it (one home for each
+file operation)."""
 
 import json
 
