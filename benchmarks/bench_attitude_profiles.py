@@ -6,7 +6,7 @@ Usage::
 
 Each of ``flight``, ``swing``, ``vehicle``, ``handheld`` (their default durations, adis16355, ``improved``
 compensation, 25 °C, ``--disturbances realistic``), seeds 0..seeds-1, through :func:`run_attitude_study`:
-the whole-record roll and pitch RMS [deg], mean over the seeds. Issue 24's guard: after the filters were
+the whole-record roll and pitch RMS [deg], mean over the seeds. The guard: after the filters were
 changed for real motion, no profile may be worse than before by more than 10 %.
 """
 

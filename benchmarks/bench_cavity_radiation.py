@@ -1,4 +1,5 @@
-"""Cost and effect of the cavity radiation laws on the reference unit (issue 11 §3).
+"""Cost and effect of the cavity radiation laws on the reference unit (cavity radiation is also one of the
+correlation's candidate effects).
 
 Usage::
 

@@ -1,4 +1,4 @@
-"""Campaign: the correlation workflow on generated data with one effect hidden (issue 11, "proven blind").
+"""Campaign: the correlation workflow on generated data with one effect hidden (the "proven blind" check).
 
 For each hidden effect (and null cases with none, and an effect outside the library) it generates
 ``--cases`` cases (:func:`imutherm.studies.hidden_effect.make_case`: full model on a finer mesh,
@@ -210,8 +210,8 @@ def summarise(rows, effects, form=()) -> dict:
               if r["called"] == r["hidden"] and r["heldout_before_K"]]
     named = [r for r in strong if r.get("named_effects") is not None]
     return {
-        # issue 22's figures: the hidden effect among the named ones, first; nulls naming no library effect;
-        # out-of-library kinds abstained or discrepancy-only
+        # the figures on data the model did not make: the hidden effect among the named ones, first; nulls
+        # naming no library effect; out-of-library kinds abstained or discrepancy-only
         "hidden_among_named_strong": (sum(r["hidden"] in r["named_effects"] for r in named) / len(named))
         if named else None,
         "hidden_first_strong": (sum(r["named_effects"][:1] == [r["hidden"]] for r in named) / len(named))

@@ -9,7 +9,7 @@ the hold-out fits, the full-model re-run of the corrected model (three transient
 the wall time, the time of each stage, the CPU seconds of all processes (the load-independent cost), the
 peak memory and the load average before and after (the machine may be shared). The command runs twice on
 a fresh cache folder (``IMUTHERM_CACHE_DIR``; ``--cache-dir`` to keep one): the first run builds the
-reduced models and the re-run and keeps them (target cold <= 150 s, issue 25), the second is the next
+reduced models and the re-run and keeps them (target cold <= 150 s), the second is the next
 correlation of the same unit and reads them (target <= 20 s).
 
     python benchmarks/bench_correlation_speed.py

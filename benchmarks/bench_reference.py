@@ -110,7 +110,7 @@ def main(argv=None) -> int:
     return 1 if failed else 0
 
 
-#: the thermal issue's targets on 2 cores
+#: the thermal solver's targets on a 2-core machine
 TARGETS = {"steady_s": 5.0, "transient_1200s_s": 60.0, "peak_rss_MB": 2048.0, "ccx_speedup": 10.0,
            "convergence_pct": 2.0}
 

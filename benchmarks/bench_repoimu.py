@@ -7,9 +7,9 @@ Usage::
 Scoring (:mod:`imutherm.studies.real_benchmark`): inclination error (the angle between the estimated and
 the optical vertical) after the first 5 s, the fixed reference-to-IMU rotation estimated from the reference
 and the raw sensor, sample-and-hold repeats dropped and the true samples put on a uniform grid. Prints the
-RMS [deg] per file and the mean; issue 24's target: gated, kf, aekf each <= 1.3x VQF's mean and <= 2x VQF on
-every file, against VQF at its defaults (x VQF, worst) and at tauAcc 1 s (x VQF1, worst1: the same grid value our
-filters' low-pass was chosen from; VQF's best of tauAcc 1, 2, 3 s here). Data: Szczęsna et al., ICCVG 2016, LNCS 9972, pp. 509-520, doi:10.1007/978-3-319-46418-3_45.
+RMS [deg] per file and the mean; the target (filters that hold on real motion): gated, kf, aekf each <= 1.3x
+VQF's mean and <= 2x VQF on every file, against VQF at its defaults (x VQF, worst) and at tauAcc 1 s (x VQF1,
+worst1: the same grid value our filters' low-pass was chosen from; VQF's best of tauAcc 1, 2, 3 s here). Data: Szczęsna et al., ICCVG 2016, LNCS 9972, pp. 509-520, doi:10.1007/978-3-319-46418-3_45.
 """
 
 from __future__ import annotations

@@ -1,14 +1,14 @@
 """Benchmark of a Sobol' sweep on the reduced model: 6 inputs of the grease scheme, default mesh.
 
 ``imutherm sweep --method sobol`` through the CLI as a user would run it: SALib's Saltelli design of
-``--samples N`` (default 2048, so N x (6 + 2) = 16 384 cases, above the issue's 10 000), every case on
+``--samples N`` (default 2048, so N x (6 + 2) = 16 384 cases, above the 10 000 of the target), every case on
 the scheme's reduced model (``--surrogate reduced``), then ``--verify 5`` random cases re-run on the full
 FEM. Inputs and ranges (each one's source in the README's sweep section): the 5 V regulator's loss for a
 6-12 V supply ((V - 5 V) x 203 mA), the base-to-fixture contact, the grease conductivity, the housing
 emissivity, the board's in-plane conductivity and the board standoff contact. Reports the wall time of
 the command, its CPU seconds (the load-independent cost: the machine may be shared), the split between
 the reduced-model build, the evaluation and the verification, the verification's largest site error
-and the Sobol' indices of the largest rise. Target (issue 25): <= 3 min including the build, checked
+and the Sobol' indices of the largest rise. Target: a 10 000-case sweep <= 3 min including the build, checked
 cases within 0.1 K of the full FEM.
 
     python benchmarks/bench_sweep_sobol.py                  # default mesh, 16 384 cases

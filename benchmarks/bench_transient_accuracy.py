@@ -1,4 +1,4 @@
-"""Time-step accuracy of the power-on transient (issue 10, "Targets"): settle times against a step-converged run.
+"""Time-step accuracy of the power-on transient (target: t95 within 2 %): settle times against a step-converged run.
 
 For each scheme of the reference unit at the default mesh (or ``--mesh-size``):
 

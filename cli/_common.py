@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import ctypes
-import errno
 import fcntl
 import functools
 import hashlib
@@ -17,6 +15,8 @@ import time
 from pathlib import Path
 
 from imutherm import ConvergenceError, InputError
+from imutherm.io import exchange_folders as _exchange  # the one-step folder swap (a test replaces it)
+from imutherm.io import move_staged
 from imutherm.io import write_json  # noqa: F401  (re-exported for the subcommands)
 
 # The commands draw into files only, never on a screen (and may run without a display): matplotlib's
@@ -194,23 +194,6 @@ def _normalise_modes(folder: Path) -> None:
                 os.chmod(p, 0o666 & ~mask)
 
 
-def _exchange(a: Path, b: Path) -> bool:
-    """Swap two folders in one step (Linux ``renameat2(RENAME_EXCHANGE)``); False where unsupported."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        func = libc.renameat2
-    except (OSError, AttributeError):
-        return False
-    func.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint)
-    at_fdcwd, rename_exchange = -100, 2
-    if func(at_fdcwd, os.fsencode(str(a)), at_fdcwd, os.fsencode(str(b)), rename_exchange) == 0:
-        return True
-    err = ctypes.get_errno()
-    if err in (errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP):
-        return False
-    raise OSError(err, os.strerror(err), str(b))
-
-
 def _test_pause(stage: str) -> None:
     """Test-only hook: with ``IMUTHERM_TEST_PAUSE=STAGE`` (``solving``, ``written``, ``swap``, ``swapped``, ``old-moved``)
     say so on stderr and sleep ``IMUTHERM_TEST_PAUSE_S`` seconds (default 30) there, so a test can kill the
@@ -339,13 +322,7 @@ def _swap_in(tmp: Path, real: Path, stale: str | None) -> None:
 
 
 def _move_in(tmp: Path, real: Path, stale: str | None) -> None:
-    new = set()
-    for item in tmp.iterdir():
-        target = real / item.name
-        if target.is_dir() and not target.is_symlink():
-            shutil.rmtree(target)
-        os.replace(item, target)
-        new.add(item.name)
+    new = set(move_staged(tmp, real))
     if stale is not None:  # only after the whole new set is in place
         for old in real.iterdir():
             if old.name not in new and re.fullmatch(stale, old.name) and (old.is_file() or old.is_symlink()):

@@ -22,10 +22,11 @@ import hashlib
 import io
 import os
 import pickle
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from imutherm.io import atomic_write_bytes
 
 #: environment variable naming the cache folder (tests and CI point it at a temporary folder)
 CACHE_ENV = "IMUTHERM_CACHE_DIR"
@@ -34,6 +35,8 @@ LIMIT_ENV = "IMUTHERM_CACHE_MB"
 DEFAULT_LIMIT_MB = 2048.0
 _MAGIC = b"IMUTHERM-CACHE-1\n"
 _SUFFIX = ".pkl"
+#: name start of an entry being written (:func:`imutherm.io.atomic_write_bytes`); eviction passes over it
+_TMP_PREFIX = ".tmp-"
 
 
 def _code_version() -> str:
@@ -142,13 +145,10 @@ def store(key: str, value, folder: Path | None = None) -> Path | None:
     buf = io.BytesIO()
     pickle.dump(value, buf, protocol=pickle.HIGHEST_PROTOCOL)
     payload = buf.getvalue()
+    p = _path(key, folder)
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=_SUFFIX)
-        with os.fdopen(fd, "wb") as f:
-            f.write(_MAGIC + key.encode() + hashlib.sha256(payload).hexdigest().encode() + payload)
-        p = _path(key, folder)
-        os.replace(tmp, p)
+        atomic_write_bytes(p, _MAGIC + key.encode() + hashlib.sha256(payload).hexdigest().encode() + payload,
+                           tmp_prefix=_TMP_PREFIX)
     except OSError:
         return None
     evict(folder)
@@ -161,7 +161,7 @@ def evict(folder: Path | None = None, limit: float | None = None) -> list:
     limit = limit_bytes() if limit is None else limit
     entries = []
     for p in folder.glob(f"*{_SUFFIX}"):
-        if p.name.startswith(".tmp-"):
+        if p.name.startswith(_TMP_PREFIX):   # another run's entry being written
             continue
         try:
             st = p.stat()

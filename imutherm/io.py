@@ -3,17 +3,27 @@
 One writer per format, so every result file of the package has the same
 conventions: JSON indented with NaN/inf written as ``null``; CSV with a header
 row, ``time_s`` first where there is a time axis, temperatures in °C (the
-site-temperature tables: :mod:`imutherm.site_table`). :func:`atomic_write` is
-the one way a single file is replaced (a temporary name beside it, then one
-rename); whole result folders are swapped by ``imutherm.cli._common.atomic_outdir``.
+site-temperature tables: :mod:`imutherm.site_table`).
+
+The package's atomic file operations live here too, so there is one of each:
+
+* :func:`atomic_write` (and :func:`atomic_write_bytes`) is the one way a single file is
+  replaced: a temporary name beside it, then one rename;
+* :func:`move_staged` moves what was staged in a temporary folder into the output
+  folder, each entry replacing its namesake in one rename;
+* :func:`exchange_folders` swaps two whole folders in one step, the primitive of
+  ``imutherm.cli._common.atomic_outdir``, which swaps whole result folders.
 """
 
 from __future__ import annotations
 
 import csv
+import ctypes
+import errno
 import json
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -36,14 +46,18 @@ def plain(obj, *, finite: bool = True):
     return obj
 
 
-def atomic_write(path: str | os.PathLike, write, *, sync: bool = False) -> Path:
+def atomic_write(path: str | os.PathLike, write, *, sync: bool = False, tmp_prefix: str | None = None) -> Path:
     """Replace ``path`` in one step: ``write(tmp)`` fills a temporary file beside it (same folder, so the
     same file system), which is then renamed over ``path``; on any error the temporary file is removed
     and ``path`` is untouched. With ``sync`` the temporary file is fsynced before the rename (the sweep's
-    records, which a resume after a crash reads back). Returns ``path``."""
+    records, which a resume after a crash reads back). The temporary file is ``.STEM.XXXX.SUFFIX``, or
+    ``TMP_PREFIXXXXX.SUFFIX`` with ``tmp_prefix`` (the cache's ``.tmp-``, which its eviction passes over);
+    its name is unique (:func:`tempfile.mkstemp`), so concurrent writers of one path do not collide: the
+    last rename wins. Returns ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    prefix = f".{path.stem}." if tmp_prefix is None else tmp_prefix
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
         write(tmp)
@@ -58,6 +72,48 @@ def atomic_write(path: str | os.PathLike, write, *, sync: bool = False) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, sync: bool = False,
+                       tmp_prefix: str | None = None) -> Path:
+    """Replace ``path`` by the bytes ``data`` in one step (:func:`atomic_write`). Returns ``path``."""
+    return atomic_write(path, lambda tmp: Path(tmp).write_bytes(data), sync=sync, tmp_prefix=tmp_prefix)
+
+
+def move_staged(staged: str | os.PathLike, folder: str | os.PathLike) -> list[str]:
+    """Move every entry of the staging folder ``staged`` into ``folder`` under its own name; returns the names.
+
+    ``staged`` must be on the file system of ``folder`` (e.g. a temporary folder made inside it). Each
+    entry replaces its namesake in ``folder`` in one rename, so a reader sees the old or the new file,
+    never a half-written one; a run interrupted part-way leaves some entries new and the others old.
+    A real folder of the same name (not a link to one) is deleted first, which is not atomic."""
+    folder = Path(folder)
+    names = []
+    for item in Path(staged).iterdir():
+        target = folder / item.name
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)
+        os.replace(item, target)
+        names.append(item.name)
+    return names
+
+
+def exchange_folders(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Swap two folders in one step (Linux ``renameat2(RENAME_EXCHANGE)``): True if done, False where the
+    call is unsupported (not Linux, an older kernel, a file system without it); OSError on a real failure."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        func = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    func.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint)
+    at_fdcwd, rename_exchange = -100, 2
+    if func(at_fdcwd, os.fsencode(str(a)), at_fdcwd, os.fsencode(str(b)), rename_exchange) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
 
 
 def write_json(path: str | os.PathLike, data, *, indent: int = 2, finite: bool = True) -> Path:

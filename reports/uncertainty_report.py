@@ -11,12 +11,13 @@ outputs: which unknowns drive each figure. Page 3: the inputs with their ranges 
 
 from __future__ import annotations
 
-import os
 import textwrap
 
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
+
+from imutherm.io import atomic_write
 
 A4_LANDSCAPE = (11.69, 8.27)
 
@@ -189,13 +190,8 @@ def uncertainty_pages(pdf, unc: dict) -> None:
 
 
 def write_uncertainty_pdf(unc: dict, path) -> None:
-    """``uncertainty.pdf``: the uncertainty pages alone (atomically: temp name, then rename)."""
-    path = os.fspath(path)
-    tmp = path + ".part"
-    try:
+    """``uncertainty.pdf``: the uncertainty pages alone (atomically: :func:`imutherm.io.atomic_write`)."""
+    def write(tmp):
         with PdfPages(tmp) as pdf:
             uncertainty_pages(pdf, unc)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    atomic_write(path, write)

@@ -26,6 +26,7 @@ import tempfile
 from pathlib import Path
 
 from imutherm.geometry.layout import builtin_layouts, load_layout
+from imutherm.io import move_staged
 from imutherm.studies.end_to_end import StudyConfig, run_study, write_study
 
 DEFAULT_LAYOUT = "imu_reference"
@@ -68,8 +69,7 @@ def main(argv=None, layout: str | None = None) -> int:
         for name, st in result.schemes.items():
             plot_layout(st.thermal.geometry, tmp / f"layout_{name}.png")
         write_study_report(tmp, tmp / "report.pdf")
-        for f in tmp.iterdir():
-            f.replace(out / f.name)
+        move_staged(tmp, out)   # each file replaces its namesake in one rename
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 

@@ -153,10 +153,10 @@ def test_lever_arm_accel_matches_the_trajectory():
 
 
 def test_swing_lever_arm_is_what_pulled_the_bias():
-    """The swing failure (issue 15: 2.2 deg roll RMS): on a 200 deg/s roll swing with the sensor 5.8 cm off the
-    table axis, the lever-arm acceleration passes the |f| gate where it is perpendicular to gravity (tilting the
-    apparent vertical by up to 3 deg); the chi-square test keeps the samples of one sign, and the bias state takes
-    it (0.1 deg/s). With the lever-arm term removed (what run_filters does) the roll error is the noise level."""
+    """The adaptive EKF's swing failure (2.2 deg roll RMS): on a 200 deg/s roll swing with the sensor 5.8 cm off
+    the table axis, the lever-arm acceleration passes the |f| gate where it is perpendicular to gravity (tilting
+    the apparent vertical by up to 3 deg); the chi-square test keeps the samples of one sign, and the bias state
+    takes it (0.1 deg/s). With the lever-arm term removed (what run_filters does) the roll error is the noise level."""
     d = (0.0, 0.03, 0.05)
     traj = motion.make_profile("swing", 60.0, 100.0, lever_arm=d)
     rng = np.random.default_rng(21)
@@ -173,7 +173,7 @@ def test_swing_lever_arm_is_what_pulled_the_bias():
 
 
 def test_block_mean_keeps_the_vibrating_flight():
-    """Issue 15's open gap: on the benchmark's disturbed flight (aircraft vibration, 0.1 g lines; sigma |f| =
+    """The adaptive EKF's last gap: on the benchmark's disturbed flight (aircraft vibration, 0.1 g lines; sigma |f| =
     0.57 m/s^2 at rest) the per-sample |f| gate passed ~5 % of the samples, those pulled the bias state and
     seeds 2 and 3 ended at 29 / 25 deg roll RMS. With the default 0.1 s rotation-compensated block mean before
     the gate and the gravity update, both stay under 1 deg roll and pitch RMS (measured 0.53 / 0.32, 0.43 / 0.43);

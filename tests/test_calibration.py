@@ -74,7 +74,7 @@ def test_noise_free_conventional_absorbs_oven_mounting_improved_cancels_it():
     second mounting), while the improved sigma is fitted on N(T) - N(25 °C) in the same mounting."""
     unit = _linear_unit(seed=5, quiet=False)
     cal = calibrate_unit(unit, np.random.default_rng(6), noise=False, dwell_s=0.2, settle_s=0.0, oven_mount_deg=1.0,
-                         table_mount_deg=0.0)  # a perfect step-1 fixture: the fits do not know it (issue 12)
+                         table_mount_deg=0.0)  # a perfect step-1 fixture: the fits do not know it
     R = Rotation.from_rotvec(np.radians(cal.meta.oven_mount_rotvec_deg)).as_matrix()
     assert np.degrees(np.linalg.norm(Rotation.from_matrix(R).as_rotvec())) == pytest.approx(1.0)
     centres = 0.5 * (cal.segment_edges_C[:-1] + cal.segment_edges_C[1:])
@@ -95,7 +95,7 @@ def test_noise_free_conventional_absorbs_oven_mounting_improved_cancels_it():
 
 
 def test_thermal_misalignment_is_what_the_improved_model_cannot_follow():
-    """Issue 12: with a temperature-dependent misalignment dM/dT in the truth, the conventional per-segment K
+    """With a temperature-dependent misalignment dM/dT in the truth, the conventional per-segment K
     follows it (exact at a node without mounting errors) while the improved per-axis sigma(N) cannot: at a
     segment node its worst error is the cross-axis term (T - 25) dM f (±30 %)."""
     unit = _linear_unit(seed=5, quiet=False)

@@ -1,4 +1,4 @@
-"""The CLI's shape (issue 13 §2): one parser with a subparser per command, each command a module with
+"""The CLI's shape (one home per command): one parser with a subparser per command, each command a module with
 ``add_args(parser)``, ``run(args)`` and ``main(argv=None)``, registered by one line in ``COMMANDS``."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The correlation workflow (issue 11): verdict rules, hold-out design, noise estimate, the CLI, and proven blind:
+"""The correlation workflow: verdict rules, hold-out design, noise estimate, the CLI, and proven blind:
 a hidden effect in full-model data on a finer mesh is named and the gap shrinks (slow, coarse meshes)."""
 
 import json
@@ -200,7 +200,7 @@ def test_cli_end_to_end_writes_the_outputs(tmp_path):
     assert len(PdfReader(out / "correlation.pdf").pages) >= 3
 
 
-# --------------------------------------------------------------------------- issue 22: noise, duplicates, selection
+# ------------------------------------------- data the model did not make: noise, duplicates, selection
 
 def test_noise_estimate_ignores_a_cycle_sampled_five_times_a_period():
     """Probe noise 0.05 K on six sites plus a chamber cycle of 0.4 K sampled 5 times per period (the last
@@ -398,8 +398,8 @@ def test_a_model_form_null_case_names_no_library_effect(tmp_path, models_effecti
     effective conductivity) on a finer mesh: the model's form is off by kelvins (the nominal model misses the
     held-out data by > 10 noise sigmas). The cavity's emissivity is a form knob (re-tuned, not named): the
     re-tune takes it down (s2s couples the boards to the housing more weakly than the effective law at one
-    emissivity), the discrepancy term what is left, and no library effect is named (issue 22: before, this
-    case was named cavity_emissivity)."""
+    emissivity), the discrepancy term what is left, and no library effect is named (before the model-form term
+    and the re-tuned cavity emissivity, this case was named cavity_emissivity)."""
     from imutherm.studies.hidden_effect import model_form_options
     case = make_case(tmp_path / "case", "none", np.random.default_rng(11), mesh_size_mm=MF_GEN_MM, min_cells=1,
                      samples=30, options=model_form_options(models_effective.options))
@@ -442,7 +442,7 @@ def test_forward_selection_on_a_toy_model_names_two_effects_and_stops():
 
 def test_the_discrepancy_term_takes_a_smooth_form_error_that_an_effect_would_otherwise_absorb():
     """Toy null case with a 12 % smooth model-form error in air (5 % in grease): without the discrepancy term
-    the workflow names the effect nearest the mismatch (the failure of issue 22: cavity_emissivity); with it,
+    the workflow names the effect nearest the mismatch (the old workflow's failure: cavity_emissivity); with it,
     no library effect is named, the verdict is 'discrepancy' and it says where the model's form is off."""
     from _toy_reduced import toy_models, toy_runs
     runs = toy_runs(dict(_TOY_NUISANCE), np.random.default_rng(2), _toy_form(0.12))
@@ -465,7 +465,8 @@ def test_the_cavity_emissivity_is_re_tuned_not_named(tmp_path):
     """The cavity's emissivity is a form knob (correlation.FORM_RETUNE): a weaker cavity radiation hidden in toy
     data is re-tuned to its value (its interval covering it) and reported among the re-tuned parameters, no
     library effect is named, and a power error hidden on top is still named alone; offered as a candidate
-    (``form_retune=False``, the CLI's ``--cavity-emissivity-as-effect``) it is named, as before issue 22."""
+    (``form_retune=False``, the CLI's ``--cavity-emissivity-as-effect``) it is named, as before the emissivity
+    became a form knob."""
     from _toy_reduced import toy_models, toy_runs
     from imutherm.studies.correlation import FORM_RETUNE
     models = toy_models()

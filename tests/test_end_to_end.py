@@ -59,8 +59,9 @@ def test_physics_orderings(study):
     assert rise["air"] > rise["grease"] > rise["potted"] > 0
     air = s["schemes"]["air"]["attitude"]["steady"]
     # compensation pays: the gated filter on uncompensated sensors is worse than with improved. Not by 2x any
-    # more (issue 12): the gates now take the power-on gyro bias and the |f| reference from the rest window,
-    # which removes much of the uncompensated error at the start (measured 0.38 vs 0.57 deg, 2 seeds, coarse)
+    # more since the gates were made to open on real sensors: they take the power-on gyro bias and the |f|
+    # reference from the rest window, which removes much of the uncompensated error at the start (measured
+    # 0.38 vs 0.57 deg, 2 seeds, coarse)
     for phase in ("warmup", "steady"):
         a = s["schemes"]["air"]["attitude"][phase]
         assert a["improved"]["gated"]["flight"]["roll_rms_deg"]["mean"] < a["none"]["gated"]["flight"]["roll_rms_deg"]["mean"]

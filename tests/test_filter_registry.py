@@ -1,4 +1,4 @@
-"""Issue 24: one filter registry; a filter registered in one place appears in the attitude command (profile and
+"""One filter registry: a filter registered in one place appears in the attitude command (profile and
 log), the study and the plots."""
 
 import json

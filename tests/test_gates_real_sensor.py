@@ -1,12 +1,12 @@
-"""Gates on recorded-style data (issue 12): a real part's bias, scale and noise at its own sample rate.
+"""Gates on recorded-style data: a real part's bias, scale and noise at its own sample rate.
 
-The record imitates a consumer MEMS IMU logged at 286 Hz (the rate of the public handheld set the issue
-was found on): gyro bias 0.58 °/s on x (and -0.3 / 0.2 °/s on y / z), gyro scale +0.5 %, gyro white
-noise 0.084 °/s rms (0.007 °/s/√Hz over 143 Hz, a BMI160-class density); accelerometer scale +0.95 %
-so that it reads 9.90 m/s² at rest (the issue's 9.89-9.91 m/s²), white noise 0.021 m/s² rms
-(180 µg/√Hz over 143 Hz). Motion: 45 s rest, a 200 °/s, 80° turntable swing (about 60 s of
-rejection), 45 s rest. Every gate must open at rest, and every filter must recover after the swing,
-also when the gyro bias steps during the swing.
+The record imitates a consumer MEMS IMU logged at 286 Hz (the rate of the public handheld recordings on
+which the gates were found to stay shut): gyro bias 0.58 °/s on x (and -0.3 / 0.2 °/s on y / z), gyro
+scale +0.5 %, gyro white noise 0.084 °/s rms (0.007 °/s/√Hz over 143 Hz, a BMI160-class density);
+accelerometer scale +0.95 % so that it reads 9.90 m/s² at rest (those recordings read 9.89-9.91 m/s²),
+white noise 0.021 m/s² rms (180 µg/√Hz over 143 Hz). Motion: 45 s rest, a 200 °/s, 80° turntable swing
+(about 60 s of rejection), 45 s rest. Every gate must open at rest, and every filter must recover after the
+swing, also when the gyro bias steps during the swing.
 """
 
 from dataclasses import replace
@@ -106,7 +106,7 @@ def test_gated_recovers_after_a_bias_change_during_the_rejection():
 
 def test_kf_relevels_after_a_stated_time_at_rest(rec):
     """KF started 35° off at rest: the innovation gate rejects every window; without the re-level it stays
-    35° off (the recording the issue saw); with reject_timeout_s = 20 s it re-levels after 20 s of rest."""
+    35° off (as it did on a real recording); with reject_timeout_s = 20 s it re-levels after 20 s of rest."""
     tr, gyro, accel = rec
     r0 = gravity_dir_body(np.array([np.cos(np.radians(17.5)), np.sin(np.radians(17.5)), 0.0, 0.0]))
     from imutherm.imu.filters.gravity_kf import kf_params_from_rest

@@ -171,7 +171,7 @@ def test_power_mode_step_changes_the_rise_only_after_the_switch(tmp_path, base_c
     assert np.min(np.abs(d[-1])) > 0.2 * abs(dI) * sum(POWER_MODE_CHAIN_V.values())  # > 0.2 K per W
 
 
-# --------------------------------------------------------------------------- model-form cases (issue 22)
+# --------------------------------------------------------------------------- model-form cases
 
 @pytest.mark.slow
 def test_model_form_path_differs_from_the_inversion_model_on_a_null_case(tmp_path):

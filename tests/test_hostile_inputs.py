@@ -1,4 +1,4 @@
-"""A hostile user's corpus (issue 14): every bad input is refused in one line, early, and no earlier result is touched.
+"""A hostile user's corpus: every bad input is refused in one line, early, and no earlier result is touched.
 
 Each refused case runs a subcommand in-process with an earlier ``--out`` (the
 files of a real coarse ``imutherm solve``) and asserts: exit status 2, one
@@ -635,7 +635,7 @@ def test_study_cost_counts_the_imu_work():
     assert two["memory_bytes"] > w["memory_bytes"]
 
 
-# --------------------------------------------------------------------------- issue 26: cost, order, no reinterpretation
+# ------------------------------------- the newer commands: refused before the costly work, no option reinterpreted
 @pytest.fixture
 def no_expensive(no_work, monkeypatch):
     """Besides :func:`no_work`: the s2s view factors, the sweep's cases, correlate's reduced models and its
@@ -657,7 +657,7 @@ MEASURED = {  # name -> (text, expected tokens)
     "fahrenheit": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,158\n300,190\n", ["degF", "power-on"]),
     "one_row": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,70\n", ["one row"]),
 }
-ISSUE26 = {  # name -> (argv without --out, expected tokens); files from _issue26_files
+REFUSED_EARLY = {  # name -> (argv without --out, expected tokens); files from _refusal_files
     "s2s_patches_solve": (["solve", "--cavity-law", "s2s", "--cavity-patch-mm", "0.001", "--max-memory", "2G"],
                           ["cavity patches", "--cavity-patch-mm"]),
     "s2s_patches_compare": (["compare", "--thermal-only", "--cavity-law", "s2s", "--cavity-patch-mm", "0.001",
@@ -710,7 +710,7 @@ ISSUE26 = {  # name -> (argv without --out, expected tokens); files from _issue2
 }
 
 
-def _issue26_files(tmp_path: Path) -> dict:
+def _refusal_files(tmp_path: Path) -> dict:
     ex = Path(__file__).resolve().parents[1] / "examples" / "measured"
     files = {"paper_air": str(ex / "paper_000_air.csv"), "paper_grease": str(ex / "paper_000_grease.csv")}
     for name, (text, _) in MEASURED.items():
@@ -722,12 +722,13 @@ def _issue26_files(tmp_path: Path) -> dict:
     return files
 
 
-@pytest.mark.parametrize("case", list(ISSUE26))
+@pytest.mark.parametrize("case", list(REFUSED_EARLY))
 def test_refused_before_the_work(case, out, tmp_path, capsys, no_expensive):
-    """Each refusal class of issue 26: one line, exit 2, ``--out`` untouched, and none of the expensive steps
-    (meshing for the solve, the s2s view factors, the sweep's cases, the reduced models, the studies) started."""
-    files = _issue26_files(tmp_path)
-    argv, expect = ISSUE26[case]
+    """Each refusal class of the newer commands' options: one line, exit 2, ``--out`` untouched, and none of
+    the expensive steps (meshing for the solve, the s2s view factors, the sweep's cases, the reduced models,
+    the studies) started."""
+    files = _refusal_files(tmp_path)
+    argv, expect = REFUSED_EARLY[case]
     argv = [a.format(**files) for a in argv]
     coarse = [] if "--mesh-size" in argv or argv[0] in ("calibrate", "attitude") else COARSE
     before = _snapshot(out)

@@ -1,6 +1,6 @@
-"""The repository's top-level folders are imutherm's subpackages (issue 13 §1): pyproject.toml maps each one
-into the imutherm namespace and lists every package, so the wheel ships all of them (CI installs the wheel
-and runs ``imutherm geometry`` and ``imutherm verify`` from it)."""
+"""The repository's top-level folders are imutherm's subpackages (the layout the design card asks for):
+pyproject.toml maps each one into the imutherm namespace and lists every package, so the wheel ships all of
+them (CI installs the wheel and runs ``imutherm geometry`` and ``imutherm verify`` from it)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Issue 24: the real-log reader, true samples, alignment recovery and inclination scoring; the gated filter's
-inertial low-pass mode on a known answer."""
+"""Filters on real motion: the real-log reader, true samples, alignment recovery and inclination scoring; the
+gated filter's inertial low-pass mode on a known answer."""
 
 import gzip
 import math

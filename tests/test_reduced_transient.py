@@ -1,8 +1,8 @@
 """The study's power-on transient on a reduced model that checks itself (thermal/reduced_transient.py).
 
 Against the full adaptive TR-BDF2 FEM on a coarse mesh (6 mm, 1 cell across: 6.5e4 unknowns), under both
-cavity laws named explicitly: every site curve within 0.05 K, every t95 within 1 % (issue 25), the check's
-estimate against the true error, and the fall-back to the full FEM when the check fails.
+cavity laws named explicitly: every site curve within 0.05 K, every t95 within 1 % (the study's targets for
+the reduced model), the check's estimate against the true error, and the fall-back to the full FEM when the check fails.
 """
 
 import numpy as np

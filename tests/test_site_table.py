@@ -1,4 +1,5 @@
-"""Site-temperature tables (issue 13 §2): one writer, one reader, the site names defined once."""
+"""Site-temperature tables (one home for the thermal-to-IMU hand-off): one writer, one reader, the site
+names defined once."""
 
 import numpy as np
 import pytest

@@ -112,7 +112,7 @@ def test_reduced_sweep_matches_the_full_fem(tmp_path, capsys, law):
     v = rec["verification"]
     assert rc == 0 and rec["design"]["surrogate"] == "reduced" and rec["counts"]["cases"] == 4 * 6
     assert len(v["cases"]) == 3 and v["passed"], v
-    assert v["max_site_error_K"] < 0.1 and v["max_rise_error_K"] < 0.1      # issue 25's tolerance
+    assert v["max_site_error_K"] < 0.1 and v["max_rise_error_K"] < 0.1      # checked cases within 0.1 K of the full FEM
     assert all(c["full_max_rise_K"] > 5 for c in v["checks"])                # a real rise, not a trivial 0 ~ 0
     assert rec["sensitivity"]["measure"] == "sobol" and "ST_conf" in rec["sensitivity"]["outputs"]["max_rise_K"]["by_key"][POWER]
     assert "verification:" in text and "PASS" in text

@@ -150,7 +150,7 @@ def test_cli_dispatcher_knows_verify(capsys):
 
 
 def test_notes_state_the_figures_of_this_run():
-    """Issue 13 §4: a note quotes what this run computed, not figures observed once when it was written."""
+    """A note quotes what this run computed, not figures observed once when it was written."""
     from imutherm.thermal.verification import CASES
 
     t3, t4, semi = CASES["nafems_t3"](), CASES["nafems_t4"](), CASES["semi_infinite"]()
@@ -196,7 +196,7 @@ def _literal_parts(node):
 
 
 def test_no_note_types_in_a_figure():
-    """Issue 13 §4: every figure in a note is formatted from the run (computed, or an input the case used),
+    """Every figure in a note is formatted from the run (computed, or an input the case used),
     so verify.json cannot carry a stale one. Checked on the source: the literal text of every note holds no
     digit but notation."""
     import re

@@ -1,4 +1,4 @@
-"""Time-step accuracy of the power-on transient on the reference unit (issue 10 target: t95 within 2 %).
+"""Time-step accuracy of the power-on transient on the reference unit (target: t95 within 2 % of a step-converged run).
 
 Coarse mesh (6 mm, ~65k unknowns) so that the test stays short; the default-mesh figures are in
 ``benchmarks/bench_transient_accuracy.py`` and ``docs/benchmarks/transient_accuracy.md``.

@@ -1,4 +1,5 @@
-"""Divergence and step-count guards of the transient (issue 14 §4), and ConvergenceError's exit status.
+"""Divergence and step-count guards of the transient (divergence is not a hang: it stops with a
+ConvergenceError naming the likely cause), and ConvergenceError's exit status.
 
 :func:`imutherm.thermal.guards.check_step` is tested on its own and, once the
 time loops of :mod:`imutherm.thermal.transient` call it, through real runs: a power
@@ -84,7 +85,8 @@ def test_step_cap_counts_rejected_steps():
 
 
 def test_convergence_error_is_not_bad_input():
-    """A solve that fails is not bad input (issue 13 §3): its own class, caught apart from InputError."""
+    """A solve that fails is not bad input (an error that says what it means): its own class, caught apart
+    from InputError."""
     assert not issubclass(ConvergenceError, InputError)
     assert solve_mod.ConvergenceError is ConvergenceError
 

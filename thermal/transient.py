@@ -56,13 +56,21 @@ def time_steps(t_end: float, dt_first: float, dt_max: float, growth: float = 1.2
     return np.array(steps)
 
 
-def _step_sizes(t_end, dt) -> np.ndarray:
+def _t_end(t_end) -> float:
+    """``t_end`` [s] as a float; InputError unless it is a finite number > 0 (given or adaptive steps alike)."""
     try:
         t_end = float(t_end)
     except (TypeError, ValueError):
         raise InputError(f"t_end must be a number [s], got {t_end!r}") from None
     if not (math.isfinite(t_end) and t_end > 0):
         raise InputError(f"t_end must be > 0 [s], got {t_end!r}")
+    return t_end
+
+
+def _step_sizes(t_end, dt) -> np.ndarray:
+    """The given steps ``dt`` (one size, the last step shortened to land on ``t_end``, or an array that sums
+    to ``t_end``) as an array [s]; InputError on a bad ``t_end`` or ``dt``."""
+    t_end = _t_end(t_end)
     arr = np.atleast_1d(np.asarray(dt, dtype=float))
     if arr.size == 0 or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
         raise InputError(f"dt must be > 0 [s] (a number or an array of step sizes), got {dt!r}")
@@ -241,12 +249,7 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
     if error_control not in ("nodes", "probes"):
         raise InputError(f"error_control must be 'nodes' or 'probes', got {error_control!r}")
     if adaptive:
-        try:
-            t_end = float(t_end)
-        except (TypeError, ValueError):
-            raise InputError(f"t_end must be a number [s], got {t_end!r}") from None
-        if not (math.isfinite(t_end) and t_end > 0):
-            raise InputError(f"t_end must be > 0 [s], got {t_end!r}")
+        t_end = _t_end(t_end)
         tol_K = _positive("tol_K [K]", DEFAULT_TOL_K if tol_K is None else tol_K, False)
         dt_first = min(_positive("dt_first [s]", DEFAULT_DT_FIRST if dt_first is None else dt_first, False), t_end)
         dt_max = _positive("dt_max [s]", DEFAULT_DT_MAX if dt_max is None else dt_max, False)
