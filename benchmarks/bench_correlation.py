@@ -58,6 +58,9 @@ def main(argv=None) -> int:
     ap.add_argument("--gen-min-cells", type=int, default=1, help="generator: cells across the thinnest part")
     ap.add_argument("--no-generate", action="store_true",
                     help="re-invert the cases already generated in --out, skip the others")
+    ap.add_argument("--generate-only", action="store_true",
+                    help="generate the cases into --out and stop (invert them later with --no-generate: a new "
+                         "inversion re-scored on the same cases)")
     ap.add_argument("--model-form", nargs="?", const="cavity-law", default=None, choices=MODEL_FORMS,
                     help="model-form cases (hidden_effect.model_form_options): 'cavity-law' (the default of the "
                          "flag) generates with the other cavity-radiation law than the inversion's, "
@@ -112,6 +115,9 @@ def main(argv=None) -> int:
                 write_json(meta, {"hidden": case.hidden, "value": case.value, "nuisance": case.nuisance,
                                   "files": list(case.files), "seed": seed, "extra": case.extra})
             t_gen = time.perf_counter() - t0
+            if args.generate_only:
+                print(f"{hidden:<20} generated in {t_gen:.0f} s ({d})", flush=True)
+                continue
             runs = [read_measured(f) for f in case.files]
             res = correlate(runs, models=models, rerun=False,
                             discrepancy="auto" if args.discrepancy is None else args.discrepancy,
@@ -137,6 +143,8 @@ def main(argv=None) -> int:
                   f"disc {'yes' if rows[-1]['discrepancy_supported'] else 'no'} ({time.perf_counter() - t0:.0f} s)",
                   flush=True)
             write_json(rows_path, rows)
+    if args.generate_only:
+        return 0
     form = () if args.cavity_emissivity_as_effect else tuple(FORM_RETUNE)
     summary = summarise(rows, [k for k in kinds if k not in ("none", *OUT_OF_LIBRARY_KINDS, *form)], form)
     write_json(out / f"campaign{tag}.json",
