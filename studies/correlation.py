@@ -126,6 +126,12 @@ class Fit:
     disc_prior: float = math.nan
     #: with the discrepancy term: the RMS [K] of the correction it makes over the fitted data; NaN without it
     disc_rms_K: float = math.nan
+    #: with the discrepancy term: its prior scale per scheme (scheme -> [-]); ``disc_prior`` is the largest
+    disc_priors: dict = field(default_factory=dict)
+    #: with the discrepancy term: ``disc_rms_K`` per scheme (scheme -> [K])
+    disc_rms_by: dict = field(default_factory=dict)
+    #: ``signature_K`` per scheme (scheme -> [K]): where the last-added effect acts
+    signature_by: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -243,65 +249,96 @@ class Discrepancy:
     scales the whole curve) and ΔT 4 s (1 - s) (a time-constant error: a wrong heat capacity or coupling
     moves the curve mid-rise and vanishes at power-on and on the plateau). It cannot follow anything
     faster than the model's own response (a chamber cycle, a step part way) and it is zero at power-on.
-    Prior: each coefficient ~ N(0, ``prior``²) (:data:`DISCREPANCY_PRIOR`); given the knobs, the
-    coefficients are the posterior mean (a ridge fit, closed form per series), so the data update the
-    prior. The fit's objective adds λ |c|², λ = (n / n_eff) σ² / prior² [K²] (σ: the residual level,
+    Prior: each coefficient of a run of scheme g ~ N(0, p_g²), one scale **per cooling scheme**: the model's
+    form error is a property of the scheme's heat paths (the independent model of issue 22 ran 12-20 %
+    warmer in air and grease, within a few % potted), so a scheme the model gets right keeps a tight term
+    that an effect acting there must explain, whatever the form error of another scheme. Given the knobs,
+    the coefficients are the posterior mean (a ridge fit, closed form per series), so the data update the
+    prior. The fit's objective adds λ_g |c|², λ_g = (n / n_eff) σ² / p_g² [K²] (σ: the residual level,
     ``sigma_K``), so that (n_eff / n) J / σ² is -2 log of the posterior density up to a constant and
-    comparisons of models that share the term are comparisons of their evidence (the Occam factor of the
-    term, :meth:`occam`, is the same for both and cancels).
+    comparisons of models that share the term are comparisons of their evidence.
 
-    basis : dict (i, j) -> (n_i, 2) [K] at run i's times; prior [-]; sigma_K [K]; ratio n_eff / n [-]
+    basis : dict (i, j) -> (n_i, 2) [K] at run i's times; prior: p [-] for every scheme, or dict scheme -> p;
+    sigma_K [K]; ratio n_eff / n [-]; groups : tuple, run i -> its scheme (the prior's group)
     """
 
     basis: dict
-    prior: float
+    prior: float | dict
     sigma_K: float
     ratio: float
+    groups: tuple = ()
+
+    def group(self, i: int) -> str:
+        """The prior's group (the scheme) of run ``i``."""
+        return self.groups[i] if self.groups else ""
+
+    def prior_of(self, i: int) -> float:
+        """Prior scale p [-] of run ``i``'s coefficients."""
+        p = self.prior
+        return float(p.get(self.group(i), max(p.values()))) if isinstance(p, dict) else float(p)
+
+    def lam_of(self, i: int) -> float:
+        """Ridge weight λ [K²] of run ``i``'s coefficients."""
+        return self.sigma_K**2 / max(self.ratio, 1e-6) / self.prior_of(i)**2
 
     @property
     def lam(self) -> float:
-        """Ridge weight λ [K²]."""
-        return self.sigma_K**2 / max(self.ratio, 1e-6) / self.prior**2
+        """Ridge weight λ [K²] (of the largest scale, with one per scheme)."""
+        p = max(self.prior.values()) if isinstance(self.prior, dict) else self.prior
+        return self.sigma_K**2 / max(self.ratio, 1e-6) / float(p)**2
+
+    @property
+    def priors(self) -> dict:
+        """scheme -> p [-] of every group."""
+        keys = sorted(set(self.groups)) or [""]
+        return {g: (float(self.prior.get(g, max(self.prior.values()))) if isinstance(self.prior, dict)
+                    else float(self.prior)) for g in keys}
 
     def coefficients(self, r: np.ndarray, i: int, j: int, rows: np.ndarray) -> np.ndarray:
         """Posterior mean of c_ij [-] from the residual r (model - measured) [K] at ``rows`` of run i."""
         F = self.basis[(i, j)][rows]
-        return np.linalg.solve(F.T @ F + self.lam * np.eye(F.shape[1]), F.T @ r[rows])
+        return np.linalg.solve(F.T @ F + self.lam_of(i) * np.eye(F.shape[1]), F.T @ r[rows])
 
-    def with_prior(self, prior: float) -> "Discrepancy":
-        """The same term at another prior scale [-]."""
-        return replace(self, prior=float(prior))
+    def with_prior(self, prior) -> "Discrepancy":
+        """The same term at another prior scale [-] (a float: every scheme; a dict scheme -> p)."""
+        return replace(self, prior=dict(prior) if isinstance(prior, dict) else float(prior))
 
     def profile(self, fwd: "_Forward", values: dict, mask: dict) -> tuple:
-        """(p, C): the prior scale p [-] that maximises the evidence of the residual at ``values`` over
-        ``mask`` (type-II maximum likelihood, searched over :data:`DISCREPANCY_PRIOR_RANGE`), and
+        """(p, C): the prior scales p (dict scheme -> [-]) that maximise the evidence of the residual at
+        ``values`` over ``mask`` (type-II maximum likelihood, each scheme's searched over
+        :data:`DISCREPANCY_PRIOR_RANGE`; the evidence is a sum over the schemes, so each is found apart), and
         C(p) = (n_eff / n) Σ min_c (|r - Φc|² + λ|c|²) / σ² + Σ log det(I + ΦᵀΦ / λ), λ = σ² n / (n_eff p²),
         -2 log of the evidence up to a constant (the data term with the coefficients integrated out).
         Closed form per series from the eigen-decomposition of ΦᵀΦ (2 x 2), so the search is cheap."""
-        rr, lam_g, proj = 0.0, [], []
+        per = {}
         for i, j, rows, r in _series(fwd, values, mask):
             F, x = self.basis[(i, j)][rows], r[rows]
             w, Q = np.linalg.eigh(F.T @ F)
-            rr += float(x @ x)
-            lam_g.append(np.maximum(w, 0.0))
-            proj.append((Q.T @ (F.T @ x)) ** 2)
-        if not lam_g:
-            return self.prior, 0.0
-        g, b = np.concatenate(lam_g), np.concatenate(proj)
+            acc = per.setdefault(self.group(i), [0.0, [], []])
+            acc[0] += float(x @ x)
+            acc[1].append(np.maximum(w, 0.0))
+            acc[2].append((Q.T @ (F.T @ x)) ** 2)
+        if not per:
+            return self.priors, 0.0
         s2 = self.sigma_K**2 / max(self.ratio, 1e-6)  # the white residual's variance per reading [K²]
-
-        def C(logp):
-            lam = s2 / (10.0 ** (2 * logp))
-            return (rr - float(np.sum(b / (g + lam)))) / s2 + float(np.sum(np.log1p(g / lam)))
-
         lo, hi = (math.log10(x) for x in DISCREPANCY_PRIOR_RANGE)
         grid = np.linspace(lo, hi, 57)
-        vals = np.array([C(x) for x in grid])
-        k = int(np.argmin(vals))
-        a, b_ = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-        best = minimize_scalar(C, bounds=(a, b_), method="bounded", options={"xatol": 1e-3}) if b_ > a else None
-        x = float(best.x) if best is not None and best.fun < vals[k] else float(grid[k])
-        return 10.0**x, float(min(C(x), vals[k]))
+        out, total = dict(self.priors), 0.0
+        for g, (rr, lam_g, proj) in per.items():
+            ev, b = np.concatenate(lam_g), np.concatenate(proj)
+
+            def C(logp, ev=ev, b=b, rr=rr):
+                lam = s2 / (10.0 ** (2 * logp))
+                return (rr - float(np.sum(b / (ev + lam)))) / s2 + float(np.sum(np.log1p(ev / lam)))
+
+            vals = np.array([C(x) for x in grid])
+            k = int(np.argmin(vals))
+            a, b_ = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+            best = minimize_scalar(C, bounds=(a, b_), method="bounded", options={"xatol": 1e-3}) if b_ > a else None
+            x = float(best.x) if best is not None and best.fun < vals[k] else float(grid[k])
+            out[g] = 10.0**x
+            total += float(min(C(x), vals[k]))
+        return out, total
 
     def occam(self, mask: dict) -> float:
         """Σ log det(I + Φᵀ Φ / λ) over the series with data in ``mask``: the term's own cost in -2 log evidence."""
@@ -310,7 +347,7 @@ class Discrepancy:
             rows = mask[i][:, j] if i in mask else None
             if rows is None or not rows.any():
                 continue
-            out += float(np.linalg.slogdet(np.eye(F.shape[1]) + F[rows].T @ F[rows] / self.lam)[1])
+            out += float(np.linalg.slogdet(np.eye(F.shape[1]) + F[rows].T @ F[rows] / self.lam_of(i))[1])
         return out
 
 
@@ -325,7 +362,7 @@ def build_discrepancy(fwd: _Forward, values: dict, sigma_K: float, ratio: float,
             dT = float(y_inf[j])
             s = np.clip(y[:, j] / dT, 0.0, 1.0) if dT > 0 else np.zeros(len(y))
             basis[(i, j)] = dT * np.column_stack([s, 4 * s * (1 - s)])
-    return Discrepancy(basis, prior, float(sigma_K), float(ratio))
+    return Discrepancy(basis, prior, float(sigma_K), float(ratio), tuple(r.scheme for r in fwd.runs))
 
 
 def _series(fwd: _Forward, values: dict, mask: dict):
@@ -352,7 +389,7 @@ def _residuals_disc(fwd: _Forward, values: dict, mask: dict, disc: Discrepancy |
         c = disc.coefficients(r, i, j, rows) if coefs is None else coefs.get((i, j), np.zeros(2))
         cs[(i, j)] = c
         out.append(r[rows] - disc.basis[(i, j)][rows] @ c)
-        pen.append(math.sqrt(disc.lam) * c)
+        pen.append(math.sqrt(disc.lam_of(i)) * c)
     return (np.concatenate(out) if out else np.zeros(0)), (np.concatenate(pen) if pen else np.zeros(0)), cs
 
 
@@ -390,7 +427,7 @@ def _knobs_for(name, fwd: _Forward) -> list:
 
 
 def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float, prior_K: float,
-         disc: Discrepancy | None = None, start: dict | None = None) -> Fit:
+         disc: Discrepancy | None = None, start: dict | None = None, hint: dict | None = None) -> Fit:
     """Bounded fit of the re-tune knobs plus candidate(s) ``name`` on ``train``; scored on ``test``.
 
     The re-tune knobs carry a weak prior towards their nominal values: a residual ``prior_K`` (u - u0)
@@ -401,7 +438,8 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
     previous forward-selection step's values) where given. ``disc``: the model's discrepancy term
     (:class:`Discrepancy`), its coefficients fitted with the knobs (their posterior mean given the knobs),
     held-out data predicted with the training fit's coefficients; the criterion is then the evidence
-    form (n_eff / n) J / σ² + 2k (AICc's small-sample term kept) instead of AICc.
+    form (n_eff / n) J / σ² + 2k (AICc's small-sample term kept) instead of AICc; ``hint``: the same
+    effects' values fitted without the term, a further start (the better evidence of the two is kept).
     """
     effects = _effects_of(name)
     ks = _knobs_for(effects, fwd)
@@ -444,15 +482,33 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
 
     starts = [us] if not effects else [np.where(np.arange(len(ks)) == len(ks) - 1, s, us) for s in (-0.6, 0.0, 0.6)]
     best = solve(starts, disc)
-    p_hat, C_hat = math.nan, math.nan
+    p_hat, C_hat = {}, math.nan
     if disc is not None:
-        # the term's prior scale for this fit, by type-II maximum likelihood at the fitted knobs; the knobs
-        # re-fitted once at it when it moved by more than 2x (so a model an effect explains fits without a term)
-        p_hat, C_hat = disc.profile(fwd, vals(best.x), train)
-        if abs(math.log(p_hat / disc.prior)) > math.log(2.0):
-            disc = disc.with_prior(p_hat)
-            best = solve([best.x], disc)
-            p_hat, C_hat = disc.profile(fwd, vals(best.x), train)
+        # the term's prior scales for this fit, by type-II maximum likelihood at the fitted knobs; the knobs
+        # re-fitted once at them when one moved by more than 2x (so a model an effect explains fits without a term)
+        def refit(r, d):
+            p, _ = d.profile(fwd, vals(r.x), train)
+            if any(abs(math.log(p[g] / d.priors.get(g, p[g]))) > math.log(2.0) for g in p):
+                d = d.with_prior(p)
+                r = solve([r.x], d)
+            p, C = d.profile(fwd, vals(r.x), train)
+            return r, p, C
+
+        def score(r, C):  # -2 log evidence up to the terms every fit of this name shares
+            return C + n_eff_ratio * prior_K**2 * float(np.sum((r.x[:n_retune] - u0[:n_retune]) ** 2)) / disc.sigma_K**2
+
+        best, p_hat, C_hat = refit(best, disc)
+        if effects and hint:
+            # also from the effect's fit without the term (``hint``): at a large common scale the term takes what
+            # the effect would explain and the effect's knob does not move from its start (the search stalls)
+            uh = us.copy()
+            for idx, k in enumerate(ks):
+                if k.name in hint:
+                    uh[idx] = float(np.clip(k.to_u(hint[k.name]), -1, 1))
+            p0, _ = disc.profile(fwd, vals(uh), train)
+            alt = refit(solve([uh], disc.with_prior(p0)), disc.with_prior(p0))
+            if score(alt[0], alt[2]) < score(best, C_hat):
+                best, p_hat, C_hat = alt
         disc = disc.with_prior(p_hat)
     v = vals(best.x)
     res, pen, coefs = _residuals_disc(fwd, v, train, disc)
@@ -485,18 +541,26 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
             ci[k.name] = (lo, hi)
     except np.linalg.LinAlgError:
         pass
-    sig = math.nan
+    def rms_by(parts):  # [(run i, values)] -> RMS [K] over all, and per scheme
+        by = {}
+        for i, x in parts:
+            by.setdefault(fwd.runs[i].scheme, []).append(x)
+        every = np.concatenate([x for _, x in parts]) if parts else np.zeros(0)
+        return (float(np.sqrt(np.mean(every**2))) if len(every) else math.nan,
+                {g: float(np.sqrt(np.mean(np.concatenate(xs) ** 2))) for g, xs in by.items()})
+
+    sig, sig_by = math.nan, {}
     if effects:  # what the last-added effect changes at the readings, the rest as fitted
         rest = {kk: x for kk, x in v.items() if kk != effects[-1]}
-        d = np.concatenate([(fwd.rise(i, v) - fwd.rise(i, rest))[m] for i, m in train.items() if m.any()])
-        sig = float(np.sqrt(np.mean(d**2))) if len(d) else math.nan
-    d_rms = math.nan
+        sig, sig_by = rms_by([(i, (fwd.rise(i, v) - fwd.rise(i, rest))[m]) for i, m in train.items() if m.any()])
+    d_rms, disc_by = math.nan, {}
     if disc is not None:
-        d = [disc.basis[(i, j)][train[i][:, j]] @ c for (i, j), c in coefs.items()]
-        d_rms = float(np.sqrt(np.mean(np.concatenate(d) ** 2))) if d else 0.0
+        d_rms, disc_by = rms_by([(i, disc.basis[(i, j)][train[i][:, j]] @ c) for (i, j), c in coefs.items()])
+        d_rms = 0.0 if not coefs else d_rms
     return Fit(_label(effects), v, float(np.sqrt(rss / n)), float(np.abs(res).max()), n, float(ne), k_par,
                float(aicc), hr, hm, at_bound, ci, effects, coefs, sig, "aicc" if disc is None else "evidence",
-               float(best.fun @ best.fun), float(p_hat), d_rms)
+               float(best.fun @ best.fun), max(p_hat.values()) if p_hat else math.nan, d_rms, dict(p_hat),
+               disc_by, sig_by)
 
 
 # --------------------------------------------------------------------------- statistics
@@ -885,14 +949,14 @@ def _masks(runs, holdout: str | None):
     return [(train, test)]
 
 
-def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None) -> tuple:
+def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None, hint=None) -> tuple:
     """Held-out RMS and max over the folds (each fold fitted on its training set; with the discrepancy
     term, the held-out readings are predicted with the training fit's coefficients)."""
     errs = []
     for train, test in folds:
         if test is None:
             return math.nan, math.nan
-        f = _fit(fwd, name, train, None, ratio, prior, disc, start)
+        f = _fit(fwd, name, train, None, ratio, prior, disc, start, hint)
         errs.append(_residuals_disc(fwd, f.values, test, disc, f.disc)[0])
     e = np.concatenate(errs)
     return float(np.sqrt(np.mean(e**2))), float(np.abs(e).max())
@@ -980,11 +1044,15 @@ def _plain_explains(selection, noise_K: float) -> bool:
     return not steps or steps[0]["verdict"] == "none"
 
 
-def explains_term(f: Fit, none: Fit, noise_K: float) -> bool:
+def explains_term(f: Fit, none: Fit, noise_K: float, chosen=()) -> bool:
     """With the discrepancy term: whether the effects of ``f`` (forward selection's choice, together) explain
     the model's error, by the verdict's own standard without the term (:data:`EXPLAIN_NOISE_FACTOR`,
-    :data:`EXPLAIN_FRACTION`): the term they leave (RMS of its correction) within 3 noise sigmas, or at most
-    half the re-tuned model's. Otherwise nothing is named.
+    :data:`EXPLAIN_FRACTION`): **in every scheme where they act** (a chosen effect's signature there at least
+    :data:`EXPLAIN_NOISE_FACTOR` noise sigmas; ``chosen``: the fits after each added effect), the term they
+    leave (RMS of its correction) within 3 noise sigmas, or at most half the re-tuned model's. Otherwise
+    nothing is named. An effect is judged where it acts because the model's form error is a property of each
+    scheme: a bond line (grease only) is not asked to explain the air scheme's cavity-law error, but an
+    effect that acts in both must explain the term in both. Without per-scheme figures: over all data.
 
     With the term every candidate predicts held-out data at the noise, so the term's size is what measures
     what is left unexplained; and the term and a library effect are not separately identifiable when both fit
@@ -995,7 +1063,15 @@ def explains_term(f: Fit, none: Fit, noise_K: float) -> bool:
     rise). Judged on the set, not per step: two effects hidden together each leave the other in the term."""
     if not (math.isfinite(none.disc_rms_K) and math.isfinite(f.disc_rms_K)):
         return True
-    return f.disc_rms_K <= max(EXPLAIN_NOISE_FACTOR * noise_K, EXPLAIN_FRACTION * none.disc_rms_K)
+
+    def ok(left, before):
+        return left <= max(EXPLAIN_NOISE_FACTOR * noise_K, EXPLAIN_FRACTION * before)
+
+    acting = {g for c in (chosen or (f,)) for g, x in c.signature_by.items() if x >= EXPLAIN_NOISE_FACTOR * noise_K}
+    acting &= set(f.disc_rms_by) & set(none.disc_rms_by)
+    if not acting:
+        return ok(f.disc_rms_K, none.disc_rms_K)
+    return all(ok(f.disc_rms_by[g], none.disc_rms_by[g]) for g in acting)
 
 
 def _verdict_sparse(none: Fit, ranking, noise_K: float) -> tuple:
@@ -1032,11 +1108,11 @@ def effect_words(name: str | None, values: dict) -> str:
     return f"{e.name}{where}: {e.words}; fitted {p.name} = {v:.4g} {p.unit}"
 
 
-def _fit_candidate(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None):
+def _fit_candidate(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None):
     """One candidate (or combination) fitted on all data, with its pooled held-out figures (a pure
-    function: run in a worker)."""
-    f = _fit(fwd, name, full, None, ratio, noise, disc, start)
-    h = _pooled(fwd, name, folds, ratio, noise, disc and disc.with_prior(f.disc_prior), start)
+    function: run in a worker). ``hint``: its values fitted without the discrepancy term (a further start)."""
+    f = _fit(fwd, name, full, None, ratio, noise, disc, start, hint)
+    h = _pooled(fwd, name, folds, ratio, noise, disc and disc.with_prior(f.disc_priors), start, hint)
     return _with(f, heldout_rms_K=h[0], heldout_max_K=h[1])
 
 
@@ -1055,12 +1131,14 @@ def _compatible(selected: tuple, name: str) -> bool:
     return not (partners & mine)
 
 
-def _fit_all(args, jobs):
+def _fit_all(args, jobs, fn=None):
+    """``fn(*a)`` (default :func:`_fit_candidate`) for every ``a`` of ``args``, on ``jobs`` workers."""
+    fn = fn or _fit_candidate
     pool = _pool(jobs, len(args))
     if pool is None:
-        return [_fit_candidate(*a) for a in args]
+        return [fn(*a) for a in args]
     try:
-        return [f.result() for f in [pool.submit(_fit_candidate, *a) for a in args]]
+        return [f.result() for f in [pool.submit(fn, *a) for a in args]]
     finally:
         pool.shutdown(cancel_futures=True)
 
@@ -1070,13 +1148,14 @@ def _rank_key(f: Fit):
 
 
 def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise: float, disc=None, jobs: int = 1,
-                   max_effects: int = MAX_EFFECTS, say=None) -> tuple:
+                   max_effects: int = MAX_EFFECTS, say=None, hints: dict | None = None) -> tuple:
     """Forward selection of library effects on top of ``base`` (the re-tuned model, with the discrepancy
     term if ``disc``): at each step every compatible candidate is fitted on top of the effects chosen so
     far (their values and the re-tune's as the start), ranked, and the best added only if :func:`verdict`
     names it against the current model (the same margins: information criterion, runner-up, held-out RMS
     better than the current model's, and at least :data:`EXPLAIN_MIN_NOISE` noise sigmas of change).
-    Stops at the first step that names nothing, or after ``max_effects``.
+    Stops at the first step that names nothing, or after ``max_effects``. ``hints``: effects tuple -> values
+    of the same selection fitted without the term (the plain selection's fits), a further start of each fit.
 
     Returns (steps, chosen fits): steps a list of dicts (``base``, ``ranking``, ``verdict``, ``named``,
     ``ambiguous_set``, ``reason``), chosen the Fit after each added effect.
@@ -1090,8 +1169,8 @@ def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise:
             break
         say(f"step {len(chosen) + 1}: {len(names)} candidate(s) on top of {cur.name}, fitted on all data and on "
             f"each hold-out fold")
-        ranking = sorted(_fit_all([(fwd, sel + (n,), full, folds, ratio, noise, disc, cur.values) for n in names],
-                                  jobs), key=_rank_key)
+        ranking = sorted(_fit_all([(fwd, sel + (n,), full, folds, ratio, noise, disc, cur.values,
+                                    (hints or {}).get(sel + (n,))) for n in names], jobs), key=_rank_key)
         v, named, amb, reason = verdict(cur, ranking, noise, base)
         steps.append({"base": cur, "ranking": tuple(ranking), "verdict": v, "named": named and named.split("+")[-1],
                       "ambiguous_set": tuple(a.split("+")[-1] for a in amb), "reason": reason})
@@ -1202,20 +1281,36 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         first = _fit(fwd, "none", full, None, ratio, noise, disc)
         ratio = n_eff_ratio(fwd, first.values, disc, first.disc)  # the term takes the smooth, correlated part
         # the re-tuned model's own scale is the start of every candidate's estimate
-        disc = Discrepancy(disc.basis, first.disc_prior, max(noise, first.rms_K), ratio)
+        disc = replace(disc, prior=dict(first.disc_priors), sigma_K=max(noise, first.rms_K), ratio=ratio)
         none_fit = _fit(fwd, "none", full, None, ratio, noise, disc)
-        disc = disc.with_prior(none_fit.disc_prior)
+        disc = disc.with_prior(none_fit.disc_priors)
         h = _pooled(fwd, "none", folds, ratio, noise, disc)
         none_fit = _with(none_fit, heldout_rms_K=h[0], heldout_max_K=h[1])
     if discrepancy or plain_sel is None:
+        if plain_sel is None and disc is not None:  # the library's fits without the term: starts of those with it
+            plain_sel = ([{"ranking": tuple(_fit_all([(fwd, (n,), full, None, ratio, noise) for n in candidates],
+                                                      jobs, _fit))}], [])
+        hints = {f.effects: f.values for st in (plain_sel[0] if plain_sel else ()) for f in st["ranking"]}
         steps, chosen = forward_select(fwd, none_fit, candidates, full, folds, ratio, noise, disc, jobs,
-                                       max_effects, say)
+                                       max_effects, say, hints)
     else:
         steps, chosen = plain_sel
     ranking = list(steps[0]["ranking"]) if steps else []
     t_fits = time.perf_counter() - t0 - t_rom
     unexplained = ""
-    if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise):
+    if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
+        # the longest first part of the selection that does explain it (a later step may add an effect that
+        # acts where the form error is and explains it not)
+        keep = next((k for k in range(len(chosen) - 1, 0, -1)
+                     if explains_term(chosen[k - 1], none_fit, noise, chosen[:k])), 0)
+        if keep:
+            say(f"named: {', '.join(c.effects[-1] for c in chosen[:keep])}; not "
+                f"{', '.join(c.effects[-1] for c in chosen[keep:])}, which leaves the model's error where it acts")
+            steps = steps[:keep] + [dict(steps[keep], verdict="not_in_library", named=None,
+                                         reason=f"{chosen[keep].effects[-1]} does not explain the model's error "
+                                                f"where it acts")]
+            chosen = chosen[:keep]
+    if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
         f = chosen[-1]
         unexplained = (f"no candidate explains the model's error: the best, {f.name}, leaves a discrepancy of "
                        f"{f.disc_rms_K:.2f} K of the re-tuned model's {none_fit.disc_rms_K:.2f} K (more than "
@@ -1295,7 +1390,7 @@ def discrepancy_summary(fwd, disc: Discrepancy, plain: Fit, with_term: Fit, afte
     evidence of the re-tuned model with the term over the re-tune alone (the log det: the term's Occam factor).
     """
     gain = disc.ratio * (plain.cost_K2 - with_term.cost_K2) / disc.sigma_K**2 - disc.with_prior(
-        with_term.disc_prior).occam(full)
+        with_term.disc_priors).occam(full)
     rows, per = [], {}
     for i, run in enumerate(fwd.runs):
         d = -_disc_curve(disc, after.disc, i, run)
@@ -1328,6 +1423,9 @@ def discrepancy_summary(fwd, disc: Discrepancy, plain: Fit, with_term: Fit, afte
              if parts else "the discrepancy term is within the noise at every site")
     return {"supported": bool(gain >= MARGIN_NONE), "evidence_gain": float(gain),
             "prior_fraction": with_term.disc_prior, "prior_fraction_after": after.disc_prior,
+            "prior_fraction_by_scheme": dict(with_term.disc_priors),
+            "prior_fraction_after_by_scheme": dict(after.disc_priors),
+            "rms_by_scheme_K": dict(after.disc_rms_by),
             "sigma_K": disc.sigma_K, "rms_K": rms, "per_site": per, "words": words,
             "basis": "per run and site: dT s(t), dT 4 s(1 - s), s the nominal normalised response"}
 
