@@ -27,11 +27,11 @@
    while one qualifies (at most ``max_effects``); ``named_effects`` in order, ``named_effect`` the first.
    **The model's own error** (:class:`Discrepancy`; ``discrepancy='auto'``, the default: used where the
    library's choice does not predict held-out data within the noise): every fit carries a smooth per-site,
-   per-run discrepancy with a Gaussian prior whose scale the data estimate for that fit (type-II maximum
-   likelihood, :meth:`Discrepancy.profile`), so every candidate is judged against the re-tuned model *with*
-   the term by the evidence (the term's Occam factor at each fit's own scale included) and held-out error,
-   and the chosen effects together must explain the model's error (leave the term within 3 noise sigmas or
-   halve it); when no effect qualifies and the data support the term, the verdict is ``discrepancy`` (the
+   per-run discrepancy with a Gaussian prior whose scale, one per cooling scheme, the data estimate for that
+   fit (type-II maximum likelihood, :meth:`Discrepancy.profile`), so every candidate is judged against the
+   re-tuned model *with* the term by the evidence (the term's Occam factor at each fit's own scales included)
+   and held-out error, and the chosen effects together must explain the model's error in every scheme where
+   they act (leave the term there within 3 noise sigmas or halve it; :func:`explains_term`); when no effect qualifies and the data support the term, the verdict is ``discrepancy`` (the
    model's form is off, by so much, where, not explained by any library effect).
 6. **Re-run**: the corrected model on the full FEM (:func:`rerun_full`) for the "after" figures.
 
@@ -1112,7 +1112,7 @@ def _fit_candidate(fwd, name, full, folds, ratio: float, noise: float, disc=None
     """One candidate (or combination) fitted on all data, with its pooled held-out figures (a pure
     function: run in a worker). ``hint``: its values fitted without the discrepancy term (a further start)."""
     f = _fit(fwd, name, full, None, ratio, noise, disc, start, hint)
-    h = _pooled(fwd, name, folds, ratio, noise, disc and disc.with_prior(f.disc_priors), start, hint)
+    h = _pooled(fwd, name, folds, ratio, noise, disc and disc.with_prior(f.disc_priors), start)
     return _with(f, heldout_rms_K=h[0], heldout_max_K=h[1])
 
 
