@@ -1143,12 +1143,80 @@ def _fit_all(args, jobs, fn=None):
         pool.shutdown(cancel_futures=True)
 
 
+def _timed(fn, *a):
+    """(``fn(*a)``, its CPU seconds in this process): a worker's task, timed where it runs."""
+    c0 = time.process_time()
+    out = fn(*a)
+    return out, time.process_time() - c0
+
+
+def _fit_full(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None) -> Fit:
+    """The fit on all data of :func:`_fit_candidate`, without the held-out figures (a task of its own)."""
+    return _fit(fwd, name, full, None, ratio, noise, disc, start, hint)
+
+
+def _fit_heldout(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None) -> tuple:
+    """The hold-out figures of :func:`_fit_candidate` without the discrepancy term (they do not depend on the
+    fit on all data then: a task of its own, run beside :func:`_fit_full`)."""
+    return _pooled(fwd, name, folds, ratio, noise, None, start, hint)
+
+
+#: the guessed CPU cost of a candidate's fits relative to the others, before any is measured (the first
+#: forward-selection step): a probe lag's rises are computed on a dense time grid and filtered, ~3x the CPU
+#: of any other candidate (measured: 3.0-3.8 s against 0.3-1.5 s per candidate, 2026-12-02)
+_COST_GUESS = {"probe_lag": 3.0}
+
+
+def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
+    """:func:`_fit_candidate` of every ``a`` of ``args`` (their order kept), on ``jobs`` workers.
+
+    A step of the forward selection waits for its slowest candidate, so the work is balanced: without the
+    discrepancy term each candidate's fit on all data and its hold-out fit are two tasks (independent then),
+    and the tasks are handed out longest first, by their CPU seconds of the step before (``costs``: last
+    effect -> seconds, updated here) or :data:`_COST_GUESS`. The same fits either way: the results equal
+    the serial ones."""
+    costs = {} if costs is None else costs
+    pool = _pool(jobs, len(args))
+    if pool is None:
+        return [_fit_candidate(*a) for a in args]
+    split = all(a[6] is None for a in args)
+    kinds = (_fit_full, _fit_heldout) if split else (_fit_candidate,)
+    tasks = [(k, fn) for k in range(len(args)) for fn in kinds]
+
+    def cost(task):
+        k, fn = task
+        last = _effects_of(args[k][1])[-1]
+        if (fn.__name__, last) in costs:
+            return costs[(fn.__name__, last)]
+        if fn is _fit_candidate and ("_fit_full", last) in costs:  # the same candidate measured without the term
+            return costs[("_fit_full", last)] + costs.get(("_fit_heldout", last), 0.0)
+        return _COST_GUESS.get(last.split("@")[0], 1.0)
+
+    order = sorted(range(len(tasks)), key=lambda t: -cost(tasks[t]))  # stable: ties in the given order
+    try:
+        futs = {t: pool.submit(_timed, tasks[t][1], *args[tasks[t][0]]) for t in order}
+        done = {t: f.result() for t, f in futs.items()}
+    finally:
+        pool.shutdown(cancel_futures=True)
+    for t, (_, sec) in done.items():
+        k, fn = tasks[t]
+        costs[(fn.__name__, _effects_of(args[k][1])[-1])] = sec
+    if not split:
+        return [done[t][0] for t in range(len(tasks))]
+    out = []
+    for k in range(len(args)):
+        f, h = done[2 * k][0], done[2 * k + 1][0]
+        out.append(_with(f, heldout_rms_K=h[0], heldout_max_K=h[1]))
+    return out
+
+
 def _rank_key(f: Fit):
     return (f.aicc if math.isfinite(f.aicc) else math.inf, f.heldout_rms_K if math.isfinite(f.heldout_rms_K) else math.inf)
 
 
 def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise: float, disc=None, jobs: int = 1,
-                   max_effects: int = MAX_EFFECTS, say=None, hints: dict | None = None) -> tuple:
+                   max_effects: int = MAX_EFFECTS, say=None, hints: dict | None = None,
+                   costs: dict | None = None) -> tuple:
     """Forward selection of library effects on top of ``base`` (the re-tuned model, with the discrepancy
     term if ``disc``): at each step every compatible candidate is fitted on top of the effects chosen so
     far (their values and the re-tune's as the start), ranked, and the best added only if :func:`verdict`
@@ -1156,11 +1224,14 @@ def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise:
     better than the current model's, and at least :data:`EXPLAIN_MIN_NOISE` noise sigmas of change).
     Stops at the first step that names nothing, or after ``max_effects``. ``hints``: effects tuple -> values
     of the same selection fitted without the term (the plain selection's fits), a further start of each fit.
+    ``costs``: the candidates' measured CPU seconds, which order the next step's tasks (:func:`_fit_candidates`;
+    shared by the selections of one correlation).
 
     Returns (steps, chosen fits): steps a list of dicts (``base``, ``ranking``, ``verdict``, ``named``,
     ``ambiguous_set``, ``reason``), chosen the Fit after each added effect.
     """
     say = say or (lambda s: None)
+    costs = {} if costs is None else costs
     steps, chosen, cur = [], [], base
     while len(chosen) < max_effects:
         sel = cur.effects
@@ -1169,8 +1240,9 @@ def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise:
             break
         say(f"step {len(chosen) + 1}: {len(names)} candidate(s) on top of {cur.name}, fitted on all data and on "
             f"each hold-out fold")
-        ranking = sorted(_fit_all([(fwd, sel + (n,), full, folds, ratio, noise, disc, cur.values,
-                                    (hints or {}).get(sel + (n,))) for n in names], jobs), key=_rank_key)
+        ranking = sorted(_fit_candidates([(fwd, sel + (n,), full, folds, ratio, noise, disc, cur.values,
+                                           (hints or {}).get(sel + (n,))) for n in names], jobs, costs),
+                         key=_rank_key)
         v, named, amb, reason = verdict(cur, ranking, noise, base)
         steps.append({"base": cur, "ranking": tuple(ranking), "verdict": v, "named": named and named.split("+")[-1],
                       "ambiguous_set": tuple(a.split("+")[-1] for a in amb), "reason": reason})
@@ -1266,9 +1338,10 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                      f"site, which its two coefficients per site would fit exactly")
         say(disc_note)
         discrepancy = False
-    plain_sel = None
+    plain_sel, costs = None, {}
     if discrepancy == "auto":  # the library first; the term only where the library does not explain the data
-        plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say)
+        plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say,
+                                   costs=costs)
         if _plain_explains(plain_sel, noise):
             discrepancy = False
         else:
@@ -1292,7 +1365,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                                                       jobs, _fit))}], [])
         hints = {f.effects: f.values for st in (plain_sel[0] if plain_sel else ()) for f in st["ranking"]}
         steps, chosen = forward_select(fwd, none_fit, candidates, full, folds, ratio, noise, disc, jobs,
-                                       max_effects, say, hints)
+                                       max_effects, say, hints, costs)
     else:
         steps, chosen = plain_sel
     ranking = list(steps[0]["ranking"]) if steps else []
