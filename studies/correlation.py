@@ -47,6 +47,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
+from threadpoolctl import threadpool_limits
 
 from imutherm import InputError
 from imutherm.geometry.build import MM, build_geometry
@@ -1314,61 +1315,66 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     before_res = _residuals(fwd, nominal, {i: np.isfinite(r.values_C) for i, r in enumerate(runs)})
     loc, fp = localise(fwd, nominal)
     say("re-tune")
-    full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
-    folds = _masks(runs, holdout)
-    none0 = _fit(fwd, "none", full, None, 1.0, noise)
-    ratio = n_eff_ratio(fwd, none0.values)
-    plain = _fit(fwd, "none", full, None, ratio, noise)
-    h = _pooled(fwd, "none", folds, ratio, noise)
-    plain = _with(plain, heldout_rms_K=h[0], heldout_max_K=h[1])
-    if candidates is None:
-        candidates = [n for n in K.model_effect_names() if any(n in rom.knobs for rom in roms.values())]
-        candidates += [n for n in SIGNAL]
-    for name in candidates:
-        effect_of(name)
-    candidates = [n for n in candidates if (EFFECTS[n.split("@")[0]].kind != "model"
-                  or any(n in rom.knobs for rom in roms.values())) and n not in fwd.form]
-    if discrepancy not in (True, False, "auto"):
-        raise InputError(f"correlate: discrepancy={discrepancy!r}; valid: True, False, 'auto'")
-    disc, none_fit = None, plain
-    disc_note = ""
-    if discrepancy and all(len(r.times_s) < SPARSE_READINGS for r in runs):
-        # two coefficients per series fit a sparse file's few readings exactly: nothing is left to judge by
-        disc_note = (f"discrepancy term not fitted: every file has fewer than {SPARSE_READINGS} readings per "
-                     f"site, which its two coefficients per site would fit exactly")
-        say(disc_note)
-        discrepancy = False
-    plain_sel, costs = None, {}
-    if discrepancy == "auto":  # the library first; the term only where the library does not explain the data
-        plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say,
-                                   costs=costs)
-        if _plain_explains(plain_sel, noise):
-            discrepancy = False
-        else:
-            disc_note = ("the library effects and the re-tune do not predict held-out data within "
-                         f"{NONE_NOISE_FACTOR:g} noise sigmas: judged with the discrepancy term")
+    # the fits' small dense algebra (reduced models of ~40 unknowns) on one BLAS thread, as in the workers:
+    # OpenBLAS's two threads on matrices that small cost more than they give (measured at load 5: a re-tune
+    # 0.13 s on one thread, 0.23-0.30 s on two; at load ~9 the three re-tune fits took 12 s of CPU, not 1 s),
+    # and the results are the same
+    with threadpool_limits(1):
+        full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
+        folds = _masks(runs, holdout)
+        none0 = _fit(fwd, "none", full, None, 1.0, noise)
+        ratio = n_eff_ratio(fwd, none0.values)
+        plain = _fit(fwd, "none", full, None, ratio, noise)
+        h = _pooled(fwd, "none", folds, ratio, noise)
+        plain = _with(plain, heldout_rms_K=h[0], heldout_max_K=h[1])
+        if candidates is None:
+            candidates = [n for n in K.model_effect_names() if any(n in rom.knobs for rom in roms.values())]
+            candidates += [n for n in SIGNAL]
+        for name in candidates:
+            effect_of(name)
+        candidates = [n for n in candidates if (EFFECTS[n.split("@")[0]].kind != "model"
+                      or any(n in rom.knobs for rom in roms.values())) and n not in fwd.form]
+        if discrepancy not in (True, False, "auto"):
+            raise InputError(f"correlate: discrepancy={discrepancy!r}; valid: True, False, 'auto'")
+        disc, none_fit = None, plain
+        disc_note = ""
+        if discrepancy and all(len(r.times_s) < SPARSE_READINGS for r in runs):
+            # two coefficients per series fit a sparse file's few readings exactly: nothing is left to judge by
+            disc_note = (f"discrepancy term not fitted: every file has fewer than {SPARSE_READINGS} readings per "
+                         f"site, which its two coefficients per site would fit exactly")
             say(disc_note)
-    if discrepancy:
-        # the residual level σ of the evidence: what the re-tune with the term leaves, not below the noise
-        disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR)
-        first = _fit(fwd, "none", full, None, ratio, noise, disc)
-        ratio = n_eff_ratio(fwd, first.values, disc, first.disc)  # the term takes the smooth, correlated part
-        # the re-tuned model's own scale is the start of every candidate's estimate
-        disc = replace(disc, prior=dict(first.disc_priors), sigma_K=max(noise, first.rms_K), ratio=ratio)
-        none_fit = _fit(fwd, "none", full, None, ratio, noise, disc)
-        disc = disc.with_prior(none_fit.disc_priors)
-        h = _pooled(fwd, "none", folds, ratio, noise, disc)
-        none_fit = _with(none_fit, heldout_rms_K=h[0], heldout_max_K=h[1])
-    if discrepancy or plain_sel is None:
-        if plain_sel is None and disc is not None:  # the library's fits without the term: starts of those with it
-            plain_sel = ([{"ranking": tuple(_fit_all([(fwd, (n,), full, None, ratio, noise) for n in candidates],
-                                                      jobs, _fit))}], [])
-        hints = {f.effects: f.values for st in (plain_sel[0] if plain_sel else ()) for f in st["ranking"]}
-        steps, chosen = forward_select(fwd, none_fit, candidates, full, folds, ratio, noise, disc, jobs,
-                                       max_effects, say, hints, costs)
-    else:
-        steps, chosen = plain_sel
-    ranking = list(steps[0]["ranking"]) if steps else []
+            discrepancy = False
+        plain_sel, costs = None, {}
+        if discrepancy == "auto":  # the library first; the term only where the library does not explain the data
+            plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say,
+                                       costs=costs)
+            if _plain_explains(plain_sel, noise):
+                discrepancy = False
+            else:
+                disc_note = ("the library effects and the re-tune do not predict held-out data within "
+                             f"{NONE_NOISE_FACTOR:g} noise sigmas: judged with the discrepancy term")
+                say(disc_note)
+        if discrepancy:
+            # the residual level σ of the evidence: what the re-tune with the term leaves, not below the noise
+            disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR)
+            first = _fit(fwd, "none", full, None, ratio, noise, disc)
+            ratio = n_eff_ratio(fwd, first.values, disc, first.disc)  # the term takes the smooth, correlated part
+            # the re-tuned model's own scale is the start of every candidate's estimate
+            disc = replace(disc, prior=dict(first.disc_priors), sigma_K=max(noise, first.rms_K), ratio=ratio)
+            none_fit = _fit(fwd, "none", full, None, ratio, noise, disc)
+            disc = disc.with_prior(none_fit.disc_priors)
+            h = _pooled(fwd, "none", folds, ratio, noise, disc)
+            none_fit = _with(none_fit, heldout_rms_K=h[0], heldout_max_K=h[1])
+        if discrepancy or plain_sel is None:
+            if plain_sel is None and disc is not None:  # the library's fits without the term: starts of those with it
+                plain_sel = ([{"ranking": tuple(_fit_all([(fwd, (n,), full, None, ratio, noise) for n in candidates],
+                                                          jobs, _fit))}], [])
+            hints = {f.effects: f.values for st in (plain_sel[0] if plain_sel else ()) for f in st["ranking"]}
+            steps, chosen = forward_select(fwd, none_fit, candidates, full, folds, ratio, noise, disc, jobs,
+                                           max_effects, say, hints, costs)
+        else:
+            steps, chosen = plain_sel
+        ranking = list(steps[0]["ranking"]) if steps else []
     t_fits = time.perf_counter() - t0 - t_rom
     unexplained = ""
     if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
