@@ -47,6 +47,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
+from threadpoolctl import threadpool_limits
 
 from imutherm import InputError
 from imutherm.geometry.build import MM, build_geometry
@@ -1143,12 +1144,80 @@ def _fit_all(args, jobs, fn=None):
         pool.shutdown(cancel_futures=True)
 
 
+def _timed(fn, *a):
+    """(``fn(*a)``, its CPU seconds in this process): a worker's task, timed where it runs."""
+    c0 = time.process_time()
+    out = fn(*a)
+    return out, time.process_time() - c0
+
+
+def _fit_full(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None) -> Fit:
+    """The fit on all data of :func:`_fit_candidate`, without the held-out figures (a task of its own)."""
+    return _fit(fwd, name, full, None, ratio, noise, disc, start, hint)
+
+
+def _fit_heldout(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None) -> tuple:
+    """The hold-out figures of :func:`_fit_candidate` without the discrepancy term (they do not depend on the
+    fit on all data then: a task of its own, run beside :func:`_fit_full`)."""
+    return _pooled(fwd, name, folds, ratio, noise, None, start, hint)
+
+
+#: the guessed CPU cost of a candidate's fits relative to the others, before any is measured (the first
+#: forward-selection step): a probe lag's rises are computed on a dense time grid and filtered, ~3x the CPU
+#: of any other candidate (measured: 3.0-3.8 s against 0.3-1.5 s per candidate, 2026-12-02)
+_COST_GUESS = {"probe_lag": 3.0}
+
+
+def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
+    """:func:`_fit_candidate` of every ``a`` of ``args`` (their order kept), on ``jobs`` workers.
+
+    A step of the forward selection waits for its slowest candidate, so the work is balanced: without the
+    discrepancy term each candidate's fit on all data and its hold-out fit are two tasks (independent then),
+    and the tasks are handed out longest first, by their CPU seconds of the step before (``costs``: last
+    effect -> seconds, updated here) or :data:`_COST_GUESS`. The same fits either way: the results equal
+    the serial ones."""
+    costs = {} if costs is None else costs
+    pool = _pool(jobs, len(args))
+    if pool is None:
+        return [_fit_candidate(*a) for a in args]
+    split = all(a[6] is None for a in args)
+    kinds = (_fit_full, _fit_heldout) if split else (_fit_candidate,)
+    tasks = [(k, fn) for k in range(len(args)) for fn in kinds]
+
+    def cost(task):
+        k, fn = task
+        last = _effects_of(args[k][1])[-1]
+        if (fn.__name__, last) in costs:
+            return costs[(fn.__name__, last)]
+        if fn is _fit_candidate and ("_fit_full", last) in costs:  # the same candidate measured without the term
+            return costs[("_fit_full", last)] + costs.get(("_fit_heldout", last), 0.0)
+        return _COST_GUESS.get(last.split("@")[0], 1.0)
+
+    order = sorted(range(len(tasks)), key=lambda t: -cost(tasks[t]))  # stable: ties in the given order
+    try:
+        futs = {t: pool.submit(_timed, tasks[t][1], *args[tasks[t][0]]) for t in order}
+        done = {t: f.result() for t, f in futs.items()}
+    finally:
+        pool.shutdown(cancel_futures=True)
+    for t, (_, sec) in done.items():
+        k, fn = tasks[t]
+        costs[(fn.__name__, _effects_of(args[k][1])[-1])] = sec
+    if not split:
+        return [done[t][0] for t in range(len(tasks))]
+    out = []
+    for k in range(len(args)):
+        f, h = done[2 * k][0], done[2 * k + 1][0]
+        out.append(_with(f, heldout_rms_K=h[0], heldout_max_K=h[1]))
+    return out
+
+
 def _rank_key(f: Fit):
     return (f.aicc if math.isfinite(f.aicc) else math.inf, f.heldout_rms_K if math.isfinite(f.heldout_rms_K) else math.inf)
 
 
 def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise: float, disc=None, jobs: int = 1,
-                   max_effects: int = MAX_EFFECTS, say=None, hints: dict | None = None) -> tuple:
+                   max_effects: int = MAX_EFFECTS, say=None, hints: dict | None = None,
+                   costs: dict | None = None) -> tuple:
     """Forward selection of library effects on top of ``base`` (the re-tuned model, with the discrepancy
     term if ``disc``): at each step every compatible candidate is fitted on top of the effects chosen so
     far (their values and the re-tune's as the start), ranked, and the best added only if :func:`verdict`
@@ -1156,11 +1225,14 @@ def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise:
     better than the current model's, and at least :data:`EXPLAIN_MIN_NOISE` noise sigmas of change).
     Stops at the first step that names nothing, or after ``max_effects``. ``hints``: effects tuple -> values
     of the same selection fitted without the term (the plain selection's fits), a further start of each fit.
+    ``costs``: the candidates' measured CPU seconds, which order the next step's tasks (:func:`_fit_candidates`;
+    shared by the selections of one correlation).
 
     Returns (steps, chosen fits): steps a list of dicts (``base``, ``ranking``, ``verdict``, ``named``,
     ``ambiguous_set``, ``reason``), chosen the Fit after each added effect.
     """
     say = say or (lambda s: None)
+    costs = {} if costs is None else costs
     steps, chosen, cur = [], [], base
     while len(chosen) < max_effects:
         sel = cur.effects
@@ -1169,8 +1241,9 @@ def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise:
             break
         say(f"step {len(chosen) + 1}: {len(names)} candidate(s) on top of {cur.name}, fitted on all data and on "
             f"each hold-out fold")
-        ranking = sorted(_fit_all([(fwd, sel + (n,), full, folds, ratio, noise, disc, cur.values,
-                                    (hints or {}).get(sel + (n,))) for n in names], jobs), key=_rank_key)
+        ranking = sorted(_fit_candidates([(fwd, sel + (n,), full, folds, ratio, noise, disc, cur.values,
+                                           (hints or {}).get(sel + (n,))) for n in names], jobs, costs),
+                         key=_rank_key)
         v, named, amb, reason = verdict(cur, ranking, noise, base)
         steps.append({"base": cur, "ranking": tuple(ranking), "verdict": v, "named": named and named.split("+")[-1],
                       "ambiguous_set": tuple(a.split("+")[-1] for a in amb), "reason": reason})
@@ -1242,60 +1315,66 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     before_res = _residuals(fwd, nominal, {i: np.isfinite(r.values_C) for i, r in enumerate(runs)})
     loc, fp = localise(fwd, nominal)
     say("re-tune")
-    full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
-    folds = _masks(runs, holdout)
-    none0 = _fit(fwd, "none", full, None, 1.0, noise)
-    ratio = n_eff_ratio(fwd, none0.values)
-    plain = _fit(fwd, "none", full, None, ratio, noise)
-    h = _pooled(fwd, "none", folds, ratio, noise)
-    plain = _with(plain, heldout_rms_K=h[0], heldout_max_K=h[1])
-    if candidates is None:
-        candidates = [n for n in K.model_effect_names() if any(n in rom.knobs for rom in roms.values())]
-        candidates += [n for n in SIGNAL]
-    for name in candidates:
-        effect_of(name)
-    candidates = [n for n in candidates if (EFFECTS[n.split("@")[0]].kind != "model"
-                  or any(n in rom.knobs for rom in roms.values())) and n not in fwd.form]
-    if discrepancy not in (True, False, "auto"):
-        raise InputError(f"correlate: discrepancy={discrepancy!r}; valid: True, False, 'auto'")
-    disc, none_fit = None, plain
-    disc_note = ""
-    if discrepancy and all(len(r.times_s) < SPARSE_READINGS for r in runs):
-        # two coefficients per series fit a sparse file's few readings exactly: nothing is left to judge by
-        disc_note = (f"discrepancy term not fitted: every file has fewer than {SPARSE_READINGS} readings per "
-                     f"site, which its two coefficients per site would fit exactly")
-        say(disc_note)
-        discrepancy = False
-    plain_sel = None
-    if discrepancy == "auto":  # the library first; the term only where the library does not explain the data
-        plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say)
-        if _plain_explains(plain_sel, noise):
-            discrepancy = False
-        else:
-            disc_note = ("the library effects and the re-tune do not predict held-out data within "
-                         f"{NONE_NOISE_FACTOR:g} noise sigmas: judged with the discrepancy term")
+    # the fits' small dense algebra (reduced models of ~40 unknowns) on one BLAS thread, as in the workers:
+    # OpenBLAS's two threads on matrices that small cost more than they give (measured at load 5: a re-tune
+    # 0.13 s on one thread, 0.23-0.30 s on two; at load ~9 the three re-tune fits took 12 s of CPU, not 1 s),
+    # and the results are the same
+    with threadpool_limits(1):
+        full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
+        folds = _masks(runs, holdout)
+        none0 = _fit(fwd, "none", full, None, 1.0, noise)
+        ratio = n_eff_ratio(fwd, none0.values)
+        plain = _fit(fwd, "none", full, None, ratio, noise)
+        h = _pooled(fwd, "none", folds, ratio, noise)
+        plain = _with(plain, heldout_rms_K=h[0], heldout_max_K=h[1])
+        if candidates is None:
+            candidates = [n for n in K.model_effect_names() if any(n in rom.knobs for rom in roms.values())]
+            candidates += [n for n in SIGNAL]
+        for name in candidates:
+            effect_of(name)
+        candidates = [n for n in candidates if (EFFECTS[n.split("@")[0]].kind != "model"
+                      or any(n in rom.knobs for rom in roms.values())) and n not in fwd.form]
+        if discrepancy not in (True, False, "auto"):
+            raise InputError(f"correlate: discrepancy={discrepancy!r}; valid: True, False, 'auto'")
+        disc, none_fit = None, plain
+        disc_note = ""
+        if discrepancy and all(len(r.times_s) < SPARSE_READINGS for r in runs):
+            # two coefficients per series fit a sparse file's few readings exactly: nothing is left to judge by
+            disc_note = (f"discrepancy term not fitted: every file has fewer than {SPARSE_READINGS} readings per "
+                         f"site, which its two coefficients per site would fit exactly")
             say(disc_note)
-    if discrepancy:
-        # the residual level σ of the evidence: what the re-tune with the term leaves, not below the noise
-        disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR)
-        first = _fit(fwd, "none", full, None, ratio, noise, disc)
-        ratio = n_eff_ratio(fwd, first.values, disc, first.disc)  # the term takes the smooth, correlated part
-        # the re-tuned model's own scale is the start of every candidate's estimate
-        disc = replace(disc, prior=dict(first.disc_priors), sigma_K=max(noise, first.rms_K), ratio=ratio)
-        none_fit = _fit(fwd, "none", full, None, ratio, noise, disc)
-        disc = disc.with_prior(none_fit.disc_priors)
-        h = _pooled(fwd, "none", folds, ratio, noise, disc)
-        none_fit = _with(none_fit, heldout_rms_K=h[0], heldout_max_K=h[1])
-    if discrepancy or plain_sel is None:
-        if plain_sel is None and disc is not None:  # the library's fits without the term: starts of those with it
-            plain_sel = ([{"ranking": tuple(_fit_all([(fwd, (n,), full, None, ratio, noise) for n in candidates],
-                                                      jobs, _fit))}], [])
-        hints = {f.effects: f.values for st in (plain_sel[0] if plain_sel else ()) for f in st["ranking"]}
-        steps, chosen = forward_select(fwd, none_fit, candidates, full, folds, ratio, noise, disc, jobs,
-                                       max_effects, say, hints)
-    else:
-        steps, chosen = plain_sel
-    ranking = list(steps[0]["ranking"]) if steps else []
+            discrepancy = False
+        plain_sel, costs = None, {}
+        if discrepancy == "auto":  # the library first; the term only where the library does not explain the data
+            plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say,
+                                       costs=costs)
+            if _plain_explains(plain_sel, noise):
+                discrepancy = False
+            else:
+                disc_note = ("the library effects and the re-tune do not predict held-out data within "
+                             f"{NONE_NOISE_FACTOR:g} noise sigmas: judged with the discrepancy term")
+                say(disc_note)
+        if discrepancy:
+            # the residual level σ of the evidence: what the re-tune with the term leaves, not below the noise
+            disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR)
+            first = _fit(fwd, "none", full, None, ratio, noise, disc)
+            ratio = n_eff_ratio(fwd, first.values, disc, first.disc)  # the term takes the smooth, correlated part
+            # the re-tuned model's own scale is the start of every candidate's estimate
+            disc = replace(disc, prior=dict(first.disc_priors), sigma_K=max(noise, first.rms_K), ratio=ratio)
+            none_fit = _fit(fwd, "none", full, None, ratio, noise, disc)
+            disc = disc.with_prior(none_fit.disc_priors)
+            h = _pooled(fwd, "none", folds, ratio, noise, disc)
+            none_fit = _with(none_fit, heldout_rms_K=h[0], heldout_max_K=h[1])
+        if discrepancy or plain_sel is None:
+            if plain_sel is None and disc is not None:  # the library's fits without the term: starts of those with it
+                plain_sel = ([{"ranking": tuple(_fit_all([(fwd, (n,), full, None, ratio, noise) for n in candidates],
+                                                          jobs, _fit))}], [])
+            hints = {f.effects: f.values for st in (plain_sel[0] if plain_sel else ()) for f in st["ranking"]}
+            steps, chosen = forward_select(fwd, none_fit, candidates, full, folds, ratio, noise, disc, jobs,
+                                           max_effects, say, hints, costs)
+        else:
+            steps, chosen = plain_sel
+        ranking = list(steps[0]["ranking"]) if steps else []
     t_fits = time.perf_counter() - t0 - t_rom
     unexplained = ""
     if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
