@@ -723,6 +723,17 @@ def _pool(jobs: int, n: int):
                                initializer=_one_blas_thread)
 
 
+def _map(fn, args, jobs: int) -> list:
+    """``[fn(*a) for a in args]``, on min(``jobs``, len(args)) worker processes (:func:`_pool`)."""
+    pool = _pool(jobs, len(args))
+    if pool is None:
+        return [fn(*a) for a in args]
+    try:
+        return [f.result() for f in [pool.submit(fn, *a) for a in args]]
+    finally:
+        pool.shutdown(cancel_futures=True)
+
+
 def _build_one(layout: LayoutSpec, scheme: str, amb: float, mesh_size_mm: float, min_cells: int,
                options: ModelOptions, use_cache: bool = True):
     """(geometry, reduced model, from the cache: bool) of one (scheme, ambient [degC]); a pure function, run in
@@ -903,13 +914,7 @@ def rerun_full(runs, values: dict, models: Models, jobs: int = 1, progress=None,
     say(f"full-model re-run of {len(runs)} file(s) (one steady solve and one transient each)")
     args = [(models.keyed_geometries[(r.scheme, r.ambient_C)], values, r, models.mesh_size_mm, models.min_cells,
              models.options or ModelOptions(), use_cache) for r in runs]
-    pool = _pool(jobs, len(runs))
-    if pool is None:
-        return [_rerun_one(*a) for a in args]
-    try:
-        return [f.result() for f in [pool.submit(_rerun_one, *a) for a in args]]
-    finally:
-        pool.shutdown(cancel_futures=True)
+    return _map(_rerun_one, args, jobs)
 
 
 #: a run with fewer readings than this is sparse (a paper's or a notebook's few figures)
@@ -950,14 +955,14 @@ def _masks(runs, holdout: str | None):
     return [(train, test)]
 
 
-def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None, hint=None) -> tuple:
+def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None) -> tuple:
     """Held-out RMS and max over the folds (each fold fitted on its training set; with the discrepancy
     term, the held-out readings are predicted with the training fit's coefficients)."""
     errs = []
     for train, test in folds:
         if test is None:
             return math.nan, math.nan
-        f = _fit(fwd, name, train, None, ratio, prior, disc, start, hint)
+        f = _fit(fwd, name, train, None, ratio, prior, disc, start)
         errs.append(_residuals_disc(fwd, f.values, test, disc, f.disc)[0])
     e = np.concatenate(errs)
     return float(np.sqrt(np.mean(e**2))), float(np.abs(e).max())
@@ -1132,18 +1137,6 @@ def _compatible(selected: tuple, name: str) -> bool:
     return not (partners & mine)
 
 
-def _fit_all(args, jobs, fn=None):
-    """``fn(*a)`` (default :func:`_fit_candidate`) for every ``a`` of ``args``, on ``jobs`` workers."""
-    fn = fn or _fit_candidate
-    pool = _pool(jobs, len(args))
-    if pool is None:
-        return [fn(*a) for a in args]
-    try:
-        return [f.result() for f in [pool.submit(fn, *a) for a in args]]
-    finally:
-        pool.shutdown(cancel_futures=True)
-
-
 def _timed(fn, *a):
     """(``fn(*a)``, its CPU seconds in this process): a worker's task, timed where it runs."""
     c0 = time.process_time()
@@ -1159,7 +1152,7 @@ def _fit_full(fwd, name, full, folds, ratio: float, noise: float, disc=None, sta
 def _fit_heldout(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None) -> tuple:
     """The hold-out figures of :func:`_fit_candidate` without the discrepancy term (they do not depend on the
     fit on all data then: a task of its own, run beside :func:`_fit_full`)."""
-    return _pooled(fwd, name, folds, ratio, noise, None, start, hint)
+    return _pooled(fwd, name, folds, ratio, noise, None, start)
 
 
 #: the guessed CPU cost of a candidate's fits relative to the others, before any is measured (the first
@@ -1367,8 +1360,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
             none_fit = _with(none_fit, heldout_rms_K=h[0], heldout_max_K=h[1])
         if discrepancy or plain_sel is None:
             if plain_sel is None and disc is not None:  # the library's fits without the term: starts of those with it
-                plain_sel = ([{"ranking": tuple(_fit_all([(fwd, (n,), full, None, ratio, noise) for n in candidates],
-                                                          jobs, _fit))}], [])
+                plain_sel = ([{"ranking": tuple(_map(_fit, [(fwd, (n,), full, None, ratio, noise) for n in candidates],
+                                                      jobs))}], [])
             hints = {f.effects: f.values for st in (plain_sel[0] if plain_sel else ()) for f in st["ranking"]}
             steps, chosen = forward_select(fwd, none_fit, candidates, full, folds, ratio, noise, disc, jobs,
                                            max_effects, say, hints, costs)
