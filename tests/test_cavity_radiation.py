@@ -318,3 +318,39 @@ def test_ambient_drift_with_s2s():
     drift = run_scheme(None, "air", effects=[parse_effect("ambient_drift:rate_K_per_h=18")], **kw)
     add = drift.transient.probe_C[-1] - base.transient.probe_C[-1]
     assert np.all(add > 0.1 * 18 / 3600 * 600) and np.all(add < 18 / 3600 * 600)
+
+
+def test_cavity_law_blend_spans_the_two_laws():
+    """``cavity_law_blend`` w: at 0 the s2s law, at 1 the effective law (the exchange then carries nothing), in
+    between a rise between theirs at every site, energy balanced; refused outside [0, 1] and without s2s.
+    Reference unit, air scheme, 6 mm mesh (tp1 there ~24 K s2s, ~17 K effective)."""
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.geometry.mesh import build_mesh
+    from imutherm.unit.model import build_problem
+    g = build_geometry(load_layout(None), "air")
+    m = build_mesh(g, 6.0, 1)
+    sites = {k: g.sites[k] for k in ("tp1", "gyro_x", "gyro_z", "accel_y")}
+
+    def rise(**kw):
+        pb = build_problem(g, m, ModelOptions(**kw))
+        r = solve_steady(pb, probes=sites)
+        assert r.energy_balance_rel_error < 1e-6
+        return np.asarray(r.probe_C) - pb.ambient_C, pb
+
+    s2s, _ = rise(cavity_law="s2s")
+    eff, _ = rise(cavity_law="effective")
+    zero, pb0 = rise(cavity_law="s2s", cavity_law_blend=0.0)
+    one, pb1 = rise(cavity_law="s2s", cavity_law_blend=1.0)
+    half, _ = rise(cavity_law="s2s", cavity_law_blend=0.5)
+    assert np.array_equal(zero, s2s)
+    assert np.abs(one - eff).max() < 1e-6 and not np.any(pb1.exchanges[0].X)
+    assert s2s[0] - eff[0] > 4.0  # the two laws differ in form at tp1 (24 K against 17 K)
+    lo, hi = np.minimum(s2s, eff), np.maximum(s2s, eff)
+    assert np.all(half > lo + 0.05 * (hi - lo)) and np.all(half < hi - 0.05 * (hi - lo))
+    assert pb0.exchanges[0].X is not pb1.exchanges[0].X  # the cached law itself is not scaled in place
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(InputError, match="cavity_law_blend"):
+            ModelOptions(cavity_law_blend=bad)
+    with pytest.raises(InputError, match="needs cavity_law 's2s'"):
+        ModelOptions(cavity_law="effective", cavity_law_blend=0.5)

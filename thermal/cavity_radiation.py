@@ -46,6 +46,8 @@ unconditionally stable for the same reason and first order in the step.
 
 from __future__ import annotations
 
+import copy
+
 import time
 from dataclasses import dataclass
 
@@ -437,6 +439,15 @@ class CavityExchange:
         self.emissivity = np.asarray(emissivity, float)
         self.X = exchange_matrix(view.F, patches.area, self.emissivity)
         self._absX = np.abs(self.X)
+
+    def scaled(self, factor: float) -> "CavityExchange":
+        """The same enclosure exchanging ``factor`` [-] (>= 0) times the heat: X times ``factor``, a new law (this one
+        is not changed; the view factors and patches are shared)."""
+        if not (np.isfinite(factor) and factor >= 0):
+            raise InputError(f"cavity radiation: the exchange's scale must be a finite number >= 0, got {factor!r}")
+        out = copy.copy(self)
+        out.X, out._absX = self.X * float(factor), self._absX * float(factor)
+        return out
 
     @property
     def region(self):  # a law's region (the whole set of nodes)
