@@ -213,3 +213,32 @@ def test_reduced_s2s_matches_the_full_s2s_model():
         np.testing.assert_allclose(red, full, rtol=0, atol=TOL_FRACTION * full.max(), err_msg=str(values))
         if values:  # the bare interior is a real change under s2s, not a no-op: tp1 rises by > 3 K
             assert full[-1, list(g.sites).index("tp1")] > rom.nominal_rise_K[list(g.sites).index("tp1")] + 3.0
+
+
+@pytest.mark.slow
+def test_reduced_model_follows_the_cavity_law_blend():
+    """The blend of the two cavity laws (``cavity_law_blend`` w, carried with the cavity's emissivity as a coupled
+    pair, knobs.COUPLED) against the full model: the effective law's end (w 1, the exchange carrying nothing) and
+    a point inside with another emissivity and mount. Tolerances as the s2s test's (steady 1 % of the largest
+    rise, curves TOL_FRACTION); measured 2e-5 / 0.7 % steady, 1.2 % / 1.1 % on the curves (6 mm mesh, 5 mm
+    patches). Apart (not coupled) the inside point was 12 % off."""
+    g, grid, opts, _ = _s2s_problem(patch_mm=5.0)
+    knobs = [k for k, _ in K.RETUNE] + [K.effect_knob(n, opts) for n in ("cavity_emissivity", "cavity_law_blend")]
+    assert knobs[-1].nodes == 2 and ("cavity_emissivity", "cavity_law_blend") in K.COUPLED
+    rom = build_reduced(lambda v: K.variant(g, opts, v), grid, knobs, dict(g.sites),
+                        pairs=[("cavity_emissivity", "cavity_law_blend")])
+    tp1 = list(g.sites).index("tp1")
+    for values in ({"cavity_law_blend": 1.0}, {"cavity_law_blend": 0.5, "cavity_emissivity": 0.4,
+                                               "mount_h_W_m2K": 2000.0}):
+        pb = effect_problem(K.variant(g, opts, values), grid)
+        asm = assemble(pb)
+        st = solve_steady(pb, probes=dict(g.sites), assembly=asm)
+        tr = solve_transient(pb, TIMES[-1], scheme="trbdf2", probes=dict(g.sites), assembly=asm,
+                             error_control="probes", tol_K=1e-3)
+        curves = np.column_stack([np.interp(TIMES, tr.times, tr.probe_C[:, j]) for j in range(len(st.probe_names))])
+        full = np.vstack([curves, st.probe_C[None, :]]) - pb.ambient_C
+        red = rom.rise(values, np.append(TIMES, np.inf))
+        np.testing.assert_allclose(red[-1], full[-1], rtol=0, atol=S2S_STEADY * full.max(), err_msg=str(values))
+        np.testing.assert_allclose(red, full, rtol=0, atol=TOL_FRACTION * full.max(), err_msg=str(values))
+    # the effective law's end is a change of form: tp1 ~26 K (s2s) -> ~18 K
+    assert rom.rise({"cavity_law_blend": 1.0}, [np.inf])[0, tp1] < 0.8 * rom.nominal_rise_K[tp1]
