@@ -83,7 +83,12 @@ SIGNAL = ("probe_lag", "ambient_drift")
 #: the form knobs: re-tuned, never named (:data:`imutherm.unit.knobs.FORM_RETUNE`), and each one's value at
 #: which the model is nominal (geometry, options) -> value
 FORM_RETUNE = K.FORM_RETUNE
-_FORM_NOMINAL = {"cavity_emissivity": K.cavity_pair_nominal}
+#: the form knobs opened where the model's form is in doubt (with the discrepancy term,
+#: :data:`imutherm.unit.knobs.FORM_IN_DOUBT`): re-tuned then, never candidates
+FORM_IN_DOUBT = K.FORM_IN_DOUBT
+FORM_KNOBS = {**FORM_RETUNE, **FORM_IN_DOUBT}
+_FORM_NOMINAL = {"cavity_emissivity": K.cavity_pair_nominal,
+                 "cavity_law_blend": lambda geometry, options: float(options.cavity_law_blend)}
 #: the times at which the model curve is evaluated for a probe lag (plus the measured ones) [s]
 _DENSE = np.concatenate([[0.0], np.geomspace(0.5, 2.0e4, 240)])
 
@@ -745,7 +750,8 @@ def _build_one(layout: LayoutSpec, scheme: str, amb: float, mesh_size_mm: float,
     from imutherm.cache import cached
     lay = replace(layout, ambient_C=amb, mounting=replace(layout.mounting, temperature_C=amb))
     geo = build_geometry(lay, scheme)
-    ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n, options) for n in K.model_effect_names() if K.applicable(n, geo)]
+    ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n, options) for n in K.model_effect_names()
+                                     if K.applicable(n, geo, options)]
     names = {k.name for k in ks}
     pairs = [p for p in K.COUPLED if set(p) <= names]
 
@@ -1326,7 +1332,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         for name in candidates:
             effect_of(name)
         candidates = [n for n in candidates if (EFFECTS[n.split("@")[0]].kind != "model"
-                      or any(n in rom.knobs for rom in roms.values())) and n not in fwd.form]
+                      or any(n in rom.knobs for rom in roms.values())) and n not in fwd.form
+                      and n not in FORM_IN_DOUBT]
         if discrepancy not in (True, False, "auto"):
             raise InputError(f"correlate: discrepancy={discrepancy!r}; valid: True, False, 'auto'")
         disc, none_fit = None, plain
@@ -1348,6 +1355,9 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                              f"{NONE_NOISE_FACTOR:g} noise sigmas: judged with the discrepancy term")
                 say(disc_note)
         if discrepancy:
+            # the model's form in doubt: the form knobs of FORM_IN_DOUBT (the cavity law's blend) re-tuned too
+            if form_retune:
+                fwd = _Forward(runs, roms, geometries, models.options, form + tuple(FORM_IN_DOUBT))
             # the residual level σ of the evidence: what the re-tune with the term leaves, not below the noise
             disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR)
             first = _fit(fwd, "none", full, None, ratio, noise, disc)
@@ -1603,10 +1613,10 @@ def result_json(res: CorrelationResult) -> dict:
         for name, v in f.values.items():
             k = next((kk for kk, _ in K.RETUNE if kk.name == name), None)
             unit = k.unit if k is not None else effect_of(name).params[0].unit
-            form = name in FORM_RETUNE and name not in res.named_effects and name not in f.effects
+            form = name in FORM_KNOBS and name not in res.named_effects and name not in f.effects
             out[name] = {"value": v, "unit": unit, "ci95": list(f.ci.get(name, (None, None))),
                          "kind": "retune" if k is not None or form else "effect",
-                         "source": K.RETUNE_SOURCES.get(name) or (FORM_RETUNE[name] if form else
+                         "source": K.RETUNE_SOURCES.get(name) or (FORM_KNOBS[name] if form else
                                                                   effect_of(name).params[0].source),
                          "at_bound": name in f.at_bound}
         return out
@@ -1701,7 +1711,7 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
     for k, _ in K.RETUNE:
         if k.name in res.after.values:
             lines.append(f"{k.name} = {res.after.values[k.name]:.6g}   # {K.RETUNE_SOURCES[k.name]}")
-    for name, why in FORM_RETUNE.items():
+    for name, why in FORM_KNOBS.items():
         if name in res.after.values and name not in res.named_effects:
             lines.append(f"{name} = {res.after.values[name]:.6g}   # {why}")
     lines += ["", "# the named effects, in the order forward selection added them (one line each)", "[effects]"]

@@ -26,7 +26,7 @@ from imutherm.geometry.layout import LayoutSpec
 from imutherm.geometry.materials import with_properties
 from imutherm.textio import read_text
 from imutherm.unit.effects import EFFECTS, apply_model_effects, effect_of, setting, wall_emissivity_for_pair
-from imutherm.unit.knobs import FORM_RETUNE, RETUNE, effect_knob
+from imutherm.unit.knobs import FORM_IN_DOUBT, FORM_RETUNE, RETUNE, effect_knob
 from imutherm.unit.model import ModelOptions
 
 try:  # Python >= 3.11
@@ -90,7 +90,7 @@ def load_fitted_model(path) -> FittedModel:
     unknown = sorted(set(data) - {"model", "correlation", "retune", "effects"})
     if unknown:
         raise InputError(f"{path}: unknown table(s) {', '.join(unknown)}; valid: model, correlation, retune, effects")
-    bounds = {k.name: k for k, _ in RETUNE} | {n: effect_knob(n) for n in FORM_RETUNE}
+    bounds = {k.name: k for k, _ in RETUNE} | {n: effect_knob(n) for n in (*FORM_RETUNE, *FORM_IN_DOUBT)}
     retune = {}
     for name, v in data.get("retune", {}).items():
         if name not in bounds:
@@ -143,6 +143,8 @@ def fitted_options(model: FittedModel, options: ModelOptions | None = None, layo
     if "cavity_emissivity" in r:  # the form knob (knobs.FORM_RETUNE): as the effect sets it, under either law
         opts = opts.with_(cavity_emissivity=r["cavity_emissivity"],
                           cavity_wall_emissivity=wall_emissivity_for_pair(r["cavity_emissivity"]))
+    if "cavity_law_blend" in r:  # the form knob opened where the model's form was in doubt (knobs.FORM_IN_DOUBT)
+        opts = opts.with_(cavity_law_blend=r["cavity_law_blend"])
     if "k_board_W_mK" in r:
         if layout is None:
             raise InputError("fitted_options: k_board_W_mK needs the layout (its boards' materials)")

@@ -14,7 +14,7 @@ from imutherm.cli import main
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
-from imutherm.studies.fitted_model import apply_fitted, load_fitted_model
+from imutherm.studies.fitted_model import apply_fitted, fitted_options, load_fitted_model
 from imutherm.studies.thermal_study import run_scheme
 from imutherm.unit import knobs as K
 from imutherm.unit.effects import effect_problem
@@ -153,7 +153,7 @@ def test_updated_model_toml_reads_back(tmp_path):
     """What correlate writes (updated_model_toml) is what --model reads: layout, switches, RMS, values."""
     from imutherm.studies.correlation import CorrelationResult, Fit, updated_model_toml
 
-    vals = {"power_scale": 0.9, "mount_h_W_m2K": 1234.5, "power@reg_5v": -0.3}
+    vals = {"power_scale": 0.9, "mount_h_W_m2K": 1234.5, "power@reg_5v": -0.3, "cavity_law_blend": 0.8}
     after = Fit("power@reg_5v", vals, 0.2, 0.3, 4, 4.0, 3, float("nan"), 0.25, 0.3, effects=("power@reg_5v",))
     retune = Fit("none", {"power_scale": 0.95}, 1.1, 1.5, 4, 4.0, 2, float("nan"), 1.3, 1.6)
     res = CorrelationResult("effect", "power@reg_5v", (), {"rms_K": 2.0, "max_K": 3.0, "heldout_rms_K": 2.1},
@@ -167,7 +167,9 @@ def test_updated_model_toml_reads_back(tmp_path):
     m = load_fitted_model(path)
     assert Path(m.layout) == Path(load_layout(None).path).resolve()
     assert m.options["cavity_law"] == "s2s" and m.options["mounting_conductance_W_m2K"] == 800.0
-    assert m.retune == {"power_scale": 0.9, "mount_h_W_m2K": 1234.5}
+    # the cavity law's blend (a form knob opened where the model's form was in doubt) is re-tuned, and applied
+    assert m.retune == {"power_scale": 0.9, "mount_h_W_m2K": 1234.5, "cavity_law_blend": 0.8}
+    assert fitted_options(m, layout=load_layout(None)).cavity_law_blend == 0.8
     assert [e.text() for e in m.effects] == ["power@reg_5v:extra_W=-0.3"]
     assert m.correlation["verdict"] == "effect" and m.correlation["rms_before_K"] == 2.0
     assert m.correlation["rms_after_K"] == 0.22 and m.correlation["after_from"] == "full model re-run"
