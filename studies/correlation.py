@@ -753,7 +753,7 @@ def _build_one(layout: LayoutSpec, scheme: str, amb: float, mesh_size_mm: float,
     ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n, options) for n in K.model_effect_names()
                                      if K.applicable(n, geo, options)]
     names = {k.name for k in ks}
-    pairs = [p for p in K.COUPLED if set(p) <= names]
+    pairs = K.coupled_pairs(names)
 
     def build():
         grid = build_mesh(geo, mesh_size_mm, min_cells)

@@ -246,7 +246,7 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
             continue
         applicable.append(i.name)
     names = {k.name for k in knobs}
-    pairs = [p for p in K.COUPLED if set(p) <= names]
+    pairs = K.coupled_pairs(names)
     sites = tuple(s for s in GYRO_SITES + ACCEL_SITES if s in geo.sites)
     if progress:
         progress(f"uncertainty: reduced model of {scheme} ({len(knobs)} knobs, {grid.n_nodes} unknowns)")

@@ -99,6 +99,20 @@ def test_an_assembly_without_heat_capacity_refuses_it_and_shares_the_read_only_p
         b.M
 
 
+def test_a_coupled_pair_must_name_knobs_the_model_carries():
+    """A pair with a knob the reduced model does not carry is refused before any solve (CI once failed
+    with a bare KeyError deep in the build when knobs.COUPLED gained a pair); coupled_pairs picks the
+    pairs of a knob set."""
+    g = build_geometry(load_layout(None), "air")
+    grid = build_mesh(g, max_cell_mm=12.0, min_cells=1)
+    knobs = [k for k, _ in K.RETUNE]
+    names = [k.name for k in knobs]
+    assert K.coupled_pairs(names) == []
+    assert K.coupled_pairs(names + ["contact@board"]) == [("k_board_W_mK", "contact@board")]
+    with pytest.raises(ValueError, match="contact@board is not among"):
+        build_reduced(lambda v: K.variant(g, ModelOptions(), v), grid, knobs, dict(g.sites), pairs=K.COUPLED)
+
+
 def test_closed_form_step_response_of_one_mode():
     """One mode: M y' + a y = b from 0 gives y = b/a (1 - e^{-a t / M}); with a ramp input the lag solution."""
     from imutherm.thermal.reduced import ReducedModel
@@ -126,7 +140,8 @@ def test_coupled_knobs_are_interpolated_jointly():
     grid = build_mesh(g, **MESH)
     opts = ModelOptions(cavity_law="effective")
     knobs = [k for k, _ in K.RETUNE] + [K.effect_knob(n, opts) for n in ("contact@board", "contact@standoff")]
-    rom = build_reduced(lambda v: K.variant(g, opts, v), grid, knobs, dict(g.sites), pairs=K.COUPLED)
+    rom = build_reduced(lambda v: K.variant(g, opts, v), grid, knobs, dict(g.sites),
+                        pairs=K.coupled_pairs(k.name for k in knobs))
     for values in ({"k_board_W_mK": 12.0, "contact@board": 100.0}, {"k_board_W_mK": 17.28, "contact@board": 3614.0},
                    {"k_board_W_mK": 30.0, "contact@board": 300.0}, {"k_board_W_mK": 11.0, "contact@standoff": 50.0},
                    {"power_scale": 0.85, "mount_h_W_m2K": 1529.0, "k_board_W_mK": 15.0, "contact@board": 3614.0}):

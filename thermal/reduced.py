@@ -362,6 +362,12 @@ def build_reduced(variant_fn, grid, knobs, sites: dict, *, order: int = KRYLOV_O
     max_nodes : int array or None, node indices whose rows of the basis are kept (``P_max``) so that
         :meth:`ReducedModel.max_rise` is the maximum over them
     """
+    carried = {k.name for k in knobs}
+    for a, b in pairs:
+        absent = [n for n in (a, b) if n not in carried]
+        if absent:
+            raise ValueError(f"coupled pair ({a!r}, {b!r}): {', '.join(absent)} is not among the reduced model's "
+                             "knobs (pass only pairs of knobs it carries: unit.knobs.coupled_pairs)")
     t0 = time.perf_counter()
     timings = {}
     nominal = variant_fn({})

@@ -78,6 +78,12 @@ COUPLED = (("k_board_W_mK", "contact@board"), ("k_board_W_mK", "contact@standoff
            ("cavity_emissivity", "cavity_law_blend"))
 
 
+def coupled_pairs(names) -> list[tuple[str, str]]:
+    """The :data:`COUPLED` pairs both of whose knobs are among ``names`` (a reduced model's knob set)."""
+    names = set(names)
+    return [p for p in COUPLED if set(p) <= names]
+
+
 def nominal_values(geometry: Geometry, options: ModelOptions | None = None) -> dict:
     """The re-tune knobs' nominal values for a unit, read from its layout and materials.
 
