@@ -6,7 +6,8 @@ model's own uncertain inputs as :func:`imutherm.unit.knobs.uncertain_inputs` sta
 knobs of :data:`~imutherm.unit.knobs.RETUNE`: powers' scale, mount, convection, housing emissivity,
 board conductivity; and the supply voltage, from the layout's electrical design: its ``supply_range_V``
 and the loss slope of the linear regulator it feeds, :func:`supply_input`; a layout without an electrical
-design has no supply input, and the result's ``notes`` say so), the cavity pair emissivity and the grease
+design has no supply input, and the result's ``notes`` say so), the cavity pair emissivity, the cavity
+radiation law's form (under the s2s law: ``cavity_law_blend`` w 0..1 towards the effective law) and the grease
 bond lines' contact.
 
 :func:`propagate` draws SALib's Saltelli design over the inputs (uniform in each knob's coordinate:
@@ -97,7 +98,8 @@ def inputs(geometry, options=None) -> tuple:
     """The uncertain inputs of ``geometry``'s unit with their ranges, sources and nominal values: the model's
     own (:func:`imutherm.unit.knobs.uncertain_inputs`: the re-tune knobs of
     :data:`~imutherm.unit.knobs.RETUNE` and the supply voltage from the layout's electrical design,
-    :func:`supply_input`), the cavity pair emissivity and the grease bond lines' contact."""
+    :func:`supply_input`), the cavity pair emissivity, under the s2s cavity law its form (``cavity_law_blend``,
+    uniform 0..1 towards the effective law) and the grease bond lines' contact."""
     from imutherm.unit import knobs as K
     from imutherm.unit.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
 
@@ -114,6 +116,14 @@ def inputs(geometry, options=None) -> tuple:
                               "pair emissivity of facing board / housing surfaces: boards 0.80-0.95 (solder "
                               "mask, assumed), anodised inner walls 0.75-0.90 (Incropera Table A.11, widened) "
                               "-> 1/(1/e1 + 1/e2 - 1) = 0.63-0.86 (model default 0.77)", options.cavity_emissivity))
+    if options.cavity_radiation and options.cavity_law == "s2s":
+        out.append(UncertainInput("cavity_law_blend", "-", 0.0, 1.0, False,
+                                  "the cavity radiation law's form: weight w of the effective-conductivity law in a "
+                                  "blend with the s2s exchange (0 s2s, the model's law; 1 effective). The two "
+                                  "verified laws differ by 40 % of the air rise, an independent finite-volume model "
+                                  "of the unit lies between them and which is closer to the real unit is not known: "
+                                  "uniform over the span, competing model forms weighted alike (alternate "
+                                  "hypotheses, Zio & Apostolakis 1996)", options.cavity_law_blend))
     out.append(UncertainInput("contact@bond", "W/m^2 K", 3.6e3, 2.0e4, True,
                               "each face of a grease bond line: from an unwetted (air-filled) Al joint, "
                               "R'' = 2.75e-4 m^2 K/W (Incropera & DeWitt Table 3.1b), up to the contact effect's "
@@ -240,7 +250,7 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
                               part=i.knob.split("@", 1)[1]))
         elif i.name in retune:
             knobs.append(replace(retune[i.name], lo=i.lo, hi=i.hi))
-        elif K.applicable(i.name, geo):
+        elif K.applicable(i.name, geo, options):
             knobs.append(replace(K.effect_knob(i.name, options), lo=i.lo, hi=i.hi, log=i.log))
         else:
             continue
@@ -371,6 +381,12 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
     geo0 = build_geometry(layout, schemes[0])
     ins = inputs(geo0, options)
     notes = [supply_input(geo0)[1]]
+    if not any(i.name == "cavity_law_blend" for i in ins):
+        from imutherm.unit.model import ModelOptions
+        o = options or ModelOptions()
+        notes.append(f"the cavity radiation law ({o.cavity_law if o.cavity_radiation else 'none'}) "
+                     "is taken as exact: only under the s2s law is its form (a blend towards the effective law, "
+                     "cavity_law_blend) an uncertain input")
     U = design(ins, samples, seed)
     X = to_values(ins, U)
     rows = imu_draw_rows(imu_draws, samples, len(ins)) if study is not None else np.zeros(0, int)
@@ -388,8 +404,8 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
         for name, y in per[scheme].items():
             stats[f"{name}:{scheme}"] = statistics(ins, y, seed)
         if len(rows):
-            nominal_chains[scheme] = UI.nominal_chain(study.schemes[scheme])
             v0 = knob_values(sm, x0)
+            nominal_chains[scheme] = UI.with_form_end(UI.nominal_chain(study.schemes[scheme]), sm, v0, say)
             chains[scheme] = [UI.draw_chain(nominal_chains[scheme], sm.rom, knob_values(sm, X[r]), v0, t_end)
                               for r in rows]
         ids = sorted(int(i) for i in rng.choice(len(X), size=min(checks, len(X)), replace=False))

@@ -68,11 +68,17 @@ def test_every_input_has_a_range_a_source_and_holds_the_model_value():
     nominal = K.nominal_values(geo)
     from imutherm.unit.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
 
-    nominal.update(supply_V=9.0, cavity_emissivity=ModelOptions().cavity_emissivity,
+    nominal.update(supply_V=9.0, cavity_emissivity=ModelOptions().cavity_emissivity, cavity_law_blend=0.0,
                    **{"contact@bond": GREASE_WETTED_JOINT_W_M2K})
     for i in ins:
         assert i.lo < i.hi and len(i.source) > 20, i
         assert i.nominal == pytest.approx(nominal[i.name]) and i.lo <= i.nominal <= i.hi, (i.name, i.nominal)
+    # the cavity law's form is an input under the s2s law (the default) and only there: the blend acts on it alone
+    assert "cavity_law_blend" in names
+    for other in (ModelOptions(cavity_law="effective"), ModelOptions(cavity_radiation=False)):
+        assert "cavity_law_blend" not in [i.name for i in U.inputs(geo, other)]
+    blend = next(i for i in U.inputs(geo, ModelOptions(cavity_law_blend=0.3)) if i.name == "cavity_law_blend")
+    assert (blend.lo, blend.hi, blend.nominal, blend.log) == (0.0, 1.0, 0.3, False)
 
 
 def test_supply_input_and_its_regulator_loss_from_the_reference_toml_by_hand():
@@ -148,7 +154,10 @@ def test_propagation_on_the_reduced_models_checked_on_the_full_fem():
     from imutherm.unit.model import ModelOptions
     res = U.run_uncertainty(None, ("air", "grease"), samples=8, seed=0, checks=1, mesh_size_mm=6, min_cells=1,
                             options=ModelOptions(cavity_law=CHECK_LAW))
-    assert res["draws"] == 8 * (len(U.inputs(_geo())) + 2) and res["imu"] is None and res["not_propagated"]
+    assert res["draws"] == 8 * (len(U.inputs(_geo(), ModelOptions(cavity_law=CHECK_LAW))) + 2)
+    assert res["imu"] is None and res["not_propagated"]
+    assert "cavity_law_blend" not in [i["name"] for i in res["inputs"]]
+    assert any("taken as exact" in n for n in res["notes"])
     air, grease = res["stats"]["max_die_rise_K:air"], res["stats"]["max_die_rise_K:grease"]
     assert 0 < air["q05"] < air["q50"] < air["q95"] and air["q50"] > grease["q50"]
     assert "contact@bond" not in res["applicable"]["air"] and "contact@bond" in res["applicable"]["grease"]
@@ -180,7 +189,9 @@ def test_compare_uncertainty_writes_its_json_and_pages(tmp_path, capsys):
                "--cavity-law", CHECK_LAW, "--out", str(out)])
     text = capsys.readouterr().out
     unc = json.loads((out / "uncertainty.json").read_text())
-    assert rc == 0 and unc["draws"] == 4 * (len(U.inputs(_geo())) + 2) and "air - grease" in text
+    from imutherm.unit.model import ModelOptions
+    assert rc == 0 and unc["draws"] == 4 * (len(U.inputs(_geo(), ModelOptions(cavity_law=CHECK_LAW))) + 2)
+    assert "air - grease" in text
     assert unc["max_check_error_K"] < 0.1
     from pypdf import PdfReader
 
