@@ -123,6 +123,7 @@ def main(argv=None) -> int:
                             discrepancy="auto" if args.discrepancy is None else args.discrepancy,
                             max_effects=args.max_effects, form_retune=not args.cavity_emissivity_as_effect)  # held-out figures come from the reduced model
             j = result_json(res)
+            write_json(d / "correlation.json", j)  # the case's whole verdict, for a look at why
             called = res.named_effect if res.verdict == "effect" else res.verdict
             sig = signature(models, runs, case, res.noise_K)
             shape = residual_shape(_Forward(tuple(runs), models.roms, models.geometries), res.retune.values)

@@ -31,7 +31,7 @@
    fit (type-II maximum likelihood, :meth:`Discrepancy.profile`), so every candidate is judged against the
    re-tuned model *with* the term by the evidence (the term's Occam factor at each fit's own scales included)
    and held-out error, and the chosen effects together must explain the model's error in every scheme where
-   they act (leave the term there within 3 noise sigmas or halve it; :func:`explains_term`); when no effect qualifies and the data support the term, the verdict is ``discrepancy`` (the
+   they act (leave the term there within 2 noise sigmas or halve it; :func:`explains_term`); when no effect qualifies and the data support the term, the verdict is ``discrepancy`` (the
    model's form is off, by so much, where, not explained by any library effect).
 6. **Re-run**: the corrected model on the full FEM (:func:`rerun_full`) for the "after" figures.
 
@@ -1041,28 +1041,44 @@ def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) ->
                                      f"the runner-up; explains {explained_K(none, best):.2f} K RMS")
 
 
-def _plain_explains(selection, noise_K: float) -> bool:
+def _plain_explains(selection, noise_K: float, retune: Fit | None = None) -> bool:
     """Whether forward selection without the discrepancy term explains the data: it names effects that predict
     held-out data within :data:`NONE_NOISE_FACTOR` noise sigmas (the standard the re-tuned model is held to
-    for ``none``), or finds the re-tuned model within it (``none``). ``correlate(discrepancy='auto')`` (the
+    for ``none``) **and** at most :data:`EXPLAIN_FRACTION` of the re-tuned model's held-out error (``retune``,
+    when given), or finds the re-tuned model within it (``none``). ``correlate(discrepancy='auto')`` (the
     default) uses the term only otherwise: where the library explains the data the term has nothing to take
     (and, fitted, it takes a share of each of two effects hidden together, so neither alone wins: the slow
     two-effect test came out ``ambiguous``). Campaign of 2026-12-02: right names on data of a mildly different
-    form left 1.3-1.7 sigmas held out, wrong ones on a grossly different form 6-12."""
+    form left 1.3-1.7 sigmas held out, wrong ones on a grossly different form 6-12.
+
+    The fraction: effects that take the re-tuned model's held-out error down by less than half explain an
+    error of the size a model's form leaves (the re-tune already within a few noise sigmas), and a form error
+    and a library effect are confounded there (Brynjarsdóttir & O'Hagan 2014); the term is asked, as where
+    the library does not explain the data. Gross campaign of 2026-12-03 (the effective law's data on 3 mm,
+    s2s on 6 mm): the two weaker cavity emissivities, re-tuned within 2.5 and 3.2 sigmas held out, were then
+    named ``contact@board`` (0.128 -> 0.076 K held out) and ``power@reg_3v3+power@reg_1v8`` (0.173 -> 0.090 K),
+    neither hidden; the same fraction is the verdict's test of a best candidate (:func:`verdict`)."""
     steps, chosen = selection
     if chosen:
         h = chosen[-1].heldout_rms_K
-        return math.isfinite(h) and h <= NONE_NOISE_FACTOR * noise_K
+        if not (math.isfinite(h) and h <= NONE_NOISE_FACTOR * noise_K):
+            return False
+        g = retune.heldout_rms_K if retune is not None else math.nan
+        return not math.isfinite(g) or h <= EXPLAIN_FRACTION * g
     return not steps or steps[0]["verdict"] == "none"
 
 
 def explains_term(f: Fit, none: Fit, noise_K: float, chosen=()) -> bool:
     """With the discrepancy term: whether the effects of ``f`` (forward selection's choice, together) explain
-    the model's error, by the verdict's own standard without the term (:data:`EXPLAIN_NOISE_FACTOR`,
-    :data:`EXPLAIN_FRACTION`): **in every scheme where they act** (a chosen effect's signature there at least
-    :data:`EXPLAIN_NOISE_FACTOR` noise sigmas; ``chosen``: the fits after each added effect), the term they
-    leave (RMS of its correction) within 3 noise sigmas, or at most half the re-tuned model's. Otherwise
-    nothing is named. An effect is judged where it acts because the model's form error is a property of each
+    the model's error, by the standard the re-tuned model is held to for ``none`` (:data:`NONE_NOISE_FACTOR`)
+    or the verdict's fraction (:data:`EXPLAIN_FRACTION`): **in every scheme where they act** (a chosen effect's
+    signature there at least :data:`EXPLAIN_NOISE_FACTOR` noise sigmas; ``chosen``: the fits after each added
+    effect), the term they leave (RMS of its correction) within 2 noise sigmas, or at most half the re-tuned
+    model's. Otherwise nothing is named. (It was 3 sigmas, the verdict's standard for a candidate's held-out
+    error, until the gross campaign of 2026-12-03: a lid heat load, outside the library, was named
+    ``contact@bond`` at 1740 W/m² K leaving 2.96 sigmas of term in grease, where the right names left 0.5-1.6
+    sigmas in every scheme and the null cases with the term alone 0.7-1.3; what is left unexplained is now held
+    to what ``none`` is held to.) An effect is judged where it acts because the model's form error is a property of each
     scheme: a bond line (grease only) is not asked to explain the air scheme's cavity-law error, but an
     effect that acts in both must explain the term in both. Without per-scheme figures: over all data.
 
@@ -1077,7 +1093,7 @@ def explains_term(f: Fit, none: Fit, noise_K: float, chosen=()) -> bool:
         return True
 
     def ok(left, before):
-        return left <= max(EXPLAIN_NOISE_FACTOR * noise_K, EXPLAIN_FRACTION * before)
+        return left <= max(NONE_NOISE_FACTOR * noise_K, EXPLAIN_FRACTION * before)
 
     acting = {g for c in (chosen or (f,)) for g, x in c.signature_by.items() if x >= EXPLAIN_NOISE_FACTOR * noise_K}
     acting &= set(f.disc_rms_by) & set(none.disc_rms_by)
@@ -1348,8 +1364,15 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         if discrepancy == "auto":  # the library first; the term only where the library does not explain the data
             plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say,
                                        costs=costs)
-            if _plain_explains(plain_sel, noise):
+            if _plain_explains(plain_sel, noise, plain):
                 discrepancy = False
+            elif _plain_explains(plain_sel, noise):  # within the noise, but no more than a form error's gain
+                f = plain_sel[1][-1]
+                disc_note = (f"the library's choice ({f.name}) takes the re-tuned model's held-out error from "
+                             f"{plain.heldout_rms_K:.3f} to {f.heldout_rms_K:.3f} K, less than "
+                             f"{1 / EXPLAIN_FRACTION:g}x: a gain the model's form error could give; judged with the "
+                             f"discrepancy term")
+                say(disc_note)
             else:
                 disc_note = ("the library effects and the re-tune do not predict held-out data within "
                              f"{NONE_NOISE_FACTOR:g} noise sigmas: judged with the discrepancy term")
@@ -1396,7 +1419,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         f = chosen[-1]
         unexplained = (f"no candidate explains the model's error: the best, {f.name}, leaves a discrepancy of "
                        f"{f.disc_rms_K:.2f} K of the re-tuned model's {none_fit.disc_rms_K:.2f} K (more than "
-                       f"{EXPLAIN_FRACTION:g} of it and {EXPLAIN_NOISE_FACTOR:g} noise sigmas)")
+                       f"{EXPLAIN_FRACTION:g} of it and {NONE_NOISE_FACTOR:g} noise sigmas)")
         say(unexplained)
         chosen = []
     named_effects = tuple(f.effects[-1] for f in chosen)
