@@ -268,6 +268,38 @@ def test_cli_gyro_range_refused_when_not_positive(tmp_path):
     assert main(["--imu-csv", str(tmp_path / "x.csv"), "--gyro-range", "-5", "--out", str(tmp_path / "o")]) == 2
 
 
+def test_imu_csv_fusion_gyro_range_is_declared_not_the_logs_peak(tmp_path, capsys):
+    """The fusion peer's gyro range on a log comes from --gyro-range, never from the log's peak: a log peaking at
+    113 °/s (the old rule gave it 125 °/s, just above its peak) runs with the range not declared (0: the
+    library's over-range recovery off), or with the declared one; both are printed and written. A log clipped
+    at 125 °/s is warned with the fix named."""
+    import json
+
+    from imutherm.cli.attitude import main
+    from imutherm.imu.imu_log import write_imu_csv
+
+    t, q, gyro, f = _motion(T=30.0, rest_s=9.0)  # roll swing 30° at 0.6 Hz: 113 °/s peak
+    rng = np.random.default_rng(5)
+    gyro = gyro + rng.normal(0, 1e-3, gyro.shape)
+    f = f + rng.normal(0, 1e-2, f.shape)
+    p = write_imu_csv(tmp_path / "log.csv", t, gyro, f)
+    res = {}
+    for label, extra in (("none", []), ("declared", ["--gyro-range", "250"])):
+        assert main(["--imu-csv", str(p), "--out", str(tmp_path / label), "--no-plot", "--filters", "fusion,vqf"]
+                    + extra) == 0
+        res[label] = (json.loads((tmp_path / label / "attitude.json").read_text())["fusion"], capsys.readouterr().out)
+    assert res["none"][0]["gyroscope_range_dps"] == 0.0 and res["none"][0]["looks_saturated_at_dps"] is None
+    assert "gyro range not declared, its over-range recovery off" in res["none"][1]
+    assert res["declared"][0]["gyroscope_range_dps"] == 250.0 and "gyro range 250 °/s" in res["declared"][1]
+    assert "looks clipped" not in res["none"][1] + res["declared"][1]
+    # clipped at a common full scale: the warning names it
+    t2, q2, g2, f2 = _motion(T=30.0, rest_s=9.0, roll_amp=math.radians(40.0))  # 151 °/s peak
+    g2 = np.clip(g2 + rng.normal(0, 1e-3, g2.shape), -math.radians(125.0), math.radians(125.0))
+    c = write_imu_csv(tmp_path / "clip.csv", t2, g2, f2 + rng.normal(0, 1e-2, f2.shape))
+    assert main(["--imu-csv", str(c), "--out", str(tmp_path / "c"), "--no-plot", "--filters", "fusion"]) == 0
+    assert "declare --gyro-range 125" in capsys.readouterr().out
+
+
 def test_imu_csv_reference_gaps_are_skipped_and_counted(tmp_path, capsys):
     """A comma CSV log whose reference has empty and NaN cells: accepted, scored on the valid samples, the dropped
     count printed and written."""
