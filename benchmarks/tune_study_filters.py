@@ -76,10 +76,13 @@ def grid_points(grid: dict) -> list[dict]:
 
 
 def tuning_samples(profile: str, seed: int):
-    """(traj, samples, lever arm, GateConfig) of one tuning run: the study's chain at a first-order warm-up."""
+    """(traj, samples, lever arm, GateConfig, FusionParams) of one tuning run: the study's chain at a first-order
+    warm-up; the fusion peer's gyro range is the grade's full scale, as in the study."""
     from imutherm.imu import motion
     from imutherm.imu.calibration import calibrate_unit
     from imutherm.imu.compensation import compensate
+    from imutherm.imu.filters import FusionParams
+    from imutherm.imu.filters.fusion_peer import gyro_range_of_grade
     from imutherm.imu.sensor_model import draw_unit, load_grade, simulate_imu
     from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, leveling_window_s
 
@@ -93,7 +96,7 @@ def tuning_samples(profile: str, seed: int):
     raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, temp, rng)
     samp = compensate(raw, cal, "improved", out_of_range="linear")
     gate = replace(GateConfig(), init_s=leveling_window_s(traj, GateConfig()))
-    return traj, samp, d, gate
+    return traj, samp, d, gate, FusionParams(gyroscope_range=gyro_range_of_grade(g))
 
 
 def score(traj, est) -> float:
@@ -117,14 +120,15 @@ def tune(profiles=PROFILES, seeds=SEEDS, filters=tuple(GRIDS), log=print) -> dic
             scores = []
             for pt in pts:
                 vals = []
-                for traj, samp, d, gate in runs:
+                for traj, samp, d, gate, fusion in runs:
                     est, _ = run_filters(samp.gyro, samp.accel, float(traj.t[1] - traj.t[0]), d, gate,
-                                         names=(name,), settings={name: pt})
+                                         fusion=fusion, names=(name,), settings={name: pt})
                     vals.append(score(traj, est[name]))
                 scores.append(float(np.mean(vals)))
             dflt = []
-            for traj, samp, d, gate in runs:
-                est, _ = run_filters(samp.gyro, samp.accel, float(traj.t[1] - traj.t[0]), d, gate, names=(name,))
+            for traj, samp, d, gate, fusion in runs:
+                est, _ = run_filters(samp.gyro, samp.accel, float(traj.t[1] - traj.t[0]), d, gate, fusion=fusion,
+                                     names=(name,))
                 dflt.append(score(traj, est[name]))
             best = int(np.argmin(scores))
             out[prof][name] = {"values": pts[best], "grid": GRIDS[name], "scores": scores, "score": scores[best],

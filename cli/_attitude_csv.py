@@ -37,9 +37,9 @@ def add_arguments(p) -> None:
                         "(estimated from quasi-static moments; the angle is printed) or the IMU's roll,pitch,yaw "
                         "[deg] in the reference body frame")
     g.add_argument("--gyro-range", type=float, default=None, metavar="DPS",
-                   help="the gyro's full scale [deg/s] for the fusion peer's over-range recovery (default: the "
-                        "smallest common full scale holding the log's peak, which a log that never reached its "
-                        "range underestimates)")
+                   help="the gyro's full scale [deg/s] for the fusion peer's over-range recovery (default: not "
+                        "declared, the recovery off; never taken from the log's peak, which a log that never "
+                        "reached its range underestimates)")
 
 
 def _align(text):
@@ -117,6 +117,8 @@ def run(args) -> int:
         print(f"reference -> IMU rotation ({al['mode']}): {al['angle_deg']:.2f}°"
               + (f" (vertical residual {al['vertical_resid_deg']:.2f}° over {al['n_still']} still samples)"
                  if al["mode"] == "auto" else ""))
+    if "fusion" in res.metrics:
+        _print_fusion_range(res.fusion)
     if first.get("reference_samples_dropped"):
         print(f"reference: {first['reference_samples_dropped']} samples without a value (empty / NaN) left out of "
               "the scores")
@@ -129,6 +131,18 @@ def run(args) -> int:
         print(f"{name:8s} {score}  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  "
               f"runtime {m['runtime_s']:.2f} s")
     return 0
+
+
+def _print_fusion_range(info: dict) -> None:
+    """One line on the fusion peer's gyro range: declared, or not (and the fix when the log looks saturated)."""
+    if info["gyroscope_range_dps"] > 0:
+        print(f"fusion: gyro range {info['gyroscope_range_dps']:g} °/s (--gyro-range)")
+    else:
+        print("fusion: gyro range not declared, its over-range recovery off (declare --gyro-range DPS)")
+    sat = info.get("looks_saturated_at_dps")
+    if sat is not None and info["gyroscope_range_dps"] != sat:
+        print(f"warning: the gyro looks clipped at {sat:g} °/s (its peak value repeated on separate peaks, within "
+              f"5 % of that common full scale): declare --gyro-range {sat:g} if that is the sensor's range")
 
 
 def _is_semicolon(path) -> bool:
@@ -170,6 +184,8 @@ def _run_semicolon(args) -> int:
           f"{res['reference_rows_missing']}, scored {res['reference_rows_scored']} (after {res['skip_s']:g} s); "
           f"reference->IMU rotation (auto) {al['angle_deg']:.1f}° (residuals: rate {al['rate_resid_deg']:.1f}°, "
           f"vertical {al['vertical_resid_deg']:.2f}°)")
+    if "fusion" in res["filters"]:
+        _print_fusion_range(res["fusion"])
     for name, m in res["filters"].items():
         print(f"{name:8s} inclination rms {m['inclination_rms_deg']:.3f} deg  max {m['inclination_max_deg']:.2f} deg"
               f"  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  runtime "

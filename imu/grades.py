@@ -78,6 +78,7 @@ GRADES: dict[str, dict] = {
                                                 # roll rate from the quadratic and the cubic term (~3e-4 of full
                                                 # scale, 2-5x the paper's post-calibration RMSE; Wang et al. gives none)
             "roll_coupling_ref_dps": 300.0,     # [DS] full scale +-300 deg/s: the rate the sizes are stated at
+            "full_scale_dps": 300.0,            # [DS] measurement range +-300 deg/s (the fusion peer's gyro range)
         },
         "accel": {
             "noise_rms_mg": 3.5,                # [KF] output noise; [DS] VRW ~0.2 m/s/sqrt(h) agrees
@@ -129,6 +130,7 @@ GRADES: dict[str, dict] = {
             "g_sensitivity_dps_per_g": 0.009,   # [DS] linear-g 0.009 deg/s/g (recalled)
             "roll_coupling_dps": (0.02, 0.01),  # [ASSUMED] as adis16355, scaled like its other errors (1/5)
             "roll_coupling_ref_dps": 300.0,     # [ASSUMED] stated at 300 deg/s like adis16355
+            "full_scale_dps": 450.0,            # [DS] measurement range +-450 deg/s (recalled)
         },
         "accel": {
             "noise_rms_mg": 0.029 / 60.0 / STANDARD_GRAVITY * 1000.0 * 10.0,  # [DS] VRW 0.029 m/s/sqrt(h) -> rms at 100 Hz
@@ -163,7 +165,7 @@ GRADES: dict[str, dict] = {
             "initial_bias_dps": 0.0, "initial_sf_ppm": 0.0, "misalignment_deg": 0.0,
             "turn_on_bias_dps": 0.0, "bias_temp_amplitude_dps": 0.0, "sf_temp_amplitude_ppm": 0.0,
             "power_on_curve_fraction": 0.0, "temp_rate_coeff_dps_per_Cmin": 0.0,
-            "g_sensitivity_dps_per_g": 0.0,
+            "g_sensitivity_dps_per_g": 0.0, "full_scale_dps": 0.0,  # 0: no range (never saturates)
         },
         "accel": {
             "noise_rms_mg": 0.0, "noise_ref_rate_hz": 100.0, "bias_instability_mg": 0.0,

@@ -112,6 +112,8 @@ class SensorSpec:
     roll_coupling : tuple [rad/s]          gyro only: 1-sigma error of the y and z gyros at roll rate
                                            ``roll_coupling_ref`` from the quadratic and the cubic coupling term
     roll_coupling_ref : float [rad/s]      roll rate at which ``roll_coupling`` is stated
+    full_scale : float [unit]              gyro only: the measurement range (datasheet full scale; 0 = not
+                                           stated); the fusion peer's gyroscope range, not a saturation of the model
     """
 
     noise_density: float
@@ -133,6 +135,7 @@ class SensorSpec:
     k2: float = 0.0
     roll_coupling: tuple = (0.0, 0.0)
     roll_coupling_ref: float = 1.0
+    full_scale: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -185,6 +188,7 @@ def _spec_from_dict(d: dict, kind: str) -> SensorSpec:
             misalignment_tempco=d.get("misalignment_tempco_deg_per_K", 0.0) * _DEG,
             roll_coupling=tuple(float(v) * u for v in d.get("roll_coupling_dps", (0.0, 0.0))),
             roll_coupling_ref=d.get("roll_coupling_ref_dps", 300.0) * u,
+            full_scale=d.get("full_scale_dps", 0.0) * u,
         )
     u = _MG  # mg -> m/s^2
     rms = d["noise_rms_mg"] * u

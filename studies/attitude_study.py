@@ -36,6 +36,7 @@ from imutherm.imu.filters import FILTERS, FusionParams, GatedParams, KFParams, d
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.imu.filters.gate import rest_reference
 from imutherm.imu.filters.common import lever_arm_accel
+from imutherm.imu.filters.fusion_peer import gyro_range_of_grade
 from imutherm.imu.filters.gravity_kf import kf_params_from_rest
 
 SEGMENTS = ("overall", "stable", "manoeuvre")
@@ -86,6 +87,8 @@ class AttitudeStudyResult:
     series : dict                   first seed's time series: t [s], phase, segment, truth roll/pitch [deg],
                                     per filter roll/pitch [deg] and accel_used
     gnss : dict                     the simulated receiver of aekf_gnss: rate_hz [Hz], vel_std_mps [m/s]
+    fusion : dict                   the fusion peer's gyroscope_range_dps [deg/s] (the grade's full scale) and
+                                    its source
     """
 
     profile: str
@@ -100,6 +103,7 @@ class AttitudeStudyResult:
     gate: dict
     series: dict = field(repr=False)
     gnss: dict = field(default_factory=dict)
+    fusion: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """JSON-ready dict (the content of attitude.json)."""
@@ -110,7 +114,7 @@ class AttitudeStudyResult:
             "spread": "each metric is {mean, std} over the seeds (std: population, ddof=0); "
                       "angles in deg, runtime in s; null where a phase has no samples",
             "frames": "NED navigation, FRD body, ZYX Euler; errors are estimate - truth",
-            "gate": self.gate, "gnss": self.gnss, "filters": self.metrics,
+            "gate": self.gate, "gnss": self.gnss, "fusion": self.fusion, "filters": self.metrics,
         }
 
 
@@ -223,7 +227,8 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
     must be at rest: the gyro bias, the |f| reference of the gates (the accelerometer's own rest reading,
     not nominal g) and the gates' noise widening are measured there (:func:`rest_reference`,
-    :func:`kf_params_from_rest`). ``fusion.gyroscope_range=None`` takes the range from the data.
+    :func:`kf_params_from_rest`). ``fusion.gyroscope_range``: the sensor's full scale [deg/s] (None or 0: not
+    declared, the peer's over-range recovery off; never the data's peak).
     ``names`` may include the PEERS (vqf, madgwick, mahony, ekf); ``params`` {name: their params object}
     (VQFParams, MadgwickParams, MahonyParams, EKFParams, AEKFParams for ``aekf`` / ``aekf_gnss``; default:
     published defaults). ``gnss`` (:class:`imutherm.imu.gnss.GnssVelocity`) feeds ``aekf_gnss``, which needs it.
@@ -319,6 +324,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
                                  valid_C=None if out_of_range == "error" else T_MODEL_RANGE_C)
     init_s = leveling_window_s(traj, gate)
     gate_run = replace(gate, init_s=init_s)
+    fusion = FusionParams(gyroscope_range=gyro_range_of_grade(g))  # the declared sensor's, not the data's peak
     dt = 1.0 / rate
     masks = {"overall": np.ones(traj.t.size, bool), "stable": traj.stable, "manoeuvre": ~traj.stable}
     per = {n: [] for n in names}
@@ -338,7 +344,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         if cal is not None and s == seed0:
             tdesc["extrapolated_fraction"] = float(out_of_range_mask(raw.temp_C, cal).mean())
         fixes = simulate_gnss(traj, np.random.default_rng([s, 0x6E55]), gnss) if "aekf_gnss" in names else None
-        est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names, gnss=fixes)
+        est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names, gnss=fixes, fusion=fusion)
         for n, e in est.items():
             per[n].append(error_metrics(e.roll - dr.ref_roll, e.pitch - dr.ref_pitch, masks))
             runtimes[n].append(e.runtime_s)
@@ -370,4 +376,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
                                duration_s=float(traj.t[-1] + dt), rate_hz=rate, lever_arm=d, temperature=tdesc,
                                metrics=metrics, gate=gate_json, series=series,
                                gnss={"rate_hz": gnss.rate_hz, "vel_std_mps": gnss.vel_std,
-                                     "used_by": "aekf_gnss", "antenna": "at the IMU (no antenna lever arm)"})
+                                     "used_by": "aekf_gnss", "antenna": "at the IMU (no antenna lever arm)"},
+                               fusion={"gyroscope_range_dps": fusion.gyroscope_range,
+                                       "source": f"sensor grade {g.name} full scale (0: none stated, over-range "
+                                                 "recovery off)"})

@@ -74,7 +74,8 @@ class Record:
     the start, profile, seed, turn_radius [m] the gates' design turn radius L for the profile's platform
     (:data:`TURN_RADIUS`); gnss: the simulated GNSS velocity fixes (:class:`imutherm.imu.gnss.GnssVelocity`,
     default receiver) for ``aekf_gnss``; lever_comp: every gravity-referenced filter gets the accelerometer with
-    its lever-arm term removed (``run_filters(lever_comp=True)``; ``aekf`` removes it itself either way)."""
+    its lever-arm term removed (``run_filters(lever_comp=True)``; ``aekf`` removes it itself either way);
+    gyro_range_dps [deg/s]: the grade's gyro full scale, the fusion peer's gyroscope range (0: none stated)."""
 
     profile: str
     seed: int
@@ -88,6 +89,7 @@ class Record:
     turn_radius: float = GateConfig.L
     gnss: object = field(default=None, repr=False)
     lever_comp: bool = False
+    gyro_range_dps: float = 0.0
 
 
 def check_split(train=TRAIN, held_out=HELD_OUT) -> None:
@@ -109,10 +111,12 @@ def make_records(sets, grade: str = "adis16355", compensation: str = "improved",
     from imutherm.imu import disturbances as dist_mod
     from imutherm.imu.calibration import calibrate_unit
     from imutherm.imu.compensation import compensate
+    from imutherm.imu.filters.fusion_peer import gyro_range_of_grade
     from imutherm.imu.sensor_model import draw_unit, load_grade, simulate_imu
 
     g = load_grade(grade)
     rate = g.sample_rate_hz
+    gyro_range = gyro_range_of_grade(g)
     units = {}
     out = []
     for profile, seeds in sets:
@@ -135,7 +139,7 @@ def make_records(sets, grade: str = "adis16355", compensation: str = "improved",
             fixes = simulate_gnss(traj, np.random.default_rng([s, motion.PROFILES.index(profile), 0x6E55]),
                                   GnssConfig())
             out.append(Record(profile, s, smp.gyro, smp.accel, 1.0 / rate, dr.ref_roll, dr.ref_pitch, d, init_s,
-                              TURN_RADIUS.get(profile, GateConfig.L), fixes, lever_comp))
+                              TURN_RADIUS.get(profile, GateConfig.L), fixes, lever_comp, gyro_range))
     return out
 
 
@@ -156,6 +160,7 @@ def settings_for(name: str, values: dict | None):
 def run_one(name: str, rec: Record, values: dict | None = None):
     """AttitudeEstimate of filter ``name`` on ``rec`` with ``values`` (None: published defaults)."""
     kw = settings_for(name, values)
+    kw["fusion"] = replace(kw.get("fusion", FusionParams()), gyroscope_range=rec.gyro_range_dps)
     if "gate" in kw:
         kw["gate"] = replace(kw["gate"], init_s=rec.init_s, L=rec.turn_radius)
     else:

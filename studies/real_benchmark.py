@@ -137,7 +137,8 @@ __all__ = ["DATA_DIR", "RealRecord", "prepare", "load_all", "score", "run", "tab
 def run_reference_log(path, *, names, init_s: float = INIT_S, skip_s: float = SKIP_S, fusion=None) -> dict:
     """``imutherm attitude --imu-csv`` on a ``;``-separated reference log: :func:`prepare` (repeats, true
     times, alignment ``auto``), every filter in ``names`` (platform handheld), the inclination scores.
-    fusion : FusionParams or None (its defaults; gyro range from the data). Returns a JSON-ready dict."""
+    fusion : FusionParams or None (its defaults: gyro range not declared, over-range recovery off; never the
+    data's peak). Returns a JSON-ready dict."""
     from imutherm.imu.filters import FusionParams, KFParams
     from imutherm.studies.attitude_study import GateConfig, run_filters
     from imutherm.studies.recorded import PLATFORM_GATE, PLATFORM_KF, PLATFORMS, platform_params
@@ -162,4 +163,16 @@ def run_reference_log(path, *, names, init_s: float = INIT_S, skip_s: float = SK
                           "up_world": rec.align.up_world.tolist(), "rate_resid_deg": rec.align.rate_resid_deg,
                           "vertical_resid_deg": rec.align.up_resid_deg},
             "platform": "handheld", "score": "inclination: angle between the filter's and the reference's vertical",
-            "filters": filters}
+            "fusion": fusion_range_info(fusion, log.gyro), "filters": filters}
+
+
+def fusion_range_info(fusion, gyro) -> dict:
+    """What the fusion peer was told of the gyro range on a log: ``gyroscope_range_dps`` (0: not declared, its
+    over-range recovery off), ``source`` and ``looks_saturated_at_dps`` (the common full scale the log's peak
+    sits at, :func:`~imutherm.imu.filters.fusion_peer.looks_saturated`, else None)."""
+    from imutherm.imu.filters.fusion_peer import looks_saturated
+
+    r = None if fusion is None else fusion.gyroscope_range
+    return {"gyroscope_range_dps": float(r or 0.0),
+            "source": "--gyro-range" if r else "not declared (--gyro-range): over-range recovery off",
+            "looks_saturated_at_dps": looks_saturated(gyro)}

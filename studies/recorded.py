@@ -80,6 +80,7 @@ class RecordedResult:
     turn_radius_m [m]; init_s [s]; g_rest_mps2 [m/s^2];
     metrics : {filter: {roll_rms_deg, pitch_rms_deg, roll_max_deg, pitch_max_deg (None without a reference),
                accel_used_fraction [-], runtime_s [s]}}
+    fusion : dict  the fusion peer's gyro range (:func:`imutherm.studies.real_benchmark.fusion_range_info`)
     series : dict  t [s], per filter <name>_roll_deg / _pitch_deg / _accel_used, reference truth_*_deg if present
     """
 
@@ -96,6 +97,7 @@ class RecordedResult:
     has_reference: bool
     metrics: dict
     series: dict = field(repr=False)
+    fusion: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return {"source": self.source, "rate_hz": self.rate_hz, "n_samples": self.n_samples,
@@ -103,7 +105,7 @@ class RecordedResult:
                 "lever_arm_m": list(self.lever_arm), "turn_radius_m": self.turn_radius_m, "init_s": self.init_s,
                 "g_rest_mps2": self.g_rest_mps2, "reference": self.has_reference,
                 "frames": "FRD body, NED navigation, ZYX Euler; errors are estimate - reference [deg]",
-                "filters": self.metrics}
+                "fusion": self.fusion, "filters": self.metrics}
 
 
 #: the filters a recorded log runs: every filter but ``aekf_gnss``, which needs GNSS velocity fixes a
@@ -123,7 +125,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
                  init_s: float = GateConfig.init_s, names=None, fusion=None, align="none") -> RecordedResult:
     """Run ``names`` on ``log`` (an :class:`~imutherm.imu.imu_log.ImuLog`); platform in :data:`PLATFORMS`,
     lever_arm (3,) [m] and turn_radius_m [m] override its defaults; init_s [s] the rest window; fusion a
-    FusionParams (None: its defaults, the gyro range from the data); align (:func:`reference_alignment`):
+    FusionParams (None: its defaults, the gyro range not declared: over-range recovery off); align (:func:`reference_alignment`):
     'none', 'auto' or the IMU's (roll, pitch, yaw) [deg] in the reference's body frame. Scores include the
     inclination (angle between the filter's and the reference's vertical, independent of heading)."""
     if platform not in PLATFORMS:
@@ -180,8 +182,11 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         series[f"{n}_roll_deg"] = np.degrees(e.roll)
         series[f"{n}_pitch_deg"] = np.degrees(e.pitch)
         series[f"{n}_accel_used"] = e.accel_used
+    from imutherm.studies.real_benchmark import fusion_range_info
+
     return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
-                          L, float(init_s), log.g_rest, log.has_reference, metrics, series)
+                          L, float(init_s), log.g_rest, log.has_reference, metrics, series,
+                          fusion_range_info(fusion, log.gyro))
 
 
 def _down(roll, pitch) -> np.ndarray:

@@ -17,7 +17,7 @@ import pytest
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import G0, gravity_dir_body
 from imutherm.imu.filters import FusionParams, GatedParams, KFParams, run_fusion, run_gated, run_kf
-from imutherm.imu.filters.fusion_peer import gyro_range_from_data, make_ahrs
+from imutherm.imu.filters.fusion_peer import gyro_range_from_data, gyro_range_of_grade, looks_saturated, make_ahrs
 from imutherm.studies.attitude_study import GateConfig, run_filters
 
 RATE = 286.0
@@ -122,12 +122,15 @@ def test_kf_relevels_after_a_stated_time_at_rest(rec):
     assert _deg_err(relev, tr, after) < 0.3
 
 
-def test_fusion_gyro_range_from_the_data():
-    """A 400 °/s swing: with a fixed 300 °/s range imufusion triggers its over-range re-initialisation; with
-    the range from the data (450 °/s, the next common full scale) it does not, and its error is smaller."""
+def test_fusion_gyro_range_is_declared_not_the_datas_peak():
+    """A 400 °/s swing of a sensor whose range is wider: with a 300 °/s range declared too small imufusion
+    triggers its over-range re-initialisation; with the sensor's range (450 °/s) or none declared (the default:
+    recovery off) it does not, and its error is smaller. The data's peak (here 450 °/s, the next common full
+    scale) is no longer used: a record peaking just below a full scale got that scale and the recovery on every
+    peak (issue 24: 124 °/s -> 125 °/s, 1610 samples of over-range recovery)."""
     tr, gyro, accel = _record(peak_rate_dps=400.0)
     assert gyro_range_from_data(gyro) == 450.0
-    for rng_dps, expect in ((300.0, True), (450.0, False)):
+    for rng_dps, expect in ((300.0, True), (450.0, False), (None, False), (0.0, False)):
         ahrs = make_ahrs(DT, FusionParams(gyroscope_range=rng_dps, use_bias=False))
         gd = np.degrees(gyro) * np.array([1.0, -1.0, -1.0])
         ag = accel * np.array([1.0, -1.0, -1.0]) / G0
@@ -137,6 +140,33 @@ def test_fusion_gyro_range_from_the_data():
             over |= ahrs.get_flags().overrange_recovery
         assert over is expect, rng_dps
     swing = (tr.t > 10) & (tr.t < 150)
-    err_data = _deg_err(run_fusion(gyro, accel, DT), tr, swing)
+    dflt = run_fusion(gyro, accel, DT)
+    assert np.array_equal(dflt.gravity, run_fusion(gyro, accel, DT, FusionParams(gyroscope_range=450.0)).gravity)
     err_300 = _deg_err(run_fusion(gyro, accel, DT, FusionParams(gyroscope_range=300.0)), tr, swing)
-    assert err_data < err_300, (err_data, err_300)  # measured: 7.5° vs 11.1° max on seed 0
+    assert _deg_err(dflt, tr, swing) < err_300, (_deg_err(dflt, tr, swing), err_300)  # 7.5° vs 11.1° (seed 0)
+    # a record peaking at 123.5 °/s (as issue 24's at 124 °/s): the old rule's 125 °/s range would have triggered the recovery
+    tr2, gyro2, accel2 = _record(peak_rate_dps=122.0, duration=110.0)
+    assert gyro_range_from_data(gyro2) == 125.0 and looks_saturated(gyro2) is None
+    ahrs = make_ahrs(DT, FusionParams(gyroscope_range=125.0, use_bias=False))
+    n_over = 0
+    for g_, a_ in zip(np.degrees(gyro2) * np.array([1.0, -1.0, -1.0]), accel2 * np.array([1.0, -1.0, -1.0]) / G0):
+        ahrs.update_no_magnetometer(g_, a_)
+        n_over += ahrs.get_flags().overrange_recovery
+    assert n_over > 100
+    # clipped at a full scale: named
+    assert looks_saturated(np.clip(gyro, -np.radians(300.0), np.radians(300.0))) == 300.0
+
+
+def test_study_fusion_range_is_the_grades_full_scale(monkeypatch):
+    """The attitude study gives the fusion peer its sensor grade's stated full scale (adis16355 +-300 °/s,
+    adis16488 +-450 °/s, ideal: none), not the record's peak, and says so in attitude.json."""
+    from imutherm.imu.filters import fusion_peer
+    from imutherm.studies.attitude_study import run_attitude_study
+
+    assert [gyro_range_of_grade(g) for g in ("adis16355", "adis16488", "ideal")] == pytest.approx([300, 450, 0])
+    seen = []
+    real = fusion_peer.make_ahrs
+    monkeypatch.setattr(fusion_peer, "make_ahrs", lambda dt, p: seen.append(p.gyroscope_range) or real(dt, p))
+    res = run_attitude_study("swing", duration=35.0, names=("fusion",))  # peaks at 200 °/s: the old rule, 250
+    assert seen == [300.0]
+    assert res.to_json()["fusion"]["gyroscope_range_dps"] == 300.0

@@ -3,9 +3,10 @@
 Settings (Fusion README, "Algorithm settings"): gain 0.5 ("appropriate for
 most applications"), acceleration rejection 10°, recovery trigger period 5 s
 (in imufusion 1.3.3 the setting is ``rejection_timeout`` [s] with
-``sample_rate`` [Hz]), gyroscope range = the sensor's range [°/s] (None: from
-the data, :func:`gyro_range_from_data`; a fixed 300 °/s made the library
-re-initialise on any faster motion); no magnetometer → ``update_no_magnetometer``. Gyroscope in °/s and
+``sample_rate`` [Hz]), gyroscope range = the declared sensor's range [°/s]
+(:func:`gyro_range_of_grade` on simulated records, ``--gyro-range`` on a log; None, not declared: 0, the
+library's over-range recovery off. Never the data's peak: a record peaking at 124 °/s got a 125 °/s range
+that way and 1610 samples of over-range recovery); no magnetometer → ``update_no_magnetometer``. Gyroscope in °/s and
 accelerometer in g as the library expects.
 
 Frames: the library is run in its default North-West-Up convention with the
@@ -28,7 +29,7 @@ wraps one ``Ahrs`` (and one ``Bias`` when ``use_bias``) and
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import imufusion
 import numpy as np
@@ -50,8 +51,8 @@ class FusionParams:
     """Recommended imufusion settings.
 
     gain [-] 0.5; acceleration_rejection [deg] 10; rejection_timeout [s] 5;
-    gyroscope_range [deg/s] the sensor's full scale (0 disables the over-range recovery; None: from the
-    data in :func:`run_fusion`, required by :class:`FusionPeer`);
+    gyroscope_range [deg/s] the declared sensor's full scale (0 or None, not declared: the over-range
+    recovery off);
     use_bias : run the library's gyroscope offset correction (``imufusion.Bias``) first.
     """
 
@@ -66,10 +67,20 @@ class FusionParams:
 GYRO_FULL_SCALES_DPS = (125.0, 250.0, 300.0, 450.0, 500.0, 1000.0, 2000.0, 4000.0)
 
 
+def gyro_range_of_grade(grade) -> float:
+    """The fusion peer's gyroscope range [deg/s] of a sensor grade (name or
+    :class:`~imutherm.imu.sensor_model.SensorGrade`): its stated full scale (``full_scale_dps`` in
+    :mod:`imutherm.imu.grades`; 0 where none is stated: over-range recovery off)."""
+    from imutherm.imu.sensor_model import load_grade
+
+    return float(np.degrees(load_grade(grade).gyro.full_scale))
+
+
 def gyro_range_from_data(gyro) -> float:
-    """Gyro range [deg/s] for a record (N,3) [rad/s]: the smallest common full scale
-    (:data:`GYRO_FULL_SCALES_DPS`) that holds the largest |rate| sample. A saturated record reads its
-    full scale, so this returns the sensor's range; an unsaturated one, a range it did not reach."""
+    """The smallest common full scale (:data:`GYRO_FULL_SCALES_DPS`) [deg/s] that holds the largest |rate|
+    sample of a record (N,3) [rad/s]: the rule the fusion peer's range once came from. No longer used for it (a
+    log that never reached its range gets one just above its peak, and the over-range recovery on every peak);
+    kept to show that failure in the tests. A log clipped at its range: :func:`looks_saturated`."""
     m = float(np.degrees(np.max(np.abs(np.asarray(gyro, float)))))
     for fs in GYRO_FULL_SCALES_DPS:
         if m <= fs:
@@ -77,16 +88,36 @@ def gyro_range_from_data(gyro) -> float:
     return m
 
 
+def looks_saturated(gyro, margin: float = 0.05) -> float | None:
+    """The common full scale [deg/s] (:data:`GYRO_FULL_SCALES_DPS`) a record (N,3) [rad/s] looks clipped at,
+    else None: on some axis the largest |rate| is within ``margin`` of that full scale and is reached, to the
+    last digit, on at least 3 separate stretches of samples (a clipped sensor repeats its end code at every
+    peak; a smooth peak, even held by sample-and-hold repeats, reaches its maximum once)."""
+    x = np.degrees(np.abs(np.asarray(gyro, float)))
+    for j in range(x.shape[1] if x.ndim == 2 else 0):
+        a = x[:, j]
+        m = float(np.max(a)) if a.size else 0.0
+        top = a >= m * (1.0 - 1e-9)
+        runs = int(top[0]) + int(np.sum(top[1:] & ~top[:-1]))
+        if runs < 3:
+            continue
+        for fs in GYRO_FULL_SCALES_DPS:
+            if abs(m - fs) <= margin * fs:
+                return fs
+    return None
+
+
 def make_ahrs(dt: float, params: FusionParams) -> imufusion.Ahrs:
     """A configured ``imufusion.Ahrs`` for sample period ``dt`` [s]."""
-    if params.gyroscope_range is None:
+    rng = 0.0 if params.gyroscope_range is None else float(params.gyroscope_range)
+    if not (np.isfinite(rng) and rng >= 0):
         from imutherm import InputError
-        raise InputError("FusionParams.gyroscope_range is None; valid: the sensor's full scale [deg/s] "
-                         "(run_fusion derives it from the data)")
+        raise InputError(f"FusionParams.gyroscope_range={params.gyroscope_range!r}; valid: the sensor's full "
+                         "scale [deg/s] > 0, or 0 / None (not declared: over-range recovery off)")
     ahrs = imufusion.Ahrs()
     ahrs.set_settings(imufusion.AhrsSettings(
         sample_rate=1.0 / dt, convention=imufusion.CONVENTION_NWU, gain=params.gain,
-        gyroscope_range=params.gyroscope_range, acceleration_rejection=params.acceleration_rejection,
+        gyroscope_range=rng, acceleration_rejection=params.acceleration_rejection,
         magnetic_rejection=10.0, rejection_timeout=params.rejection_timeout))
     ahrs.set_sample_period(dt)
     return ahrs
@@ -140,8 +171,6 @@ def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams()) ->
     """Run the peer over a record; gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]."""
     gyro, accel = check_samples(gyro, accel, dt)
     t0 = time.perf_counter()
-    if params.gyroscope_range is None:
-        params = replace(params, gyroscope_range=gyro_range_from_data(gyro))
     ahrs = make_ahrs(dt, params)
     gd = np.ascontiguousarray(np.degrees(gyro) * _FLU)
     ag = np.ascontiguousarray(accel * (_FLU / G0))
