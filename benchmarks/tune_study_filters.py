@@ -81,8 +81,7 @@ def tuning_samples(profile: str, seed: int):
     from imutherm.imu import motion
     from imutherm.imu.calibration import calibrate_unit
     from imutherm.imu.compensation import compensate
-    from imutherm.imu.filters import FusionParams
-    from imutherm.imu.filters.fusion_peer import gyro_range_of_grade
+    from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
     from imutherm.imu.sensor_model import draw_unit, load_grade, simulate_imu
     from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, leveling_window_s
 
@@ -96,7 +95,7 @@ def tuning_samples(profile: str, seed: int):
     raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, temp, rng)
     samp = compensate(raw, cal, "improved", out_of_range="linear")
     gate = replace(GateConfig(), init_s=leveling_window_s(traj, GateConfig()))
-    return traj, samp, d, gate, FusionParams(gyroscope_range=gyro_range_of_grade(g))
+    return traj, samp, d, gate, fusion_params_of_grade(g)
 
 
 def score(traj, est) -> float:

@@ -36,7 +36,7 @@ from imutherm.imu.filters import FILTERS, FusionParams, GatedParams, KFParams, d
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.imu.filters.gate import rest_reference
 from imutherm.imu.filters.common import lever_arm_accel
-from imutherm.imu.filters.fusion_peer import gyro_range_of_grade
+from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
 from imutherm.imu.filters.gravity_kf import kf_params_from_rest
 
 SEGMENTS = ("overall", "stable", "manoeuvre")
@@ -324,7 +324,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
                                  valid_C=None if out_of_range == "error" else T_MODEL_RANGE_C)
     init_s = leveling_window_s(traj, gate)
     gate_run = replace(gate, init_s=init_s)
-    fusion = FusionParams(gyroscope_range=gyro_range_of_grade(g))  # the declared sensor's, not the data's peak
+    fusion = fusion_params_of_grade(g)  # the declared sensor's range, not the data's peak
     dt = 1.0 / rate
     masks = {"overall": np.ones(traj.t.size, bool), "stable": traj.stable, "manoeuvre": ~traj.stable}
     per = {n: [] for n in names}

@@ -241,8 +241,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     from imutherm.imu.sensor_model import G0, T_MODEL_RANGE_C, simulate_imu
     from imutherm.studies.attitude_study import (DEFAULT_LEVER_ARM, GateConfig, error_metrics, leveling_window_s,
                                                  run_filters)
-    from imutherm.imu.filters import FusionParams
-    from imutherm.imu.filters.fusion_peer import gyro_range_of_grade
+    from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
     from imutherm.studies.filter_settings import load_settings
 
     unit, cal_ss, run_ss = _draw(grade, seed)
@@ -273,7 +272,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
         traj = motion.make_profile(profile, None, rate, lever_arm=d)
         gate = replace(GateConfig(), init_s=leveling_window_s(traj, GateConfig()))
         tuned = load_settings().for_profile(profile, config.filters) if config.tuned else None
-        fusion = FusionParams(gyroscope_range=gyro_range_of_grade(grade))  # the grade's full scale, not the data's
+        fusion = fusion_params_of_grade(grade)  # the grade's full scale, not the data's peak
         for ph_i, phase in enumerate(PHASES):
             if phase == "warmup":
                 temp = np.column_stack([np.interp(traj.t, curves_t, curves_T[:, j]) for j in range(6)])

@@ -57,8 +57,7 @@ def run_overload_study(grade: str = "adis16355", seed: int = 0, *, rig: Overload
     from imutherm.imu.compensation import compensate
     from imutherm.imu.gnss import simulate_gnss
     from imutherm.imu.sensor_model import draw_unit, load_grade, simulate_imu
-    from imutherm.imu.filters import FusionParams
-    from imutherm.imu.filters.fusion_peer import gyro_range_of_grade
+    from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
     from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, leveling_window_s, run_filters
 
     g = load_grade(grade)
@@ -76,7 +75,7 @@ def run_overload_study(grade: str = "adis16355", seed: int = 0, *, rig: Overload
         raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, np.full((traj.t.size, 6), 25.0), srng)
         fixes = simulate_gnss(traj, np.random.default_rng([seed, 0x6E55, k]))
         gate = GateConfig(init_s=leveling_window_s(traj, GateConfig()))
-        fusion = FusionParams(gyroscope_range=gyro_range_of_grade(g))  # the grade's full scale
+        fusion = fusion_params_of_grade(g)  # the grade's full scale
         row = {}
         for label, smp in (("without", raw), ("with", compensate_overload(raw, cal_dyn.joint))):
             c = compensate(smp, cal, "improved")

@@ -140,6 +140,7 @@ def run_reference_log(path, *, names, init_s: float = INIT_S, skip_s: float = SK
     fusion : FusionParams or None (its defaults: gyro range not declared, over-range recovery off; never the
     data's peak). Returns a JSON-ready dict."""
     from imutherm.imu.filters import FusionParams, KFParams
+    from imutherm.imu.filters.fusion_peer import fusion_range_info
     from imutherm.studies.attitude_study import GateConfig, run_filters
     from imutherm.studies.recorded import PLATFORM_GATE, PLATFORM_KF, PLATFORMS, platform_params
 
@@ -165,14 +166,3 @@ def run_reference_log(path, *, names, init_s: float = INIT_S, skip_s: float = SK
             "platform": "handheld", "score": "inclination: angle between the filter's and the reference's vertical",
             "fusion": fusion_range_info(fusion, log.gyro), "filters": filters}
 
-
-def fusion_range_info(fusion, gyro) -> dict:
-    """What the fusion peer was told of the gyro range on a log: ``gyroscope_range_dps`` (0: not declared, its
-    over-range recovery off), ``source`` and ``looks_saturated_at_dps`` (the common full scale the log's peak
-    sits at, :func:`~imutherm.imu.filters.fusion_peer.looks_saturated`, else None)."""
-    from imutherm.imu.filters.fusion_peer import looks_saturated
-
-    r = None if fusion is None else fusion.gyroscope_range
-    return {"gyroscope_range_dps": float(r or 0.0),
-            "source": "--gyro-range" if r else "not declared (--gyro-range): over-range recovery off",
-            "looks_saturated_at_dps": looks_saturated(gyro)}

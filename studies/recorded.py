@@ -80,7 +80,7 @@ class RecordedResult:
     turn_radius_m [m]; init_s [s]; g_rest_mps2 [m/s^2];
     metrics : {filter: {roll_rms_deg, pitch_rms_deg, roll_max_deg, pitch_max_deg (None without a reference),
                accel_used_fraction [-], runtime_s [s]}}
-    fusion : dict  the fusion peer's gyro range (:func:`imutherm.studies.real_benchmark.fusion_range_info`)
+    fusion : dict  the fusion peer's gyro range (:func:`imutherm.imu.filters.fusion_peer.fusion_range_info`)
     series : dict  t [s], per filter <name>_roll_deg / _pitch_deg / _accel_used, reference truth_*_deg if present
     """
 
@@ -182,7 +182,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         series[f"{n}_roll_deg"] = np.degrees(e.roll)
         series[f"{n}_pitch_deg"] = np.degrees(e.pitch)
         series[f"{n}_accel_used"] = e.accel_used
-    from imutherm.studies.real_benchmark import fusion_range_info
+    from imutherm.imu.filters.fusion_peer import fusion_range_info
 
     return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
                           L, float(init_s), log.g_rest, log.has_reference, metrics, series,

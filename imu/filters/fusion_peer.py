@@ -76,16 +76,10 @@ def gyro_range_of_grade(grade) -> float:
     return float(np.degrees(load_grade(grade).gyro.full_scale))
 
 
-def gyro_range_from_data(gyro) -> float:
-    """The smallest common full scale (:data:`GYRO_FULL_SCALES_DPS`) [deg/s] that holds the largest |rate|
-    sample of a record (N,3) [rad/s]: the rule the fusion peer's range once came from. No longer used for it (a
-    log that never reached its range gets one just above its peak, and the over-range recovery on every peak);
-    kept to show that failure in the tests. A log clipped at its range: :func:`looks_saturated`."""
-    m = float(np.degrees(np.max(np.abs(np.asarray(gyro, float)))))
-    for fs in GYRO_FULL_SCALES_DPS:
-        if m <= fs:
-            return fs
-    return m
+def fusion_params_of_grade(grade, **settings) -> FusionParams:
+    """:class:`FusionParams` (its recommended settings, ``settings`` overriding them) with the gyroscope range of
+    a sensor grade (:func:`gyro_range_of_grade`): how every simulated record gives the peer its range."""
+    return FusionParams(**{"gyroscope_range": gyro_range_of_grade(grade), **settings})
 
 
 def looks_saturated(gyro, margin: float = 0.05) -> float | None:
@@ -105,6 +99,16 @@ def looks_saturated(gyro, margin: float = 0.05) -> float | None:
             if abs(m - fs) <= margin * fs:
                 return fs
     return None
+
+
+def fusion_range_info(fusion: FusionParams | None, gyro) -> dict:
+    """What the peer was told of the gyro range on a log: ``gyroscope_range_dps`` [deg/s] (0: not declared, its
+    over-range recovery off), ``source`` and ``looks_saturated_at_dps`` (the common full scale the log's peak
+    sits at, :func:`looks_saturated`, else None); gyro (N,3) [rad/s]."""
+    r = None if fusion is None else fusion.gyroscope_range
+    return {"gyroscope_range_dps": float(r or 0.0),
+            "source": "--gyro-range" if r else "not declared (--gyro-range): over-range recovery off",
+            "looks_saturated_at_dps": looks_saturated(gyro)}
 
 
 def make_ahrs(dt: float, params: FusionParams) -> imufusion.Ahrs:
