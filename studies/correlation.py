@@ -138,6 +138,8 @@ class Fit:
     disc_rms_by: dict = field(default_factory=dict)
     #: ``signature_K`` per scheme (scheme -> [K]): where the last-added effect acts
     signature_by: dict = field(default_factory=dict)
+    #: the held-out squared errors per series: ((fold, run index, site index), sum of squares [K^2], readings)
+    heldout_blocks: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -964,14 +966,43 @@ def _masks(runs, holdout: str | None):
 def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None) -> tuple:
     """Held-out RMS and max over the folds (each fold fitted on its training set; with the discrepancy
     term, the held-out readings are predicted with the training fit's coefficients)."""
-    errs = []
-    for train, test in folds:
+    errs, blocks = [], []
+    for k, (train, test) in enumerate(folds):
         if test is None:
-            return math.nan, math.nan
+            return math.nan, math.nan, ()
         f = _fit(fwd, name, train, None, ratio, prior, disc, start)
-        errs.append(_residuals_disc(fwd, f.values, test, disc, f.disc)[0])
+        for i, j, rows, r in _series(fwd, f.values, test):
+            e = r[rows] - (disc.basis[(i, j)][rows] @ f.disc.get((i, j), np.zeros(2)) if disc is not None else 0.0)
+            errs.append(e)
+            blocks.append(((k, i, j), float(np.sum(e**2)), int(len(e))))
     e = np.concatenate(errs)
-    return float(np.sqrt(np.mean(e**2))), float(np.abs(e).max())
+    return float(np.sqrt(np.mean(e**2))), float(np.abs(e).max()), tuple(blocks)
+
+
+def _held(f: Fit, h: tuple) -> Fit:
+    """``f`` with the held-out figures of :func:`_pooled`."""
+    return _with(f, heldout_rms_K=h[0], heldout_max_K=h[1], heldout_blocks=h[2])
+
+
+def heldout_worse_z(f: Fit, base: Fit) -> float:
+    """How many standard errors [-] ``f``'s held-out mean squared error lies above ``base``'s: a paired test of
+    predictive accuracy (Diebold & Mariano 1995) with the held-out series (a file's site) as the independent
+    blocks, since one series' late readings are one smooth curve, not independent points. Reported beside
+    each candidate (``selection_steps`` of ``correlation.json``: is a held-out difference resolved?); the
+    verdict's guard is :data:`HELDOUT_TOL`. NaN without matching held-out series (or fewer than 3)."""
+    a = {key: (s, n) for key, s, n in f.heldout_blocks}
+    b = {key: (s, n) for key, s, n in base.heldout_blocks}
+    keys = [k for k in a if k in b and a[k][1] == b[k][1] and a[k][1] > 0]
+    if len(keys) < 3:
+        return math.nan
+    n = np.array([a[k][1] for k in keys], float)
+    d = np.array([(a[k][0] - b[k][0]) / a[k][1] for k in keys])  # per series: the difference of mean squares
+    w = n / n.sum()
+    mean = float(w @ d)
+    se = math.sqrt(float(np.sum(w**2 * (d - mean) ** 2)) * len(keys) / (len(keys) - 1))
+    if se == 0.0:
+        return math.inf if mean > 0 else (-math.inf if mean < 0 else 0.0)
+    return mean / se
 
 
 #: without AICc (sparse data): a candidate must cut the re-tuned model's held-out RMS to this fraction,
@@ -996,7 +1027,12 @@ def explained_K(none: Fit, f: Fit) -> float:
 #: 0.052 K with the term alone, ΔC 30 for the effect), so the held-out test only guards against an effect that
 #: predicts worse, and the evidence (the term's prior cost against one parameter) tells them apart.
 #: Without the term the same tolerance applies from forward selection's second step on, provided the effect
-#: beats the first step's base.
+#: beats the first step's base. The tolerance is below what the held-out data resolve (:func:`heldout_worse_z`):
+#: on the gross model-form path a 0.20 W regulator error, hidden, was refused at 2.2 % worse (0.0443 against
+#: 0.0433 K, noise 0.052 K; z 1.1) and came out ambiguous; on the toy null with a 12 % form error in air the
+#: cavity emissivity, not hidden, is refused at 7 % worse (z 1.5). A paired test over the 12 held-out series
+#: (z <= 2 passes) named the first and also the second, so the fixed tolerance stays: with this few series
+#: the held-out test cannot tell a real effect from a form error that mimics one, and it errs to abstaining.
 HELDOUT_TOL = 0.02
 
 def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) -> tuple:
@@ -1140,8 +1176,7 @@ def _fit_candidate(fwd, name, full, folds, ratio: float, noise: float, disc=None
     """One candidate (or combination) fitted on all data, with its pooled held-out figures (a pure
     function: run in a worker). ``hint``: its values fitted without the discrepancy term (a further start)."""
     f = _fit(fwd, name, full, None, ratio, noise, disc, start, hint)
-    h = _pooled(fwd, name, folds, ratio, noise, disc and disc.with_prior(f.disc_priors), start)
-    return _with(f, heldout_rms_K=h[0], heldout_max_K=h[1])
+    return _held(f, _pooled(fwd, name, folds, ratio, noise, disc and disc.with_prior(f.disc_priors), start))
 
 
 #: forward selection stops after this many library effects
@@ -1222,7 +1257,7 @@ def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
     out = []
     for k in range(len(args)):
         f, h = done[2 * k][0], done[2 * k + 1][0]
-        out.append(_with(f, heldout_rms_K=h[0], heldout_max_K=h[1]))
+        out.append(_held(f, h))
     return out
 
 
@@ -1340,8 +1375,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         none0 = _fit(fwd, "none", full, None, 1.0, noise)
         ratio = n_eff_ratio(fwd, none0.values)
         plain = _fit(fwd, "none", full, None, ratio, noise)
-        h = _pooled(fwd, "none", folds, ratio, noise)
-        plain = _with(plain, heldout_rms_K=h[0], heldout_max_K=h[1])
+        plain = _held(plain, _pooled(fwd, "none", folds, ratio, noise))
         if candidates is None:
             candidates = [n for n in K.model_effect_names() if any(n in rom.knobs for rom in roms.values())]
             candidates += [n for n in SIGNAL]
@@ -1389,8 +1423,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
             disc = replace(disc, prior=dict(first.disc_priors), sigma_K=max(noise, first.rms_K), ratio=ratio)
             none_fit = _fit(fwd, "none", full, None, ratio, noise, disc)
             disc = disc.with_prior(none_fit.disc_priors)
-            h = _pooled(fwd, "none", folds, ratio, noise, disc)
-            none_fit = _with(none_fit, heldout_rms_K=h[0], heldout_max_K=h[1])
+            none_fit = _held(none_fit, _pooled(fwd, "none", folds, ratio, noise, disc))
         if discrepancy or plain_sel is None:
             if plain_sel is None and disc is not None:  # the library's fits without the term: starts of those with it
                 plain_sel = ([{"ranking": tuple(_map(_fit, [(fwd, (n,), full, None, ratio, noise) for n in candidates],
@@ -1661,7 +1694,8 @@ def result_json(res: CorrelationResult) -> dict:
         "selection_steps": [{"base": st["base"].name, "verdict": st["verdict"], "named": st["named"],
                              "ambiguous_set": list(st["ambiguous_set"]), "reason": st["reason"],
                              "ranking": [{"name": f.name, "delta_criterion": st["base"].aicc - f.aicc,
-                                          "heldout_rms_K": f.heldout_rms_K, "change_K": f.signature_K}
+                                          "heldout_rms_K": f.heldout_rms_K, "change_K": f.signature_K,
+                                          "heldout_worse_z": heldout_worse_z(f, st["base"])}
                                          for f in st["ranking"][:8]]} for st in res.steps],
         "discrepancy": res.discrepancy,
         "criterion": res.retune.criterion,
