@@ -1,17 +1,22 @@
 """Tune every attitude filter of the study by one procedure and write ``studies/filter_settings.toml``.
 
-The procedure (the same for ours and the peers): a small stated grid per filter over its main gain /
-time-constant parameters (:data:`GRIDS`); each point is run on the study's profiles (``flight``, ``swing``,
+The procedure (the same for ours and the peers): each filter's axes are declared once, in the registry
+(:class:`imutherm.imu.filters.registry.Tuned`: a start span, bounds, a mode value such as tau_acc 0); every
+value lies on one ladder, 10^(k/2) (a x3.16 step for every parameter of every filter); the full product of the
+axes is tried, and while the best lies on the open edge of an axis that axis grows a step (its product with the
+others tried too), up to the axis's bounds: the chosen value is interior or at a stated bound, never at the
+edge of a span someone happened to pick. Each point is run on the study's profiles (``flight``, ``swing``,
 default durations, the study's lever arms and sensor grade) for the tuning seeds (default 100, 101: the study's
 answer uses seeds 0-2, so the settings are not fitted to the data they are scored on); score = mean over the
 seeds of (roll RMS + pitch RMS) / 2 [deg] over the whole record; the lowest score wins (ties: the first in
-grid order). The samples are those of the study: unit drawn from the seed, calibrated, improved compensation;
+grid order; the filter's published defaults are a candidate too, ``chosen = "defaults"`` in the file when
+they win). The samples are those of the study: unit drawn from the seed, calibrated, improved compensation;
 the dies warm up as a first-order step of +10 K with tau = 85 s from 25 °C (the study's air scheme: +11.1 K
 at the dies, t95 = 255 s, i.e. tau ≈ t95 / 3), so the bias loops see a warm-up drift.
 
 Usage::
 
-    .venv/bin/python benchmarks/tune_study_filters.py [--out studies/filter_settings.toml]
+    python benchmarks/tune_study_filters.py [--out studies/filter_settings.toml]
         [--seeds 100,101] [--profiles flight,swing] [--filters gated,kf,...]
 
 Prints each filter's grid scores and the choice; CPU time at the end.
@@ -29,31 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-#: filter -> {field: grid values}; the full product is tried. Pairs that move together are given as one
-#: tuple-valued field name "a+b" (values: tuples).
-GRIDS = {
-    "gated": {"tau_acc": [0.0, 1.0, 3.0, 10.0, 30.0], "kp": [0.03, 0.1, 0.3, 1.0]},
-    "kf": {"tau_acc": [0.0, 1.0, 3.0], "q": [2e-7, 2e-6, 2e-5, 2e-4]},
-    "ungated": {"kp+ki": [(k, k * k / 30.0) for k in (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0)]},
-    "fusion": {"gain": [0.005, 0.02, 0.1, 0.5], "rejection_timeout": [5.0, 30.0, 120.0, 600.0]},
-    "vqf": {"tauAcc": [1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0]},
-    "aekf": {"tau_acc": [0.0, 1.0], "memory_s": [2.0, 5.0, 20.0]},
-    "madgwick": {"gain": [0.0003, 0.001, 0.003, 0.01, 0.033, 0.1]},
-    "mahony": {"k_P+k_I": [(k, 0.3 * k * k) for k in (0.003, 0.01, 0.03, 0.1, 0.3, 1.0)]},
-    "ekf": {"var_acc": [0.25, 2.5, 25.0, 250.0, 2500.0, 25000.0]},
-}
-#: what the grid spans, per filter (written into the file)
-WHY = {
-    "gated": "tau_acc 0 = the seed's per-sample gate; kp the correction gain (kp_lp in the low-pass mode)",
-    "kf": "tau_acc 0 = the seed's window mean and gate 1; q the process noise of the gravity direction",
-    "ungated": "(kp [1/s], ki [1/s^2]) along the seed's ratio ki = kp^2 / 30 (0.3, 0.003), the gate always open",
-    "fusion": "gain and the acceleration-rejection timeout [s] of x-io Fusion",
-    "vqf": "tauAcc [s], VQF's accelerometer low-pass time constant (its main tuning parameter)",
-    "aekf": "tau_acc 0 = block mean; memory_s the fading memory of the adaptation laws",
-    "madgwick": "gain [rad/s] (published default 0.033)",
-    "mahony": "(k_P [1/s], k_I [1/s^2]) along k_I = 0.3 k_P^2 (published default (1, 0.3))",
-    "ekf": "var_acc [-] of the unit gravity vector (published default 0.25)",
-}
+#: the procedure in one line (written into the file)
+PROCEDURE = ("the registry's tuning axes on one x3.16 ladder, the full product tried, an axis grown a step while "
+             "the best lies on its open edge (up to its bounds); the published defaults a candidate too; lowest "
+             "score wins")
 PROFILES = ("flight", "swing")
 SEEDS = (100, 101)
 GRADE = "adis16355"
@@ -106,34 +90,103 @@ def score(traj, est) -> float:
     return 0.5 * (m["roll_rms_deg"] + m["pitch_rms_deg"])
 
 
-def tune(profiles=PROFILES, seeds=SEEDS, filters=tuple(GRIDS), log=print) -> dict:
-    """{profile: {filter: {values, grid, scores, score, default_score}}}."""
+def tuned_filters() -> tuple:
+    """The registered filters that declare tuning axes, in registration order."""
+    from imutherm.imu.filters.registry import REGISTRY
+
+    return tuple(n for n, sp in REGISTRY.items() if sp.tuning)
+
+
+def default_values(name: str) -> dict:
+    """The defaults of a filter's tuned fields (its settings class's field defaults)."""
+    import dataclasses
+
+    from imutherm.imu.filters.registry import REGISTRY
+    from imutherm.studies.filter_settings import target_class
+
+    d = {f.name: f.default for f in dataclasses.fields(target_class(name))}
+    return {k: d[k] for ax in REGISTRY[name].tuning for k in (ax.field, *ax.derived)}
+
+
+def _label(ax) -> str:
+    return "+".join((ax.field,) + tuple(ax.derived))
+
+
+def _axis_values(ax, ks) -> list:
+    """An axis's grid values in order: its mode values, then the ladder; a tuple where fields move together."""
+    out = []
+    for v in list(ax.off) + [ax.value(k) for k in ks]:
+        pt = ax.point(v)
+        out.append(tuple(pt.values()) if ax.derived else v)
+    return out
+
+
+def search(axes, evaluate, max_rounds: int = 20) -> dict:
+    """The procedure of the module docstring on one filter's axes; ``evaluate(point) -> score`` [deg].
+
+    Returns {values, grid, scores, score, at_bound, evaluations}: the best point, the final grid ({label:
+    values}, as :func:`grid_points` reads it), the scores of its points in grid order, the axes whose best
+    value sits at a bound, and how many points were run (each once)."""
+    ks = [ax.start() for ax in axes]
+    memo = {}
+    for _ in range(max_rounds):
+        grid = {_label(ax): _axis_values(ax, k) for ax, k in zip(axes, ks)}
+        pts = grid_points(grid)
+        scores = []
+        for pt in pts:
+            key = tuple(sorted(pt.items()))
+            if key not in memo:
+                memo[key] = float(evaluate(pt))
+            scores.append(memo[key])
+        best = int(np.argmin(scores))
+        grown, at_bound = False, []
+        for ax, k in zip(axes, ks):
+            v = pts[best][ax.field]
+            if v in ax.off:
+                continue
+            kb = ax.rung(v)
+            for edge, nxt in ((k[0], k[0] - 1), (k[-1], k[-1] + 1)):
+                if kb != edge:
+                    continue
+                if ax.within(nxt):
+                    k.insert(0, nxt) if nxt < edge else k.append(nxt)
+                    grown = True
+                else:
+                    at_bound.append(ax.field)
+        if not grown:
+            break
+    return {"values": pts[best], "grid": grid, "scores": scores, "score": scores[best], "at_bound": at_bound,
+            "evaluations": len(memo)}
+
+
+def tune(profiles=PROFILES, seeds=SEEDS, filters=None, log=print) -> dict:
+    """{profile: {filter: {values, grid, scores, score, at_bound, evaluations, default_score}}}."""
+    from imutherm.imu.filters.registry import REGISTRY
     from imutherm.studies.attitude_study import run_filters
 
+    filters = tuned_filters() if filters is None else filters
     out = {}
     for prof in profiles:
         runs = [tuning_samples(prof, s) for s in seeds]
         out[prof] = {}
         for name in filters:
-            pts = grid_points(GRIDS[name])
-            scores = []
-            for pt in pts:
+            def evaluate(pt, name=name):
                 vals = []
                 for traj, samp, d, gate, fusion in runs:
                     est, _ = run_filters(samp.gyro, samp.accel, float(traj.t[1] - traj.t[0]), d, gate,
-                                         fusion=fusion, names=(name,), settings={name: pt})
+                                         fusion=fusion, names=(name,), settings=None if pt is None else {name: pt})
                     vals.append(score(traj, est[name]))
-                scores.append(float(np.mean(vals)))
-            dflt = []
-            for traj, samp, d, gate, fusion in runs:
-                est, _ = run_filters(samp.gyro, samp.accel, float(traj.t[1] - traj.t[0]), d, gate, fusion=fusion,
-                                     names=(name,))
-                dflt.append(score(traj, est[name]))
-            best = int(np.argmin(scores))
-            out[prof][name] = {"values": pts[best], "grid": GRIDS[name], "scores": scores, "score": scores[best],
-                               "default_score": float(np.mean(dflt))}
-            log(f"{prof:7s} {name:9s} best {pts[best]} {scores[best]:.3f} deg (defaults {np.mean(dflt):.3f}); "
-                f"grid {', '.join(f'{s:.3f}' for s in scores)}")
+                return float(np.mean(vals))
+
+            r = search(REGISTRY[name].tuning, evaluate)
+            r["default_score"] = evaluate(None)
+            r["chosen"] = "grid"
+            if r["default_score"] < r["score"]:  # the published defaults are a candidate too
+                r.update(values=default_values(name), score=r["default_score"], chosen="defaults")
+            r["why"] = "; ".join(ax.why for ax in REGISTRY[name].tuning)
+            out[prof][name] = r
+            log(f"{prof:7s} {name:9s} best {r['values']} {r['score']:.3f} deg (defaults {r['default_score']:.3f}); "
+                f"{r['evaluations']} points, grid {r['grid']}" + (f"; at bound {r['at_bound']}" if r["at_bound"] else ""))
     return out
 
 
@@ -156,7 +209,7 @@ def write_settings(path: Path, result: dict, *, seeds, command: str, cpu_s: floa
     lines = ["# Tuned attitude-filter settings of the study (imutherm.studies.filter_settings).",
              "# Written by benchmarks/tune_study_filters.py; do not edit by hand, rerun the command below.", "",
              "[meta]",
-             f"procedure = {_toml_value('one grid per filter (grid), the full product tried; lowest score wins')}",
+             f"procedure = {_toml_value(PROCEDURE)}",
              f"objective = {_toml_value('mean over seeds of (roll RMS + pitch RMS) / 2 [deg], whole record')}",
              f"data = {_toml_value(data)}",
              f"seeds = {_toml_value(list(seeds))}",
@@ -169,7 +222,9 @@ def write_settings(path: Path, result: dict, *, seeds, command: str, cpu_s: floa
             lines.append(f"[{prof}.{name}]")
             lines.append("values = { " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in r["values"].items()) + " }")
             lines.append("grid = { " + ", ".join(f'"{k}" = {_toml_value(v)}' for k, v in r["grid"].items()) + " }")
-            lines.append(f"spans = {_toml_value(WHY[name])}")
+            lines.append(f"spans = {_toml_value(r['why'])}")
+            lines.append(f"at_bound = {_toml_value(list(r['at_bound']))}")
+            lines.append(f"chosen = {_toml_value(r['chosen'])}")
             lines.append(f"seeds = {_toml_value(list(seeds))}")
             lines.append(f"score = {r['score']:.4f}")
             lines.append(f"default_score = {r['default_score']:.4f}")
@@ -185,16 +240,17 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(root / "studies" / "filter_settings.toml"))
     ap.add_argument("--seeds", default=",".join(map(str, SEEDS)))
     ap.add_argument("--profiles", default=",".join(PROFILES))
-    ap.add_argument("--filters", default=",".join(GRIDS))
+    ap.add_argument("--filters", default=",".join(tuned_filters()))
     a = ap.parse_args(argv)
     seeds = tuple(int(s) for s in a.seeds.split(","))
     if set(seeds) & {0, 1, 2}:
         print("tune_study_filters: --seeds must not include the answer's seeds 0, 1, 2", file=sys.stderr)
         return 2
     filters = tuple(f for f in a.filters.split(",") if f)
-    bad = [f for f in filters if f not in GRIDS]
+    bad = [f for f in filters if f not in tuned_filters()]
     if bad:
-        print(f"tune_study_filters: --filters {', '.join(bad)} unknown; valid: {', '.join(GRIDS)}", file=sys.stderr)
+        print(f"tune_study_filters: --filters {', '.join(bad)} unknown or not tuned; valid: "
+              f"{', '.join(tuned_filters())}", file=sys.stderr)
         return 2
     t0 = time.process_time()
     res = tune(tuple(a.profiles.split(",")), seeds, filters)
@@ -202,7 +258,7 @@ def main(argv=None) -> int:
     cmd = "python benchmarks/tune_study_filters.py" + "".join(
         f" --{k} {v}" for k, v in (("seeds", a.seeds), ("profiles", a.profiles), ("filters", a.filters))
         if v != {"seeds": ",".join(map(str, SEEDS)), "profiles": ",".join(PROFILES),
-                 "filters": ",".join(GRIDS)}[k])
+                 "filters": ",".join(tuned_filters())}[k])
     write_settings(Path(a.out), res, seeds=seeds, command=cmd, cpu_s=cpu)
     print(f"wrote {a.out} (CPU {cpu:.0f} s)")
     return 0

@@ -1,10 +1,11 @@
 """The attitude filters' tuned settings for the study, read from ``filter_settings.toml`` beside this module.
 
 Every filter of the study's answer runs at its *fair best*: one procedure for ours and the peers
-(:mod:`benchmarks.tune_study_filters`, which writes the file): a small stated grid per filter over its main
-gain / time-constant parameters, scored by the mean roll/pitch RMS on simulated-profile seeds the study's
-answer is not computed on. The file holds, per profile and filter, the chosen values, the grid, the tuning
-seeds, the scores and the command that produced them.
+(:mod:`benchmarks.tune_study_filters`, which writes the file): each filter's tuning axes, declared in the
+registry (:class:`imutherm.imu.filters.registry.Tuned`), on one x3.16 ladder for every parameter, the product
+grown while the best lies on its edge, scored by the mean roll/pitch RMS on simulated-profile seeds the study's
+answer is not computed on. The file holds, per profile and filter, the chosen values, the grid tried, the axes
+whose best sits at a bound, the tuning seeds, the scores and the command that produced them.
 
 The values are fields of the object a filter's runner reads (:func:`imutherm.studies.attitude_study.run_filters`
 applies them with :func:`dataclasses.replace`): ``gated`` / ``ungated`` :class:`GatedParams` (after its

@@ -43,24 +43,77 @@ def test_committed_file_has_every_study_filter_with_its_provenance():
             for key in fs.PROVENANCE:
                 assert p[key] not in (None, "", []), (prof, name, key)
             assert not answer_seeds & set(p["seeds"])
-            # the chosen value is the best of its grid, and no worse than the defaults
-            assert p["score"] == pytest.approx(min(p["scores"]), abs=1e-4)
+            # the chosen value is the best of its grid and the defaults
+            assert p["score"] == pytest.approx(min(min(p["scores"]), p["default_score"]), abs=1e-4)
             assert p["score"] <= p["default_score"] + 1e-4
             cls = fs.target_class(name)
             assert set(s.profiles[prof][name]) <= {f.name for f in dataclasses.fields(cls)}
 
 
-def test_file_grids_are_the_tuning_script_grids():
-    """The file was regenerated with the script's current grids (else rerun the script)."""
+def test_file_grids_are_the_procedure_s_with_every_choice_inside_its_grid():
+    """The file was written by the procedure on the registry's current axes (else rerun the script): every grid
+    value on the one ladder, the start span inside the grid, the choice a point of the grid and never on an
+    open edge of an axis (interior, a mode value, or at a bound the file names)."""
     tuner = _tuner()
     s = fs.load_settings()
     for prof, by in s.provenance.items():
         for name, p in by.items():
-            want = {k: [list(v) if isinstance(v, tuple) else v for v in vals] for k, vals in tuner.GRIDS[name].items()}
-            assert p["grid"].keys() == want.keys(), (prof, name)
-            for k in want:
-                np.testing.assert_allclose(np.asarray(p["grid"][k], float), np.asarray(want[k], float), rtol=1e-12)
-            assert s.profiles[prof][name] in tuner.grid_points(tuner.GRIDS[name])
+            axes = registry.REGISTRY[name].tuning
+            assert list(p["grid"]) == [tuner._label(ax) for ax in axes], (prof, name)
+            if p["chosen"] == "defaults":  # the published defaults beat every grid point
+                assert s.profiles[prof][name] == tuner.default_values(name) and p["score"] < min(p["scores"])
+            else:
+                assert s.profiles[prof][name] in tuner.grid_points(p["grid"])
+            for ax, vals in zip(axes, p["grid"].values()):
+                lead = [v[0] if isinstance(v, list) else v for v in vals]
+                ladder = [v for v in lead if v not in ax.off]
+                assert all(ax.value(ax.rung(v)) == pytest.approx(v) for v in ladder), (prof, name, ax.field)
+                ks = [ax.rung(v) for v in ladder]
+                assert ks == list(range(ks[0], ks[-1] + 1)) and set(ax.start()) <= set(ks), (prof, name, ax.field)
+                chosen = s.profiles[prof][name][ax.field]
+                if p["chosen"] == "defaults" or chosen in ax.off or ks[0] < ax.rung(chosen) < ks[-1]:
+                    continue
+                assert ax.field in p["at_bound"] and not ax.within(ax.rung(chosen) + (1 if ax.rung(chosen) == ks[-1]
+                                                                                         else -1)), (prof, name)
+
+
+def test_the_search_grows_an_axis_until_its_best_is_inside_and_stops_at_a_bound():
+    tuner = _tuner()
+    calls = []
+
+    def bowl(pt):  # its minimum at gain 10^2.5 = 316, beyond the start span 1..10; mode value 0 worse
+        calls.append(dict(pt))
+        g = pt["gain"]
+        return 5.0 if g == 0.0 else (np.log10(g) - 2.5) ** 2 + 0.1 * abs(np.log10(pt["tau"]) - 0.5)
+
+    axes = (registry.Tuned("gain", 1.0, 10.0, (0.01, 1e4), "a gain", off=(0.0,)),
+            registry.Tuned("tau", 1.0, 3.16, (0.1, 100.0), "a time constant"))
+    r = tuner.search(axes, bowl)
+    assert r["values"] == {"gain": 316.0, "tau": 3.16} and r["at_bound"] == []
+    assert r["grid"]["gain"][0] == 0.0 and r["grid"]["gain"][-1] == 1000.0  # grown one past the best
+    assert len(calls) == r["evaluations"] == len({tuple(sorted(c.items())) for c in calls})  # each point once
+    assert r["scores"][tuner.grid_points(r["grid"]).index(r["values"])] == r["score"] == min(r["scores"])
+    bounded = (registry.Tuned("gain", 1.0, 10.0, (0.01, 100.0), "a gain"),)
+    r = tuner.search(bounded, lambda pt: -pt["gain"])
+    assert r["values"] == {"gain": 100.0} and r["at_bound"] == ["gain"]
+    with pytest.raises(InputError, match="bounds"):
+        registry.Tuned("gain", 1.0, 10.0, (2.0, 100.0), "a gain")
+
+
+def test_every_tuned_filter_is_declared_in_the_registry_and_the_study_s_are_tuned():
+    """The tuning script reads the registry: a filter registered with axes is tuned, and every filter of the
+    study's answer has axes (so none runs at a setting nobody searched)."""
+    from imutherm.studies.end_to_end import StudyConfig
+
+    tuner = _tuner()
+    assert set(StudyConfig().filters) <= set(tuner.tuned_filters())
+    saved = dict(registry.REGISTRY)
+    try:
+        registry.register(dataclasses.replace(saved["vqf"], name="vqf_copy"))
+        assert "vqf_copy" in tuner.tuned_filters()
+    finally:
+        registry.REGISTRY.clear()
+        registry.REGISTRY.update(saved)
 
 
 def test_grid_points_split_paired_fields():

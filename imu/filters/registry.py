@@ -40,10 +40,63 @@ class FilterInputs:
     ungated: object = None
 
 
+#: the study's tuning ladder: every tuned value is 10^(k / TUNING_STEPS_PER_DECADE) for an integer k, the same
+#: step (x3.16) for every parameter of every filter, ours and the peers
+TUNING_STEPS_PER_DECADE = 2
+
+
+@dataclass(frozen=True)
+class Tuned:
+    """One axis of the study's tuning grid (:mod:`benchmarks.tune_study_filters`).
+
+    field : the parameter tuned; lo, hi : the span tried first (rounded out to the ladder,
+    :data:`TUNING_STEPS_PER_DECADE`), extended a step at a time while the best lies on its edge, up to
+    ``bounds`` (the physically sensible range); off : values tried besides the ladder (e.g. 0: a seed's own mode);
+    derived : {field: function of this one} moved along with it (a gain pair kept at a published ratio);
+    why : what the axis spans, in words.
+    """
+
+    field: str
+    lo: float
+    hi: float
+    bounds: tuple
+    why: str
+    off: tuple = ()
+    derived: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        if not (0 < self.bounds[0] <= self.lo <= self.hi <= self.bounds[1]):
+            raise InputError(f"tuning axis {self.field}: need 0 < bounds[0] <= lo <= hi <= bounds[1], got "
+                             f"lo {self.lo}, hi {self.hi}, bounds {self.bounds}")
+
+    def rung(self, value: float) -> int:
+        """The ladder index k of ``value`` (nearest)."""
+        return int(round(TUNING_STEPS_PER_DECADE * np.log10(value)))
+
+    @staticmethod
+    def value(k: int) -> float:
+        """The ladder's k-th value, 10^(k / steps per decade), to 3 significant figures."""
+        return float(f"{10.0 ** (k / TUNING_STEPS_PER_DECADE):.3g}")
+
+    def point(self, v: float) -> dict:
+        """{field: v, derived fields: their values}."""
+        return {self.field: v, **{k: f(v) for k, f in self.derived.items()}}
+
+    def start(self) -> list:
+        """The first span's ladder indices, lo..hi rounded outwards."""
+        a = int(np.floor(TUNING_STEPS_PER_DECADE * np.log10(self.lo) + 1e-3))
+        b = int(np.ceil(TUNING_STEPS_PER_DECADE * np.log10(self.hi) - 1e-3))
+        return list(range(a, b + 1))
+
+    def within(self, k: int) -> bool:
+        return self.bounds[0] * (1 - 1e-9) <= self.value(k) <= self.bounds[1] * (1 + 1e-9)
+
+
 @dataclass(frozen=True)
 class FilterSpec:
     """name; run(inputs, params) -> AttitudeEstimate; params_cls (None: settings come from FilterInputs);
-    kind 'ours' | 'peer'; source (design / defaults); color (matplotlib); needs_gnss."""
+    kind 'ours' | 'peer'; source (design / defaults); color (matplotlib); needs_gnss; tuning: the axes the
+    study's tuning procedure searches (:class:`Tuned`; empty: not tuned)."""
 
     name: str
     run: Callable = field(repr=False)
@@ -52,6 +105,7 @@ class FilterSpec:
     source: str
     color: str
     needs_gnss: bool = False
+    tuning: tuple = ()
 
 
 REGISTRY: dict[str, FilterSpec] = {}
@@ -110,30 +164,57 @@ def _register_builtin() -> None:
 
     specs = [
         FilterSpec("gated", lambda x, p: run_gated(x.gyro, x.accel, x.dt, p or x.gated, init_s=x.init_s), None,
-                   "ours", "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue"),
+                   "ours", "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue",
+                   tuning=(Tuned("tau_acc", 1.0, 31.6, (0.1, 1000.0), "tau_acc [s]; 0 = the seed's per-sample gate",
+                                 off=(0.0,)),
+                           Tuned("kp", 0.0316, 1.0, (1e-3, 10.0), "kp [1/s] the correction gain (kp_lp in the "
+                                                                  "low-pass mode)"))),
         FilterSpec("kf", lambda x, p: run_kf(x.gyro, x.accel, x.dt, p or x.kf, init_s=x.init_s), None, "ours",
-                   "the horizontal-attitude KF paper's gravity-direction KF; KFParams", "tab:green"),
+                   "the horizontal-attitude KF paper's gravity-direction KF; KFParams", "tab:green",
+                   tuning=(Tuned("tau_acc", 1.0, 3.16, (0.1, 1000.0), "tau_acc [s]; 0 = the seed's window mean and "
+                                                                      "gate 1", off=(0.0,)),
+                           Tuned("q", 1e-7, 3.16e-4, (1e-10, 0.1), "q [rad^2/s] the process noise of the gravity "
+                                                                   "direction"))),
         FilterSpec("ungated", ungated, None, "ours", "Liu et al. 2012 update with the gate always open (baseline)",
-                   "tab:gray"),
+                   "tab:gray", tuning=(Tuned("kp", 1e-3, 1.0, (1e-4, 10.0), "kp [1/s], ki [1/s^2] = kp^2 / 30 along "
+                                                                            "the seed's ratio (0.3, 0.003), the gate "
+                                                                            "always open",
+                                             derived={"ki": lambda kp: kp * kp / 30.0}),)),
         FilterSpec("fusion", lambda x, p: run_fusion(x.gyro, x.accel, x.dt, p or x.fusion), FusionParams, "peer",
-                   "x-io Fusion (imufusion) README recommended settings", "tab:red"),
+                   "x-io Fusion (imufusion) README recommended settings", "tab:red",
+                   tuning=(Tuned("gain", 3.16e-3, 1.0, (1e-4, 10.0), "gain [-] of x-io Fusion"),
+                           Tuned("rejection_timeout", 3.16, 1000.0, (0.1, 1e4), "acceleration-rejection timeout "
+                                                                                "[s]"))),
         FilterSpec("aekf", lambda x, p: run_aekf(x.gyro, x.accel, x.dt, p or AEKFParams(), init_s=x.init_s,
                                                  lever_arm=x.lever_arm), AEKFParams, "ours",
-                   "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple"),
+                   "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple",
+                   tuning=(Tuned("tau_acc", 1.0, 1.0, (0.1, 100.0), "tau_acc [s]; 0 = the block mean", off=(0.0,)),
+                           Tuned("memory_s", 1.0, 31.6, (0.1, 1000.0), "memory_s [s] the fading memory of the "
+                                                                       "adaptation laws"))),
         FilterSpec("aekf_gnss", lambda x, p: run_aekf(x.gyro, x.accel_raw, x.dt, p or AEKFParams(), gnss=x.gnss,
                                                       init_s=x.init_s), AEKFParams, "ours",
                    "Wang et al.'s adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True),
         FilterSpec("vqf", lambda x, p: run_vqf(x.gyro, x.accel, x.dt, p or VQFParams(), init_s=x.init_s), VQFParams,
-                   "peer", "VQF, Laidig & Seel, Information Fusion 91, 2023 (vqf package defaults)", "black"),
+                   "peer", "VQF, Laidig & Seel, Information Fusion 91, 2023 (vqf package defaults)", "black",
+                   tuning=(Tuned("tauAcc", 1.0, 1000.0, (0.1, 1e5), "tauAcc [s], VQF's accelerometer low-pass time "
+                                                                    "constant (its main tuning parameter)"),
+                           Tuned("biasSigmaMotion", 0.0316, 1.0, (1e-3, 10.0), "biasSigmaMotion [deg/s], how fast "
+                                                                               "VQF's bias estimate moves in motion "
+                                                                               "(package default 0.1)"))),
         FilterSpec("madgwick", lambda x, p: run_madgwick(x.gyro, x.accel, x.dt, p or MadgwickParams(),
                                                          init_s=x.init_s), MadgwickParams, "peer",
-                   "ahrs Madgwick defaults", "tab:orange"),
+                   "ahrs Madgwick defaults", "tab:orange",
+                   tuning=(Tuned("gain", 3.16e-4, 0.1, (1e-5, 10.0), "gain [rad/s] (published default 0.033)"),)),
         FilterSpec("mahony", lambda x, p: run_mahony(x.gyro, x.accel, x.dt, p or MahonyParams(), init_s=x.init_s),
                    MahonyParams, "peer",
                    "ahrs Mahony defaults (k_P 1.0, k_I 0.3); recorded logs: studies.recorded.PLATFORM_MAHONY",
-                   "tab:pink"),
+                   "tab:pink", tuning=(Tuned("k_P", 3.16e-3, 1.0, (1e-4, 10.0), "k_P [1/s], k_I [1/s^2] = 0.3 "
+                                                                              "k_P^2 (published default (1, 0.3))",
+                                             derived={"k_I": lambda k: 0.3 * k * k}),)),
         FilterSpec("ekf", lambda x, p: run_ekf(x.gyro, x.accel, x.dt, p or EKFParams(), init_s=x.init_s), EKFParams,
-                   "peer", "ahrs EKF defaults", "tab:olive"),
+                   "peer", "ahrs EKF defaults", "tab:olive",
+                   tuning=(Tuned("var_acc", 0.316, 3.16e4, (1e-3, 1e7), "var_acc [-] of the unit gravity vector "
+                                                                       "(published default 0.25)"),)),
     ]
     for s in specs:
         register(s)
