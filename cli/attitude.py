@@ -53,6 +53,10 @@ def add_args(p) -> None:
     p.add_argument("--filters", default=None, metavar="A,B,...",
                    help="filters to run (imutherm.imu.filters.registry; default all that apply: every registered "
                         "filter on a profile, all but those needing GNSS on a log)")
+    p.add_argument("--filter-defaults", action="store_true",
+                   help="run the filters at their defaults, not at the tuned settings of "
+                        "studies/filter_settings.toml for the profile (flight, swing; the other profiles run at "
+                        "defaults either way)")
     p.add_argument("--disturbances", default="none", choices=("none", "realistic"),
                    help="realistic: the profile's vibration, turbulence, wind, sync error and jitter "
                         "(imutherm.imu.disturbances.PRESETS); default none")
@@ -110,7 +114,7 @@ def run(args) -> int:
                              temperature_csv=args.temperature_csv, compensation=args.compensation,
                              seeds=args.seeds, seed0=args.seed0, duration=args.duration,
                              out_of_range=args.out_of_range, disturbances=args.disturbances == "realistic",
-                             gnss=gnss, names=names)
+                             gnss=gnss, names=names, settings="defaults" if args.filter_defaults else "tuned")
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res.to_json())
         np.savez_compressed(tmp / "attitude_series.npz", **res.series)
@@ -118,6 +122,9 @@ def run(args) -> int:
             from imutherm.reports.attitude_plots import plot_attitude
 
             plot_attitude(tmp / "attitude_series.npz", tmp / "attitude.png")
+    fs = res.filter_settings
+    print(f"filters at tuned settings ({fs.get('file', '')}): {', '.join(fs['tuned']) or 'none'}; at defaults: "
+          f"{', '.join(fs['defaults']) or 'none'}")
     m = res.metrics
     for name in m:
         o = m[name]["overall"]

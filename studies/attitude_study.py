@@ -89,6 +89,8 @@ class AttitudeStudyResult:
     gnss : dict                     the simulated receiver of aekf_gnss: rate_hz [Hz], vel_std_mps [m/s]
     fusion : dict                   the fusion peer's gyroscope_range_dps [deg/s] (the grade's full scale) and
                                     its source
+    filter_settings : dict          what each filter ran with: ``tuned`` {name: {field: value}} from ``file``
+                                    (studies/filter_settings.toml), ``defaults`` [names] at their defaults
     """
 
     profile: str
@@ -104,6 +106,7 @@ class AttitudeStudyResult:
     series: dict = field(repr=False)
     gnss: dict = field(default_factory=dict)
     fusion: dict = field(default_factory=dict)
+    filter_settings: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """JSON-ready dict (the content of attitude.json)."""
@@ -114,7 +117,8 @@ class AttitudeStudyResult:
             "spread": "each metric is {mean, std} over the seeds (std: population, ddof=0); "
                       "angles in deg, runtime in s; null where a phase has no samples",
             "frames": "NED navigation, FRD body, ZYX Euler; errors are estimate - truth",
-            "gate": self.gate, "gnss": self.gnss, "fusion": self.fusion, "filters": self.metrics,
+            "gate": self.gate, "gnss": self.gnss, "fusion": self.fusion, "filter_settings": self.filter_settings,
+            "filters": self.metrics,
         }
 
 
@@ -280,8 +284,12 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
                        temperature_csv=None, compensation: str = "improved", seeds: int = 1, seed0: int = 0,
                        duration: float | None = None, lever_arm=None, gate: GateConfig = GateConfig(),
                        names=FILTERS, out_of_range: str = "error", disturbances: bool = False,
-                       gnss: GnssConfig = GnssConfig()) -> AttitudeStudyResult:
+                       gnss: GnssConfig = GnssConfig(), settings: str | None = None) -> AttitudeStudyResult:
     """Run the attitude chain for ``seeds`` seeds (seed0, seed0+1, ...) and reduce the errors.
+
+    settings : None or 'defaults': every filter at its defaults; 'tuned': each filter at its tuned settings
+    for the profile (:mod:`imutherm.studies.filter_settings`; ``imutherm attitude``'s default), those the file
+    has none for (a profile or filter not tuned) at their defaults, as ``filter_settings`` in the result says.
 
     profile : one of motion.PROFILES; grade : sensor grade name; temperature_C [°C] constant
     (default 25) or temperature_csv (path; ``time_s`` + one column per site [°C]);
@@ -325,6 +333,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
     init_s = leveling_window_s(traj, gate)
     gate_run = replace(gate, init_s=init_s)
     fusion = fusion_params_of_grade(g)  # the declared sensor's range, not the data's peak
+    tuned, fs_json = _profile_settings(profile, names, settings)
     dt = 1.0 / rate
     masks = {"overall": np.ones(traj.t.size, bool), "stable": traj.stable, "manoeuvre": ~traj.stable}
     per = {n: [] for n in names}
@@ -344,7 +353,8 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         if cal is not None and s == seed0:
             tdesc["extrapolated_fraction"] = float(out_of_range_mask(raw.temp_C, cal).mean())
         fixes = simulate_gnss(traj, np.random.default_rng([s, 0x6E55]), gnss) if "aekf_gnss" in names else None
-        est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names, gnss=fixes, fusion=fusion)
+        est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names, gnss=fixes, fusion=fusion,
+                              settings=tuned)
         for n, e in est.items():
             per[n].append(error_metrics(e.roll - dr.ref_roll, e.pitch - dr.ref_pitch, masks))
             runtimes[n].append(e.runtime_s)
@@ -379,4 +389,20 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
                                      "used_by": "aekf_gnss", "antenna": "at the IMU (no antenna lever arm)"},
                                fusion={"gyroscope_range_dps": fusion.gyroscope_range,
                                        "source": f"sensor grade {g.name} full scale (0: none stated, over-range "
-                                                 "recovery off)"})
+                                                 "recovery off)"},
+                               filter_settings=fs_json)
+
+
+def _profile_settings(profile: str, names, settings) -> tuple:
+    """({name: {field: value}} for :func:`run_filters`, the result's ``filter_settings``) of ``settings``
+    (None / 'defaults' / 'tuned', :func:`run_attitude_study`)."""
+    if settings in (None, "defaults"):
+        return {}, {"tuned": {}, "defaults": list(names)}
+    if settings != "tuned":
+        raise InputError(f"filter settings: {settings!r} is invalid; valid: 'tuned', 'defaults' or None")
+    from imutherm.studies.filter_settings import load_settings
+
+    fs = load_settings()
+    tuned = fs.for_profile(profile, names)
+    return tuned, {"file": fs.path, "tuned": tuned, "defaults": [n for n in names if n not in tuned],
+                   "seeds": fs.meta.get("seeds")}

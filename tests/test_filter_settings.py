@@ -237,3 +237,33 @@ def test_page_one_is_the_answer_figure_and_the_table_follows(tmp_path):
         assert text in first, text
     assert "warm-up roll" not in first  # no table on page 1
     assert "warm-up roll" in second and "The answer in numbers" in second
+
+
+def test_the_attitude_command_runs_the_tuned_settings_of_its_profile(spy, tmp_path, capsys):
+    """``imutherm attitude --profile swing`` runs each filter at the file's swing values (a spy records what kf
+    and vqf ran with); ``--filter-defaults`` and an untuned profile (vehicle) run the defaults, and
+    attitude.json says which."""
+    import json
+
+    from imutherm.cli import attitude as cli
+
+    seen, install = spy
+    install("kf", lambda x, p: p or x.kf)
+    install("vqf", lambda x, p: p)
+    file = fs.load_settings().profiles["swing"]
+    assert cli.main(["--profile", "swing", "--duration", "40", "--filters", "kf,vqf", "--no-plot",
+                     "--out", str(tmp_path / "t")]) == 0
+    j = json.loads((tmp_path / "t" / "attitude.json").read_text())["filter_settings"]
+    assert j["tuned"] == {n: file[n] for n in ("kf", "vqf")} and j["defaults"] == []
+    assert all(getattr(seen["kf"][0], k) == pytest.approx(v) for k, v in file["kf"].items())
+    assert "filters at tuned settings" in capsys.readouterr().out
+    seen.clear()
+    assert cli.main(["--profile", "swing", "--duration", "40", "--filters", "vqf", "--no-plot", "--filter-defaults",
+                     "--out", str(tmp_path / "d")]) == 0
+    assert seen["vqf"] == [None]
+    j = json.loads((tmp_path / "d" / "attitude.json").read_text())["filter_settings"]
+    assert j["tuned"] == {} and j["defaults"] == ["vqf"]
+    assert cli.main(["--profile", "vehicle", "--duration", "80", "--filters", "vqf", "--no-plot",
+                     "--out", str(tmp_path / "v")]) == 0
+    j = json.loads((tmp_path / "v" / "attitude.json").read_text())["filter_settings"]
+    assert j["tuned"] == {} and j["defaults"] == ["vqf"] and j["file"].endswith("filter_settings.toml")
