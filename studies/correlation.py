@@ -1022,18 +1022,25 @@ def explained_K(none: Fit, f: Fit) -> float:
 
 
 #: with the discrepancy term, an effect may leave the current model's held-out RMS up to this fraction worse
-#: and still be named on its evidence: the term, fitted on the rise, predicts the plateau about as well as a
-#: real effect does (both at the noise; toy case: a 0.3 W regulator error, held-out 0.053 K with the effect,
-#: 0.052 K with the term alone, ΔC 30 for the effect), so the held-out test only guards against an effect that
-#: predicts worse, and the evidence (the term's prior cost against one parameter) tells them apart.
-#: Without the term the same tolerance applies from forward selection's second step on, provided the effect
-#: beats the first step's base. The tolerance is below what the held-out data resolve (:func:`heldout_worse_z`):
-#: on the gross model-form path a 0.20 W regulator error, hidden, was refused at 2.2 % worse (0.0443 against
-#: 0.0433 K, noise 0.052 K; z 1.1) and came out ambiguous; on the toy null with a 12 % form error in air the
-#: cavity emissivity, not hidden, is refused at 7 % worse (z 1.5). A paired test over the 12 held-out series
-#: (z <= 2 passes) named the first and also the second, so the fixed tolerance stays: with this few series
-#: the held-out test cannot tell a real effect from a form error that mimics one, and it errs to abstaining.
+#: and still be named on its evidence where the held-out series are too few for :func:`heldout_worse_z`: the
+#: term, fitted on the rise, predicts the plateau about as well as a real effect does (both at the noise; toy
+#: case: a 0.3 W regulator error, held-out 0.053 K with the effect, 0.052 K with the term alone, ΔC 30 for the
+#: effect). Without the term the same tolerance applies from forward selection's second step on, provided the
+#: effect beats the first step's base.
 HELDOUT_TOL = 0.02
+#: with the discrepancy term, a candidate that predicts held-out data *worse* than the current model at all
+#: must gain this much evidence (twice :data:`MARGIN_NONE`) and its held-out loss must be unresolved
+#: (:func:`heldout_worse_z` <= :data:`HELDOUT_Z_MAX`); one that predicts them no worse needs
+#: :data:`MARGIN_NONE`. Under a form error the in-sample evidence of a wrong effect inflates, and then the
+#: held-out data lean against it: on the toy with a 12 % gain error in air (the default setting, the cavity's
+#: emissivity re-tuned) a poor bond line, not hidden, reached ΔC 10.7 and 11.0, held-out 1-2 % worse (z 1.3,
+#: 1.7), and was named under the fixed 2 % tolerance; the hidden effects there gain ΔC 70-205 and predict
+#: better. On the gross FEM path (the effective law's data, s2s inverted) a hidden 0.20 W regulator error gains
+#: ΔC 28.9 at 2.2 % worse (z 1.1), unresolved by 12 held-out series, and was left ambiguous by the fixed
+#: tolerance. Development figures: both cases were seen when the rule was set.
+HELDOUT_WORSE_MARGIN = 2.0 * MARGIN_NONE
+#: the largest :func:`heldout_worse_z` of a held-out loss that counts as unresolved (about a 2-sigma test)
+HELDOUT_Z_MAX = 2.0
 
 def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) -> tuple:
     """(verdict, named effect or None, ambiguous set, reason) from the fits (see the module docstring).
@@ -1050,7 +1057,11 @@ def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) ->
         if not math.isfinite(f.heldout_rms_K):
             return True
         if none.criterion == "evidence":  # both at the noise: the held-out test guards, the evidence decides
-            return f.heldout_rms_K <= gap * (1 + HELDOUT_TOL)
+            if f.heldout_rms_K <= gap:
+                return True
+            z = heldout_worse_z(f, none)
+            unresolved = z <= HELDOUT_Z_MAX if math.isfinite(z) else f.heldout_rms_K <= gap * (1 + HELDOUT_TOL)
+            return none.aicc - f.aicc >= HELDOUT_WORSE_MARGIN and unresolved
         if later:
             return f.heldout_rms_K <= gap * (1 + HELDOUT_TOL) and f.heldout_rms_K < ref_gap
         return f.heldout_rms_K < gap
@@ -1068,13 +1079,29 @@ def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) ->
     if not later and bgap > EXPLAIN_NOISE_FACTOR * noise_K and bgap > EXPLAIN_FRACTION * gap:
         return "not_in_library", None, (), (f"the best candidate {best.name} leaves {bgap:.2f} K held out "
                                             f"(noise {noise_K:.2f} K, re-tuned {gap:.2f} K)")
-    close = [f for f in ranking if f is not best and f.aicc - best.aicc < MARGIN_RUNNER_UP]
-    if close:
-        return "ambiguous", None, tuple([best.name] + [f.name for f in close]), \
-            f"{len(close) + 1} candidates within ΔAICc {MARGIN_RUNNER_UP:g}"
+    # a candidate the rules refused that fits better than the best one: the best one is not named in its place
+    refused = [f for f in ranking if f.aicc < best.aicc and f not in good]
+    close = [f for f in ranking if f is not best and f not in refused and f.aicc - best.aicc < MARGIN_RUNNER_UP]
+    if refused or close:
+        why = "; ".join(f"{f.name} fits better (ΔAICc {best.aicc - f.aicc:.1f}) but was refused: "
+                        + _refusal(f, none, gap, noise_K) for f in refused)
+        amb = tuple(f.name for f in sorted(refused + [best] + close, key=_rank_key))
+        return "ambiguous", None, amb, "; ".join(x for x in (why, f"{len(close) + 1} candidate(s) within ΔAICc "
+                                                               f"{MARGIN_RUNNER_UP:g}" if close else "") if x)
     return "effect", best.name, (), (f"{best.name}: ΔAICc {none.aicc - best.aicc:.1f} over none, "
                                      f"{(ranking[1].aicc - best.aicc) if len(ranking) > 1 else math.inf:.1f} over "
                                      f"the runner-up; explains {explained_K(none, best):.2f} K RMS")
+
+
+def _refusal(f: Fit, none: Fit, gap: float, noise_K: float) -> str:
+    """Why :func:`verdict`'s rules refused a candidate ``f`` against the current model ``none`` (words)."""
+    if none.aicc - f.aicc < MARGIN_NONE:
+        return f"ΔAICc {none.aicc - f.aicc:.1f} over the current model, below {MARGIN_NONE:g}"
+    if explained_K(none, f) < EXPLAIN_MIN_NOISE * noise_K:
+        return f"explains {explained_K(none, f):.3f} K, below {EXPLAIN_MIN_NOISE:g} noise sigma"
+    z = heldout_worse_z(f, none)
+    return (f"predicts held-out data {100 * (f.heldout_rms_K / gap - 1):+.1f} % against the current model "
+            f"({f.heldout_rms_K:.4f} K, z {z:.1f})")
 
 
 def _plain_explains(selection, noise_K: float, retune: Fit | None = None) -> bool:
