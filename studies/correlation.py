@@ -179,6 +179,8 @@ class CorrelationResult:
     discrepancy: dict | None = None
     #: the re-tuned model without the discrepancy term (with it: ``retune``)
     retune_plain: Fit | None = None
+    #: on sparse files, where the term cannot be fitted: the cavity law's form as a prior band (:func:`form_band`)
+    form_band: dict | None = None
 
 
 # --------------------------------------------------------------------------- forward model
@@ -1414,13 +1416,14 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         if discrepancy not in (True, False, "auto"):
             raise InputError(f"correlate: discrepancy={discrepancy!r}; valid: True, False, 'auto'")
         disc, none_fit = None, plain
-        disc_note = ""
+        disc_note, sparse_term = "", False
         if discrepancy and all(len(r.times_s) < SPARSE_READINGS for r in runs):
             # two coefficients per series fit a sparse file's few readings exactly: nothing is left to judge by
             disc_note = (f"discrepancy term not fitted: every file has fewer than {SPARSE_READINGS} readings per "
                          f"site, which its two coefficients per site would fit exactly")
             say(disc_note)
             discrepancy = False
+            sparse_term = True
         plain_sel, costs = None, {}
         if discrepancy == "auto":  # the library first; the term only where the library does not explain the data
             plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say,
@@ -1513,6 +1516,9 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     words = "; ".join(effect_words(n, after.values) for n in named_effects) if named_effects else reason
     if dsum is not None and dsum["supported"]:
         words += f"; {dsum['words']}"
+    band = form_band(fwd, after.values, full) if sparse_term else None
+    if band is not None:
+        words += f"; {band['words']}"
     rerun_stats = {}
     t1 = time.perf_counter()
     if rerun:
@@ -1531,7 +1537,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                                     for (s, a), r in roms.items()},
                              {"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
                               "total_s": time.perf_counter() - t0, "reason": reason},
-                             words, rerun_stats, named_effects, tuple(steps), dsum, plain)
+                             words, rerun_stats, named_effects, tuple(steps), dsum, plain, band)
 
 
 def _disc_curve(disc: Discrepancy | None, coefs: dict, i: int, run) -> np.ndarray:
@@ -1593,6 +1599,44 @@ def discrepancy_summary(fwd, disc: Discrepancy, plain: Fit, with_term: Fit, afte
             "rms_by_scheme_K": dict(after.disc_rms_by),
             "sigma_K": disc.sigma_K, "rms_K": rms, "per_site": per, "words": words,
             "basis": "per run and site: dT s(t), dT 4 s(1 - s), s the nominal normalised response"}
+
+
+def form_band(fwd, values: dict, full: dict) -> dict | None:
+    """The model's form uncertainty as a prior band at each reading, for files too sparse to fit the
+    discrepancy term (a paper's or a notebook's few figures): the change of each reading [K] when the cavity's
+    radiation law goes from the s2s exchange to the effective conductivity (``cavity_law_blend`` 0 -> 1,
+    :data:`FORM_IN_DOUBT`; the two verified laws bracket the unit, an independent model lies between them) at
+    the fitted ``values``, beside the residual the fit leaves (model - measured) [K]. A residual within the band
+    is what the model's form alone could leave: the data cannot say more. None where the reduced models do not
+    carry the blend (the effective law: no s2s exchange to blend)."""
+    if not fwd.roms or not all("cavity_law_blend" in rom.knobs for rom in fwd.roms.values()):
+        return None
+    lo, hi = {**values, "cavity_law_blend": 0.0}, {**values, "cavity_law_blend": 1.0}
+    rows = []
+    for i, run in enumerate(fwd.runs):
+        y, a, b = fwd.rise(i, values), fwd.rise(i, lo), fwd.rise(i, hi)
+        for j, site in enumerate(run.sites):
+            for k, t in enumerate(run.times_s):
+                if full[i][k, j]:
+                    rows.append({"file": run.path, "scheme": run.scheme, "site": site, "time_s": float(t),
+                                 "steady": not math.isfinite(t),
+                                 "residual_K": float(y[k, j] - run.rise_K[k, j]), "form_span_K": float(b[k, j] - a[k, j])})
+    if not rows:
+        return None
+    res = np.array([r["residual_K"] for r in rows])
+    span = np.array([r["form_span_K"] for r in rows])
+    res_rms, span_rms = float(np.sqrt(np.mean(res**2))), float(np.sqrt(np.mean(span**2)))
+    within = bool(res_rms <= span_rms)
+    by = {}
+    for r in rows:
+        by.setdefault(r["scheme"], []).append(abs(r["form_span_K"]))
+    spans = ", ".join(f"{max(v):.2g} K in {g}" for g, v in by.items())
+    words = (f"too few readings to fit the model's own error; the cavity law's form alone moves them by up to "
+             f"{spans} (s2s to the effective law, at the fitted values): the {res_rms:.2g} K RMS the fit leaves is "
+             + ("within that band, so the data cannot tell a missing effect from the model's form"
+                if within else f"beyond that band ({span_rms:.2g} K RMS): more than the model's form explains"))
+    return {"kind": "prior band: the cavity law's form (cavity_law_blend 0 -> 1)", "residual_rms_K": res_rms,
+            "form_span_rms_K": span_rms, "within": within, "readings": rows, "words": words}
 
 
 def _verdict_discrepancy(plain: Fit, with_term: Fit, dsum: dict, noise: float, v: str, reason: str) -> tuple:
@@ -1725,6 +1769,7 @@ def result_json(res: CorrelationResult) -> dict:
                                           "heldout_worse_z": heldout_worse_z(f, st["base"])}
                                          for f in st["ranking"][:8]]} for st in res.steps],
         "discrepancy": res.discrepancy,
+        "form_band": res.form_band,
         "criterion": res.retune.criterion,
         "reason": res.timings["reason"], "in_words": res.words,
         "parameters": params(res.after),

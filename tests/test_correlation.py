@@ -485,6 +485,61 @@ def test_the_discrepancy_term_is_not_fitted_on_sparse_files():
     assert res.discrepancy is None and "discrepancy term not fitted" in res.timings["reason"]
 
 
+def test_sparse_files_get_the_cavity_laws_form_as_a_prior_band():
+    """Sparse files (three readings per site): the term is not fitted, but the result states the model's form
+    uncertainty at each reading, the change the cavity law's blend (s2s -> effective) makes at the fitted
+    values, beside what the fit leaves. Toy whose reduced models carry the blend (a gain change, 2 K per unit in
+    air, 0.4 K in grease, at tp1): data with the blend at 0.6 leave a residual within the band; data 2.5 K off in
+    alternate directions at neighbouring sites (no knob's pattern) leave one beyond it. Toy models without the blend (the effective law): no band."""
+    from dataclasses import replace
+
+    import _toy_reduced as toy
+    from imutherm.studies.correlation import Models
+    from imutherm.unit import knobs as K
+
+    blend_pattern = {"air": -2.0 * np.linspace(1.0, 0.5, 6), "grease": -0.4 * np.linspace(1.0, 0.5, 6)}
+
+    class WithBlend(toy.ToyReduced):
+        def __init__(self, scheme):
+            super().__init__(scheme)
+            self.knobs["cavity_law_blend"] = K.effect_knob("cavity_law_blend")
+
+        def gain_tau(self, values):
+            g, tau = super().gain_tau(values)
+            return g + blend_pattern[self.scheme] * values.get("cavity_law_blend", 0.0), tau
+
+    base = toy.toy_models()
+    models = dataclasses.replace(base, roms={k: WithBlend(k[0]) for k in base.roms})
+
+    def sparse_runs(values, extra=None):
+        runs = toy.toy_runs(values, np.random.default_rng(1), extra)
+        real = [WithBlend(r.scheme) for r in runs]
+        idx = np.array([5, 15, len(runs[0].times_s) - 1])
+        out = []
+        for r, m in zip(runs, real):
+            v = 70.0 + m.rise(values, r.times_s[idx]) + (extra(r.scheme, r.times_s[idx]) if extra else 0.0)
+            out.append(replace(r, times_s=r.times_s[idx], values_C=v, lines=tuple(np.array(r.lines)[idx])))
+        return out
+
+    inside = correlate(sparse_runs({**_TOY_NUISANCE, "cavity_law_blend": 0.6}), models=models,
+                       candidates=_TOY_CANDIDATES, rerun=False)
+    band = inside.form_band
+    assert band is not None and "discrepancy term not fitted" in inside.timings["reason"]
+    assert len(band["readings"]) == 2 * 3 * 6 and band["within"], band["words"]
+    air = [r for r in band["readings"] if r["scheme"] == "air" and r["site"] == "tp1" and r["steady"] is False]
+    assert air and all(r["form_span_K"] == pytest.approx(-2.0 * (1 - math.exp(-r["time_s"] / 90.0)), rel=0.3)
+                       for r in air[-1:])
+    assert "too few readings to fit the model's own error" in inside.words
+    assert result_json(inside)["form_band"]["within"] is True
+    zigzag = np.array([2.5, -2.5, 2.5, -2.5, 2.5, -2.5])  # no knob or effect makes neighbours differ so
+    far = correlate(sparse_runs(dict(_TOY_NUISANCE), lambda sch, t: np.tile(zigzag, (len(t), 1))), models=models,
+                    candidates=_TOY_CANDIDATES, rerun=False)
+    assert far.form_band is not None and not far.form_band["within"], far.form_band["words"]
+    assert "beyond that band" in far.words
+    plain = correlate(sparse_runs(dict(_TOY_NUISANCE)), models=base, candidates=_TOY_CANDIDATES, rerun=False)
+    assert plain.form_band is None
+
+
 @pytest.mark.slow
 def test_forward_selection_names_two_hidden_effects_and_stops_at_two(tmp_path, models_effective):
     """0.35 W more at the 5 V regulator and a poor bond line (h = 120 W/m^2 K: grease scheme only) hidden
