@@ -1534,7 +1534,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     words = "; ".join(effect_words(n, after.values) for n in named_effects) if named_effects else reason
     if dsum is not None and dsum["supported"]:
         words += f"; {dsum['words']}"
-    band = form_band(fwd, after.values, full) if sparse_term else None
+    band = form_band(fwd, after.values, full, named_effects) if sparse_term else None
     if band is not None:
         words += f"; {band['words']}"
     rerun_stats = {}
@@ -1619,20 +1619,25 @@ def discrepancy_summary(fwd, disc: Discrepancy, plain: Fit, with_term: Fit, afte
             "basis": "per run and site: dT s(t), dT 4 s(1 - s), s the nominal normalised response"}
 
 
-def form_band(fwd, values: dict, full: dict) -> dict | None:
+def form_band(fwd, values: dict, full: dict, effects=()) -> dict | None:
     """The model's form uncertainty as a prior band at each reading, for files too sparse to fit the
     discrepancy term (a paper's or a notebook's few figures): the change of each reading [K] when the cavity's
     radiation law goes from the s2s exchange to the effective conductivity (``cavity_law_blend`` 0 -> 1,
     :data:`FORM_IN_DOUBT`; the two verified laws bracket the unit, an independent model lies between them) at
     the fitted ``values``, beside the residual the fit leaves (model - measured) [K]. A residual within the band
-    is what the model's form alone could leave: the data cannot say more. None where the reduced models do not
-    carry the blend (the effective law: no s2s exchange to blend)."""
+    is what the model's form alone could leave: the data cannot say more. ``effects``: the named effects, whose
+    change of the readings (with and without them, the rest as fitted) is set beside the band too: an effect
+    that changes them by less than the law's form does could be the model's form instead. None where the
+    reduced models do not carry the blend (the effective law: no s2s exchange to blend)."""
     if not fwd.roms or not all("cavity_law_blend" in rom.knobs for rom in fwd.roms.values()):
         return None
     lo, hi = {**values, "cavity_law_blend": 0.0}, {**values, "cavity_law_blend": 1.0}
-    rows = []
+    rest = {k: v for k, v in values.items() if k not in effects}
+    rows, change = [], []
     for i, run in enumerate(fwd.runs):
         y, a, b = fwd.rise(i, values), fwd.rise(i, lo), fwd.rise(i, hi)
+        if effects:
+            change.append((y - fwd.rise(i, rest))[full[i]])
         for j, site in enumerate(run.sites):
             for k, t in enumerate(run.times_s):
                 if full[i][k, j]:
@@ -1651,10 +1656,17 @@ def form_band(fwd, values: dict, full: dict) -> dict | None:
     spans = ", ".join(f"{max(v):.2g} K in {g}" for g, v in by.items())
     words = (f"too few readings to fit the model's own error; the cavity law's form alone moves them by up to "
              f"{spans} (s2s to the effective law, at the fitted values): the {res_rms:.2g} K RMS the fit leaves is "
-             + ("within that band, so the data cannot tell a missing effect from the model's form"
+             + ("within that band: these readings say nothing more"
                 if within else f"beyond that band ({span_rms:.2g} K RMS): more than the model's form explains"))
+    effect_rms = float(np.sqrt(np.mean(np.concatenate(change) ** 2))) if change else None
+    if effect_rms is not None:
+        words += (f"; the named effect{'s' if len(effects) > 1 else ''} change{'' if len(effects) > 1 else 's'} them "
+                  f"by {effect_rms:.2g} K RMS, " + ("more than the law's form does" if effect_rms > span_rms else
+                                                    "no more than the law's form does: it may be the model's form instead")
+                  + f" ({span_rms:.2g} K RMS)")
     return {"kind": "prior band: the cavity law's form (cavity_law_blend 0 -> 1)", "residual_rms_K": res_rms,
-            "form_span_rms_K": span_rms, "within": within, "readings": rows, "words": words}
+            "form_span_rms_K": span_rms, "within": within, "effects": list(effects), "effect_change_rms_K": effect_rms,
+            "readings": rows, "words": words}
 
 
 def _verdict_discrepancy(plain: Fit, with_term: Fit, dsum: dict, noise: float, v: str, reason: str) -> tuple:

@@ -516,7 +516,8 @@ def test_sparse_files_get_the_cavity_laws_form_as_a_prior_band():
     uncertainty at each reading, the change the cavity law's blend (s2s -> effective) makes at the fitted
     values, beside what the fit leaves. Toy whose reduced models carry the blend (a gain change, 2 K per unit in
     air, 0.4 K in grease, at tp1): data with the blend at 0.6 leave a residual within the band; data 2.5 K off in
-    alternate directions at neighbouring sites (no knob's pattern) leave one beyond it. Toy models without the blend (the effective law): no band."""
+    alternate directions at neighbouring sites (no knob's pattern) leave one beyond it; a 0.8 W regulator error,
+    named, changes the readings by more than the band (an effect within it could be the model's form). Toy models without the blend (the effective law): no band."""
     from dataclasses import replace
 
     import _toy_reduced as toy
@@ -557,11 +558,17 @@ def test_sparse_files_get_the_cavity_laws_form_as_a_prior_band():
                        for r in air[-1:])
     assert "too few readings to fit the model's own error" in inside.words
     assert result_json(inside)["form_band"]["within"] is True
+    assert inside.named_effects == () and inside.form_band["effect_change_rms_K"] is None
     zigzag = np.array([2.5, -2.5, 2.5, -2.5, 2.5, -2.5])  # no knob or effect makes neighbours differ so
     far = correlate(sparse_runs(dict(_TOY_NUISANCE), lambda sch, t: np.tile(zigzag, (len(t), 1))), models=models,
                     candidates=_TOY_CANDIDATES, rerun=False)
     assert far.form_band is not None and not far.form_band["within"], far.form_band["words"]
     assert "beyond that band" in far.words
+    named = correlate(sparse_runs({**_TOY_NUISANCE, "power@reg_5v": 0.8}), models=models, candidates=_TOY_CANDIDATES,
+                      rerun=False)
+    assert named.named_effects == ("power@reg_5v",), named.timings["reason"]   # 0.8 W: ~11 K at tp1 in air
+    assert named.form_band["effect_change_rms_K"] > 3 * named.form_band["form_span_rms_K"]
+    assert "the named effect changes them by" in named.words and "more than the law's form does" in named.words
     plain = correlate(sparse_runs(dict(_TOY_NUISANCE)), models=base, candidates=_TOY_CANDIDATES, rerun=False)
     assert plain.form_band is None
 
