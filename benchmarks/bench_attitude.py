@@ -33,13 +33,13 @@ import numpy as np
 
 
 def main() -> None:
-    from imutherm.imu.filters import ALL_FILTERS
+    from imutherm.imu.filters.registry import filter_names
     from imutherm.studies import filter_benchmark as fb
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--tuned", help="tuned.json of an earlier run (skips the tuning)")
     ap.add_argument("--out", default="out/bench_attitude")
-    ap.add_argument("--filters", default=",".join(ALL_FILTERS))
+    ap.add_argument("--filters", default=",".join(filter_names()), help="registered filters (default: every one)")
     ap.add_argument("--skip-speed", action="store_true")
     ap.add_argument("--clean", action="store_true", help="idealised records (no disturbances)")
     ap.add_argument("--lever-comp", action="store_true",

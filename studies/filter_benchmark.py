@@ -35,7 +35,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import (ALL_FILTERS, AEKFParams, EKFParams, FusionParams, KFParams, MadgwickParams,
+from imutherm.imu.filters import (AEKFParams, EKFParams, FusionParams, KFParams, MadgwickParams,
                                   MahonyParams, VQFParams)
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, run_filters
@@ -265,4 +265,4 @@ def table(names, records, tuned: dict) -> dict:
 
 
 __all__ = ["TRAIN", "HELD_OUT", "TUNABLE", "Record", "TuneResult", "check_split", "make_records", "run_one",
-           "score", "objective", "tune", "table", "settings_for", "ALL_FILTERS"]
+           "score", "objective", "tune", "table", "settings_for"]

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from imutherm import InputError
-from imutherm.imu.filters import ALL_FILTERS, KFParams
+from imutherm.imu.filters import KFParams
 from imutherm.imu.attitude_math import roll_pitch_from_gravity
 from imutherm.studies.attitude_study import GateConfig, error_metrics, run_filters
 
@@ -108,14 +108,9 @@ class RecordedResult:
                 "fusion": self.fusion, "filters": self.metrics}
 
 
-#: the filters a recorded log runs: every filter but ``aekf_gnss``, which needs GNSS velocity fixes a
-#: CSV log of gyro and accelerometer samples does not carry
-LOG_FILTERS = tuple(n for n in ALL_FILTERS if n != "aekf_gnss")
-
-
 def log_filters() -> tuple:
     """Every registered filter a recorded log can run (:mod:`imutherm.imu.filters.registry`: all but those
-    that need GNSS fixes); LOG_FILTERS is the built-in set."""
+    that need GNSS velocity fixes, which a CSV log of gyro and accelerometer samples does not carry)."""
     from imutherm.imu.filters.registry import filter_names
 
     return filter_names(gnss=False)

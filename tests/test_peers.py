@@ -7,8 +7,9 @@ from ahrs.filters import EKF, Madgwick, Mahony
 
 from imutherm import InputError
 from imutherm.imu import motion
-from imutherm.imu.filters import PEERS, EKFParams, MadgwickParams, MahonyParams, VQFParams
+from imutherm.imu.filters import EKFParams, MadgwickParams, MahonyParams, VQFParams
 from imutherm.imu.filters.peers import ekf_batch, madgwick_loop, mahony_loop
+from imutherm.imu.filters.registry import filter_names
 from imutherm.studies import filter_benchmark as fb
 from imutherm.studies.attitude_study import run_filters
 
@@ -62,7 +63,7 @@ def test_peers_frames_at_a_fixed_tilt():
     rng = np.random.default_rng(0)
     g = tr.omega_b + rng.normal(0, 0.002, tr.omega_b.shape) + 0.003
     a = tr.f_b + rng.normal(0, 0.02, tr.f_b.shape)
-    est, _ = run_filters(g, a, 0.01, (0, 0, 0), names=PEERS)
+    est, _ = run_filters(g, a, 0.01, (0, 0, 0), names=filter_names(kind="peer"))
     for n, e in est.items():
         assert np.degrees(np.sqrt(np.mean((e.roll[1000:] - tr.roll[1000:]) ** 2))) < 0.1, n
         assert np.degrees(np.sqrt(np.mean((e.pitch[1000:] - tr.pitch[1000:]) ** 2))) < 0.1, n
