@@ -56,6 +56,26 @@ def test_default_settings_are_the_packages():
     assert (EKFParams().var_gyr, EKFParams().var_acc) == (e.g_noise, e.a_noise)
 
 
+def test_vqf_bias_sigma_motion_inf_is_the_motion_bias_update_off():
+    """The tuning axis's mode value inf runs VQF with motionBiasEstEnabled false (its limit), and from VQF's
+    biasClip (2 deg/s) up the result is already that (the reason the axis is bounded there)."""
+    import vqf
+
+    from imutherm.imu.attitude_math import gravity_dir_body
+    from imutherm.imu.filters.peers import run_vqf
+
+    rng = np.random.default_rng(3)
+    g = rng.normal(0, 0.05, (3000, 3)) + np.array([0.004, -0.002, 0.003])  # in motion (> 2 deg/s) throughout
+    a = np.array([0.3, -0.2, -9.79]) + rng.normal(0, 0.3, (3000, 3))
+    off = run_vqf(g, a, 0.01, VQFParams(biasSigmaMotion=np.inf), init_s=1.0)
+    ref = vqf.VQF(0.01, motionBiasEstEnabled=False).updateBatch(np.ascontiguousarray(g - g[:100].mean(axis=0)),
+                                                                 np.ascontiguousarray(-a))["quat6D"]
+    assert np.max(np.abs(off.gravity - gravity_dir_body(ref))) < 1e-12
+    at_clip = run_vqf(g, a, 0.01, VQFParams(biasSigmaMotion=2.0), init_s=1.0)
+    default = run_vqf(g, a, 0.01, VQFParams(), init_s=1.0)
+    assert np.max(np.abs(at_clip.gravity - off.gravity)) < 1e-6 < np.max(np.abs(default.gravity - off.gravity))
+
+
 def test_peers_frames_at_a_fixed_tilt():
     """Static 12° roll, -7° pitch, 40° yaw with small noise: every peer reads the tilt within 0.1° RMS (a frame
     or sign error would show as degrees)."""

@@ -252,7 +252,12 @@ def ekf_batch(gyro, acc, dt: float, var_gyr, var_acc, q0) -> np.ndarray:
 # --------------------------------------------------------------------------- VQF
 @dataclass(frozen=True)
 class VQFParams:
-    """VQF settings tuned here (others at ``VQFParams`` defaults): tauAcc [s] 3.0, biasSigmaMotion [°/s] 0.1."""
+    """VQF settings tuned here (others at ``VQFParams`` defaults): tauAcc [s] 3.0, biasSigmaMotion [°/s] 0.1.
+
+    biasSigmaMotion is the standard deviation of the converged bias-estimate uncertainty during motion (vqf
+    ``VQFParams``); ``inf`` is its limit, no trust in the motion bias update: VQF's own
+    ``motionBiasEstEnabled = False``. The filter caps the bias uncertainty at biasSigmaInit (0.5 °/s) and clips
+    the bias at biasClip (2 °/s), so from about 2 °/s up it runs as with the update off (to 1e-6° here)."""
 
     tauAcc: float = 3.0
     biasSigmaMotion: float = 0.1
@@ -312,7 +317,9 @@ def run_vqf(gyro, accel, dt: float, params: VQFParams = VQFParams(), *, init_s: 
 
     t0 = time.perf_counter()
     g, a, _ = _prep(gyro, accel, dt, init_s)
-    f = vqf.VQF(dt, tauAcc=params.tauAcc, biasSigmaMotion=params.biasSigmaMotion)
+    motion = ({"biasSigmaMotion": params.biasSigmaMotion} if math.isfinite(params.biasSigmaMotion)
+              else {"motionBiasEstEnabled": False})  # inf: the motion bias update off
+    f = vqf.VQF(dt, tauAcc=params.tauAcc, **motion)
     out = f.updateBatch(np.ascontiguousarray(g), np.ascontiguousarray(a))
     from imutherm.imu.attitude_math import gravity_dir_body
 

@@ -15,6 +15,7 @@ module lists filters by name.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -246,9 +247,11 @@ def _register_builtin() -> None:
                    in_study=True,
                    tuning=(Tuned("tauAcc", 1.0, 1000.0, (0.1, 1e5), "tauAcc [s], VQF's accelerometer low-pass time "
                                                                     "constant (its main tuning parameter)"),
-                           Tuned("biasSigmaMotion", 0.0316, 1.0, (1e-3, 10.0), "biasSigmaMotion [deg/s], how fast "
-                                                                               "VQF's bias estimate moves in motion "
-                                                                               "(package default 0.1)"))),
+                           Tuned("biasSigmaMotion", 0.0316, 1.0, (1e-3, 2.0),
+                                 "biasSigmaMotion [deg/s], the converged uncertainty of VQF's motion bias update "
+                                 "(package default 0.1), bounded at VQF's biasClip 2 deg/s, the largest bias it "
+                                 "admits; inf = the update off (motionBiasEstEnabled false), its limit",
+                                 off=(math.inf,)))),
         FilterSpec("madgwick", lambda x, p: run_madgwick(x.gyro, x.accel, x.dt, p or MadgwickParams(),
                                                          init_s=x.init_s), MadgwickParams, "peer",
                    "ahrs Madgwick defaults", "tab:orange",
