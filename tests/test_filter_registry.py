@@ -77,7 +77,8 @@ def test_registered_filter_appears_in_cli_study_and_plot(tmp_path, gyro_only, mo
 def test_registered_filter_appears_in_the_study_compare_and_the_tuner(gyro_only):
     """A filter registered with ``in_study`` and tuning axes is in the study's default configuration, the
     default of ``imutherm compare --filters``, the study's IMU side (at its tuned setting when the settings
-    file has one), and the tuning procedure, which tunes it on the registry's axes."""
+    file has one), and the tuning procedure (the study's settings and bench_attitude's), which tunes it on the
+    registry's axes."""
     import dataclasses
 
     from imutherm.cli import build_parser
@@ -93,6 +94,11 @@ def test_registered_filter_appears_in_the_study_compare_and_the_tuner(gyro_only)
     r = filter_tuning.tune(profiles=("swing",), seeds=(100,), filters=("gyro_only",), log=lambda *a: None)
     best = r["swing"]["gyro_only"]
     assert best["values"]["kp"] > 0 and best["score"] < best["default_score"]  # a correction beats none
+    # the held-out benchmark (bench_attitude) tunes and runs it by the same procedure, no list of its own
+    from imutherm.studies import filter_benchmark as fb
+
+    recs = fb.make_records((("swing", (100,)),))
+    assert fb.tune("gyro_only", recs).values["kp"] > 0
     # the study's IMU side runs it, at its tuned value when the settings file carries one
     base = fs.load_settings()
     prof = {p: dict(by) for p, by in base.profiles.items()}

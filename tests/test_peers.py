@@ -99,18 +99,26 @@ def test_split_is_disjoint_and_checked():
     assert {p for p, _ in fb.HELD_OUT} - {p for p, _ in fb.TRAIN}  # at least one profile never trained on
 
 
-def test_tuning_improves_training_objective_within_the_box():
-    """The common procedure on a short training record: never worse than the defaults, inside the box,
-    deterministic."""
+def test_the_benchmark_tunes_by_the_study_s_procedure():
+    """bench_attitude's tuning is the study's one procedure on the registry's axes: on a short training record
+    its choice is the grid search's own on the same objective, a ladder value, never worse than the defaults,
+    deterministic; a filter without axes (aekf_gnss) or unknown is refused."""
+    from imutherm.imu.filters.registry import REGISTRY
+    from imutherm.studies import filter_tuning
+
     recs = [r for r in fb.make_records((("swing", (100,)),))]
-    res = fb.tune("madgwick", recs, n_sobol=4, max_nm=6)
+    res = fb.tune("madgwick", recs)
     assert res.objective <= res.default_objective
-    assert 10**-fb.BOX_DECADES - 1e-9 <= res.values["gain"] / MadgwickParams().gain <= 10**fb.BOX_DECADES + 1e-9
-    assert res.n_eval <= 1 + 4 + fb.N_START * (6 + 1)
-    again = fb.tune("madgwick", recs, n_sobol=4, max_nm=6)
+    direct = filter_tuning.search(REGISTRY["madgwick"].tuning, lambda pt: fb.objective("madgwick", pt, recs))
+    ax = REGISTRY["madgwick"].tuning[0]
+    if res.chosen == "grid":
+        assert res.values == direct["values"] and ax.value(ax.rung(res.values["gain"])) == res.values["gain"]
+    assert res.grid == direct["grid"]
+    again = fb.tune("madgwick", recs)
     assert again.values == res.values
-    with pytest.raises(InputError, match="unknown"):
-        fb.tune("nope", recs)
+    for bad in ("nope", "aekf_gnss"):
+        with pytest.raises(InputError, match="declares no tuning axes"):
+            fb.tune(bad, recs)
 
 
 def test_benchmark_turn_radius_matches_the_platform_defaults():
