@@ -34,8 +34,10 @@ from imutherm import InputError
 PROCEDURE = ("the registry's tuning axes on one x3.16 ladder, the full product tried, an axis grown a step while "
              "the best lies on its open edge (up to its bounds); the published defaults a candidate too; lowest "
              "score wins")
-#: the profiles tuned: the study's
-PROFILES = ("flight", "swing")
+#: the profiles tuned: the study's (flight, swing) and the attitude command's other motion profiles, whose
+#: settings also serve the recorded-log platforms (:data:`imutherm.studies.recorded.PLATFORM_PROFILE`). Not
+#: ``static``: at rest every setting holds and there is nothing to tune
+PROFILES = ("flight", "swing", "vehicle", "handheld", "shake")
 SEEDS = (100, 101)
 GRADE = "adis16355"
 WARMUP_K, WARMUP_TAU_S, T0_C = 10.0, 85.0, 25.0

@@ -51,16 +51,26 @@ PLATFORM_KF = {"handheld": {"tau_acc": 1.0, "n_window": 1, "sf_std": 0.03}, "veh
 #: without it the filter diverged on 02a/3: 35.8°). vehicle / aircraft: the seed's filter.
 PLATFORM_AEKF = {"handheld": {"tau_acc": 1.0, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
 
-#: platform settings of the ``mahony`` peer (MahonyParams: k_P [1/s], k_I [1/s²]) instead of the ahrs defaults
-#: (1.0, 0.3), which are a trap on real motion (with them: 9.5° mean and 46° on one held-out record; 3.44° on
-#: RepoIMU). handheld: k_P 0.5 is the proportional gain of Madgwick's open-source MahonyAHRS.c (x-io
-#: Technologies, 2011: twoKpDef = 2 x 0.5, integral off); k_I 0.03 a weak integral (a bias time constant of
-#: ~30 s instead of ~2 s, so sustained accelerations do not wind the bias estimate up), chosen by the grid
-#: k_P in {0.1, 0.3, 0.5, 1, 2} x k_I in {0, 0.03, 0.3} on the six RepoIMU files (mean inclination RMS 3.00°,
-#: against 3.17° at (0.5, 0), 3.44° at the ahrs defaults; VQF 3.17° at its defaults). aircraft: the study's
-#: tuned flight setting (studies/filter_settings.toml [flight.mahony], benchmarks/tune_study_filters.py on
-#: tuning seeds 100-101: 4.20° against 9.64° at the ahrs defaults). vehicle: the ahrs defaults (not tuned).
-PLATFORM_MAHONY = {"handheld": {"k_P": 0.5, "k_I": 0.03}, "vehicle": {}, "aircraft": {"k_P": 0.01, "k_I": 3e-5}}
+#: the simulated motion profile whose tuned settings (``studies/filter_settings.toml``, the one tuning procedure
+#: of :mod:`imutherm.studies.filter_tuning` on seeds 100-101) stand for each platform where a setting is taken
+#: from the file: handheld -> the handheld profile, vehicle -> the vehicle profile, aircraft -> the flight
+PLATFORM_PROFILE = {"handheld": "handheld", "vehicle": "vehicle", "aircraft": "flight"}
+
+
+def platform_mahony(platform: str) -> dict:
+    """MahonyParams fields (k_P [1/s], k_I [1/s²]) of the ``mahony`` peer on ``platform``: its tuned setting on
+    the platform's profile (:data:`PLATFORM_PROFILE`), never the ahrs defaults (1.0, 0.3), which are a trap on
+    real motion (9.5° mean and 46° on one held-out record; 3.44° on RepoIMU): the integral gain winds the bias
+    estimate up under sustained accelerations. Tuned on simulated records (the study's chain, seeds 100-101),
+    not on the data the recorded-log benchmarks score; the file names the grid, the scores and the command."""
+    from imutherm.studies.filter_settings import load_settings
+
+    prof = PLATFORM_PROFILE[platform]
+    tuned = load_settings().for_profile(prof, ("mahony",))
+    if "mahony" not in tuned:
+        raise InputError(f"filter settings: no [{prof}.mahony] entry for platform {platform!r}; valid: rerun "
+                         "benchmarks/tune_study_filters.py (its profiles include the platforms')")
+    return tuned["mahony"]
 
 
 def platform_params(platform: str) -> dict:
@@ -69,7 +79,7 @@ def platform_params(platform: str) -> dict:
     from imutherm.imu.filters import AEKFParams
     from imutherm.imu.filters.peers import MahonyParams
 
-    return {"aekf": AEKFParams(**PLATFORM_AEKF[platform]), "mahony": MahonyParams(**PLATFORM_MAHONY[platform])}
+    return {"aekf": AEKFParams(**PLATFORM_AEKF[platform]), "mahony": MahonyParams(**platform_mahony(platform))}
 
 
 @dataclass(frozen=True)

@@ -228,7 +228,7 @@ def test_page_one_is_the_answer_figure_and_the_table_follows(tmp_path):
 
 def test_the_attitude_command_runs_the_tuned_settings_of_its_profile(spy, tmp_path, capsys):
     """``imutherm attitude --profile swing`` runs each filter at the file's swing values (a spy records what kf
-    and vqf ran with); ``--filter-defaults`` and an untuned profile (vehicle) run the defaults, and
+    and vqf ran with); ``--filter-defaults`` and the untuned profile (static: at rest) run the defaults, and
     attitude.json says which."""
     import json
 
@@ -250,7 +250,7 @@ def test_the_attitude_command_runs_the_tuned_settings_of_its_profile(spy, tmp_pa
     assert seen["vqf"] == [None]
     j = json.loads((tmp_path / "d" / "attitude.json").read_text())["filter_settings"]
     assert j["tuned"] == {} and j["defaults"] == ["vqf"]
-    assert cli.main(["--profile", "vehicle", "--duration", "80", "--filters", "vqf", "--no-plot",
+    assert cli.main(["--profile", "static", "--duration", "30", "--filters", "vqf", "--no-plot",
                      "--out", str(tmp_path / "v")]) == 0
     j = json.loads((tmp_path / "v" / "attitude.json").read_text())["filter_settings"]
     assert j["tuned"] == {} and j["defaults"] == ["vqf"] and j["file"].endswith("filter_settings.toml")

@@ -258,7 +258,8 @@ def _register_builtin() -> None:
                    tuning=(Tuned("gain", 3.16e-4, 0.1, (1e-5, 10.0), "gain [rad/s] (published default 0.033)"),)),
         FilterSpec("mahony", lambda x, p: run_mahony(x.gyro, x.accel, x.dt, p or MahonyParams(), init_s=x.init_s),
                    MahonyParams, "peer",
-                   "ahrs Mahony defaults (k_P 1.0, k_I 0.3); recorded logs: studies.recorded.PLATFORM_MAHONY",
+                   "ahrs Mahony defaults (k_P 1.0, k_I 0.3), a trap on real motion: every motion profile and "
+                   "recorded-log platform runs its tuned setting (studies.recorded.platform_mahony)",
                    "tab:pink", tuning=(Tuned("k_P", 3.16e-3, 1.0, (1e-4, 10.0), "k_P [1/s], k_I [1/s^2] = 0.3 "
                                                                               "k_P^2 (published default (1, 0.3))",
                                              derived={"k_I": lambda k: 0.3 * k * k}),)),
