@@ -569,25 +569,77 @@ def _turntable(T=70.0, dt=DT, roll=math.radians(20.0), pitch=math.radians(-10.0)
     return t, q, gyro, f_b
 
 
-def _log_filter_names():
-    from imutherm.studies.recorded import log_filters
+#: the turntable's gyro bias [rad/s]: measured at rest by every filter (the rest-window mean; x-io Fusion's own
+#: offset stage), else it turns the vertical by about |b_h| / ψ̇ = 1.1° in the turn
+TURNTABLE_BIAS = np.radians([0.5, -0.3, 0.2])
+#: the known-answer bound [deg RMS]: between the gyro's exact answer (0°) and the accelerometer alone (0.48°)
+TURNTABLE_BOUND = 0.3
 
-    return log_filters()
 
+@pytest.fixture(scope="module")
+def turntable_record():
+    """:func:`_turntable` after 30 s at rest (x-io Fusion's offset stage, imufusion.Bias: 5 s timeout, 0.02 Hz
+    corner, learns a rest bias in ~25 s; every other filter takes the rest-window mean), with gyro noise
+    0.002 rad/s, accelerometer noise 0.02 m/s² and the gyro bias :data:`TURNTABLE_BIAS`; GNSS velocity fixes of
+    the unit (5 Hz, 0.01 m/s noise) for ``aekf_gnss``. Returns t, q, gyro, accel, f (exact), fixes."""
+    from imutherm.imu.gnss import GnssVelocity
 
-@pytest.mark.parametrize("name", _log_filter_names())
-def test_every_filter_holds_a_constant_rate_rotation(name):
-    """Every registered filter (peers included) at its defaults on the turntable of :func:`_turntable`, with
-    small gyro and accelerometer noise: the tilt error after the first 5 s of turning stays below 0.6° RMS. Bound:
-    a filter that followed the accelerometer alone would be 0.48° off (the centripetal term), one that integrated
-    the exact gyro alone 0°; a frame or sign error in the gyro propagation shows as degrees (the body turns
-    through 360° every 12 s)."""
-    from imutherm.studies.attitude_study import GateConfig, run_filters
-
-    t, q, gyro, f = _turntable()
+    rest, radius, rate = 30.0, 0.3, math.radians(30.0)
+    t, q, gyro, f = _turntable(T=90.0, rest_s=rest, radius=radius, yaw_rate=rate)
     rng = np.random.default_rng(7)
-    g = gyro + rng.normal(0, 0.002, gyro.shape)
+    g = gyro + rng.normal(0, 0.002, gyro.shape) + TURNTABLE_BIAS
     a = f + rng.normal(0, 0.02, f.shape)
-    est, _ = run_filters(g, a, DT, (0.3, 0.0, 0.0), GateConfig(init_s=8.0), names=(name,))
-    err = _tilt_err_deg(est[name].gravity, q)[t > 15.0]
-    assert float(np.sqrt(np.mean(err**2))) < 0.6, (name, float(np.sqrt(np.mean(err**2))))
+    psi, psid = rate * np.clip(t - rest, 0.0, None), rate * (t > rest)
+    v = radius * np.column_stack([-np.sin(psi) * psid, np.cos(psi) * psid, 0 * t])
+    idx = np.arange(0, t.size, int(round(0.2 / DT)))
+    fixes = GnssVelocity(idx=idx, vel_n=v[idx] + rng.normal(0, 0.01, (idx.size, 3)), std=0.01)
+    return t, q, g, a, f, fixes
+
+
+def test_the_turntable_bound_fails_the_accelerometer_alone_and_an_uncorrected_gyro(turntable_record):
+    """The bound of :func:`test_every_filter_holds_a_constant_rate_rotation` can fail: the vertical of the exact
+    specific force is 0.48° off (the centripetal term), and the gyro integrated from the leveling without
+    removing the rest bias is more than twice the bound off (measured 17.5°); with the rest-window bias removed
+    it holds (0.25°: the random walk of the gyro noise over the 90 s record)."""
+    from imutherm.imu.filters.common import initial_quat
+
+    t, q, g, a, f, _ = turntable_record
+    turn = t > 35.0
+    down = -f / np.linalg.norm(f, axis=1)[:, None]
+    acc_only = float(np.sqrt(np.mean(_tilt_err_deg(down, q)[turn] ** 2)))
+    assert acc_only == pytest.approx(0.48, abs=0.01) and acc_only > TURNTABLE_BOUND
+    q0 = initial_quat(a, DT, 8.0)
+    for bias, ok in ((np.zeros(3), False), (g[: int(8.0 / DT)].mean(axis=0), True)):
+        est = run_gated(g, a, DT, GatedParams(None, kp=0.0, ki=0.0), q0=q0, bias0=bias, init_s=8.0)
+        e = float(np.sqrt(np.mean(_tilt_err_deg(est.gravity, q)[turn] ** 2)))
+        assert (e < TURNTABLE_BOUND) if ok else (e > 2 * TURNTABLE_BOUND), (ok, e)
+
+
+def _turntable_filters():
+    from imutherm.imu.filters.registry import filter_names
+
+    why = ("Madgwick's normalised gradient step corrects at a fixed rate (its gain, 0.18 deg/s at the flight's "
+           "tuned 0.00316 rad/s): it follows any accelerometer tilt that moves slower, here the 0.48 deg "
+           "centripetal tilt turning at 30 deg/s (measured 0.45 deg RMS; 0.04 deg at gain 1e-4)")
+    return [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=why)) if n == "madgwick" else n
+            for n in filter_names()]
+
+
+@pytest.mark.parametrize("name", _turntable_filters())
+def test_every_filter_holds_a_constant_rate_rotation(name, turntable_record):
+    """Known answer for every registered filter (peers and the GNSS-aided one included), each at the settings
+    the tuning procedure chose for the flight (its long coordinated turns are this case; a filter without
+    flight settings at its defaults), on :func:`turntable_record`: the tilt error after the first 5 s of
+    turning stays below :data:`TURNTABLE_BOUND` (0.3°) RMS. The accelerometer alone is 0.48° off and the gyro
+    without its rest bias more than 0.3° (:func:`test_the_turntable_bound_fails_the_accelerometer_alone_and_an_uncorrected_gyro`),
+    the exact gyro 0°; a frame or sign error in the gyro propagation shows as degrees (the body turns through
+    360° every 12 s). Measured: gated 0.12, kf 0.23, ungated 0.10, fusion 0.20, aekf 0.02, aekf_gnss 0.06, vqf
+    0.09, mahony 0.17, ekf 0.10; madgwick 0.45 (expected to fail, see its reason)."""
+    from imutherm.studies.attitude_study import GateConfig, run_filters
+    from imutherm.studies.filter_settings import load_settings
+
+    t, q, g, a, _, fixes = turntable_record
+    est, _ = run_filters(g, a, DT, (0.3, 0.0, 0.0), GateConfig(init_s=8.0), names=(name,), gnss=fixes,
+                         settings=load_settings().for_profile("flight", (name,)))
+    err = _tilt_err_deg(est[name].gravity, q)[t > 35.0]
+    assert float(np.sqrt(np.mean(err**2))) < TURNTABLE_BOUND, (name, float(np.sqrt(np.mean(err**2))))
