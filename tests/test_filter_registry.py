@@ -63,6 +63,20 @@ def test_registered_filter_appears_in_cli_study_and_plot(tmp_path, gyro_only, mo
     assert set(d["filters"]) == {"gated", "gyro_only", "vqf"}
     assert np.isfinite(d["filters"]["gyro_only"]["overall"]["roll_rms_deg"]["mean"])
     assert any(lbl.startswith("gyro_only") and c == "tab:cyan" for lbl, c in drawn)
+    # the study report's attitude curves: every filter of the study, in the registry's colour
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from imutherm.reports import study_report
+
+    drawn.clear()
+    rows = np.column_stack([np.arange(5.0), np.zeros((5, 4))])
+    np.savetxt(tmp_path / "attitude_air.csv", rows, delimiter=",", comments="",
+               header="time_s,gated_roll_err_deg,gated_pitch_err_deg,gyro_only_roll_err_deg,gyro_only_pitch_err_deg")
+    with PdfPages(tmp_path / "r.pdf") as pdf:
+        study_report._attitude_page(pdf, tmp_path, {"schemes": {"air": {}}, "filter_settings": {},
+                                                    "study": {"compensations": ["improved"],
+                                                              "filters": ["gated", "gyro_only"]}})
+    assert ("gyro_only", "tab:cyan") in drawn and ("gated", "tab:blue") in drawn
     # a recorded log: the default runs every registered filter that applies, the new one included
     from imutherm.imu.imu_log import write_imu_csv
     rng = np.random.default_rng(0)

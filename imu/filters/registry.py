@@ -106,7 +106,7 @@ class FilterSpec:
 
     name; run(inputs, params) -> AttitudeEstimate (params None: ``base(inputs)`` or the class defaults);
     params_cls : the dataclass whose fields its settings name (tuned values, ``--platform`` settings; None: it
-    takes none); kind 'ours' | 'peer'; source (design / defaults); color (matplotlib); needs_gnss;
+    takes none); kind 'ours' | 'peer'; source (design / defaults); color, linestyle (matplotlib); needs_gnss;
     tuning : the axes the tuning procedure searches (:class:`Tuned`; empty: not tuned);
     base : inputs -> the params object the runner uses by default, when it is derived from the record (the
     gates' thresholds from the rest window, the sensor's gyro range); None: ``params_cls()``;
@@ -128,6 +128,7 @@ class FilterSpec:
     in_study: bool = False
     in_sweep: bool = False
     varying_dt: bool = False
+    linestyle: object = "-"
 
     def params(self, inputs: "FilterInputs"):
         """The params object the filter runs with by default on ``inputs`` (None: it takes none)."""
@@ -179,6 +180,12 @@ def color(name: str):
     return None if s is None else s.color
 
 
+def linestyle(name: str):
+    """Plot line style of a filter ("-" if it is not registered)."""
+    s = REGISTRY.get(name)
+    return "-" if s is None else s.linestyle
+
+
 def parse_filters(text: str | None, *, gnss: bool = True) -> tuple:
     """``--filters a,b,...`` (None or 'all': every registered filter that applies); refused with the valid
     names if one is unknown or needs GNSS where there is none."""
@@ -221,27 +228,27 @@ def _register_builtin() -> None:
                            Tuned("kp", 0.0316, 1.0, (1e-3, 10.0), "kp [1/s] the correction gain (kp_lp in the "
                                                                   "low-pass mode)"))),
         FilterSpec("kf", kf, KFParams, "ours", "the horizontal-attitude KF paper's gravity-direction KF; KFParams",
-                   "tab:green", base=lambda x: x.kf, in_study=True, in_sweep=True, varying_dt=True,
+                   "tab:green", base=lambda x: x.kf, in_study=True, in_sweep=True, varying_dt=True, linestyle="--",
                    tuning=(Tuned("tau_acc", 1.0, 3.16, (0.1, 1000.0), "tau_acc [s]; 0 = the seed's window mean and "
                                                                       "gate 1", off=(0.0,)),
                            Tuned("q", 1e-7, 3.16e-4, (1e-10, 0.1), "q [rad^2/s] the process noise of the gravity "
                                                                    "direction"))),
         FilterSpec("ungated", ungated, GatedParams, "ours",
                    "Liu et al. 2012 update with the gate always open (baseline)", "tab:gray",
-                   base=lambda x: x.ungated or x.gated, in_study=True, varying_dt=True,
+                   base=lambda x: x.ungated or x.gated, in_study=True, varying_dt=True, linestyle=":",
                    tuning=(Tuned("kp", 1e-3, 1.0, (1e-4, 10.0), "kp [1/s], ki [1/s^2] = kp^2 / 30 along the seed's "
                                                                 "ratio (0.3, 0.003), the gate always open",
                                  derived={"ki": lambda kp: kp * kp / 30.0}),)),
         FilterSpec("fusion", lambda x, p: run_fusion(x.gyro, x.accel, x.dt, p or x.fusion, steps=x.steps),
                    FusionParams, "peer", "x-io Fusion (imufusion) README recommended settings", "tab:red",
-                   base=lambda x: x.fusion, in_study=True, varying_dt=True,
+                   base=lambda x: x.fusion, in_study=True, varying_dt=True, linestyle="-.",
                    tuning=(Tuned("gain", 3.16e-3, 1.0, (1e-4, 10.0), "gain [-] of x-io Fusion"),
                            Tuned("rejection_timeout", 3.16, 1000.0, (0.1, 1e4), "acceleration-rejection timeout "
                                                                                 "[s]"))),
         FilterSpec("aekf", lambda x, p: run_aekf(x.gyro, x.accel, x.dt, p or AEKFParams(), init_s=x.init_s,
                                                  lever_arm=x.lever_arm, steps=x.steps), AEKFParams, "ours",
                    "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple", in_study=True,
-                   varying_dt=True,
+                   varying_dt=True, linestyle=(0, (3, 1)),
                    tuning=(Tuned("tau_acc", 1.0, 1.0, (0.1, 100.0), "tau_acc [s]; 0 = the block mean", off=(0.0,)),
                            Tuned("memory_s", 1.0, 31.6, (0.1, 1000.0), "memory_s [s] the fading memory of the "
                                                                        "adaptation laws"))),
@@ -250,7 +257,7 @@ def _register_builtin() -> None:
                    "Wang et al.'s adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True, varying_dt=True),
         FilterSpec("vqf", lambda x, p: run_vqf(x.gyro, x.accel, x.dt, p or VQFParams(), init_s=x.init_s), VQFParams,
                    "peer", "VQF, Laidig & Seel, Information Fusion 91, 2023 (vqf package defaults)", "black",
-                   in_study=True,
+                   in_study=True, linestyle=(0, (5, 1, 1, 1, 1, 1)),
                    tuning=(Tuned("tauAcc", 1.0, 1000.0, (0.1, 1e5), "tauAcc [s], VQF's accelerometer low-pass time "
                                                                     "constant (its main tuning parameter)"),
                            Tuned("biasSigmaMotion", 0.0316, 1.0, (1e-3, 2.0),
