@@ -2,9 +2,10 @@
 
 Usage::
 
-    python benchmarks/bench_attitude_profiles.py [--seeds 3] [--filters gated,kf,aekf,ungated] [--json FILE]
+    python benchmarks/bench_attitude_profiles.py [--seeds 3] [--filters A,B,...] [--json FILE]
 
-Each of ``flight``, ``swing``, ``vehicle``, ``handheld`` (their default durations, adis16355, ``improved``
+``--filters`` default: ours without GNSS (the registry's kind 'ours': gated, kf, ungated, aekf). Each of
+``flight``, ``swing``, ``vehicle``, ``handheld`` (their default durations, adis16355, ``improved``
 compensation, 25 °C, ``--disturbances realistic``), seeds 0..seeds-1, through :func:`run_attitude_study`:
 the whole-record roll and pitch RMS [deg], mean over the seeds. The guard: after the filters were
 changed for real motion, no profile may be worse than before by more than 10 %.
@@ -18,11 +19,12 @@ import time
 
 
 def main() -> None:
+    from imutherm.imu.filters.registry import filter_names
     from imutherm.studies.attitude_study import run_attitude_study
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=3)
-    ap.add_argument("--filters", default="gated,kf,aekf,ungated")
+    ap.add_argument("--filters", default=",".join(filter_names(gnss=False, kind="ours")))
     ap.add_argument("--profiles", default="flight,swing,vehicle,handheld")
     ap.add_argument("--json", default=None, help="write the table here")
     a = ap.parse_args()

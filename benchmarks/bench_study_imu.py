@@ -9,7 +9,9 @@ configurations gives the time per filter-sample and the fixed time per case (the
 ``imutherm.studies.cost.SECONDS_PER_FILTER_SAMPLE`` and ``SECONDS_PER_CASE`` are rounded up from, the memory
 ``BYTES_PER_SAMPLE_STUDY``; each run prints the estimate of :func:`imutherm.studies.cost.check_study_cost` beside.
 
-    python benchmarks/bench_study_imu.py [--profiles flight,swing] [--filters gated,kf,ungated,fusion]
+    python benchmarks/bench_study_imu.py [--profiles flight,swing] [--filters A,B,...]
+
+(``--filters`` default: the registry's study filters, those ``imutherm compare`` runs.)
 """
 
 import argparse
@@ -41,9 +43,11 @@ print(json.dumps({"wall_s": wall, "base": base, "peak": peak, **work}))
 
 
 def main():
+    from imutherm.imu.filters.registry import study_filters
+
     ap = argparse.ArgumentParser()
     ap.add_argument("--profiles", default="flight,swing")
-    ap.add_argument("--filters", default="gated,kf,ungated,fusion")
+    ap.add_argument("--filters", default=",".join(study_filters()))
     args = ap.parse_args()
     p = subprocess.run([sys.executable, "-c", CHILD, args.profiles, args.filters], capture_output=True, text=True)
     if p.returncode:

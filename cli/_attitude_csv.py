@@ -2,7 +2,9 @@
 
 Outputs in ``--out DIR``: ``attitude.json`` (:meth:`RecordedResult.to_json`: per filter roll / pitch RMS and
 max against the log's reference, null without one, the share of samples on which the accelerometer
-corrected the attitude, runtime; the units, axes, rate, platform, lever arm, turn radius used),
+corrected the attitude, runtime, whether it integrated the true time steps; the units, axes, rate, platform,
+lever arm, turn radius used; ``samples``: repeats and repeated time stamps dropped, the step spread, resampled
+or not; ``warnings``: a z axis reading up at rest, also printed before the scores),
 ``attitude_series.npz`` (every filter's roll / pitch, the reference) and, with a reference,
 ``attitude.png``.
 """
@@ -102,15 +104,18 @@ def run(args) -> int:
           f"gyro {log.units['gyro']}, accel {log.units['accel']}, axes {log.units['axes']}; |f| at rest "
           f"{res.g_rest_mps2:.4f} m/s²; platform {res.platform}, lever arm {list(res.lever_arm)} m, "
           f"turn radius {res.turn_radius_m:g} m")
-    f_rest = np.mean(log.accel[: max(1, int(round(args.init_s / log.dt)))], axis=0)
-    if f_rest[2] > 0.5 * np.linalg.norm(f_rest):
-        print(f"warning: at rest the specific force reads {f_rest[2] / 9.80665:+.2f} g on the FRD z axis (a level "
-              "FRD unit reads -1 g): the log's z axis points up. If the unit rested level, declare --axes FLU (or "
-              "RFU); the roll below is then off by 180°.")
-    if log.n_repeats or log.n_dup_time or log.resampled:
-        print(f"samples: {log.n_repeats} sample-and-hold repeats and {log.n_dup_time} repeated time stamps dropped"
-              + (f"; true steps vary by up to {100 * log.step_spread:.0f} % of the median: resampled onto a uniform "
-                 f"{1e3 * log.dt:.2f} ms grid" if log.resampled else ""))
+    for w in res.warnings:
+        print(f"warning: {w}")
+    sm = res.samples
+    if sm["n_repeats"] or sm["n_dup_time"] or sm["resampled"] or sm.get("true_steps") is not None:
+        print(f"samples: {sm['n_repeats']} sample-and-hold repeats and {sm['n_dup_time']} repeated time stamps dropped"
+              + (f"; true steps vary by up to {100 * sm['step_spread']:.0f} % of the median: resampled onto a uniform "
+                 f"{1e3 * sm['step_median_s']:.2f} ms grid" if sm["resampled"] else "")
+              + (f"; true steps {1e3 * sm['step_min_s']:.2f}-{1e3 * sm['step_max_s']:.2f} ms (median "
+                 f"{1e3 * sm['step_median_s']:.2f} ms, spread {100 * sm['step_spread']:.0f} %): "
+                 f"{', '.join(sm['true_steps']) or 'no filter'} integrate the true steps"
+                 + (f", {', '.join(sm['median_step'])} at the median step (one sample period)" if sm["median_step"]
+                    else "") if sm.get("true_steps") is not None else ""))
     first = next(iter(res.metrics.values()), {})
     if first.get("alignment") and first["alignment"]["mode"] != "none":
         al = first["alignment"]

@@ -55,8 +55,8 @@ def add_args(p) -> None:
                         "filter on a profile, all but those needing GNSS on a log)")
     p.add_argument("--filter-defaults", action="store_true",
                    help="run the filters at their defaults, not at the tuned settings of "
-                        "studies/filter_settings.toml for the profile (flight, swing; the other profiles run at "
-                        "defaults either way)")
+                        "studies/filter_settings.toml for the profile (every motion profile; static, at rest, "
+                        "runs the defaults either way)")
     p.add_argument("--disturbances", default="none", choices=("none", "realistic"),
                    help="realistic: the profile's vibration, turbulence, wind, sync error and jitter "
                         "(imutherm.imu.disturbances.PRESETS); default none")

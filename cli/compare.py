@@ -56,8 +56,10 @@ def add_args(parser) -> None:
                    help="units / noise draws, the same in every scheme (default 3)")
     g.add_argument("--seed", type=int, default=0, metavar="N", help="first seed (default 0)")
     g.add_argument("--profiles", default="flight,swing", help="motion profiles (default flight,swing)")
-    g.add_argument("--filters", default="gated,kf,ungated,fusion,vqf",
-                   help="attitude filters (default gated,kf,ungated,fusion,vqf)")
+    from imutherm.imu.filters.registry import study_filters
+
+    g.add_argument("--filters", default=None, metavar="A,B,...",
+                   help=f"attitude filters (default: the registry's study filters, {','.join(study_filters())})")
     g.add_argument("--filter-defaults", action="store_true",
                    help="run the filters at their defaults, not at the tuned settings of "
                         "studies/filter_settings.toml (benchmarks/tune_study_filters.py)")
@@ -161,9 +163,9 @@ def _study_config(args):
     def names(text):
         return tuple(v.strip() for v in text.split(",") if v.strip())
 
+    filters = {} if args.filters is None else {"filters": names(args.filters)}  # None: the registry's
     return StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
-                       profiles=names(args.profiles), filters=names(args.filters),
-                       tuned=not args.filter_defaults)
+                       profiles=names(args.profiles), tuned=not args.filter_defaults, **filters)
 
 
 def _end_to_end(args, schemes, config) -> int:

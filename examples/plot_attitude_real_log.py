@@ -82,10 +82,10 @@ print(f"{source.name}: {len(raw)} samples over {t[-1] - t[0]:.1f} s, resampled t
 # slowest filter, the adaptive EKF ``aekf`` (several times the others together), can be left out to keep
 # the example short. The pendulum rests only for the first second or two: the leveling window is 1 s.
 from imutherm.imu.imu_log import read_imu_csv
-from imutherm.studies.recorded import LOG_FILTERS, run_recorded
+from imutherm.studies.recorded import log_filters, run_recorded
 
 imu_log = read_imu_csv(log, init_s=1.0)
-result = run_recorded(imu_log, platform="handheld", init_s=1.0, names=[n for n in LOG_FILTERS if n != "aekf"])
+result = run_recorded(imu_log, platform="handheld", init_s=1.0, names=[n for n in log_filters() if n != "aekf"])
 series = result.series
 filters = [k[: -len("_roll_deg")] for k in series if k.endswith("_roll_deg") and not k.startswith("truth")]
 for name in filters:

@@ -11,14 +11,19 @@ units and axes, one row per sample::
     ...
 
 * ``time_s`` [s], increasing, any rate. Rows repeating the previous row's six IMU values (sample-and-hold)
-  or its time stamp are dropped and counted; the filters take the median true step; steps that vary by more
-  than :data:`MAX_STEP_SPREAD` of it are resampled onto a uniform grid from the true times (linear); a step
-  over :data:`MAX_GAP_STEPS` median steps is a gap and refused;
+  or its time stamp are dropped and counted; steps within :data:`MAX_STEP_SPREAD` of the median are kept as
+  they are (``true_steps``: the filters that take a per-sample step integrate over them, the others run at the
+  median step); steps that vary more are resampled onto a uniform grid at the median step from the true times
+  (linear); a step over :data:`MAX_GAP_STEPS` median steps is a gap and refused;
 * ``gyro_x..z`` in ``gyro_units`` (:data:`GYRO_UNITS`, default rad/s), ``accel_x..z`` the *specific force*
   (what an accelerometer reads: +1 g upward at rest) in ``accel_units`` (:data:`ACCEL_UNITS`, default m/s2);
 * ``axes`` (:data:`AXES`, default FRD): the sensor's body axes, converted to FRD;
 * optional reference ``roll_deg``, ``pitch_deg`` [deg]: ZYX Euler angles of the FRD body in NED; empty or
   NaN cells (optical dropouts) are kept as NaN and left out of the scores.
+
+A level unit whose z axis reads up (+1 g on FRD z at rest: a z-up log read as FRD, 180° of roll) is not
+refused, since a unit may rest upside down, but warned (``warnings``, with the fix: declare ``axes FLU`` or
+``RFU``).
 
 Checks (each a one-line :class:`imutherm.InputError` naming the file and what would be valid): missing
 columns, non-numeric or non-finite values, non-monotonic time, gaps, a log shorter than the leveling
@@ -73,7 +78,9 @@ class ImuLog:
     units : {"gyro": ..., "accel": ..., "axes": ...} as declared; g_rest : float [m/s^2] |f| over the rest window;
     step_spread : float [-] max |step − dt| / dt of the true samples; n_repeats : rows dropped as sample-and-hold
     repeats (all six IMU values equal to the row before); n_dup_time : rows dropped for a repeated time stamp;
-    resampled : the true samples were put on a uniform grid (steps beyond MAX_STEP_SPREAD)
+    resampled : the true samples were put on a uniform grid (steps beyond MAX_STEP_SPREAD);
+    true_steps : (N,) [s] the step ending at each sample (the first: dt) where the true samples are kept, None
+    when resampled; warnings : one-line notes on the log that do not refuse it (a z axis reading up at rest)
     """
 
     path: str
@@ -90,6 +97,8 @@ class ImuLog:
     n_repeats: int = 0
     n_dup_time: int = 0
     resampled: bool = False
+    true_steps: np.ndarray | None = field(default=None, repr=False)
+    warnings: tuple = ()
 
     @property
     def has_reference(self) -> bool:
@@ -186,6 +195,7 @@ def read_imu_csv(path, *, gyro_units: str | None = None, accel_units: str | None
                          f"(a gap or a rate change); valid: steps up to {MAX_GAP_STEPS:g}x the median (irregular "
                          "steps below that are resampled)")
     resampled = spread > MAX_STEP_SPREAD
+    true_steps = None if resampled else np.concatenate([[dt], steps])
     if resampled:  # irregular true sample times: onto a uniform grid at the median step (linear)
         grid = t[0] + dt * np.arange(int(np.floor((t[-1] - t[0]) / dt)) + 1)
         data = np.column_stack([grid] + [np.interp(grid, t, data[:, j]) for j in range(1, data.shape[1])])
@@ -223,12 +233,18 @@ def read_imu_csv(path, *, gyro_units: str | None = None, accel_units: str | None
                          f"by {tilt:.1f}°); valid: a log that starts with {init_s:g} s at rest, or a shorter "
                          "--init-s")
     scale_check(path, gyro, accel, dt, n0, declared["gyro_units"])
+    warnings = []
+    if mean[2] > 0.5 * np.linalg.norm(mean):  # at rest f points along +z: a level FRD unit reads -1 g there
+        warnings.append(f"at rest the specific force reads {mean[2] / G0:+.2f} g on the FRD z axis (a level FRD unit "
+                        f"reads -1 g): the log's z axis points up. If the unit rested level, declare its axes FLU (or "
+                        f"RFU; --axes or '# axes:' in the header): read as {declared['axes']}, its roll is off "
+                        "by 180°.")
     rr = rp = None
     if ref_present:
         rr, rp = np.radians(data[:, 7]), np.radians(data[:, 8])
     return ImuLog(str(path), t - t[0], gyro, accel, rr, rp, dt, 1.0 / dt,
                   {"gyro": declared["gyro_units"], "accel": declared["accel_units"], "axes": declared["axes"]},
-                  g_rest, spread, n_repeats, n_dup_time, resampled)
+                  g_rest, spread, n_repeats, n_dup_time, resampled, true_steps, tuple(warnings))
 
 
 def _integrate_down(gyro, r0, dt):

@@ -25,7 +25,6 @@ from imutherm.site_table import read_site_table
 
 SCHEME_COLOURS = {"air": "#d62728", "grease": "#1f77b4", "potted": "#2ca02c"}
 A4 = (11.69, 8.27)
-FILTER_STYLE = {"gated": "-", "kf": "--", "ungated": ":", "fusion": "-.", "vqf": (0, (5, 1, 1, 1, 1, 1))}
 
 
 def _colour(scheme: str, i: int = 0) -> str:
@@ -376,6 +375,8 @@ def _residual_page(pdf, folder: Path, data: dict) -> None:
 
 
 def _attitude_page(pdf, folder: Path, data: dict) -> None:
+    from imutherm.imu.filters.registry import color, linestyle
+
     schemes = [s for s in data["schemes"] if (folder / f"attitude_{s}.csv").exists()]
     fig, axes = plt.subplots(2, len(schemes), figsize=A4, sharex=True, sharey=True, squeeze=False)
     fig.subplots_adjust(left=0.08, right=0.98, top=0.85, bottom=0.09, wspace=0.08, hspace=0.15)
@@ -386,10 +387,10 @@ def _attitude_page(pdf, folder: Path, data: dict) -> None:
         header, d = _read_csv(folder / f"attitude_{s}.csv")
         for row, axis in enumerate(("roll", "pitch")):
             ax = axes[row][j]
-            for f, ls in FILTER_STYLE.items():
+            for f in data["study"]["filters"]:  # colour and line style: the registry's
                 name = f"{f}_{axis}_err_deg"
                 if name in header:
-                    ax.plot(d[:, 0], d[:, header.index(name)], ls=ls, lw=0.9, label=f)
+                    ax.plot(d[:, 0], d[:, header.index(name)], ls=linestyle(f), color=color(f), lw=0.9, label=f)
             ax.set_ylim(-3, 3)
             ax.grid(alpha=0.3)
             if j == 0:

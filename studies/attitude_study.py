@@ -1,8 +1,8 @@
 """Attitude study chain: trajectory → unit → calibration → samples → compensation → filters → metrics.
 
-:func:`run_attitude_study` runs the four attitude filters (``gated`` Liu et al. 2012,
-``kf`` the horizontal-attitude KF paper, ``ungated`` complementary baseline, ``fusion`` the imufusion
-peer) on the same compensated samples for several seeds and reduces the roll
+:func:`run_attitude_study` runs the attitude filters of the registry (:mod:`imutherm.imu.filters.registry`:
+``gated`` Liu et al. 2012, ``kf`` the horizontal-attitude KF paper, ``ungated`` complementary baseline,
+``aekf`` Wang et al., and the peers) on the same compensated samples for several seeds and reduces the roll
 and pitch errors to RMS and maximum per phase (``overall``, ``stable``,
 ``manoeuvre``). Each metric is reported as ``{"mean": ..., "std": ...}`` over
 the seeds (population std, ddof=0); ``None`` where a phase has no samples.
@@ -32,12 +32,11 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import FILTERS, FusionParams, GatedParams, KFParams, default_thresholds
+from imutherm.imu.filters import FusionParams, GatedParams, KFParams, default_thresholds
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.imu.filters.gate import rest_reference
 from imutherm.imu.filters.common import lever_arm_accel
 from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
-from imutherm.imu.filters.gravity_kf import kf_params_from_rest
 
 SEGMENTS = ("overall", "stable", "manoeuvre")
 METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
@@ -224,29 +223,35 @@ def _spread(values):
 
 
 def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig(),
-                fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=FILTERS, params=None,
-                gnss=None, lever_comp: bool = False, settings=None):
+                fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=None, params=None,
+                gnss=None, lever_comp: bool = False, settings=None, steps=None):
     """Run the named filters on one record; returns ({name: AttitudeEstimate}, thresholds).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
     must be at rest: the gyro bias, the |f| reference of the gates (the accelerometer's own rest reading,
     not nominal g) and the gates' noise widening are measured there (:func:`rest_reference`,
-    :func:`kf_params_from_rest`). ``fusion.gyroscope_range``: the sensor's full scale [deg/s] (None or 0: not
-    declared, the peer's over-range recovery off; never the data's peak).
-    ``names`` may include the PEERS (vqf, madgwick, mahony, ekf); ``params`` {name: their params object}
-    (VQFParams, MadgwickParams, MahonyParams, EKFParams, AEKFParams for ``aekf`` / ``aekf_gnss``; default:
-    published defaults). ``gnss`` (:class:`imutherm.imu.gnss.GnssVelocity`) feeds ``aekf_gnss``, which needs it.
+    :func:`~imutherm.imu.filters.gravity_kf.kf_params_from_rest`). ``fusion.gyroscope_range``: the sensor's full
+    scale [deg/s] (None or 0: not declared, the peer's over-range recovery off; never the data's peak).
+    ``names``: registered filters (:mod:`imutherm.imu.filters.registry`; None: every one that applies, those
+    needing GNSS fixes only with ``gnss``); ``params`` {name: its params object, the registry's ``params_cls``}
+    (default: what the registry's ``base`` derives from the record, else the class defaults; ``kf``: the
+    design KFParams, to which its runner adds the rest-window levels). ``gnss``
+    (:class:`imutherm.imu.gnss.GnssVelocity`) feeds ``aekf_gnss``, which needs it.
     ``aekf`` removes the accelerometer's lever-arm term itself; ``lever_comp=True`` removes it
     (:func:`imutherm.imu.filters.common.lever_arm_accel`) for every gravity-referenced filter (all but
     ``aekf_gnss``), so that they are compared on the same information.
     ``settings`` {name: {field: value}} (the tuned settings, :mod:`imutherm.studies.filter_settings`) replaces
-    fields of what each filter runs with: ``gated`` / ``ungated`` their GatedParams, ``kf`` its KFParams
-    (before the rest-window levels), the others ``params[name]`` (default: their parameter class).
+    fields of what each filter runs with (``params[name]``, else its registry default on this record:
+    ``gated`` / ``ungated`` their GatedParams after the rest window set the thresholds, ``kf`` its KFParams
+    before the rest-window levels are added).
+    ``steps`` (N,) [s]: the true step ending at each sample of an irregular record (None: ``dt`` throughout);
+    the filters whose registry entry says ``varying_dt`` integrate over it, the others (VQF) run at ``dt``.
     """
+    from imutherm.imu.filters.registry import REGISTRY, FilterInputs, filter_names
+
     params = {} if params is None else dict(params)
     settings = {} if settings is None else settings
-    if "kf" in settings:
-        kf = replace(kf, **settings["kf"])
+    names = filter_names(gnss=gnss is not None) if names is None else tuple(names)
     init_s = gate.init_s
     g_ref, bias0 = rest_reference(gyro, accel, dt, init_s)
     accel_raw, aekf_lever = accel, lever_arm
@@ -257,33 +262,24 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
                             tau=gate.tau, init_s=init_s, g=g_ref, bias=bias0)
     gp = GatedParams(th, kp=gate.kp_lp if gate.tau_acc > 0 else gate.kp, ki=gate.ki, tau=gate.tau,
                      hold_s=gate.hold_s, g=g_ref, recover_s=gate.recover_s, tau_acc=gate.tau_acc)
-    kf_run = kf_params_from_rest(gyro, accel, dt, init_s, kf)
-    from imutherm.imu.filters.registry import REGISTRY, FilterInputs
-
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
         raise InputError(f"filters: {unknown} unknown; valid: {', '.join(REGISTRY)}")
     if gnss is None and any(REGISTRY[n].needs_gnss for n in names):
         raise InputError("filter aekf_gnss: needs GNSS velocity fixes (gnss=...); valid: run it from the attitude "
                          "study, which simulates them")
-    ungated = replace(gp, kp=gate.kp)
-    if "gated" in settings:
-        gp = replace(gp, **settings["gated"])
-    if "ungated" in settings:
-        ungated = replace(ungated, **settings["ungated"])
+    x = FilterInputs(gyro, accel, accel_raw, dt, init_s, gp, kf, fusion, lever_arm=aekf_lever, gnss=gnss,
+                     ungated=replace(gp, kp=gate.kp), steps=steps)
     for n, vals in settings.items():
-        if n not in ("gated", "ungated", "kf") and n in names:
-            base = params.get(n) or (fusion if n == "fusion" else REGISTRY[n].params_cls())
-            params[n] = replace(base, **vals)
-    x = FilterInputs(gyro, accel, accel_raw, dt, init_s, gp, kf_run, fusion, lever_arm=aekf_lever, gnss=gnss,
-                     ungated=ungated)
+        if n in names:
+            params[n] = replace(params.get(n) or REGISTRY[n].params(x), **vals)
     return {n: REGISTRY[n].run(x, params.get(n)) for n in names}, th
 
 
 def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", temperature_C: float | None = None,
                        temperature_csv=None, compensation: str = "improved", seeds: int = 1, seed0: int = 0,
                        duration: float | None = None, lever_arm=None, gate: GateConfig = GateConfig(),
-                       names=FILTERS, out_of_range: str = "error", disturbances: bool = False,
+                       names=None, out_of_range: str = "error", disturbances: bool = False,
                        gnss: GnssConfig = GnssConfig(), settings: str | None = None) -> AttitudeStudyResult:
     """Run the attitude chain for ``seeds`` seeds (seed0, seed0+1, ...) and reduce the errors.
 
@@ -294,7 +290,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
     profile : one of motion.PROFILES; grade : sensor grade name; temperature_C [°C] constant
     (default 25) or temperature_csv (path; ``time_s`` + one column per site [°C]);
     compensation : none|conventional|improved; duration [s] (None: profile default);
-    lever_arm (3,) [m] (None: per-profile default); gate : GateConfig;
+    lever_arm (3,) [m] (None: per-profile default); gate : GateConfig; names : registered filters (None: every one);
     disturbances : True applies the profile's realistic disturbances (:data:`imutherm.imu.disturbances.PRESETS`,
     drawn from the generator seeded ``[seed, 7]``) and scores against the reference attitude (truth delayed by
     the sync error); ``gate["disturbances"]`` in the result describes them.
@@ -320,6 +316,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         raise InputError(f"--seeds: {seeds!r} is invalid; valid: an integer >= 1")
     from imutherm.imu.filters.registry import filter_names
 
+    names = filter_names() if names is None else tuple(names)
     unknown = [n for n in names if n not in filter_names()]
     if unknown:
         raise InputError(f"filters: {unknown} unknown; valid: {', '.join(filter_names())}")

@@ -53,6 +53,12 @@ METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
 RESIDUALS = ("accel_rms_mg", "accel_max_mg", "gyro_rms_dps", "gyro_max_dps")
 
 
+def _study_filters() -> tuple:
+    from imutherm.imu.filters.registry import study_filters
+
+    return study_filters()
+
+
 @dataclass(frozen=True)
 class StudyConfig:
     """Settings of the IMU / attitude side of the study.
@@ -61,7 +67,8 @@ class StudyConfig:
     seeds : int, number of units / noise draws (seed0, seed0+1, ...); the same in every scheme
     profiles : motion profiles (``flight``, ``swing``; :mod:`imutherm.imu.motion`), default durations
     compensations : subset of none, conventional, improved
-    filters : registered filters that need no GNSS (:mod:`imutherm.imu.filters.registry`)
+    filters : registered filters that need no GNSS (:mod:`imutherm.imu.filters.registry`); default the
+        registry's ``in_study`` filters (:func:`~imutherm.imu.filters.registry.study_filters`)
     tuned : True: each filter runs at its tuned settings for the profile (``studies/filter_settings.toml``,
         :mod:`imutherm.studies.filter_settings`: one grid procedure for ours and the peers, tuning seeds 100-101,
         not the answer's); False: at its defaults
@@ -80,7 +87,7 @@ class StudyConfig:
     seed0: int = 0
     profiles: tuple = ("flight", "swing")
     compensations: tuple = ("none", "conventional", "improved")
-    filters: tuple = ("gated", "kf", "ungated", "fusion", "vqf")
+    filters: tuple = field(default_factory=lambda: _study_filters())
     out_of_range: str = "linear"
     chamber_C: tuple = (-40.0, 70.0)
     residual_window_s: float = 5.0
@@ -767,13 +774,16 @@ def write_study(result: StudyResult, out, *, summary: dict | None = None) -> dic
     return summary
 
 
-#: the lean IMU configuration of a sweep case: the paper's compensation and filters on the flight
-SWEEP_CONFIG = StudyConfig(seeds=1, profiles=("flight",), compensations=("improved",), filters=("gated", "kf"),
-                           calibrations=("unit",))
+def sweep_config() -> StudyConfig:
+    """The lean IMU configuration of a sweep case: the paper's compensation, one seed, the flight, and the
+    registry's ``in_sweep`` filters (:func:`~imutherm.imu.filters.registry.sweep_filters`)."""
+    from imutherm.imu.filters.registry import sweep_filters
+
+    return StudyConfig(seeds=1, profiles=("flight",), compensations=("improved",), filters=sweep_filters(),
+                       calibrations=("unit",))
 
 
-def scheme_attitude_metrics(result, *, seeds: int = 1, seed0: int = 0,
-                            config: StudyConfig = SWEEP_CONFIG) -> dict:
+def scheme_attitude_metrics(result, *, seeds: int = 1, seed0: int = 0, config: StudyConfig | None = None) -> dict:
     """Flat attitude metrics of one solved scheme, for a sweep row.
 
     Parameters
@@ -781,7 +791,7 @@ def scheme_attitude_metrics(result, *, seeds: int = 1, seed0: int = 0,
     result : SchemeResult (:func:`imutherm.studies.thermal_study.run_scheme`; with a transient, the warm-up
         phase is included, else only the steady phase)
     seeds, seed0 : int, units / noise draws (common random numbers, as in :func:`run_study`)
-    config : StudyConfig, the IMU side (default :data:`SWEEP_CONFIG`; its seeds are replaced)
+    config : StudyConfig, the IMU side (default :func:`sweep_config`; its seeds are replaced)
 
     Returns
     -------
@@ -790,7 +800,7 @@ def scheme_attitude_metrics(result, *, seeds: int = 1, seed0: int = 0,
     """
     from imutherm.imu.sensor_model import SITES
 
-    config = replace(config, seeds=int(seeds), seed0=int(seed0))
+    config = replace(config or sweep_config(), seeds=int(seeds), seed0=int(seed0))
     chamber, rise = self_heating_table(result, config.chamber_C)
     idx = [result.steady.probe_names.index(s) for s in SITES]
     steady_T = np.asarray(result.steady.probe_C)[idx]

@@ -10,33 +10,28 @@ scored against the *reference* attitude (the truth delayed by the sync
 error), as a test with an external reference would score it;
 ``disturbances=False`` gives the idealised records.
 
-Tuning procedure (the same for every filter, ours included): the filter's
-1-3 parameters (:data:`TUNABLE`) are searched in log10 space within
-``default · 10^±2.5`` (a box of 10^5 per parameter, the defaults at its
-centre), minimising the mean over the **training** records of
-``(roll RMS + pitch RMS) / 2`` over the whole record. Two stages, both
-deterministic: a scrambled Sobol sample of 32 points in the box (seed 0) plus
-the defaults; then ``scipy.optimize.minimize(method="Nelder-Mead")`` from each
-of the best three of them with at most 24 evaluations each (xatol 0.02
-decades), keeping the best point evaluated. Training set:
-:data:`TRAIN` (profiles ``flight`` and ``shake``, seeds 100-101); the table is
-reported on :data:`HELD_OUT` seeds 0-5 of ``flight``, ``swing``, ``vehicle`` and
-``handheld`` (the last three never trained on); :func:`check_split` refuses an overlap.
+Tuning procedure: the study's one procedure (:mod:`imutherm.studies.filter_tuning`, the same for every
+filter, ours and the peers): each filter's axes as the registry declares them
+(:class:`~imutherm.imu.filters.registry.Tuned`), one x3.16 ladder, an axis grown while the best lies on its
+open edge, the published defaults a candidate too; here minimising the mean over the **training** records
+of ``(roll RMS + pitch RMS) / 2`` over the whole record. A filter without axes (``aekf_gnss``) is reported at
+its defaults only. Training set: :data:`TRAIN` (profiles ``flight`` and ``shake``, seeds 100-101); the table
+is reported on :data:`HELD_OUT` seeds 0-5 of ``flight``, ``swing``, ``vehicle`` and ``handheld`` (the last
+three never trained on); :func:`check_split` refuses an overlap.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import (ALL_FILTERS, AEKFParams, EKFParams, FusionParams, KFParams, MadgwickParams,
-                                  MahonyParams, VQFParams)
+from imutherm.imu.filters import FusionParams
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, run_filters
 
@@ -45,26 +40,9 @@ TRAIN = (("flight", (100, 101)), ("shake", (100, 101)))
 HELD_OUT = (("flight", tuple(range(6))), ("swing", tuple(range(6))), ("vehicle", tuple(range(6))),
             ("handheld", tuple(range(6))))
 
-#: tuned parameters per filter: (name, default) in the filter's own units (see each params class)
-TUNABLE = {
-    "gated": (("kp", GateConfig.kp), ("xi_a", GateConfig.xi_a), ("xi_w", GateConfig.xi_w)),
-    "kf": (("q", KFParams.q), ("R", KFParams.R), ("a", KFParams.a)),
-    "ungated": (("kp", GateConfig.kp), ("ki", GateConfig.ki)),
-    "fusion": (("gain", 0.5), ("acceleration_rejection", 10.0), ("rejection_timeout", 5.0)),
-    "vqf": (("tauAcc", VQFParams.tauAcc), ("biasSigmaMotion", VQFParams.biasSigmaMotion)),
-    "madgwick": (("gain", MadgwickParams.gain),),
-    "mahony": (("k_P", MahonyParams.k_P), ("k_I", MahonyParams.k_I)),
-    "ekf": (("var_gyr", EKFParams.var_gyr), ("var_acc", EKFParams.var_acc)),
-    "aekf": (("memory_s", AEKFParams.memory_s), ("accel_gate", AEKFParams.accel_gate)),
-    "aekf_gnss": (("memory_s", AEKFParams.memory_s), ("accel_density", AEKFParams.accel_density)),
-}
 #: the gates' design turn radius L [m] per profile: the platform's (:data:`imutherm.studies.recorded.PLATFORMS`,
 #: as ``--imu-csv --platform`` uses), GateConfig.L (the aircraft's 1146 m) for the others
 TURN_RADIUS = {"vehicle": 50.0, "handheld": 0.5}
-BOX_DECADES = 2.5
-N_SOBOL = 32
-MAX_NM = 24
-N_START = 3
 
 
 @dataclass(frozen=True)
@@ -143,30 +121,12 @@ def make_records(sets, grade: str = "adis16355", compensation: str = "improved",
     return out
 
 
-def settings_for(name: str, values: dict | None):
-    """Keyword arguments of :func:`run_filters` for filter ``name`` with tuned ``values`` (None: defaults)."""
-    v = {} if values is None else values
-    if name in ("gated", "ungated"):
-        return {"gate": replace(GateConfig(), **v)}
-    if name == "kf":
-        return {"kf": replace(KFParams(), **v)}
-    if name == "fusion":
-        return {"fusion": replace(FusionParams(), **v)}
-    cls = {"vqf": VQFParams, "madgwick": MadgwickParams, "mahony": MahonyParams, "ekf": EKFParams,
-           "aekf": AEKFParams, "aekf_gnss": AEKFParams}[name]
-    return {"params": {name: cls(**v)}}
-
-
 def run_one(name: str, rec: Record, values: dict | None = None):
-    """AttitudeEstimate of filter ``name`` on ``rec`` with ``values`` (None: published defaults)."""
-    kw = settings_for(name, values)
-    kw["fusion"] = replace(kw.get("fusion", FusionParams()), gyroscope_range=rec.gyro_range_dps)
-    if "gate" in kw:
-        kw["gate"] = replace(kw["gate"], init_s=rec.init_s, L=rec.turn_radius)
-    else:
-        kw["gate"] = GateConfig(init_s=rec.init_s, L=rec.turn_radius)
-    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, names=(name,), gnss=rec.gnss,
-                         lever_comp=rec.lever_comp, **kw)
+    """AttitudeEstimate of filter ``name`` on ``rec`` with ``values`` {field: value} of its registry
+    ``params_cls`` (as the settings file names them; None: its defaults on this record)."""
+    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, GateConfig(init_s=rec.init_s, L=rec.turn_radius),
+                         fusion=FusionParams(gyroscope_range=rec.gyro_range_dps), names=(name,), gnss=rec.gnss,
+                         lever_comp=rec.lever_comp, settings=None if values is None else {name: values})
     return est[name]
 
 
@@ -195,8 +155,9 @@ def objective(name: str, values: dict, records) -> float:
 
 @dataclass(frozen=True)
 class TuneResult:
-    """Result of :func:`tune`: values {param: value}, objective [deg] on the training records, evaluations,
-    objective at the defaults [deg], wall time [s]."""
+    """Result of :func:`tune`: values {field: value} (the chosen point, or the defaults' values when they win),
+    objective [deg] on the training records, evaluations, objective at the defaults [deg], wall time [s];
+    grid, at_bound, chosen: as in the study's settings file (:func:`imutherm.studies.filter_tuning.search`)."""
 
     name: str
     values: dict
@@ -204,42 +165,20 @@ class TuneResult:
     n_eval: int
     default_objective: float
     runtime_s: float
+    grid: dict = field(default_factory=dict)
+    at_bound: tuple = ()
+    chosen: str = "grid"
 
 
-def tune(name: str, records, *, n_sobol: int = N_SOBOL, max_nm: int = MAX_NM) -> TuneResult:
-    """The common tuning procedure (module docstring) for filter ``name`` on training ``records``."""
-    from scipy.optimize import minimize
-    from scipy.stats import qmc
+def tune(name: str, records) -> TuneResult:
+    """The study's tuning procedure (:func:`imutherm.studies.filter_tuning.tune_filter`, the registry's axes)
+    for filter ``name`` on training ``records``; InputError for a filter without axes."""
+    from imutherm.studies.filter_tuning import tune_filter
 
-    if name not in TUNABLE:
-        raise InputError(f"tune: filter {name!r} unknown; valid: {', '.join(TUNABLE)}")
     t0 = time.perf_counter()
-    keys = [k for k, _ in TUNABLE[name]]
-    x0 = np.log10([float(v) for _, v in TUNABLE[name]])
-    cache = {}
-
-    def f(x):
-        key = tuple(np.round(x, 6))
-        if key not in cache:
-            cache[key] = objective(name, dict(zip(keys, (float(10.0**xi) for xi in x))), records)
-        return cache[key]
-
-    f_def = f(x0)
-    pts = qmc.Sobol(len(keys), scramble=True, seed=0).random(n_sobol)
-    cands = [x0] + [x0 - BOX_DECADES + 2 * BOX_DECADES * p for p in pts]
-    vals = [f(x) for x in cands]
-
-    def fb(x):
-        return f(np.clip(x, x0 - BOX_DECADES, x0 + BOX_DECADES))
-
-    for k in np.argsort(vals)[:N_START]:  # multi-start: Nelder-Mead from each of the best Sobol points
-        best = cands[int(k)]
-        minimize(fb, best, method="Nelder-Mead",
-                 options={"maxfev": max_nm, "xatol": 0.02, "fatol": 1e-4,
-                          "initial_simplex": np.vstack([best] + [best + 0.3 * e for e in np.eye(len(keys))])})
-    xb = min(cache, key=cache.get)
-    return TuneResult(name, {k: float(10.0**v) for k, v in zip(keys, xb)}, float(cache[xb]), len(cache),
-                      float(f_def), time.perf_counter() - t0)
+    r = tune_filter(name, lambda pt: objective(name, pt, records))
+    return TuneResult(name, dict(r["values"]), float(r["score"]), int(r["evaluations"]) + 1, float(r["default_score"]),
+                      time.perf_counter() - t0, r["grid"], tuple(r["at_bound"]), r["chosen"])
 
 
 def table(names, records, tuned: dict) -> dict:
@@ -264,5 +203,5 @@ def table(names, records, tuned: dict) -> dict:
     return out
 
 
-__all__ = ["TRAIN", "HELD_OUT", "TUNABLE", "Record", "TuneResult", "check_split", "make_records", "run_one",
-           "score", "objective", "tune", "table", "settings_for", "ALL_FILTERS"]
+__all__ = ["TRAIN", "HELD_OUT", "Record", "TuneResult", "check_split", "make_records", "run_one",
+           "score", "objective", "tune", "table"]

@@ -7,10 +7,10 @@ grown while the best lies on its edge, scored by the mean roll/pitch RMS on simu
 answer is not computed on. The file holds, per profile and filter, the chosen values, the grid tried, the axes
 whose best sits at a bound, the tuning seeds, the scores and the command that produced them.
 
-The values are fields of the object a filter's runner reads (:func:`imutherm.studies.attitude_study.run_filters`
-applies them with :func:`dataclasses.replace`): ``gated`` / ``ungated`` :class:`GatedParams` (after its
-thresholds are set from the rest window), ``kf`` :class:`KFParams` (before its rest-window levels are added),
-every other filter its registry ``params_cls``.
+The values are fields of the object a filter's runner reads, its registry ``params_cls``
+(:func:`imutherm.studies.attitude_study.run_filters` applies them with :func:`dataclasses.replace` to what the
+registry's ``base`` derives from the record: ``gated`` / ``ungated`` :class:`GatedParams` after the thresholds
+are set from the rest window, ``kf`` :class:`KFParams` before its rest-window levels are added).
 """
 
 from __future__ import annotations
@@ -33,14 +33,10 @@ PROVENANCE = ("grid", "seeds", "score", "command")
 
 
 def target_class(name: str):
-    """The dataclass whose fields a filter's settings name (InputError for an unknown filter)."""
-    from imutherm.imu.filters import GatedParams, KFParams
+    """The dataclass whose fields a filter's settings name, its registry ``params_cls`` (InputError for an
+    unknown filter or one that takes no settings)."""
     from imutherm.imu.filters.registry import REGISTRY
 
-    if name in ("gated", "ungated"):
-        return GatedParams
-    if name == "kf":
-        return KFParams
     spec = REGISTRY.get(name)
     if spec is None or spec.params_cls is None:
         raise InputError(f"filter settings: filter {name!r} is unknown; valid: {', '.join(REGISTRY)}")

@@ -19,7 +19,6 @@ from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
 from imutherm.imu.overload import OverloadResult, OverloadRig, calibrate_overload, compensate_overload
 
-ATTITUDE_FILTERS = ("gated", "kf", "aekf", "aekf_gnss")
 
 
 @dataclass(frozen=True)
@@ -45,8 +44,11 @@ class OverloadStudyResult:
 
 
 def run_overload_study(grade: str = "adis16355", seed: int = 0, *, rig: OverloadRig = OverloadRig(),
-                       shake_g=(1.2, 5.0), filters=ATTITUDE_FILTERS, dependence=None) -> OverloadStudyResult:
+                       shake_g=(1.2, 5.0), filters=None, dependence=None) -> OverloadStudyResult:
     """Overload calibration of one unit (``default_rng(seed)``) and its effect on attitude on ``shake``.
+
+    filters : registered filters (None: ours, :func:`~imutherm.imu.filters.registry.filter_names` kind 'ours',
+    the GNSS-aided one included: the study simulates its fixes).
 
     shake_g : peak horizontal loads of the shake profile [g] (1.2 is the profile's default).
     dependence : :class:`imutherm.imu.overload.LoadDependence` or None: the table runs on the load-dependent
@@ -60,6 +62,9 @@ def run_overload_study(grade: str = "adis16355", seed: int = 0, *, rig: Overload
     from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
     from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, leveling_window_s, run_filters
 
+    from imutherm.imu.filters.registry import filter_names
+
+    filters = filter_names(kind="ours") if filters is None else tuple(filters)
     g = load_grade(grade)
     if any(not (0 < float(x) <= 20) for x in shake_g):
         raise InputError(f"shake_g: {shake_g!r}; valid: peak loads in (0, 20] g")

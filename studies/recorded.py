@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from imutherm import InputError
-from imutherm.imu.filters import ALL_FILTERS, KFParams
+from imutherm.imu.filters import KFParams
 from imutherm.imu.attitude_math import roll_pitch_from_gravity
 from imutherm.studies.attitude_study import GateConfig, error_metrics, run_filters
 
@@ -51,16 +51,26 @@ PLATFORM_KF = {"handheld": {"tau_acc": 1.0, "n_window": 1, "sf_std": 0.03}, "veh
 #: without it the filter diverged on 02a/3: 35.8°). vehicle / aircraft: the seed's filter.
 PLATFORM_AEKF = {"handheld": {"tau_acc": 1.0, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
 
-#: platform settings of the ``mahony`` peer (MahonyParams: k_P [1/s], k_I [1/s²]) instead of the ahrs defaults
-#: (1.0, 0.3), which are a trap on real motion (with them: 9.5° mean and 46° on one held-out record; 3.44° on
-#: RepoIMU). handheld: k_P 0.5 is the proportional gain of Madgwick's open-source MahonyAHRS.c (x-io
-#: Technologies, 2011: twoKpDef = 2 x 0.5, integral off); k_I 0.03 a weak integral (a bias time constant of
-#: ~30 s instead of ~2 s, so sustained accelerations do not wind the bias estimate up), chosen by the grid
-#: k_P in {0.1, 0.3, 0.5, 1, 2} x k_I in {0, 0.03, 0.3} on the six RepoIMU files (mean inclination RMS 3.00°,
-#: against 3.17° at (0.5, 0), 3.44° at the ahrs defaults; VQF 3.17° at its defaults). aircraft: the study's
-#: tuned flight setting (studies/filter_settings.toml [flight.mahony], benchmarks/tune_study_filters.py on
-#: tuning seeds 100-101: 4.20° against 9.64° at the ahrs defaults). vehicle: the ahrs defaults (not tuned).
-PLATFORM_MAHONY = {"handheld": {"k_P": 0.5, "k_I": 0.03}, "vehicle": {}, "aircraft": {"k_P": 0.01, "k_I": 3e-5}}
+#: the simulated motion profile whose tuned settings (``studies/filter_settings.toml``, the one tuning procedure
+#: of :mod:`imutherm.studies.filter_tuning` on seeds 100-101) stand for each platform where a setting is taken
+#: from the file: handheld -> the handheld profile, vehicle -> the vehicle profile, aircraft -> the flight
+PLATFORM_PROFILE = {"handheld": "handheld", "vehicle": "vehicle", "aircraft": "flight"}
+
+
+def platform_mahony(platform: str) -> dict:
+    """MahonyParams fields (k_P [1/s], k_I [1/s²]) of the ``mahony`` peer on ``platform``: its tuned setting on
+    the platform's profile (:data:`PLATFORM_PROFILE`), never the ahrs defaults (1.0, 0.3), which are a trap on
+    real motion (9.5° mean and 46° on one held-out record; 3.44° on RepoIMU): the integral gain winds the bias
+    estimate up under sustained accelerations. Tuned on simulated records (the study's chain, seeds 100-101),
+    not on the data the recorded-log benchmarks score; the file names the grid, the scores and the command."""
+    from imutherm.studies.filter_settings import load_settings
+
+    prof = PLATFORM_PROFILE[platform]
+    tuned = load_settings().for_profile(prof, ("mahony",))
+    if "mahony" not in tuned:
+        raise InputError(f"filter settings: no [{prof}.mahony] entry for platform {platform!r}; valid: rerun "
+                         "benchmarks/tune_study_filters.py (its profiles include the platforms')")
+    return tuned["mahony"]
 
 
 def platform_params(platform: str) -> dict:
@@ -69,7 +79,7 @@ def platform_params(platform: str) -> dict:
     from imutherm.imu.filters import AEKFParams
     from imutherm.imu.filters.peers import MahonyParams
 
-    return {"aekf": AEKFParams(**PLATFORM_AEKF[platform]), "mahony": MahonyParams(**PLATFORM_MAHONY[platform])}
+    return {"aekf": AEKFParams(**PLATFORM_AEKF[platform]), "mahony": MahonyParams(**platform_mahony(platform))}
 
 
 @dataclass(frozen=True)
@@ -79,9 +89,14 @@ class RecordedResult:
     source : str; rate_hz [Hz]; n_samples; duration_s [s]; units : dict; platform : str; lever_arm (3,) [m];
     turn_radius_m [m]; init_s [s]; g_rest_mps2 [m/s^2];
     metrics : {filter: {roll_rms_deg, pitch_rms_deg, roll_max_deg, pitch_max_deg (None without a reference),
-               accel_used_fraction [-], runtime_s [s]}}
+               accel_used_fraction [-], runtime_s [s], time_steps: 'true' (integrated over the log's true
+               per-sample steps) | 'median' (one sample period, the median step: VQF) | 'uniform' (a regular
+               or resampled log)}}
     fusion : dict  the fusion peer's gyro range (:func:`imutherm.imu.filters.fusion_peer.fusion_range_info`)
     series : dict  t [s], per filter <name>_roll_deg / _pitch_deg / _accel_used, reference truth_*_deg if present
+    samples : dict  what was done to the rows (:func:`sample_report`): repeats and repeated times dropped, the
+                    step statistics, resampled or not, which filters took the true steps
+    warnings : tuple  one-line notes on the log that do not refuse it (:attr:`imutherm.imu.imu_log.ImuLog.warnings`)
     """
 
     source: str
@@ -98,6 +113,8 @@ class RecordedResult:
     metrics: dict
     series: dict = field(repr=False)
     fusion: dict = field(default_factory=dict)
+    samples: dict = field(default_factory=dict)
+    warnings: tuple = ()
 
     def to_json(self) -> dict:
         return {"source": self.source, "rate_hz": self.rate_hz, "n_samples": self.n_samples,
@@ -105,17 +122,46 @@ class RecordedResult:
                 "lever_arm_m": list(self.lever_arm), "turn_radius_m": self.turn_radius_m, "init_s": self.init_s,
                 "g_rest_mps2": self.g_rest_mps2, "reference": self.has_reference,
                 "frames": "FRD body, NED navigation, ZYX Euler; errors are estimate - reference [deg]",
-                "fusion": self.fusion, "filters": self.metrics}
+                "samples": self.samples, "warnings": list(self.warnings), "fusion": self.fusion,
+                "filters": self.metrics}
 
 
-#: the filters a recorded log runs: every filter but ``aekf_gnss``, which needs GNSS velocity fixes a
-#: CSV log of gyro and accelerometer samples does not carry
-LOG_FILTERS = tuple(n for n in ALL_FILTERS if n != "aekf_gnss")
+#: relative step spread below which a log counts as regular (the rounding of its time stamps)
+REGULAR_SPREAD = 1e-6
+
+
+def true_steps(log):
+    """The per-sample steps (N,) [s] the filters get for ``log``: its true steps where they are irregular and
+    kept (not resampled), else None (uniform: the median step)."""
+    if log.true_steps is None or log.step_spread <= REGULAR_SPREAD:
+        return None
+    return log.true_steps
+
+
+def sample_report(log, names) -> dict:
+    """What became of the log's rows, for attitude.json: n_repeats (sample-and-hold rows dropped), n_dup_time
+    (rows with a repeated time stamp dropped), step_median_s [s] (the filters' sample period), step_spread [-]
+    (max |step - median| / median of the true samples), step_min_s / step_max_s [s], resampled (put on a uniform
+    grid: spread beyond :data:`imutherm.imu.imu_log.MAX_STEP_SPREAD`), and, for an irregular log kept as it is,
+    the filters that integrate its true steps and those run at the median step."""
+    from imutherm.imu.filters.registry import REGISTRY
+    from imutherm.imu.imu_log import MAX_STEP_SPREAD
+
+    st = log.true_steps
+    out = {"n_repeats": int(log.n_repeats), "n_dup_time": int(log.n_dup_time), "step_median_s": float(log.dt),
+           "step_spread": float(log.step_spread),
+           "step_min_s": float(np.min(st[1:])) if st is not None and st.size > 1 else float(log.dt),
+           "step_max_s": float(np.max(st[1:])) if st is not None and st.size > 1 else float(log.dt),
+           "resampled": bool(log.resampled), "max_step_spread": MAX_STEP_SPREAD}
+    if true_steps(log) is not None:
+        out["true_steps"] = [n for n in names if REGISTRY[n].varying_dt]
+        out["median_step"] = [n for n in names if not REGISTRY[n].varying_dt]
+    return out
 
 
 def log_filters() -> tuple:
     """Every registered filter a recorded log can run (:mod:`imutherm.imu.filters.registry`: all but those
-    that need GNSS fixes); LOG_FILTERS is the built-in set."""
+    that need GNSS velocity fixes, which a CSV log of gyro and accelerometer samples does not carry)."""
     from imutherm.imu.filters.registry import filter_names
 
     return filter_names(gnss=False)
@@ -137,14 +183,17 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
     L = float(L0 if turn_radius_m is None else turn_radius_m)
     if not (np.isfinite(L) and L > 0):
         raise InputError(f"--turn-radius: {turn_radius_m!r} is invalid; valid: a positive length [m]")
+    from imutherm.imu.filters.registry import REGISTRY
+
     names = log_filters() if names is None else names
     unknown = [n for n in names if n not in log_filters()]
     if unknown:
         raise InputError(f"filters: {unknown} unknown or not runnable on a recorded log (aekf_gnss needs GNSS "
                          f"fixes); valid: {', '.join(log_filters())}")
     gate = replace(GateConfig(), L=L, init_s=float(init_s), **PLATFORM_GATE[platform])
+    steps = true_steps(log)
     est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, kf=KFParams(**PLATFORM_KF[platform]),
-                         names=tuple(names), params=platform_params(platform),
+                         names=tuple(names), params=platform_params(platform), steps=steps,
                          **({} if fusion is None else {"fusion": fusion}))
     metrics = {}
     series = {"t": log.t}
@@ -176,6 +225,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
             m = {k: None for k in ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")}
         m["accel_used_fraction"] = float(np.mean(e.accel_used))
         m["runtime_s"] = e.runtime_s
+        m["time_steps"] = "uniform" if steps is None else ("true" if REGISTRY[n].varying_dt else "median")
         if align_info is not None:
             m["alignment"] = align_info
         metrics[n] = m
@@ -186,7 +236,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
 
     return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
                           L, float(init_s), log.g_rest, log.has_reference, metrics, series,
-                          fusion_range_info(fusion, log.gyro))
+                          fusion_range_info(fusion, log.gyro), sample_report(log, names), tuple(log.warnings))
 
 
 def _down(roll, pitch) -> np.ndarray:

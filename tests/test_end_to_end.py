@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from imutherm.cli.compare import main
+from imutherm.imu.filters.registry import study_filters
 from imutherm.imu.sensor_model import SITES
 
 COARSE = ["--mesh-size", "6", "--min-cells", "1", "--t-end", "500", "--no-progress"]
@@ -40,7 +41,7 @@ def test_files_and_summary_keys(study):
             assert -40.0 < lo < hi and hi > 70.0  # chamber -40..70 C plus the die's self-heating
         for phase in ("warmup", "steady"):
             for comp in ("none", "conventional", "improved"):
-                for filt in ("gated", "kf", "ungated", "fusion", "vqf"):
+                for filt in study_filters():
                     for prof in ("flight", "swing"):
                         m = sch["attitude"][phase][comp][filt][prof]
                         assert set(m) == set(METRICS)
@@ -50,7 +51,7 @@ def test_files_and_summary_keys(study):
     assert s["out_of_range_policy"] == "linear"
     fs = s["filter_settings"]  # the tuned settings the study ran with, and where they came from
     assert fs["tuned"] and fs["file"].endswith("filter_settings.toml") and fs["meta"]["seeds"] == [100, 101]
-    assert set(fs["profiles"]["flight"]) == {"gated", "kf", "ungated", "fusion", "vqf"}
+    assert set(fs["profiles"]["flight"]) == set(study_filters()) >= {"gated", "kf", "ungated", "aekf", "fusion", "vqf"}
 
 
 def test_physics_orderings(study):

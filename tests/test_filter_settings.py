@@ -6,8 +6,6 @@ registered in the filter's place records what it ran with), and that bad files a
 """
 
 import dataclasses
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,16 +13,9 @@ import pytest
 from imutherm import InputError
 from imutherm.imu.filters import registry
 from imutherm.studies import filter_settings as fs
+from imutherm.studies import filter_tuning as tuner
 
-ROOT = Path(__file__).resolve().parent.parent
-STUDY_FILTERS = ("gated", "kf", "ungated", "fusion", "vqf")
-
-
-def _tuner():
-    spec = importlib.util.spec_from_file_location("tune_study_filters", ROOT / "benchmarks" / "tune_study_filters.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+STUDY_FILTERS = ("gated", "kf", "ungated", "aekf", "fusion", "vqf")  # the answer shows at least these
 
 
 def test_committed_file_has_every_study_filter_with_its_provenance():
@@ -32,7 +23,7 @@ def test_committed_file_has_every_study_filter_with_its_provenance():
     from imutherm.studies.end_to_end import StudyConfig
 
     cfg = StudyConfig()
-    assert set(STUDY_FILTERS) <= set(cfg.filters) and cfg.tuned
+    assert set(STUDY_FILTERS) <= set(cfg.filters) == set(registry.study_filters()) and cfg.tuned
     for key in ("procedure", "objective", "data", "seeds", "command"):
         assert s.meta[key], key
     answer_seeds = set(range(cfg.seed0, cfg.seed0 + cfg.seeds))
@@ -54,12 +45,11 @@ def test_file_grids_are_the_procedure_s_with_every_choice_inside_its_grid():
     """The file was written by the procedure on the registry's current axes (else rerun the script): every grid
     value on the one ladder, the start span inside the grid, the choice a point of the grid and never on an
     open edge of an axis (interior, a mode value, or at a bound the file names)."""
-    tuner = _tuner()
     s = fs.load_settings()
     for prof, by in s.provenance.items():
         for name, p in by.items():
             axes = registry.REGISTRY[name].tuning
-            assert list(p["grid"]) == [tuner._label(ax) for ax in axes], (prof, name)
+            assert list(p["grid"]) == [tuner.label(ax) for ax in axes], (prof, name)
             if p["chosen"] == "defaults":  # the published defaults beat every grid point
                 assert s.profiles[prof][name] == tuner.default_values(name) and p["score"] < min(p["scores"])
             else:
@@ -78,7 +68,6 @@ def test_file_grids_are_the_procedure_s_with_every_choice_inside_its_grid():
 
 
 def test_the_search_grows_an_axis_until_its_best_is_inside_and_stops_at_a_bound():
-    tuner = _tuner()
     calls = []
 
     def bowl(pt):  # its minimum at gain 10^2.5 = 316, beyond the start span 1..10; mode value 0 worse
@@ -105,19 +94,17 @@ def test_every_tuned_filter_is_declared_in_the_registry_and_the_study_s_are_tune
     study's answer has axes (so none runs at a setting nobody searched)."""
     from imutherm.studies.end_to_end import StudyConfig
 
-    tuner = _tuner()
-    assert set(StudyConfig().filters) <= set(tuner.tuned_filters())
+    assert set(StudyConfig().filters) <= set(registry.tuned_filters())
     saved = dict(registry.REGISTRY)
     try:
         registry.register(dataclasses.replace(saved["vqf"], name="vqf_copy"))
-        assert "vqf_copy" in tuner.tuned_filters()
+        assert "vqf_copy" in registry.tuned_filters()
     finally:
         registry.REGISTRY.clear()
         registry.REGISTRY.update(saved)
 
 
 def test_grid_points_split_paired_fields():
-    tuner = _tuner()
     pts = tuner.grid_points({"a": [1, 2], "b+c": [(3, 4), (5, 6)]})
     assert pts == [{"a": 1, "b": 3, "c": 4}, {"a": 1, "b": 5, "c": 6}, {"a": 2, "b": 3, "c": 4},
                    {"a": 2, "b": 5, "c": 6}]
@@ -241,7 +228,7 @@ def test_page_one_is_the_answer_figure_and_the_table_follows(tmp_path):
 
 def test_the_attitude_command_runs_the_tuned_settings_of_its_profile(spy, tmp_path, capsys):
     """``imutherm attitude --profile swing`` runs each filter at the file's swing values (a spy records what kf
-    and vqf ran with); ``--filter-defaults`` and an untuned profile (vehicle) run the defaults, and
+    and vqf ran with); ``--filter-defaults`` and the untuned profile (static: at rest) run the defaults, and
     attitude.json says which."""
     import json
 
@@ -263,7 +250,7 @@ def test_the_attitude_command_runs_the_tuned_settings_of_its_profile(spy, tmp_pa
     assert seen["vqf"] == [None]
     j = json.loads((tmp_path / "d" / "attitude.json").read_text())["filter_settings"]
     assert j["tuned"] == {} and j["defaults"] == ["vqf"]
-    assert cli.main(["--profile", "vehicle", "--duration", "80", "--filters", "vqf", "--no-plot",
+    assert cli.main(["--profile", "static", "--duration", "30", "--filters", "vqf", "--no-plot",
                      "--out", str(tmp_path / "v")]) == 0
     j = json.loads((tmp_path / "v" / "attitude.json").read_text())["filter_settings"]
     assert j["tuned"] == {} and j["defaults"] == ["vqf"] and j["file"].endswith("filter_settings.toml")

@@ -7,8 +7,9 @@ from ahrs.filters import EKF, Madgwick, Mahony
 
 from imutherm import InputError
 from imutherm.imu import motion
-from imutherm.imu.filters import PEERS, EKFParams, MadgwickParams, MahonyParams, VQFParams
+from imutherm.imu.filters import EKFParams, MadgwickParams, MahonyParams, VQFParams
 from imutherm.imu.filters.peers import ekf_batch, madgwick_loop, mahony_loop
+from imutherm.imu.filters.registry import filter_names
 from imutherm.studies import filter_benchmark as fb
 from imutherm.studies.attitude_study import run_filters
 
@@ -55,6 +56,26 @@ def test_default_settings_are_the_packages():
     assert (EKFParams().var_gyr, EKFParams().var_acc) == (e.g_noise, e.a_noise)
 
 
+def test_vqf_bias_sigma_motion_inf_is_the_motion_bias_update_off():
+    """The tuning axis's mode value inf runs VQF with motionBiasEstEnabled false (its limit), and from VQF's
+    biasClip (2 deg/s) up the result is already that (the reason the axis is bounded there)."""
+    import vqf
+
+    from imutherm.imu.attitude_math import gravity_dir_body
+    from imutherm.imu.filters.peers import run_vqf
+
+    rng = np.random.default_rng(3)
+    g = rng.normal(0, 0.05, (3000, 3)) + np.array([0.004, -0.002, 0.003])  # in motion (> 2 deg/s) throughout
+    a = np.array([0.3, -0.2, -9.79]) + rng.normal(0, 0.3, (3000, 3))
+    off = run_vqf(g, a, 0.01, VQFParams(biasSigmaMotion=np.inf), init_s=1.0)
+    ref = vqf.VQF(0.01, motionBiasEstEnabled=False).updateBatch(np.ascontiguousarray(g - g[:100].mean(axis=0)),
+                                                                 np.ascontiguousarray(-a))["quat6D"]
+    assert np.max(np.abs(off.gravity - gravity_dir_body(ref))) < 1e-12
+    at_clip = run_vqf(g, a, 0.01, VQFParams(biasSigmaMotion=2.0), init_s=1.0)
+    default = run_vqf(g, a, 0.01, VQFParams(), init_s=1.0)
+    assert np.max(np.abs(at_clip.gravity - off.gravity)) < 1e-6 < np.max(np.abs(default.gravity - off.gravity))
+
+
 def test_peers_frames_at_a_fixed_tilt():
     """Static 12° roll, -7° pitch, 40° yaw with small noise: every peer reads the tilt within 0.1° RMS (a frame
     or sign error would show as degrees)."""
@@ -62,7 +83,7 @@ def test_peers_frames_at_a_fixed_tilt():
     rng = np.random.default_rng(0)
     g = tr.omega_b + rng.normal(0, 0.002, tr.omega_b.shape) + 0.003
     a = tr.f_b + rng.normal(0, 0.02, tr.f_b.shape)
-    est, _ = run_filters(g, a, 0.01, (0, 0, 0), names=PEERS)
+    est, _ = run_filters(g, a, 0.01, (0, 0, 0), names=filter_names(kind="peer"))
     for n, e in est.items():
         assert np.degrees(np.sqrt(np.mean((e.roll[1000:] - tr.roll[1000:]) ** 2))) < 0.1, n
         assert np.degrees(np.sqrt(np.mean((e.pitch[1000:] - tr.pitch[1000:]) ** 2))) < 0.1, n
@@ -78,18 +99,26 @@ def test_split_is_disjoint_and_checked():
     assert {p for p, _ in fb.HELD_OUT} - {p for p, _ in fb.TRAIN}  # at least one profile never trained on
 
 
-def test_tuning_improves_training_objective_within_the_box():
-    """The common procedure on a short training record: never worse than the defaults, inside the box,
-    deterministic."""
+def test_the_benchmark_tunes_by_the_study_s_procedure():
+    """bench_attitude's tuning is the study's one procedure on the registry's axes: on a short training record
+    its choice is the grid search's own on the same objective, a ladder value, never worse than the defaults,
+    deterministic; a filter without axes (aekf_gnss) or unknown is refused."""
+    from imutherm.imu.filters.registry import REGISTRY
+    from imutherm.studies import filter_tuning
+
     recs = [r for r in fb.make_records((("swing", (100,)),))]
-    res = fb.tune("madgwick", recs, n_sobol=4, max_nm=6)
+    res = fb.tune("madgwick", recs)
     assert res.objective <= res.default_objective
-    assert 10**-fb.BOX_DECADES - 1e-9 <= res.values["gain"] / MadgwickParams().gain <= 10**fb.BOX_DECADES + 1e-9
-    assert res.n_eval <= 1 + 4 + fb.N_START * (6 + 1)
-    again = fb.tune("madgwick", recs, n_sobol=4, max_nm=6)
+    direct = filter_tuning.search(REGISTRY["madgwick"].tuning, lambda pt: fb.objective("madgwick", pt, recs))
+    ax = REGISTRY["madgwick"].tuning[0]
+    if res.chosen == "grid":
+        assert res.values == direct["values"] and ax.value(ax.rung(res.values["gain"])) == res.values["gain"]
+    assert res.grid == direct["grid"]
+    again = fb.tune("madgwick", recs)
     assert again.values == res.values
-    with pytest.raises(InputError, match="unknown"):
-        fb.tune("nope", recs)
+    for bad in ("nope", "aekf_gnss"):
+        with pytest.raises(InputError, match="declares no tuning axes"):
+            fb.tune(bad, recs)
 
 
 def test_benchmark_turn_radius_matches_the_platform_defaults():

@@ -259,7 +259,16 @@ def test_cli_warns_on_z_up_log_declared_frd(tmp_path, capsys):
     accel = np.array([0.0, 0.0, G0]) + rng.normal(0, 0.02, (n, 3))  # +g on z: z points up
     p = write_imu_csv(tmp_path / "zup.csv", t, gyro, accel)
     assert main(["--imu-csv", str(p), "--out", str(tmp_path / "o"), "--no-plot"]) == 0
-    assert "declare --axes FLU" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "declare its axes FLU (or RFU; --axes" in out
+    assert out.index("warning: at rest the specific force") < out.index("gated ")  # before the scores
+    import json
+
+    w = json.loads((tmp_path / "o" / "attitude.json").read_text())["warnings"]
+    assert len(w) == 1 and "z axis points up" in w[0] and "off by 180" in w[0]
+    level = write_imu_csv(tmp_path / "level.csv", t, gyro, -accel)  # the same unit read the right way up
+    assert main(["--imu-csv", str(level), "--out", str(tmp_path / "l"), "--no-plot", "--filters", "gated"]) == 0
+    assert json.loads((tmp_path / "l" / "attitude.json").read_text())["warnings"] == []
 
 
 def test_cli_gyro_range_refused_when_not_positive(tmp_path):
@@ -364,9 +373,97 @@ def test_imu_csv_repeats_and_irregular_steps_detected(tmp_path, capsys):
     out = capsys.readouterr().out
     assert f"{int(np.sum(np.arange(len(t_true)) % 3 == 0))} sample-and-hold repeats" in out
     assert "resampled onto a uniform" in out
+    sm = json.loads((tmp_path / "messy" / "attitude.json").read_text())["samples"]  # the comma path writes it too
+    assert sm["n_repeats"] == int(np.sum(np.arange(len(t_true)) % 3 == 0)) and sm["n_dup_time"] == 0
+    assert sm["resampled"] and sm["step_spread"] > 0.5 and "true_steps" not in sm
+    assert all(m["time_steps"] == "uniform" for m in res["messy"].values())
     for n in ("gated", "kf", "vqf"):
         for k in ("roll_rms_deg", "pitch_rms_deg"):
             assert res["messy"][n][k] == pytest.approx(res["clean"][n][k], abs=0.3), (n, k)
+
+
+def _jittered_swing(seed=5, n=4000):
+    """A roll oscillation (40° at 0.25 Hz about body x, no translation, after 10 s at rest) sampled at irregular
+    true times: steps of 9 ms (60 %) and 12 ms (40 %), a spread of 33 % around the 9 ms median, below the
+    resampling threshold (50 %), and a mean step 13 % longer than the median. Returns t, quat, gyro, f, steps."""
+    from imutherm.imu.attitude_math import euler_to_quat, quat_to_dcm
+
+    rng = np.random.default_rng(seed)
+    steps = np.where(rng.random(n) < 0.6, 0.009, 0.012)
+    steps[:1200] = 0.009  # the rest window at the median step
+    t = np.concatenate([[0.0], np.cumsum(steps[1:])])
+    on = t > 10.0
+    A, w = math.radians(40.0), 2 * math.pi * 0.25
+    roll = np.where(on, A * np.sin(w * (t - 10.0)), 0.0)
+    q = euler_to_quat(roll, 0 * t, 0 * t)
+    f = np.einsum("nji,nj->ni", quat_to_dcm(q), np.tile([0.0, 0.0, -G0], (n, 1)))
+    gyro = np.column_stack([np.where(on, A * w * np.cos(w * (t - 10.0)), 0.0), 0 * t, 0 * t])
+    return t, q, gyro, f, steps
+
+
+def test_every_filter_that_takes_a_varying_step_integrates_the_true_steps():
+    """On :func:`_jittered_swing` (gyro noise and a 0.4 °/s bias, accelerometer noise) every registered filter
+    whose registry entry says ``varying_dt`` holds the tilt to < 1° RMS after 5 s of swinging when given the
+    true steps (measured 0.02-0.65°), and is off by more than 2° at the median step (measured 2.4-4.8°: the
+    gyro integrates 13 % too little time); the others (VQF, one sample period fixed at construction) run at the
+    median either way."""
+    from imutherm.imu.filters.registry import REGISTRY, filter_names
+    from imutherm.studies.attitude_study import GateConfig, run_filters
+
+    t, q, gyro, f, steps = _jittered_swing()
+    rng = np.random.default_rng(1)
+    g = gyro + rng.normal(0, 0.002, gyro.shape) + np.radians([0.3, -0.2, 0.1])
+    a = f + rng.normal(0, 0.02, f.shape)
+    names = filter_names(gnss=False)
+    dt = float(np.median(steps))
+    true, _ = run_filters(g, a, dt, (0, 0, 0), GateConfig(init_s=8.0), names=names, steps=steps)
+    median, _ = run_filters(g, a, dt, (0, 0, 0), GateConfig(init_s=8.0), names=names)
+    late = t > 15.0
+    for n in names:
+        e_true = float(np.sqrt(np.mean(_tilt_err_deg(true[n].gravity, q)[late] ** 2)))
+        e_med = float(np.sqrt(np.mean(_tilt_err_deg(median[n].gravity, q)[late] ** 2)))
+        if REGISTRY[n].varying_dt:
+            assert e_true < 1.0 < 2.0 < e_med, (n, e_true, e_med)
+        else:
+            assert e_true == e_med, n
+
+
+def test_imu_csv_jitter_below_the_threshold_runs_on_the_true_steps(tmp_path, capsys):
+    """:func:`_jittered_swing` as a comma CSV with two sample-and-hold repeats and one repeated time stamp: the
+    log is not resampled (33 % < 50 %), attitude.json reports the repeats, the repeated stamp, the step spread
+    and which filters integrated the true steps (every one but vqf) or ran at the median (vqf), and the scores
+    show it (gated < 1° roll RMS against the reference, vqf > 2°)."""
+    import json
+
+    from imutherm.cli.attitude import main
+    from imutherm.imu.attitude_math import quat_to_euler
+    from imutherm.imu.imu_log import write_imu_csv
+
+    t, q, gyro, f, steps = _jittered_swing()
+    roll, pitch, _ = quat_to_euler(q)
+    rng = np.random.default_rng(2)
+    gyro = gyro + rng.normal(0, 1e-3, gyro.shape)
+    f = f + rng.normal(0, 1e-2, f.shape)
+    rows = np.r_[np.arange(2000), 1999, np.arange(2000, 3000), 2999, np.arange(3000, len(t))]  # two repeats
+    t_rows = t[rows].copy()
+    extra = 3500  # a row with the time stamp of the row before (new IMU values): dropped as a repeated stamp
+    p = write_imu_csv(tmp_path / "jitter.csv", np.insert(t_rows, extra, t_rows[extra - 1]),
+                      np.insert(gyro[rows], extra, gyro[rows][extra] * 1.01, axis=0),
+                      np.insert(f[rows], extra, f[rows][extra], axis=0),
+                      roll=np.insert(roll[rows], extra, roll[rows][extra - 1]),
+                      pitch=np.insert(pitch[rows], extra, pitch[rows][extra - 1]))
+    assert main(["--imu-csv", str(p), "--out", str(tmp_path / "o"), "--no-plot", "--platform", "aircraft",
+                 "--filters", "gated,kf,aekf,vqf"]) == 0
+    d = json.loads((tmp_path / "o" / "attitude.json").read_text())
+    sm = d["samples"]
+    assert sm["n_repeats"] == 2 and sm["n_dup_time"] == 1 and not sm["resampled"]
+    assert sm["step_median_s"] == pytest.approx(0.009) and sm["step_spread"] == pytest.approx(1 / 3, abs=1e-6)
+    assert sm["step_max_s"] == pytest.approx(0.012) and sm["true_steps"] == ["gated", "kf", "aekf"]
+    assert sm["median_step"] == ["vqf"]
+    assert [d["filters"][n]["time_steps"] for n in ("gated", "kf", "aekf", "vqf")] == ["true"] * 3 + ["median"]
+    assert d["filters"]["gated"]["roll_rms_deg"] < 1.0 < 2.0 < d["filters"]["vqf"]["roll_rms_deg"]
+    out = capsys.readouterr().out
+    assert "gated, kf, aekf integrate the true steps, vqf at the median step" in out
 
 
 def test_imu_csv_align_auto_recovers_known_rotation(tmp_path, capsys):
@@ -414,16 +511,32 @@ def test_imu_csv_align_auto_recovers_known_rotation(tmp_path, capsys):
     assert "reference -> IMU rotation (auto)" in capsys.readouterr().out
 
 
-def test_mahony_on_recorded_logs_is_not_run_at_the_ahrs_defaults():
-    """The ``mahony`` peer on a recorded log (``--platform handheld``) takes PLATFORM_MAHONY (k_P 0.5 1/s,
-    k_I 0.03 1/s²), not the ahrs defaults (1.0, 0.3). On the known motion (2 m/s² at 0.8 Hz: 11.5° of apparent
-    tilt amplitude) with a 0.6°/s gyro bias, a first-order complementary loop passes k_P / |jω + k_P| of the
-    acceleration's tilt: 0.10 (0.81° RMS) at k_P 0.5 and 0.20 (1.6° RMS) at k_P 1. Tolerances: < 1.0° RMS and
-    > 1.4° RMS."""
-    from imutherm.imu.filters.peers import MahonyParams, run_mahony
-    from imutherm.studies.recorded import PLATFORM_MAHONY, platform_params
+def test_mahony_is_never_run_at_the_ahrs_defaults_on_motion():
+    """No default path runs the ``mahony`` peer at the ahrs defaults (k_P 1.0, k_I 0.3, the trap: 9.5° mean on
+    held-out real records). Every recorded-log platform takes the tuned setting of its profile from the
+    settings file (PLATFORM_PROFILE; the one tuning procedure on simulated seeds 100-101, not on the data the
+    log benchmarks score), and ``imutherm attitude --profile P`` runs the tuned setting on every motion profile
+    (``static``, at rest, is not tuned). On the known motion (2 m/s² at 0.8 Hz: 11.5° of apparent tilt
+    amplitude) with a 0.6°/s gyro bias, a first-order complementary loop passes k_P / |jω + k_P| of the
+    acceleration's tilt: 0.06 (0.5° RMS) at the handheld's k_P 0.316 and 0.20 (1.6° RMS) at k_P 1.
+    Tolerances: < 1.0° RMS and > 1.4° RMS."""
+    import dataclasses
 
-    assert platform_params("handheld")["mahony"] == MahonyParams(**PLATFORM_MAHONY["handheld"]) != MahonyParams()
+    from imutherm.imu.filters.peers import MahonyParams, run_mahony
+    from imutherm.imu.motion import PROFILES
+    from imutherm.studies.attitude_study import _profile_settings
+    from imutherm.studies.filter_settings import load_settings
+    from imutherm.studies.recorded import PLATFORM_PROFILE, PLATFORMS, platform_params
+
+    fs = load_settings()
+    for plat in PLATFORMS:
+        p = platform_params(plat)["mahony"]
+        assert dataclasses.asdict(p) == fs.profiles[PLATFORM_PROFILE[plat]]["mahony"], plat
+        assert p.k_I <= 0.03 < MahonyParams().k_I, plat  # far from the ahrs integral gain that winds up
+        assert fs.provenance[PLATFORM_PROFILE[plat]]["mahony"]["command"].startswith("python benchmarks/tune_")
+    for prof in PROFILES:
+        tuned, info = _profile_settings(prof, ("mahony",), "tuned")
+        assert ("mahony" in tuned) == (prof != "static") and info["defaults"] == ([] if prof != "static" else ["mahony"])
     t, q, gyro, f = _motion()
     rng = np.random.default_rng(3)
     g = gyro + rng.normal(0, 0.002, gyro.shape) + np.radians([0.5, -0.3, 0.2])
@@ -456,25 +569,77 @@ def _turntable(T=70.0, dt=DT, roll=math.radians(20.0), pitch=math.radians(-10.0)
     return t, q, gyro, f_b
 
 
-def _log_filter_names():
-    from imutherm.studies.recorded import log_filters
+#: the turntable's gyro bias [rad/s]: measured at rest by every filter (the rest-window mean; x-io Fusion's own
+#: offset stage), else it turns the vertical by about |b_h| / ψ̇ = 1.1° in the turn
+TURNTABLE_BIAS = np.radians([0.5, -0.3, 0.2])
+#: the known-answer bound [deg RMS]: between the gyro's exact answer (0°) and the accelerometer alone (0.48°)
+TURNTABLE_BOUND = 0.3
 
-    return log_filters()
 
+@pytest.fixture(scope="module")
+def turntable_record():
+    """:func:`_turntable` after 30 s at rest (x-io Fusion's offset stage, imufusion.Bias: 5 s timeout, 0.02 Hz
+    corner, learns a rest bias in ~25 s; every other filter takes the rest-window mean), with gyro noise
+    0.002 rad/s, accelerometer noise 0.02 m/s² and the gyro bias :data:`TURNTABLE_BIAS`; GNSS velocity fixes of
+    the unit (5 Hz, 0.01 m/s noise) for ``aekf_gnss``. Returns t, q, gyro, accel, f (exact), fixes."""
+    from imutherm.imu.gnss import GnssVelocity
 
-@pytest.mark.parametrize("name", _log_filter_names())
-def test_every_filter_holds_a_constant_rate_rotation(name):
-    """Every registered filter (peers included) at its defaults on the turntable of :func:`_turntable`, with
-    small gyro and accelerometer noise: the tilt error after the first 5 s of turning stays below 0.6° RMS. Bound:
-    a filter that followed the accelerometer alone would be 0.48° off (the centripetal term), one that integrated
-    the exact gyro alone 0°; a frame or sign error in the gyro propagation shows as degrees (the body turns
-    through 360° every 12 s)."""
-    from imutherm.studies.attitude_study import GateConfig, run_filters
-
-    t, q, gyro, f = _turntable()
+    rest, radius, rate = 30.0, 0.3, math.radians(30.0)
+    t, q, gyro, f = _turntable(T=90.0, rest_s=rest, radius=radius, yaw_rate=rate)
     rng = np.random.default_rng(7)
-    g = gyro + rng.normal(0, 0.002, gyro.shape)
+    g = gyro + rng.normal(0, 0.002, gyro.shape) + TURNTABLE_BIAS
     a = f + rng.normal(0, 0.02, f.shape)
-    est, _ = run_filters(g, a, DT, (0.3, 0.0, 0.0), GateConfig(init_s=8.0), names=(name,))
-    err = _tilt_err_deg(est[name].gravity, q)[t > 15.0]
-    assert float(np.sqrt(np.mean(err**2))) < 0.6, (name, float(np.sqrt(np.mean(err**2))))
+    psi, psid = rate * np.clip(t - rest, 0.0, None), rate * (t > rest)
+    v = radius * np.column_stack([-np.sin(psi) * psid, np.cos(psi) * psid, 0 * t])
+    idx = np.arange(0, t.size, int(round(0.2 / DT)))
+    fixes = GnssVelocity(idx=idx, vel_n=v[idx] + rng.normal(0, 0.01, (idx.size, 3)), std=0.01)
+    return t, q, g, a, f, fixes
+
+
+def test_the_turntable_bound_fails_the_accelerometer_alone_and_an_uncorrected_gyro(turntable_record):
+    """The bound of :func:`test_every_filter_holds_a_constant_rate_rotation` can fail: the vertical of the exact
+    specific force is 0.48° off (the centripetal term), and the gyro integrated from the leveling without
+    removing the rest bias is more than twice the bound off (measured 17.5°); with the rest-window bias removed
+    it holds (0.25°: the random walk of the gyro noise over the 90 s record)."""
+    from imutherm.imu.filters.common import initial_quat
+
+    t, q, g, a, f, _ = turntable_record
+    turn = t > 35.0
+    down = -f / np.linalg.norm(f, axis=1)[:, None]
+    acc_only = float(np.sqrt(np.mean(_tilt_err_deg(down, q)[turn] ** 2)))
+    assert acc_only == pytest.approx(0.48, abs=0.01) and acc_only > TURNTABLE_BOUND
+    q0 = initial_quat(a, DT, 8.0)
+    for bias, ok in ((np.zeros(3), False), (g[: int(8.0 / DT)].mean(axis=0), True)):
+        est = run_gated(g, a, DT, GatedParams(None, kp=0.0, ki=0.0), q0=q0, bias0=bias, init_s=8.0)
+        e = float(np.sqrt(np.mean(_tilt_err_deg(est.gravity, q)[turn] ** 2)))
+        assert (e < TURNTABLE_BOUND) if ok else (e > 2 * TURNTABLE_BOUND), (ok, e)
+
+
+def _turntable_filters():
+    from imutherm.imu.filters.registry import filter_names
+
+    why = ("Madgwick's normalised gradient step corrects at a fixed rate (its gain, 0.18 deg/s at the flight's "
+           "tuned 0.00316 rad/s): it follows any accelerometer tilt that moves slower, here the 0.48 deg "
+           "centripetal tilt turning at 30 deg/s (measured 0.45 deg RMS; 0.04 deg at gain 1e-4)")
+    return [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=why)) if n == "madgwick" else n
+            for n in filter_names()]
+
+
+@pytest.mark.parametrize("name", _turntable_filters())
+def test_every_filter_holds_a_constant_rate_rotation(name, turntable_record):
+    """Known answer for every registered filter (peers and the GNSS-aided one included), each at the settings
+    the tuning procedure chose for the flight (its long coordinated turns are this case; a filter without
+    flight settings at its defaults), on :func:`turntable_record`: the tilt error after the first 5 s of
+    turning stays below :data:`TURNTABLE_BOUND` (0.3°) RMS. The accelerometer alone is 0.48° off and the gyro
+    without its rest bias more than 0.3° (:func:`test_the_turntable_bound_fails_the_accelerometer_alone_and_an_uncorrected_gyro`),
+    the exact gyro 0°; a frame or sign error in the gyro propagation shows as degrees (the body turns through
+    360° every 12 s). Measured: gated 0.12, kf 0.23, ungated 0.10, fusion 0.20, aekf 0.02, aekf_gnss 0.06, vqf
+    0.09, mahony 0.17, ekf 0.10; madgwick 0.45 (expected to fail, see its reason)."""
+    from imutherm.studies.attitude_study import GateConfig, run_filters
+    from imutherm.studies.filter_settings import load_settings
+
+    t, q, g, a, _, fixes = turntable_record
+    est, _ = run_filters(g, a, DT, (0.3, 0.0, 0.0), GateConfig(init_s=8.0), names=(name,), gnss=fixes,
+                         settings=load_settings().for_profile("flight", (name,)))
+    err = _tilt_err_deg(est[name].gravity, q)[t > 35.0]
+    assert float(np.sqrt(np.mean(err**2))) < TURNTABLE_BOUND, (name, float(np.sqrt(np.mean(err**2))))

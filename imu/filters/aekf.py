@@ -97,7 +97,7 @@ from numba import njit
 from imutherm import InputError
 from imutherm.imu.filters.noise_als import NoiseEstimate, als_noise, stationary_segments
 from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, initial_bias, initial_quat,
-                                        lever_arm_accel)
+                                        lever_arm_accel, sample_steps)
 
 
 @dataclass(frozen=True)
@@ -208,7 +208,7 @@ def _orthonormalise(C):
 
 
 @njit(cache=True)
-def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_val, adapt_r, r_floor,
+def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_val, adapt_r, r_floor,
                use_gnss, gidx, gvel, p0_yaw, accel_gate, innov_gate, reject_timeout, n_avg, n_hold, lpc, sf2):
     n = gyro.shape[0]
     C = C0.copy()
@@ -262,26 +262,27 @@ def _aekf_loop(gyro, accel, dt, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_
             qg = q_val[qj]
             qj += 1
         if k > 0:
+            h = dts[k]  # the step from sample k-1 to k (dt: the design step of the blocks, memory and timers)
             w = 0.5 * (gyro[k - 1] + gyro[k]) - b
             f = 0.5 * (accel[k - 1] + accel[k])
             Cf = C @ f
-            Rk = _rotvec_dcm(w * dt)
+            Rk = _rotvec_dcm(w * h)
             C = C @ Rk
             if not use_gnss:
                 fsum = Rk.T @ fsum  # a nav-fixed vector seen from the rotated body
                 if use_lp:
                     for i in range(4):
                         lps[i] = Rk.T @ lps[i]
-            v = v + (Cf + gn) * dt
+            v = v + (Cf + gn) * h
             F = np.zeros((9, 9))
             F[0:3, 6:9] = -C
             F[3:6, 0:3] = -_skew(Cf)
-            Phi = I9 + F * dt
+            Phi = I9 + F * h
             Qd = np.zeros((9, 9))
             for i in range(3):
-                Qd[i, i] = (qg + sf2 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2])) * dt
-                Qd[3 + i, 3 + i] = qa * qa * dt
-                Qd[6 + i, 6 + i] = rbw * rbw * dt
+                Qd[i, i] = (qg + sf2 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2])) * h
+                Qd[3 + i, 3 + i] = qa * qa * h
+                Qd[6 + i, 6 + i] = rbw * rbw * h
             P = Phi @ P @ Phi.T + Qd
         if k % 50 == 0:
             C = _orthonormalise(C)
@@ -394,18 +395,22 @@ def _als_schedule(gyro, accel, dt, params: AEKFParams, b0, qg0, n0) -> tuple:
 
 
 def run_aekf(gyro, accel, dt: float, params: AEKFParams = AEKFParams(), *, gnss=None, init_s: float = 10.0,
-             name: str | None = None, return_trace: bool = False, lever_arm=None):
+             name: str | None = None, return_trace: bool = False, lever_arm=None, steps=None):
     """Run the adaptive EKF over a record.
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]; gnss : :class:`imutherm.imu.gnss.GnssVelocity` or None
     (no aiding); the first ``init_s`` [s] must be at rest. lever_arm (3,) [m] of the sensor from the rotation
     centre, or None: without GNSS, the accelerometer's lever-arm term (:func:`lever_arm_accel`) is removed
-    before it is taken as gravity (with GNSS it is not: the receiver gives the sensor's own velocity). Returns an :class:`AttitudeEstimate` named
+    before it is taken as gravity (with GNSS it is not: the receiver gives the sensor's own velocity). steps (N,) [s]
+    the true step ending at each sample of an irregular record (None: ``dt``): the attitude, velocity and
+    covariance advance over it; blocks, fading memory, the ALS windows and timers keep ``dt``
+    (:func:`~imutherm.imu.filters.common.sample_steps`). Returns an :class:`AttitudeEstimate` named
     ``aekf`` / ``aekf_gnss`` (or ``name``), and with ``return_trace`` also an :class:`AEKFTrace`.
     """
     from imutherm.imu.attitude_math import quat_to_dcm, roll_pitch_from_gravity
 
     gyro, accel = check_samples(gyro, accel, dt)
+    dts = sample_steps(steps, len(gyro), dt)
     t0 = time.perf_counter()
     n0 = max(2, int(round(init_s / dt)))
     C0 = quat_to_dcm(initial_quat(accel, dt, init_s))
@@ -441,7 +446,7 @@ def run_aekf(gyro, accel, dt: float, params: AEKFParams = AEKFParams(), *, gnss=
         lpc = np.zeros(0)
     q_idx = np.array([e.end for e in als], np.int64)
     q_val = np.array([e.q_gyro for e in als], float)
-    C, bias, used, t_idx, R, q = _aekf_loop(gyro, accel, float(dt), C0, b0, g_ref, float(qg0), float(r0),
+    C, bias, used, t_idx, R, q = _aekf_loop(gyro, accel, float(dt), dts, C0, b0, g_ref, float(qg0), float(r0),
                                             params.bias_rw, params.accel_density, params.memory_s,
                                             q_idx, q_val, params.adapt_r, params.r_floor, gnss is not None,
                                             gidx, gvel, float(np.radians(5.0) ** 2), params.accel_gate,

@@ -52,6 +52,22 @@ def check_samples(gyro, accel, dt):
     return gyro, accel
 
 
+def sample_steps(steps, n: int, dt: float) -> np.ndarray:
+    """The time step ending at each sample, (n,) [s]: ``steps`` (a record's true, irregular steps, step k from
+    sample k-1 to k; checked (n,), finite and > 0) or, None, the uniform ``dt`` [s].
+
+    The filters that take it integrate each sample over its own step; what is designed at one rate (gate
+    low-passes, the inertial low-pass's coefficients, windows and timers counted in samples) keeps ``dt``, the
+    median step: a step within ±50 % of it (:data:`imutherm.imu.imu_log.MAX_STEP_SPREAD`; beyond, a log is
+    resampled) moves a first-order low-pass's weight of one sample by at most that factor."""
+    if steps is None:
+        return np.full(n, float(dt))
+    s = np.asarray(steps, float)
+    if s.shape != (n,) or not (np.all(np.isfinite(s)) and np.all(s > 0)):
+        raise InputError(f"attitude filter: steps {s.shape} are invalid; valid: ({n},) finite time steps > 0 [s]")
+    return np.ascontiguousarray(s)
+
+
 def initial_quat(accel, dt: float, init_s: float) -> np.ndarray:
     """Leveling: quaternion (4,) [-] from the mean specific force of the first ``init_s`` [s], yaw 0."""
     n0 = max(1, int(round(init_s / dt)))

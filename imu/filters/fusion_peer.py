@@ -43,7 +43,7 @@ def _down_frd(q_flu) -> np.ndarray:
     """Gravity (down) direction in FRD body axes from quaternion(s) FLU body → NWU [-]."""
     up = gravity_dir_body(q_flu)  # NWU z (up) in FLU body axes
     return up * np.array([-1.0, 1.0, 1.0])
-from imutherm.imu.filters.common import AttitudeEstimate, check_samples, estimate_from_gravity
+from imutherm.imu.filters.common import AttitudeEstimate, check_samples, estimate_from_gravity, sample_steps
 
 
 @dataclass(frozen=True)
@@ -171,9 +171,12 @@ class FusionPeer:
         return _down_frd(np.asarray(self.ahrs.get_quaternion(), float))
 
 
-def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams()) -> AttitudeEstimate:
-    """Run the peer over a record; gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]."""
+def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams(), *, steps=None) -> AttitudeEstimate:
+    """Run the peer over a record; gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]; steps (N,) [s] the true
+    step ending at each sample of an irregular record (None: ``dt``), set as the AHRS's sample period before
+    each update (its bias stage and timers keep ``dt``)."""
     gyro, accel = check_samples(gyro, accel, dt)
+    dts = None if steps is None else sample_steps(steps, len(gyro), dt).tolist()
     t0 = time.perf_counter()
     ahrs = make_ahrs(dt, params)
     gd = np.ascontiguousarray(np.degrees(gyro) * _FLU)
@@ -183,7 +186,10 @@ def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams()) ->
     used = np.empty(n, bool)
     upd, getq, st = ahrs.update_no_magnetometer, ahrs.get_quaternion, ahrs.get_internal_states
     bias = make_bias(dt, params)
+    period = ahrs.set_sample_period
     for k in range(n):
+        if dts is not None:
+            period(dts[k])
         upd(gd[k] if bias is None else bias.update(gd[k]), ag[k])
         q[k] = getq()
         used[k] = not st().accelerometer_ignored

@@ -53,7 +53,7 @@ from numba import njit
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
-                                         initial_quat)
+                                         initial_quat, sample_steps)
 from imutherm.imu.filters.inertial_lp import butter2_coeffs, lp3, lp3_init
 from imutherm.imu.filters.gate import (GateThresholds, _lp, gate_noise_level, gate_signals, gate_thresholds,
                                       lowpass_alpha, rest_reference)
@@ -264,9 +264,10 @@ class ComplementaryFilter(GatedStrapdown):
         super().__init__(replace(params, thresholds=None), q0, bias0)
 
 
-def _loop(gyro, accel, gate, dt, kp, ki, q0, b0, rate_gate=None):
+def _loop(gyro, accel, gate, dts, kp, ki, q0, b0, rate_gate=None):
     """Tight batch loop of :func:`_update` (inlined, compiled with numba); returns (gravity (N,3), used (N,) bool).
 
+    dts (N,) [s] the step ending at each sample (:func:`~imutherm.imu.filters.common.sample_steps`);
     gate (N,) bool: the accelerometer is used where True. ``rate_gate`` = (lp_w (N,3) [rad/s],
     ok_aw (N,) bool, sigma_w [rad/s], n_hold, n_recover): the gate is instead decided inside the loop
     from the bias-corrected rate |lp_w - b| with the current bias estimate (see :func:`gated_step`).
@@ -285,12 +286,12 @@ def _loop(gyro, accel, gate, dt, kp, ki, q0, b0, rate_gate=None):
         gate_in = np.zeros(n, bool)
     return _loop_core(np.ascontiguousarray(wbar, float), np.ascontiguousarray(m, float), gate_in,
                       rate_gate is not None, np.ascontiguousarray(lpw, float), np.ascontiguousarray(ok_aw, bool),
-                      float(sig_w), int(n_hold), int(n_rec), float(dt), float(kp), float(ki),
+                      float(sig_w), int(n_hold), int(n_rec), np.asarray(dts, float), float(kp), float(ki),
                       np.asarray(q0, float), np.asarray(b0, float))
 
 
 @njit(cache=True)
-def _loop_core(wbar, m, gate_in, use_rate, lpw, ok_aw, sig_w, n_hold, n_rec, dt, kp, ki, q0, b0):
+def _loop_core(wbar, m, gate_in, use_rate, lpw, ok_aw, sig_w, n_hold, n_rec, dts, kp, ki, q0, b0):
     """The per-sample loop of :func:`_loop` (scalar arithmetic in the order of :func:`_update`)."""
     n = wbar.shape[0]
     gl = gate_in.copy()
@@ -300,8 +301,9 @@ def _loop_core(wbar, m, gate_in, use_rate, lpw, ok_aw, sig_w, n_hold, n_rec, dt,
     w, x, y, z = q0[0], q0[1], q0[2], q0[3]
     bx, by, bz = b0[0], b0[1], b0[2]
     out = np.empty((n, 3))
-    hdt = 0.5 * dt
     for k in range(n):
+        dt = dts[k]
+        hdt = 0.5 * dt
         wx, wy, wz = wbar[k, 0] - bx, wbar[k, 1] - by, wbar[k, 2] - bz
         if use_rate:
             if ok_aw[k]:
@@ -363,15 +365,18 @@ def default_thresholds(gyro, accel, dt: float, *, xi_a: float, xi_w: float, d, L
 
 
 def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, *, init_s: float = 10.0,
-              name: str = "gated") -> AttitudeEstimate:
+              name: str = "gated", steps=None) -> AttitudeEstimate:
     """Run the gated strapdown filter over a whole record (batch, equals repeated :func:`gated_step`).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], params : GatedParams
     (``thresholds=None`` → gate always open), q0 (4,) [-] initial attitude
     (None → leveling over the first ``init_s`` [s]), bias0 (3,) [rad/s] initial
-    gyro-bias estimate (None → mean gyro over the first ``init_s``, the unit at rest).
+    gyro-bias estimate (None → mean gyro over the first ``init_s``, the unit at rest); steps (N,) [s] the true
+    step ending at each sample of an irregular record (None: ``dt`` throughout): the attitude and bias
+    integrate over it, the gates and low-passes keep ``dt`` (:func:`~imutherm.imu.filters.common.sample_steps`).
     """
     gyro, accel = check_samples(gyro, accel, dt)
+    dts = sample_steps(steps, len(gyro), dt)
     t0 = time.perf_counter()
     if q0 is None:
         q0 = initial_quat(accel, dt, init_s)
@@ -381,24 +386,24 @@ def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, 
     if params.tau_acc > 0:
         if th is not None:
             params = replace(params, thresholds=lp_thresholds(gyro, accel, dt, params, bias0, init_s))
-        r, gate, _ = run_lp_core(gyro, accel, dt, params, lp_state0(q0, bias0))
+        r, gate, _ = run_lp_core(gyro, accel, dt, params, lp_state0(q0, bias0), steps=dts)
     elif th is None:
-        r, gate = _loop(gyro, accel, np.ones(len(gyro), bool), dt, params.kp, params.ki, q0, bias0)
+        r, gate = _loop(gyro, accel, np.ones(len(gyro), bool), dts, params.kp, params.ki, q0, bias0)
     else:
         e_a, _, e_wd = gate_signals(gyro, accel, dt, params.tau, params.g)
         lpw = _lp(gyro, lowpass_alpha(dt, params.tau))
         ok_aw = (e_a < th.sigma_a) & (e_wd < th.sigma_wdot)
-        r, gate = _loop(gyro, accel, None, dt, params.kp, params.ki, q0, bias0,
+        r, gate = _loop(gyro, accel, None, dts, params.kp, params.ki, q0, bias0,
                         (lpw, ok_aw, th.sigma_w, _hold_samples(params.hold_s, dt),
                          _hold_samples(params.recover_s, dt)))
     return estimate_from_gravity(name, r, gate, time.perf_counter() - t0)
 
 
 def run_ungated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, *,
-                init_s: float = 10.0) -> AttitudeEstimate:
+                init_s: float = 10.0, steps=None) -> AttitudeEstimate:
     """Ungated complementary baseline: :func:`run_gated` with the gate always open (same gains)."""
     return run_gated(gyro, accel, dt, replace(params, thresholds=None, tau_acc=0.0), q0, bias0, init_s=init_s,
-                     name="ungated")
+                     name="ungated", steps=steps)
 
 
 # --------------------------------------------------------------------------- inertial low-pass mode
@@ -408,13 +413,13 @@ _LP_STATE = 38
 
 
 @njit(cache=True)
-def _lp_core(gyro, accel, dt, kp, ki, g, sa, sw, swd, c, S):
+def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S):
     """Liu et al. 2012 strapdown with the accelerometer low-passed in the estimate's frame and a soft gate.
 
     gyro, accel (N,3) raw samples; S (38,) state (see :data:`_LP_STATE`), updated in place. Per sample:
     f_n = C_nb f, ω_n = C_nb (ω - b) low-passed (:mod:`imutherm.imu.filters.inertial_lp`, coefficients c);
     the gate signals of the seed on the low-passed vectors, e_a = ||f̄_n| - g|, e_w = |ω̄_n|,
-    e_ẇ = |Δω̄_n| / dt; gain weight w = min(1, (σa / e_a)²) min(1, (σω̇ / e_ẇ)²), and w = 0 while
+    e_ẇ = |Δω̄_n| / dt; dts (N,) [s] the step ending at each sample (its own dt); gain weight w = min(1, (σa / e_a)²) min(1, (σω̇ / e_ẇ)²), and w = 0 while
     e_w > σω (a sustained turn: the apparent vertical is not the vertical); the PI correction of the seed
     toward m = -C_bn f̄_n / |f̄_n| with kp w and ki w. Returns (gravity (N,3), used (N,) = w >= 0.5, w (N,)).
     """
@@ -424,8 +429,9 @@ def _lp_core(gyro, accel, dt, kp, ki, g, sa, sw, swd, c, S):
     wt = np.empty(n)
     w, x, y, z = S[0], S[1], S[2], S[3]
     bx, by, bz = S[4], S[5], S[6]
-    hdt = 0.5 * dt
     for k in range(n):
+        dt = dts[k]
+        hdt = 0.5 * dt
         gx, gy, gz = gyro[k, 0], gyro[k, 1], gyro[k, 2]
         if S[37] == 0.0:
             S[34], S[35], S[36] = gx, gy, gz
@@ -525,10 +531,12 @@ def lp_state0(q0, b0) -> np.ndarray:
     return S
 
 
-def run_lp_core(gyro, accel, dt, params: "GatedParams", S):
-    """:func:`_lp_core` with ``params`` (its thresholds; inf where None = ungated); returns its outputs."""
+def run_lp_core(gyro, accel, dt, params: "GatedParams", S, steps=None):
+    """:func:`_lp_core` with ``params`` (its thresholds; inf where None = ungated) and the low-pass designed at
+    ``dt`` [s]; steps (N,) [s] the true steps (None: ``dt``); returns its outputs."""
     th = params.thresholds
     sa, sw, swd = (math.inf,) * 3 if th is None else (th.sigma_a, th.sigma_w, th.sigma_wdot)
-    return _lp_core(np.ascontiguousarray(gyro, float), np.ascontiguousarray(accel, float), float(dt),
+    return _lp_core(np.ascontiguousarray(gyro, float), np.ascontiguousarray(accel, float),
+                    sample_steps(steps, len(gyro), dt),
                     float(params.kp), float(params.ki), float(params.g), float(sa), float(sw), float(swd),
                     butter2_coeffs(params.tau_acc, dt), S)

@@ -45,7 +45,7 @@ from numba import njit
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
-                                         initial_quat)
+                                         initial_quat, sample_steps)
 from imutherm.imu.filters.inertial_lp import lp3, lp3_init
 
 
@@ -244,14 +244,18 @@ class GravityKF:
 
 
 def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
-           init_s: float = 10.0) -> AttitudeEstimate:
+           init_s: float = 10.0, steps=None) -> AttitudeEstimate:
     """Run the horizontal-attitude KF paper's filter over a record (batch loop, equals repeated :func:`kf_step`).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], r0 (3,) [-] initial gravity
     direction (None → leveling over the first ``init_s`` [s]); bias0 (3,) [rad/s]
-    initial gyro bias (None → mean gyro over the first ``init_s``, at rest).
+    initial gyro bias (None → mean gyro over the first ``init_s``, at rest); steps (N,) [s] the true step
+    ending at each sample of an irregular record (None: ``dt``): r, the strapdown frame and the process noise
+    advance over it; the measurement window, timers and low-pass keep ``dt``
+    (:func:`~imutherm.imu.filters.common.sample_steps`).
     """
     gyro, accel = check_samples(gyro, accel, dt)
+    dts = sample_steps(steps, len(gyro), dt)
     t0 = time.perf_counter()
     if r0 is None:
         from imutherm.imu.attitude_math import gravity_dir_body
@@ -262,13 +266,13 @@ def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
     if bias0 is None:
         bias0 = initial_bias(gyro, dt, init_s)
     if params.tau_acc > 0:
-        r, used = run_kf_lp_core(gyro, accel, dt, params, kf_lp_state0(r0, params.p0, bias0))
+        r, used = run_kf_lp_core(gyro, accel, dt, params, kf_lp_state0(r0, params.p0, bias0), steps=dts)
         return estimate_from_gravity("kf", r, used, time.perf_counter() - t0)
     wbar = np.empty_like(gyro)
     wbar[0] = gyro[0]
     wbar[1:] = 0.5 * (gyro[:-1] + gyro[1:])
-    r, used = _kf_loop(np.ascontiguousarray(wbar, float), np.ascontiguousarray(accel, float), float(dt),
-                       int(params.n_window), float(params.a), float(params.g), float(params.q * dt), float(params.R),
+    r, used = _kf_loop(np.ascontiguousarray(wbar, float), np.ascontiguousarray(accel, float), float(dt), dts,
+                       int(params.n_window), float(params.a), float(params.g), float(params.q), float(params.R),
                        float(params.innov_max), float(params.reject_timeout_s), float(params.kb), float(params.p0),
                        np.asarray(bias0, float), float(r0[0]), float(r0[1]), float(r0[2]))
     return estimate_from_gravity("kf", r, used, time.perf_counter() - t0)
@@ -278,8 +282,9 @@ _measure_compiled = njit(cache=True)(_measure)
 
 
 @njit(cache=True)
-def _kf_loop(wbar, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, bias0, rx, ry, rz):
-    """The per-sample loop of :func:`run_kf` (compiled; the arithmetic of :func:`kf_step`)."""
+def _kf_loop(wbar, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, bias0, rx, ry, rz):
+    """The per-sample loop of :func:`run_kf` (compiled; the arithmetic of :func:`kf_step`); dt [s] the design
+    step (the window's period), dts (N,) [s] the step ending at each sample."""
     n = wbar.shape[0]
     period = nw * dt
     b = (bias0[0], bias0[1], bias0[2])
@@ -289,7 +294,8 @@ def _kf_loop(wbar, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, bias0, rx
     out = np.empty((n, 3))
     used = np.zeros(n, np.bool_)
     for k in range(n):
-        ax, ay, az = -(wbar[k, 0] - b[0]) * dt, -(wbar[k, 1] - b[1]) * dt, -(wbar[k, 2] - b[2]) * dt
+        h = dts[k]
+        ax, ay, az = -(wbar[k, 0] - b[0]) * h, -(wbar[k, 1] - b[1]) * h, -(wbar[k, 2] - b[2]) * h
         th2 = ax * ax + ay * ay + az * az
         if th2 > 1e-24:
             th = math.sqrt(th2)
@@ -303,7 +309,7 @@ def _kf_loop(wbar, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, bias0, rx
         c = 1.0 - c1 * th2
         rx, ry, rz = (rx * c + s * cx + c1 * dot * ax, ry * c + s * cy + c1 * dot * ay,
                       rz * c + s * cz + c1 * dot * az)
-        p = p + qdt
+        p = p + q * h
         fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
         ea = abs(math.sqrt(fx * fx + fy * fy + fz * fz) - g)
         sx, sy, sz = sx + fx, sy + fy, sz + fz
@@ -328,7 +334,7 @@ _KF_LP_STATE = 30
 
 
 @njit(cache=True)
-def _kf_lp_core(gyro, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, c, S, sf2dt):
+def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, S, sf2):
     """The horizontal-attitude KF paper's KF with the measurement low-passed in a strapdown (almost-inertial) frame.
 
     The frame q_I is the gyro-only strapdown attitude (bias-corrected with the filter's estimate, never
@@ -337,7 +343,8 @@ def _kf_lp_core(gyro, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, c, S, 
     Every ``nw`` samples the measurement r_m = -C(q_I)ᵀ f̄_I / |f̄_I| updates r through the seed's gate 2 and
     re-level, with gate 1 as a variance inflation instead of a rejection: R / w, w = min(1, (a / max e_a)²)
     over the window (and the bias gain kb w), gate 2 at max(innov_max, 3 sqrt(p + R / w)); process noise
-    q + sf2dt/dt |ω|². Returns (gravity (N,3), used (N,) bool); S updated in place.
+    q + sf2 |ω|² over each step dts[k] [s] (dt [s]: the design step of the window and the low-pass c). Returns
+    (gravity (N,3), used (N,) bool); S updated in place.
     """
     n = gyro.shape[0]
     out = np.empty((n, 3))
@@ -352,7 +359,8 @@ def _kf_lp_core(gyro, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, c, S, 
             S[23], S[24], S[25] = gx, gy, gz
         wx, wy, wz = 0.5 * (S[23] + gx) - bx, 0.5 * (S[24] + gy) - by, 0.5 * (S[25] + gz) - bz
         S[23], S[24], S[25] = gx, gy, gz
-        ax, ay, az = -wx * dt, -wy * dt, -wz * dt
+        h = dts[k]
+        ax, ay, az = -wx * h, -wy * h, -wz * h
         th2 = ax * ax + ay * ay + az * az
         if th2 > 1e-24:
             th = math.sqrt(th2)
@@ -366,9 +374,9 @@ def _kf_lp_core(gyro, accel, dt, nw, a, g, qdt, R, imax, timeout, kb, p0, c, S, 
         cc = 1.0 - c1 * th2
         rx, ry, rz = (rx * cc + s * cx + c1 * dot * ax, ry * cc + s * cy + c1 * dot * ay,
                       rz * cc + s * cz + c1 * dot * az)
-        p = p + qdt + sf2dt * (wx * wx + wy * wy + wz * wz)
+        p = p + q * h + sf2 * h * (wx * wx + wy * wy + wz * wz)
         # strapdown frame q_I <- q_I ⊗ exp(ω dt / 2)
-        hx, hy, hz = 0.5 * dt * wx, 0.5 * dt * wy, 0.5 * dt * wz
+        hx, hy, hz = 0.5 * h * wx, 0.5 * h * wy, 0.5 * h * wz
         n2 = hx * hx + hy * hy + hz * hz
         if n2 > 1e-24:
             nn = math.sqrt(n2)
@@ -428,11 +436,13 @@ def kf_lp_state0(r0, p0, b0) -> np.ndarray:
     return S
 
 
-def run_kf_lp_core(gyro, accel, dt, params: "KFParams", S):
-    """:func:`_kf_lp_core` with ``params``; returns (gravity (N,3), used (N,))."""
+def run_kf_lp_core(gyro, accel, dt, params: "KFParams", S, steps=None):
+    """:func:`_kf_lp_core` with ``params``, designed at ``dt`` [s]; steps (N,) [s] the true steps (None: ``dt``);
+    returns (gravity (N,3), used (N,))."""
     from imutherm.imu.filters.inertial_lp import butter2_coeffs
 
     return _kf_lp_core(np.ascontiguousarray(gyro, float), np.ascontiguousarray(accel, float), float(dt),
-                       int(params.n_window), float(params.a), float(params.g), float(params.q * dt), float(params.R),
-                       float(params.innov_max), float(params.reject_timeout_s), float(params.kb), float(params.p0),
-                       butter2_coeffs(params.tau_acc, dt), S, float(params.sf_std ** 2 * dt))
+                       sample_steps(steps, len(gyro), dt), int(params.n_window), float(params.a), float(params.g),
+                       float(params.q), float(params.R), float(params.innov_max), float(params.reject_timeout_s),
+                       float(params.kb), float(params.p0), butter2_coeffs(params.tau_acc, dt), S,
+                       float(params.sf_std ** 2))

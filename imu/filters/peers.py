@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit
 
 from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
-                                         initial_quat)
+                                         initial_quat, sample_steps)
 
 
 # --------------------------------------------------------------------------- Madgwick
@@ -51,14 +51,16 @@ class MadgwickParams:
     gain: float = 0.033
 
 
-def madgwick_loop(gyro, acc, dt: float, gain: float, q0) -> np.ndarray:
+def madgwick_loop(gyro, acc, dt: float, gain: float, q0, steps=None) -> np.ndarray:
     """ahrs ``Madgwick.updateIMU`` over a record: Q[0] = q0, Q[t] = update(Q[t-1], gyr[t], acc[t]).
 
-    gyro (N,3) [rad/s], acc (N,3) reference vector (any scale), dt [s], gain [rad/s], q0 (4,).
+    gyro (N,3) [rad/s], acc (N,3) reference vector (any scale), dt [s], gain [rad/s], q0 (4,); steps (N,) [s]
+    the true step ending at each sample (None: ``dt``; ahrs takes a dt per update too).
     Returns Q (N,4).
     """
     n = len(gyro)
     gl, al = np.asarray(gyro, float).tolist(), np.asarray(acc, float).tolist()
+    hl = [float(dt)] * n if steps is None else np.asarray(steps, float).tolist()
     Q = [None] * n
     w, x, y, z = (float(v) for v in np.asarray(q0, float) / np.linalg.norm(q0))
     Q[0] = (w, x, y, z)
@@ -91,7 +93,8 @@ def madgwick_loop(gyro, acc, dt: float, gain: float, q0) -> np.ndarray:
                 dx -= gain * g1 / gn
                 dy -= gain * g2 / gn
                 dz -= gain * g3 / gn
-        w, x, y, z = w + dw * dt, x + dx * dt, y + dy * dt, z + dz * dt
+        h = hl[t]
+        w, x, y, z = w + dw * h, x + dx * h, y + dy * h, z + dz * h
         nn = sqrt(w * w + x * x + y * y + z * z)
         w, x, y, z = w / nn, x / nn, y / nn, z / nn
         Q[t] = (w, x, y, z)
@@ -107,10 +110,12 @@ class MahonyParams:
     k_I: float = 0.3
 
 
-def mahony_loop(gyro, acc, dt: float, k_P: float, k_I: float, q0, b0=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """ahrs ``Mahony.updateIMU`` over a record (bias state b starting at b0 [rad/s]); returns Q (N,4)."""
+def mahony_loop(gyro, acc, dt: float, k_P: float, k_I: float, q0, b0=(0.0, 0.0, 0.0), steps=None) -> np.ndarray:
+    """ahrs ``Mahony.updateIMU`` over a record (bias state b starting at b0 [rad/s]); steps (N,) [s] the true
+    step ending at each sample (None: ``dt``); returns Q (N,4)."""
     n = len(gyro)
     gl, al = np.asarray(gyro, float).tolist(), np.asarray(acc, float).tolist()
+    hl = [float(dt)] * n if steps is None else np.asarray(steps, float).tolist()
     Q = [None] * n
     w, x, y, z = (float(v) for v in np.asarray(q0, float) / np.linalg.norm(q0))
     bx, by, bz = (float(v) for v in b0)
@@ -121,6 +126,7 @@ def mahony_loop(gyro, acc, dt: float, k_P: float, k_I: float, q0, b0=(0.0, 0.0, 
         if ox == 0.0 and oy == 0.0 and oz == 0.0:
             Q[t] = (w, x, y, z)
             continue
+        dt = hl[t]
         ax, ay, az = al[t]
         an = sqrt(ax * ax + ay * ay + az * az)
         if an > 0:
@@ -181,7 +187,7 @@ def _inv3(S):
 
 
 @njit(cache=True)
-def _ekf_loop(gyro, acc, dt, vg, va, q0):
+def _ekf_loop(gyro, acc, dts, vg, va, q0):
     n = gyro.shape[0]
     Q = np.empty((n, 4))
     q = q0 / np.sqrt(np.sum(q0 * q0))
@@ -197,6 +203,7 @@ def _ekf_loop(gyro, acc, dt, vg, va, q0):
             Q[t] = q
             continue
         z = a / an
+        dt = dts[t]
         gx, gy, gz = 0.5 * dt * gyro[t, 0], 0.5 * dt * gyro[t, 1], 0.5 * dt * gyro[t, 2]
         F[0, 0], F[0, 1], F[0, 2], F[0, 3] = 1.0, -gx, -gy, -gz
         F[1, 0], F[1, 1], F[1, 2], F[1, 3] = gx, 1.0, gz, -gy
@@ -233,11 +240,11 @@ def _ekf_loop(gyro, acc, dt, vg, va, q0):
     return Q
 
 
-def ekf_batch(gyro, acc, dt: float, var_gyr, var_acc, q0) -> np.ndarray:
+def ekf_batch(gyro, acc, dt: float, var_gyr, var_acc, q0, steps=None) -> np.ndarray:
     """ahrs ``EKF.update`` (IMU, frame NED, P0 = I) over B records (numba-compiled loop per record).
 
     gyro, acc (B,N,3) [rad/s], [any scale]; var_gyr, var_acc scalars or (B,) (one setting per record);
-    q0 (B,4). Returns Q (B,N,4).
+    q0 (B,4); steps (N,) [s] the true step ending at each sample (None: ``dt``). Returns Q (B,N,4).
     """
     gyro = np.asarray(gyro, float)
     acc = np.asarray(acc, float)
@@ -245,14 +252,20 @@ def ekf_batch(gyro, acc, dt: float, var_gyr, var_acc, q0) -> np.ndarray:
     vg = np.broadcast_to(np.asarray(var_gyr, float), (B,))
     va = np.broadcast_to(np.asarray(var_acc, float), (B,))
     q0 = np.broadcast_to(np.asarray(q0, float), (B, 4))
-    return np.stack([_ekf_loop(np.ascontiguousarray(gyro[b]), np.ascontiguousarray(acc[b]), float(dt), float(vg[b]),
+    dts = sample_steps(steps, gyro.shape[1], dt)
+    return np.stack([_ekf_loop(np.ascontiguousarray(gyro[b]), np.ascontiguousarray(acc[b]), dts, float(vg[b]),
                                float(va[b]), np.array(q0[b])) for b in range(B)])
 
 
 # --------------------------------------------------------------------------- VQF
 @dataclass(frozen=True)
 class VQFParams:
-    """VQF settings tuned here (others at ``VQFParams`` defaults): tauAcc [s] 3.0, biasSigmaMotion [°/s] 0.1."""
+    """VQF settings tuned here (others at ``VQFParams`` defaults): tauAcc [s] 3.0, biasSigmaMotion [°/s] 0.1.
+
+    biasSigmaMotion is the standard deviation of the converged bias-estimate uncertainty during motion (vqf
+    ``VQFParams``); ``inf`` is its limit, no trust in the motion bias update: VQF's own
+    ``motionBiasEstEnabled = False``. The filter caps the bias uncertainty at biasSigmaInit (0.5 °/s) and clips
+    the bias at biasClip (2 °/s), so from about 2 °/s up it runs as with the update off (to 1e-6° here)."""
 
     tauAcc: float = 3.0
     biasSigmaMotion: float = 0.1
@@ -267,52 +280,61 @@ def _prep(gyro, accel, dt, init_s):
 
 
 def run_madgwick(gyro, accel, dt: float, params: MadgwickParams = MadgwickParams(), *,
-                 init_s: float = 10.0) -> AttitudeEstimate:
-    """ahrs Madgwick (equivalent loop); gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]."""
+                 init_s: float = 10.0, steps=None) -> AttitudeEstimate:
+    """ahrs Madgwick (equivalent loop); gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]; steps (N,) [s] true
+    steps (None: ``dt``)."""
     t0 = time.perf_counter()
     g, a, q0 = _prep(gyro, accel, dt, init_s)
     from imutherm.imu.attitude_math import gravity_dir_body
 
-    Q = madgwick_loop(g, a, dt, params.gain, q0)
+    Q = madgwick_loop(g, a, dt, params.gain, q0, steps=None if steps is None else sample_steps(steps, len(g), dt))
     return estimate_from_gravity("madgwick", gravity_dir_body(Q), np.ones(len(g), bool), time.perf_counter() - t0)
 
 
 def run_mahony(gyro, accel, dt: float, params: MahonyParams = MahonyParams(), *,
-               init_s: float = 10.0) -> AttitudeEstimate:
-    """ahrs Mahony (equivalent loop); gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]."""
+               init_s: float = 10.0, steps=None) -> AttitudeEstimate:
+    """ahrs Mahony (equivalent loop); gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]; steps (N,) [s] true
+    steps (None: ``dt``)."""
     t0 = time.perf_counter()
     g, a, q0 = _prep(gyro, accel, dt, init_s)
     from imutherm.imu.attitude_math import gravity_dir_body
 
-    Q = mahony_loop(g, a, dt, params.k_P, params.k_I, q0)
+    Q = mahony_loop(g, a, dt, params.k_P, params.k_I, q0,
+                    steps=None if steps is None else sample_steps(steps, len(g), dt))
     return estimate_from_gravity("mahony", gravity_dir_body(Q), np.ones(len(g), bool), time.perf_counter() - t0)
 
 
-def run_ekf(gyro, accel, dt: float, params: EKFParams = EKFParams(), *, init_s: float = 10.0) -> AttitudeEstimate:
-    """ahrs EKF (IMU, NED; batched equivalent); gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]."""
-    return run_ekf_many([gyro], [accel], dt, [params], init_s=init_s)[0]
+def run_ekf(gyro, accel, dt: float, params: EKFParams = EKFParams(), *, init_s: float = 10.0,
+            steps=None) -> AttitudeEstimate:
+    """ahrs EKF (IMU, NED; batched equivalent); gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]; steps (N,) [s]
+    true steps (None: ``dt``)."""
+    return run_ekf_many([gyro], [accel], dt, [params], init_s=init_s, steps=steps)[0]
 
 
-def run_ekf_many(gyros, accels, dt: float, params_list, *, init_s: float = 10.0) -> list[AttitudeEstimate]:
-    """Several EKF runs (records of equal length, one EKFParams each) in one vectorised pass."""
+def run_ekf_many(gyros, accels, dt: float, params_list, *, init_s: float = 10.0, steps=None) -> list[AttitudeEstimate]:
+    """Several EKF runs (records of equal length and steps, one EKFParams each) in one vectorised pass."""
     from imutherm.imu.attitude_math import gravity_dir_body
 
     t0 = time.perf_counter()
     prep = [_prep(g, a, dt, init_s) for g, a in zip(gyros, accels)]
     Q = ekf_batch(np.stack([p[0] for p in prep]), np.stack([p[1] for p in prep]), dt,
-                  [p.var_gyr for p in params_list], [p.var_acc for p in params_list], np.stack([p[2] for p in prep]))
+                  [p.var_gyr for p in params_list], [p.var_acc for p in params_list], np.stack([p[2] for p in prep]),
+                  steps=steps)
     rt = (time.perf_counter() - t0) / len(prep)
     return [estimate_from_gravity("ekf", gravity_dir_body(Q[i]), np.ones(Q.shape[1], bool), rt)
             for i in range(len(prep))]
 
 
 def run_vqf(gyro, accel, dt: float, params: VQFParams = VQFParams(), *, init_s: float = 10.0) -> AttitudeEstimate:
-    """VQF 6D (causal C++ ``VQF.updateBatch``); gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]."""
+    """VQF 6D (causal C++ ``VQF.updateBatch``); gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s]. VQF takes one
+    sampling time, fixed when it is constructed (no per-sample step): an irregular record runs at ``dt``."""
     import vqf
 
     t0 = time.perf_counter()
     g, a, _ = _prep(gyro, accel, dt, init_s)
-    f = vqf.VQF(dt, tauAcc=params.tauAcc, biasSigmaMotion=params.biasSigmaMotion)
+    motion = ({"biasSigmaMotion": params.biasSigmaMotion} if math.isfinite(params.biasSigmaMotion)
+              else {"motionBiasEstEnabled": False})  # inf: the motion bias update off
+    f = vqf.VQF(dt, tauAcc=params.tauAcc, **motion)
     out = f.updateBatch(np.ascontiguousarray(g), np.ascontiguousarray(a))
     from imutherm.imu.attitude_math import gravity_dir_body
 

@@ -35,12 +35,14 @@ def case_outputs(result, sites) -> dict:
 
 def attitude_columns(transient: bool) -> tuple:
     """The attitude columns of a sweep with ``--attitude``: roll and pitch RMS error [deg] of the lean
-    IMU configuration :data:`~imutherm.studies.end_to_end.SWEEP_CONFIG` (improved compensation, unit
-    calibrated in the oven with this case's self-heating, gated and kf filters, flight profile), per
+    IMU configuration :func:`~imutherm.studies.end_to_end.sweep_config` (improved compensation, unit
+    calibrated in the oven with this case's self-heating, the registry's sweep filters, flight profile), per
     phase (``warmup`` needs ``transient``; ``steady``), then ``extrapolated_fraction`` [-] (share of
     compensated samples beyond the calibrated range).
     """
-    from imutherm.studies.end_to_end import PHASES, SWEEP_CONFIG as C
+    from imutherm.studies.end_to_end import PHASES, sweep_config
+
+    C = sweep_config()
 
     phases = PHASES if transient else ("steady",)
     return tuple(f"{ph}_{comp}_{f}_{prof}_{m}" for ph in phases for comp in C.compensations for f in C.filters
