@@ -50,6 +50,14 @@ CHECK_T95_REL = 0.01
 KRYLOV_ORDER = 3
 #: time scales [s] of the shifted solves (A + M / tau)^-1 b that join the basis for the first seconds
 EARLY_S = (0.3, 2.0, 10.0, 50.0)
+#: shift [1/s] of the second AMG hierarchy, sparse(A) + s M (the earliest time scale of the basis, 1 / 0.3 s), and
+#: the shift from which a solve (A + s M) x = b uses it instead of A's own (its time scale 1 / s <= 3.3 s): where
+#: the heat capacity term outweighs conduction in the boards and the air, A's hierarchy preconditions it poorly.
+#: Measured on the reference unit (air scheme, default mesh, CG to 1e-4), iterations with A's hierarchy / with
+#: this one: s = 0.1: 29 / 35, 0.5: 36 / 18, 1.5: 53 / 16, 3.3: 74 / 15, 4.6: 84 / 17, 10: 121 / 24 (setup ~0.4 s,
+#: about 20 iterations)
+SHIFTED_PC_S = 1.0 / EARLY_S[0]
+SHIFTED_PC_FROM = 0.3
 #: relative CG tolerance of the basis solves and of the error-estimate solves
 BASIS_RTOL = 1e-4
 CHECK_RTOL = 1e-2
@@ -99,19 +107,31 @@ class ReducedCheck:
 
 
 class _Solver:
-    """CG on the full model with one AMG hierarchy of the secant operator's sparse part (counts solves)."""
+    """CG on the full model (counts solves): one AMG hierarchy of the secant operator's sparse part, and for
+    the large shifts (A + s M, s >= :data:`SHIFTED_PC_FROM`) one of sparse(A) + :data:`SHIFTED_PC_S` M, built
+    at its first use."""
 
-    def __init__(self, A):
-        self.A = A
+    def __init__(self, A, M=None):
+        self.A, self.M = A, M
         self.pc = amg_preconditioner(sparse_part(A))
+        self.pc_shifted = None
         self.solves = self.its = 0
+
+    def _preconditioner(self, Op):
+        s = getattr(Op, "s", 0.0)
+        if self.M is None or s < SHIFTED_PC_FROM:
+            return self.pc
+        if self.pc_shifted is None:
+            S = sparse_part(self.A)
+            self.pc_shifted = amg_preconditioner((S + SHIFTED_PC_S * self.M).tocsr())
+        return self.pc_shifted
 
     def solve(self, Op, b, rtol):
         n = [0]
 
         def count(_):
             n[0] += 1
-        x, info = spla.cg(Op, b, rtol=rtol, M=self.pc, maxiter=3000, callback=count)
+        x, info = spla.cg(Op, b, rtol=rtol, M=self._preconditioner(Op), maxiter=3000, callback=count)
         self.solves += 1
         self.its += n[0]
         if info:
@@ -247,7 +267,7 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
     P = probe_matrix(problem.grid, np.array([probes[n] for n in names]))
     A, _ = linearised(asm, np.asarray(steady.T_C))
     M = asm.M
-    lin = _Solver(A)
+    lin = _Solver(A, M)
     x_ss = np.asarray(steady.T_C) - amb
     # the initial slope's direction (the power over the lumped heat capacity: what the first seconds heat)
     cols = [x_ss, np.ones(asm.n), asm.F_q / np.maximum(np.asarray(M.sum(axis=1)).ravel(), 1e-300)]
