@@ -780,15 +780,26 @@ def write_study(result: StudyResult, out, *, summary: dict | None = None) -> dic
     """
     from pathlib import Path
 
-    from imutherm.io import write_csv, write_json
+    from imutherm.io import write_json
+
+    out = Path(out)
+    summary = summary or study_summary(result)
+    write_json(out / "summary.json", summary)
+    write_scheme_files(result, out)
+    return summary
+
+
+def write_scheme_files(result: StudyResult, out) -> None:
+    """Each scheme's files of :func:`write_study` (all but ``summary.json``) into the folder ``out``."""
+    from pathlib import Path
+
+    from imutherm.io import write_csv
     from imutherm.site_table import write_site_table
     from imutherm.studies.compare import board_plane_map
     from imutherm.studies.thermal_study import probe_table
     from imutherm.thermal.output import write_vtu
 
     out = Path(out)
-    summary = summary or study_summary(result)
-    write_json(out / "summary.json", summary)
     for name, st in result.schemes.items():
         header, rows = probe_table(st.thermal)
         write_site_table(out / f"curves_{name}.csv", rows[:, 0], header[1:], rows[:, 1:])
@@ -811,7 +822,6 @@ def write_study(result: StudyResult, out, *, summary: dict | None = None) -> dic
             maps.update({f"{tag}_{k}": np.asarray(v) for k, v in m.items()})
             maps[f"{tag}_board"] = np.asarray(board)
         np.savez_compressed(out / f"maps_{name}.npz", **maps)
-    return summary
 
 
 #: the lean IMU configuration of a sweep case: the paper's compensation and filters on the flight
