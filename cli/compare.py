@@ -46,8 +46,9 @@ def add_args(parser) -> None:
     parser.add_argument("--schemes", default="air,grease,potted", help="comma-separated schemes (default all three)")
     add_time_arguments(parser, t_end=2400.0, settle_stop=True)
     parser.add_argument("--full", action="store_true",
-                        help="power-on transients on the full adaptive FEM (default: on a reduced model of the "
-                             "steady field checked against the full model, the full FEM where the check fails)")
+                        help="power-on transients on the full adaptive FEM and the oven self-heating by the full "
+                             "Newton solve (default: on reduced models checked against the full model, the full "
+                             "FEM where a check fails)")
     parser.add_argument("--steady-only", action="store_true", help="thermal steady states only (implies --thermal-only)")
     parser.add_argument("--thermal-only", action="store_true", help="thermal comparison only, no IMU / attitude")
     g = parser.add_argument_group("IMU and attitude (the end-to-end study)")
