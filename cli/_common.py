@@ -329,6 +329,26 @@ def _move_in(tmp: Path, real: Path, stale: str | None) -> None:
                 old.unlink()
 
 
+def in_background(fn, *args):
+    """Start ``fn(*args)`` in a forked child process beside the caller; returns ``wait()``, which waits for it
+    and raises OSError if it failed (its traceback is on stderr). The child inherits the caller's memory:
+    nothing is pickled. Where there is no fork, ``fn`` runs at once and ``wait()`` returns at once."""
+    import multiprocessing
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        fn(*args)
+        return lambda: None
+    proc = multiprocessing.get_context("fork").Process(target=fn, args=args, daemon=True)
+    proc.start()
+
+    def wait():
+        proc.join()
+        if proc.exitcode != 0:
+            raise OSError(f"{getattr(fn, '__name__', fn)} failed in its process (exit status {proc.exitcode})")
+
+    return wait
+
+
 def help_text(doc: str | None) -> str:
     """A module docstring as ``--help`` text: without the reStructuredText markup (double backquotes, roles)."""
     text = re.sub(r":(?:func|class|mod|data|meth|attr):`~?([^`]+)`", r"\1", doc or "")

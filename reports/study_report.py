@@ -509,8 +509,11 @@ def _parameters_page(pdf, data: dict) -> None:
     plt.close(fig)
 
 
-def write_study_report(folder: str | os.PathLike, path: str | os.PathLike) -> None:
-    """Draw ``report.pdf`` from ``summary.json`` and the CSV / NPZ / PNG files in ``folder``."""
+def write_study_report(folder: str | os.PathLike, path: str | os.PathLike, *, files_ready=None) -> None:
+    """Draw ``report.pdf`` from ``summary.json`` and the CSV / NPZ / PNG files in ``folder``.
+
+    ``files_ready``: called once the pages drawn from ``summary.json`` alone are done, before the first page
+    that reads another file (the command writes those files beside the first pages, in another process)."""
     folder = Path(folder)
     data = json.loads((folder / "summary.json").read_text())
     with PdfPages(path) as pdf:
@@ -521,6 +524,8 @@ def write_study_report(folder: str | os.PathLike, path: str | os.PathLike) -> No
 
             uncertainty_pages(pdf, data["uncertainty"])
         _bare_page(pdf, data)
+        if files_ready is not None:
+            files_ready()
         _image_pages(pdf, folder, data)
         _map_page(pdf, folder, data)
         _curves_page(pdf, folder, data)

@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
@@ -130,6 +130,8 @@ class SchemeStudy:
     chamber_C : (k,) [°C]; rise_K : (k, 6) [K] sensor-die self-heating in the oven, SITES order
     imu : dict, :func:`reduce_cases` of the seeds: attitude, residuals, ranges, extrapolated fractions
     series : dict, first seed's curves for the files and the report (see :func:`imu_case`)
+    oven_solves : tuple of dict, how each oven temperature other than the ambient was solved (full, or reduced
+        with its check: :func:`self_heating_table`)
     """
 
     scheme: str
@@ -139,6 +141,7 @@ class SchemeStudy:
     rise_K: np.ndarray
     imu: dict
     series: dict = field(repr=False)
+    oven_solves: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -153,14 +156,20 @@ class StudyResult:
 
 
 # --------------------------------------------------------------------------- thermal side
-def self_heating_table(res, chamber_C) -> tuple[np.ndarray, np.ndarray]:
+def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
     """Sensor-die rise over the chamber [K], (k, 6) in SITES order, at oven temperatures ``chamber_C`` [°C].
 
     The scheme's model is solved steady with the chamber as ambient and fixture
     temperature (same mesh and options as ``res``); a chamber equal to the
-    layout's ambient reuses ``res.steady``.
+    layout's ambient reuses ``res.steady``. ``model`` 'full': the full Newton solve; 'reduced': on a basis of
+    ``res``'s steady rise that checks itself against the full model, every sensor die within 0.01 K
+    (:func:`imutherm.thermal.reduced_steady.reduced_steady`), the full solve when the check fails.
+    ``solves``: a list that gets one JSON-ready dict per solved chamber temperature (how it was solved).
     """
     from imutherm.imu.sensor_model import SITES
+    from imutherm.thermal.assembly import assemble
+    from imutherm.thermal.reduced_steady import reduced_steady
 
     geo = res.geometry
     lay = geo.layout
@@ -178,7 +187,21 @@ def self_heating_table(res, chamber_C) -> tuple[np.ndarray, np.ndarray]:
             continue
         lay_c = replace(lay, ambient_C=Tc, mounting=replace(lay.mounting, temperature_C=Tc))
         problem = build_problem(replace(geo, layout=lay_c), res.grid, res.options)
-        st = solve_steady(problem, probes=probes, initial_C=np.asarray(res.steady.T_C) - lay.ambient_C + Tc)
+        asm = assemble(problem)
+        known = np.asarray(res.steady.T_C) - lay.ambient_C
+        st, how = None, {"chamber_C": float(Tc), "model": "full"}
+        if model == "reduced":
+            try:
+                st, chk = reduced_steady(problem, asm, known, probes)
+                how["check"] = chk.summary()
+            except InputError as e:   # e.g. a fixed-temperature face: the full solve
+                how["check"] = {"accepted": False, "reason": str(e)}
+            if st is not None:
+                how["model"] = "reduced"
+        if st is None:
+            st = solve_steady(problem, probes=probes, initial_C=known + Tc, assembly=asm)
+        if solves is not None:
+            solves.append(how)
         rise[k] = np.asarray(st.probe_C) - Tc
     return chamber, rise
 
@@ -383,16 +406,32 @@ def _one_blas_thread() -> None:
 
 def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, progress: bool = False,
                  **thermal_kwargs):
-    """The thermal side of one scheme: (SchemeResult, chamber (k,) [°C], rise (k, 6) [K]).
+    """The thermal side of one scheme: (SchemeResult, chamber (k,) [°C], rise (k, 6) [K], oven solves).
 
     Steady field, power-on transient (always run) and the oven self-heating table; a pure function of its
-    arguments, so schemes can run in separate processes.
+    arguments, so schemes can run in separate processes. The oven solves are reduced and checked when the
+    transient is (``transient_model`` 'reduced'), else full. Returns (SchemeResult, chamber, rise, oven solves
+    (list of dicts, :func:`self_heating_table`)).
     """
     from imutherm.studies.thermal_study import run_scheme
 
     res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, **thermal_kwargs)
-    chamber, rise = self_heating_table(res, chamber_C)
-    return res, chamber, rise
+    solves = []
+    chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
+                                       solves=solves)
+    return res, chamber, rise, solves
+
+
+def longest_first(layout: LayoutSpec, schemes, options: ModelOptions) -> tuple:
+    """``schemes`` in the order their thermal cases go to the workers: the longest first (so the shortest one
+    runs last, beside the first schemes' IMU cases). A scheme whose cavity is air under the s2s law adds the
+    view factors and the dense exchange to every solve, and goes first (reference unit, default mesh: air
+    18.6, grease 17.7, potted 10.2 CPU-s); ties keep the given order."""
+    def s2s(sch):
+        fill = layout.schemes[sch].fill
+        return (options.cavity_radiation and options.cavity_law == "s2s"
+                and options.material(fill).name == "air")
+    return tuple(sorted(schemes, key=lambda sch: not s2s(sch)))
 
 
 def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: StudyConfig = StudyConfig(),
@@ -407,8 +446,9 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     config : StudyConfig (IMU side)
     options : ModelOptions (thermal laws; default :class:`ModelOptions`)
     jobs : int, worker processes (default: min(2, CPUs)); 1 runs everything in this process. With
-        ``jobs`` > 1 the schemes' thermal solves run side by side in the workers, and each scheme's IMU
-        cases (one per seed) are queued as soon as its thermal result is in.
+        ``jobs`` > 1 the schemes' thermal solves run side by side in the workers, the longest first
+        (:func:`longest_first`), and each scheme's IMU cases (one per seed) are queued as soon as its thermal
+        result is in, whichever finishes first.
     progress : bool, print one line per stage
     **thermal_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme` (mesh_size_mm, min_cells,
         transient time settings); the transient is always run
@@ -446,19 +486,23 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
             if progress:
                 print(f"thermal (steady, power-on transient, oven self-heating) of {', '.join(schemes)} "
                       f"in {jobs} processes ...", flush=True)
-            thermal_futs = {sch: pool.submit(thermal_case, layout, sch, options, config.chamber_C,
-                                             **thermal_kwargs) for sch in schemes}
+            thermal_futs = {pool.submit(thermal_case, layout, sch, options, config.chamber_C, **thermal_kwargs): sch
+                            for sch in longest_first(layout, schemes, options)}
             bare_futs = {s: pool.submit(bare_calibration, config.grade, s) if need_bare else None for s in seeds}
+            bare = None
         pending, thermal = {}, {}
-        for sch in schemes:
+        # in order of completion: each scheme's IMU cases are queued as soon as its thermal result is in
+        for item in (schemes if pool is None else as_completed(thermal_futs)):
             if thermal_futs is None:
+                sch = item
                 if progress:
                     print(f"scheme {sch}: thermal (steady, power-on transient, oven self-heating) ...", flush=True)
-                res, chamber, rise = thermal_case(layout, sch, options, config.chamber_C, progress=progress,
-                                                  **thermal_kwargs)
+                res, chamber, rise, oven = thermal_case(layout, sch, options, config.chamber_C, progress=progress,
+                                                        **thermal_kwargs)
             else:
-                res, chamber, rise = thermal_futs[sch].result()
-                if sch == schemes[0]:
+                sch = thermal_futs[item]
+                res, chamber, rise, oven = item.result()
+                if bare is None:
                     bare = {s: f.result() if f is not None else None for s, f in bare_futs.items()}
             t, T = site_curves(res)
             idx = [res.steady.probe_names.index(s) for s in SITES]
@@ -467,13 +511,14 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
                 print(f"scheme {sch}: thermal done ({res.wall_s:.0f} s); IMU and attitude, {len(seeds)} seeds ...",
                       flush=True)
             pending[sch] = _imu_jobs(pool, config, seeds, bare, (t, T, steady_T, chamber, rise))
-            thermal[sch] = (res, chamber, rise)
+            thermal[sch] = (res, chamber, rise, oven)
         out = {}
         for sch in schemes:
             cases = [c if isinstance(c, dict) else c.result() for c in pending[sch]]
-            res, chamber, rise = thermal[sch]
+            res, chamber, rise, oven = thermal[sch]
             out[sch] = SchemeStudy(scheme=sch, thermal=res, summary=result_summary(res), chamber_C=chamber,
-                                   rise_K=rise, imu=reduce_cases(cases), series=cases[0]["series"])
+                                   rise_K=rise, imu=reduce_cases(cases), series=cases[0]["series"],
+                                   oven_solves=tuple(oven))
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)
@@ -688,6 +733,8 @@ def study_summary(result: StudyResult) -> dict:
             "gyro_spread_K": th["gyro_spread_K"], "accel_spread_K": th["accel_spread_K"],
             "self_heating_in_oven_K": {"chamber_C": st.chamber_C.tolist(),
                                        **{s: st.rise_K[:, j].tolist() for j, s in enumerate(SITES)}},
+            "self_heating_solves": {f"{d['chamber_C']:g}": {k: v for k, v in d.items() if k != "chamber_C"}
+                                    for d in st.oven_solves},
             "calibrated_range_C": cal_range,
             "calibrated_range_reported_C": imu["range_C"],
             "max_reported_C": {s: imu["max_reported_C"][j] for j, s in enumerate(SITES)},
@@ -740,15 +787,26 @@ def write_study(result: StudyResult, out, *, summary: dict | None = None) -> dic
     """
     from pathlib import Path
 
-    from imutherm.io import write_csv, write_json
+    from imutherm.io import write_json
+
+    out = Path(out)
+    summary = summary or study_summary(result)
+    write_json(out / "summary.json", summary)
+    write_scheme_files(result, out)
+    return summary
+
+
+def write_scheme_files(result: StudyResult, out) -> None:
+    """Each scheme's files of :func:`write_study` (all but ``summary.json``) into the folder ``out``."""
+    from pathlib import Path
+
+    from imutherm.io import write_csv
     from imutherm.site_table import write_site_table
     from imutherm.studies.compare import board_plane_map
     from imutherm.studies.thermal_study import probe_table
     from imutherm.thermal.output import write_vtu
 
     out = Path(out)
-    summary = summary or study_summary(result)
-    write_json(out / "summary.json", summary)
     for name, st in result.schemes.items():
         header, rows = probe_table(st.thermal)
         write_site_table(out / f"curves_{name}.csv", rows[:, 0], header[1:], rows[:, 1:])
@@ -771,7 +829,6 @@ def write_study(result: StudyResult, out, *, summary: dict | None = None) -> dic
             maps.update({f"{tag}_{k}": np.asarray(v) for k, v in m.items()})
             maps[f"{tag}_board"] = np.asarray(board)
         np.savez_compressed(out / f"maps_{name}.npz", **maps)
-    return summary
 
 
 def sweep_config() -> StudyConfig:

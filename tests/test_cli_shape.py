@@ -100,3 +100,23 @@ def test_version_through_the_console_script_module():
     out = subprocess.run([sys.executable, "-m", "imutherm.cli", "--version"], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == f"imutherm {imutherm.__version__}"
+
+
+def _write_marker(path):
+    path.write_text("done")
+
+
+def _fail(path):
+    raise OSError(f"cannot write {path}")
+
+
+def test_in_background_runs_beside_the_caller_and_reports_a_failure(tmp_path):
+    """The helper ``imutherm compare`` writes the schemes' files with while it draws the report."""
+    from imutherm.cli._common import in_background
+
+    wait = in_background(_write_marker, tmp_path / "a.txt")
+    wait()
+    assert (tmp_path / "a.txt").read_text() == "done"
+    wait = in_background(_fail, tmp_path / "b.txt")
+    with pytest.raises(OSError, match="_fail failed in its process"):
+        wait()

@@ -33,8 +33,11 @@ def test_files_and_summary_keys(study):
             assert (out / f).stat().st_size > 0, f
         sch = s["schemes"][name]
         for key in ("max_rise_K", "t95_s", "sites", "calibrated_range_C", "attitude", "extrapolated_fraction",
-                    "answer", "residuals", "attitude_bare_calibration"):
+                    "answer", "residuals", "attitude_bare_calibration", "self_heating_solves"):
             assert key in sch, key
+        # the cold oven solved on the reduced model and accepted by its check (thermal/reduced_steady.py)
+        oven = sch["self_heating_solves"]["-40"]
+        assert oven["model"] == "reduced" and oven["check"]["max_site_error_K"] <= oven["check"]["tol_K"]
         for site in SITES:
             assert {"rise_K", "t95_s"} <= set(sch["sites"][site])
             lo, hi = sch["calibrated_range_C"][site]
