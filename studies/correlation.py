@@ -1084,6 +1084,14 @@ def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) ->
     if not later and bgap > EXPLAIN_NOISE_FACTOR * noise_K and bgap > EXPLAIN_FRACTION * gap:
         return "not_in_library", None, (), (f"the best candidate {best.name} leaves {bgap:.2f} K held out "
                                             f"(noise {noise_K:.2f} K, re-tuned {gap:.2f} K)")
+    if later and none.criterion != "evidence" and gap <= NONE_NOISE_FACTOR * noise_K and bgap > EXPLAIN_FRACTION * gap:
+        # the effects named so far already meet the none standard: a further one must explain at least half of
+        # what they leave, else its gain is of the size the model's form leaves (the first step's standard,
+        # _plain_explains; mild campaign of 2026-12-03: a bond line named right at 0.097 K held out, noise
+        # 0.05 K, then power@reg_3v3, not hidden, for 0.083 K)
+        return "none", None, (), (f"the effects named so far predict held-out data within {gap:.3f} K (noise "
+                                  f"{noise_K:.3f} K); the best further candidate, {best.name}, takes it to {bgap:.3f} "
+                                  f"K, less than halving it: a gain the model's form error could give")
     # a candidate the rules refused that fits better than the best one: the best one is not named in its place
     refused = [f for f in ranking if f.aicc < best.aicc and f not in good]
     close = [f for f in ranking if f is not best and f not in refused and f.aicc - best.aicc < MARGIN_RUNNER_UP]
