@@ -62,6 +62,19 @@ def _evidence_fit(name, aicc, series_ms, n=20):
     return dataclasses.replace(_fit(name, aicc, held), criterion="evidence", heldout_blocks=blocks, signature_K=1.0)
 
 
+def test_a_further_effect_on_a_model_within_the_noise_must_halve_what_is_left():
+    """Forward selection without the term, from its second step on: once the effects named so far predict
+    held-out data within 2 noise sigmas, a further one must halve what they leave (the mild campaign's bond line,
+    0.097 K held out at noise 0.050 K, then power@reg_3v3, not hidden, for 0.083 K); on a model still well above
+    the noise (two effects hidden together) a further effect needs only to predict better."""
+    first = _fit("none", 0.0, 2.17)
+    bond = _fit("contact@bond", -258.0, 0.097)
+    assert verdict(bond, [_fit("contact@bond+power@reg_3v3", -270.1, 0.083)], 0.05, first)[0] == "none"
+    assert verdict(bond, [_fit("contact@bond+x", -300.0, 0.045)], 0.05, first)[:2] == ("effect", "contact@bond+x")
+    far = _fit("power@reg_5v", -200.0, 0.40)  # 8 noise sigmas left: the second hidden effect
+    assert verdict(far, [_fit("power@reg_5v+contact@bond", -260.0, 0.30)], 0.05, first)[0] == "effect"
+
+
 def test_the_held_out_difference_is_judged_against_its_series_scatter():
     """``heldout_worse_z``: the same 2.2 % worse held out (the gross path's 0.20 W regulator: 0.0443 against
     0.0433 K) is unresolved when the 12 held-out series scatter about the difference and resolved when every
