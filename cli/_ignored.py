@@ -68,6 +68,8 @@ IGNORED = (
     Ignored(("sweep",), ("--verify", "--verify-tol"), lambda a: a.surrogate == "none", "with --surrogate none",
             "they check a reduced-model sweep against the full FEM, and every case of this one runs on the full "
             "FEM; drop them or use --surrogate auto|reduced"),
+    Ignored(("correlate",), ("--full",), lambda a: a.no_rerun, "with --no-rerun",
+            "it chooses how the re-run's transients are computed, and --no-rerun skips the re-run; drop one"),
     Ignored(("sweep",), ("--t-end",), lambda a: not a.transient, "without --transient",
             "drop it or add --transient"),
     Ignored(("sweep",), ("--attitude-seeds",), lambda a: not a.attitude, "without --attitude",

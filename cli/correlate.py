@@ -36,6 +36,10 @@ def add_args(parser) -> None:
     parser.add_argument("--no-rerun", action="store_true",
                         help="report the corrected model from the reduced model's fit only (default: re-run it on "
                              "the full FEM, one transient per file)")
+    parser.add_argument("--full", action="store_true",
+                        help="the re-run's transients on the full adaptive FEM (default: the full steady solve and "
+                             "the transient on a reduced model checked against the full model, the full FEM where "
+                             "the check fails, as compare does)")
     add_jobs_argument(parser, None, "worker processes for the reduced models and the re-runs "
                                     "(default: 2, or 1 on one core)")
     parser.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=None,
@@ -131,7 +135,8 @@ def run(args) -> int:
                     options=model_options(args), rerun=not args.no_rerun, jobs=jobs, use_cache=not args.no_cache,
                     progress=lambda s: print(f"  {s}", flush=True),
                     discrepancy="auto" if args.discrepancy is None else args.discrepancy,
-                    max_effects=max_effects, form_retune=not args.cavity_emissivity_as_effect)
+                    max_effects=max_effects, form_retune=not args.cavity_emissivity_as_effect,
+                    rerun_transient="full" if args.full else "reduced")
     data = result_json(res)
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "correlation.json", data)
@@ -146,6 +151,12 @@ def run(args) -> int:
     print(f"  RMS {data['rms_before_K']:.2f} -> {data['rms_after_K']:.2f} K, max {data['max_before_K']:.2f} -> "
           f"{data['max_after_K']:.2f} K ({data['after_from']}), held-out RMS {data['heldout_rms_before_K'] or float('nan'):.2f} -> "
           f"{data['heldout_rms_after_K'] or float('nan'):.2f} K; noise {res.noise_K:.2f} K")
+    for tr in data["rerun_transients"] or ():
+        est = tr["estimated_error_K"]
+        how = (f"reduced transient, estimated error {est:.3f} K" if tr["transient"] == "reduced" else
+               "steady readings only" if tr["transient"] is None else
+               "full adaptive transient" + (f" ({tr['reason']})" if tr["reason"] else ""))
+        print(f"  re-run of {os.path.basename(tr['file'])}: {how}")
     for f in data["ranking"][:6]:
         print(f"  {f['name']:<22} dAICc {f['delta_aicc_vs_none']:8.1f}  RMS {f['rms_K']:.3f} K  "
               f"held-out {f['heldout_rms_K'] if f['heldout_rms_K'] is not None else float('nan'):.3f} K")

@@ -36,7 +36,9 @@
    nothing and the re-tune already predicts held-out data within the noise standard, the term is still
    fitted on the re-tuned model: ``none`` only if the data do not support it. On sparse files the term cannot
    be fitted; the cavity law's form is reported as a prior band at each reading instead (:func:`form_band`).
-6. **Re-run**: the corrected model on the full FEM (:func:`rerun_full`) for the "after" figures.
+6. **Re-run**: the corrected model on the full model (:func:`rerun_full`) for the "after" figures: its full
+   steady solve and its transient on the study's checked reduced model (the full adaptive FEM where the check
+   fails, or with ``rerun_transient='full'``).
 
 Forward runs use the reduced model of each (scheme, ambient) (:mod:`imutherm.thermal.reduced`),
 built once per correlation.
@@ -888,13 +890,18 @@ def build_models(keys, layout: LayoutSpec | str | None = None, *, mesh_size_mm: 
 
 
 def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cells: int, options: ModelOptions,
-               use_cache: bool = True):
-    """Site rises [K] of the corrected model at the run's times on the full FEM (kept in the disk cache under
-    the key of the layout's content, scheme, options, values, sites, times and mesh)."""
+               use_cache: bool = True, transient: str = "reduced"):
+    """(site rises [K] of the corrected model at the run's times, how its transient was computed: dict) on
+    the full model: its steady solve and, ``transient`` 'reduced', the transient on the checked reduced model
+    (:func:`imutherm.studies.forward.checked_rise`: the full adaptive FEM where the check fails), 'full' the
+    full adaptive FEM. Kept in the disk cache under the key of the layout's content, scheme, options, values,
+    sites, times, mesh and ``transient``."""
     from dataclasses import replace
 
     from imutherm.cache import cached
-    from imutherm.studies.forward import full_rise
+    from imutherm.studies.forward import checked_rise, full_rise
+    if transient not in ("reduced", "full"):
+        raise InputError(f"correlate: the re-run's transient is 'reduced' or 'full', not {transient!r}")
     model_vals, signal = {}, []
     for k, v in values.items():
         if k in SIGNAL:
@@ -909,25 +916,38 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
     def build():
         variant = K.variant(geo, options, model_vals)
         grid = build_mesh(variant.geometry, mesh_size_mm, min_cells)
-        return full_rise(variant, grid, probes, run.times_s, signal, rtol=STUDY_CG_RTOL)
+        if transient == "full":
+            return (full_rise(variant, grid, probes, run.times_s, signal, rtol=STUDY_CG_RTOL),
+                    {"transient": "full", "estimated_error_K": None, "basis": None, "full_solves": None,
+                     "reason": "asked for (--full)"})
+        return checked_rise(variant, grid, probes, run.times_s, signal, rtol=STUDY_CG_RTOL)
     parts = (replace(geo.layout, path=""), geo.scheme.name, options, model_vals, signal, probes,
-             np.asarray(run.times_s, float), float(mesh_size_mm), int(min_cells), STUDY_CG_RTOL)
-    return cached("full_rerun", parts, build, use_cache=use_cache)[0]
+             np.asarray(run.times_s, float), float(mesh_size_mm), int(min_cells), STUDY_CG_RTOL, transient)
+    rises, info = cached("full_rerun", parts, build, use_cache=use_cache)[0]
+    return rises, {"file": run.path, **info}
 
 
-def rerun_full(runs, values: dict, models: Models, jobs: int = 1, progress=None, use_cache: bool = True) -> list:
-    """The corrected model re-run on the full FEM: site rises [K] of each run at its times (n, m).
+def rerun_full(runs, values: dict, models: Models, jobs: int = 1, progress=None, use_cache: bool = True,
+               transient: str = "reduced") -> tuple:
+    """The corrected model re-run on the full model: (site rises [K] of each run at its times (n, m), one
+    dict per run saying how its transient was computed).
 
     values : knob name -> value (re-tune knobs and the named effect), as fitted; the runs' own
     ``power_scale`` multiplies the fitted one; a model effect whose target a scheme lacks is off there.
     ``jobs``: runs re-run at once; ``use_cache``: a re-run of the same corrected model on the same data
     (the next correlation of the same unit) is read from the disk cache (:mod:`imutherm.cache`).
+    ``transient``: 'reduced' (default) the full steady solve and the transient on the study's checked reduced
+    model, the full adaptive FEM where its check fails (:func:`imutherm.studies.forward.checked_rise`);
+    'full' the full adaptive FEM (``--full``).
     """
     say = progress or (lambda s: None)
-    say(f"full-model re-run of {len(runs)} file(s) (one steady solve and one transient each)")
+    how = ("the transient on a reduced model checked against the full one" if transient == "reduced"
+           else "the full adaptive transient")
+    say(f"full-model re-run of {len(runs)} file(s) (one steady solve each, {how})")
     args = [(models.keyed_geometries[(r.scheme, r.ambient_C)], values, r, models.mesh_size_mm, models.min_cells,
-             models.options or ModelOptions(), use_cache) for r in runs]
-    return _map(_rerun_one, args, jobs)
+             models.options or ModelOptions(), use_cache, transient) for r in runs]
+    out = _map(_rerun_one, args, jobs)
+    return [o[0] for o in out], [o[1] for o in out]
 
 
 #: a run with fewer readings than this is sparse (a paper's or a notebook's few figures)
@@ -1365,7 +1385,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
               candidates=None, options: ModelOptions | None = None, models: "Models | None" = None,
               rerun: bool = True, jobs: int = 1, progress=None, use_cache: bool = True,
               discrepancy: bool | str = "auto", max_effects: int = MAX_EFFECTS,
-              form_retune: bool = True) -> CorrelationResult:
+              form_retune: bool = True, rerun_transient: str = "reduced") -> CorrelationResult:
     """Run the correlation workflow on measured runs (see the module docstring).
 
     discrepancy : 'auto' (default): the library first (the re-tune, its form knobs and forward selection); where
@@ -1380,6 +1400,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         instead of offering them as candidate effects (default); False: offered as candidates (``--cavity-emissivity-as-effect``)
     candidates : names to consider (default: every effect applicable to at least one run's scheme)
     rerun : re-run the corrected model on the full FEM (:func:`rerun_full`) for the after figures
+    rerun_transient : 'reduced' (default): the re-run's transients on the study's checked reduced model (the
+        full adaptive FEM where the check fails); 'full': the full adaptive FEM (``--full``)
     jobs : worker processes for the reduced models' builds, the candidates' fits and the re-runs
     models : :class:`Models` built beforehand (:func:`build_models`; a campaign reuses them across
         cases); default: built here for the runs' (scheme, ambient) pairs
@@ -1548,13 +1570,13 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     rerun_stats = {}
     t1 = time.perf_counter()
     if rerun:
-        rises = rerun_full(runs, after.values, models, jobs, say, use_cache)
+        rises, transients = rerun_full(runs, after.values, models, jobs, say, use_cache, rerun_transient)
         res_full = np.concatenate([(y - r.rise_K)[np.isfinite(r.values_C)] for y, r in zip(rises, runs)])
         res_disc = np.concatenate([(y - _disc_curve(disc, after.disc, i, r) - r.rise_K)[np.isfinite(r.values_C)]
                                    for i, (y, r) in enumerate(zip(rises, runs))])
         rerun_stats = {"rms_K": float(np.sqrt(np.mean(res_disc**2))), "max_K": float(np.abs(res_disc).max()),
                        "rms_physics_K": float(np.sqrt(np.mean(res_full**2))),
-                       "max_physics_K": float(np.abs(res_full).max())}
+                       "max_physics_K": float(np.abs(res_full).max()), "transients": transients}
         for i, (y, r) in enumerate(zip(rises, runs)):
             curves[r.name]["after_full_K"] = y - _disc_curve(disc, after.disc, i, r)
     return CorrelationResult(v, named, amb_set, before, after, none_fit, tuple(ranking), loc, fp, noise, curves,
@@ -1835,6 +1857,8 @@ def result_json(res: CorrelationResult) -> dict:
         "rms_after_reduced_K": res.after.rms_K, "max_after_reduced_K": res.after.max_K,
         # the full re-run without the discrepancy term's correction (the physics alone)
         "rms_after_physics_K": res.full.get("rms_physics_K"), "max_after_physics_K": res.full.get("max_physics_K"),
+        # each file's re-run transient: 'reduced' (checked against the full model: its estimate) or 'full'
+        "rerun_transients": res.full.get("transients"),
         "heldout_rms_retune_K": res.retune_plain.heldout_rms_K if res.retune_plain else res.retune.heldout_rms_K,
         "heldout_rms_before_K": res.before["heldout_rms_K"], "heldout_rms_after_K": res.after.heldout_rms_K,
         "noise_K": res.noise_K, "n_points": res.after.n, "n_eff": res.after.n_eff,

@@ -34,6 +34,30 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
     (the library default tolerance) to the last finite time; ``rtol``: the CG tolerance of its stage
     solves (default: the library's).
     """
+    return _rise(variant, grid, probes, times, signal, rtol, ambient_cycle, reduced=False)[0]
+
+
+def checked_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol: float | None = None) -> tuple:
+    """(site rises [K] (len(times), len(probes)), how the transient was computed: dict) as :func:`full_rise`,
+    the transient on the checked reduced model of the study
+    (:func:`imutherm.thermal.reduced_transient.reduced_power_on`: the full steady field, a Krylov basis about
+    it, the full model's residual at a few times as the error estimate, every site within
+    :data:`~imutherm.thermal.reduced_transient.CHECK_TOL_K`), the full adaptive TR-BDF2 where the check fails or
+    the model is one the reduced transient does not cover.
+
+    On the reference unit's corrected models (air, grease, potted with a poor board joint, 1500 s, default
+    mesh) its curves are within 0.010 K of a full TR-BDF2 run at 1e-3 K per step, where the full run at the
+    library's 1e-2 K is up to 0.055 K off, in 33-41 % of its time (``benchmarks/bench_rerun_transient.py``;
+    figures in docs/benchmarks/correlation_speed.md).
+
+    The dict: ``transient`` 'reduced' or 'full', ``estimated_error_K`` (the check's largest site estimate,
+    None without one), ``basis``, ``full_solves``, ``reason`` (why the full FEM ran; '' if it did not).
+    """
+    return _rise(variant, grid, probes, times, signal, rtol, None, reduced=True)
+
+
+def _rise(variant, grid, probes, times, signal, rtol, ambient_cycle, reduced: bool) -> tuple:
+    """(rises [K], transient info dict) of :func:`full_rise` (``reduced`` False) or :func:`checked_rise`."""
     t = np.asarray(times, float)
     fin = np.isfinite(t)
     pb = effect_problem(variant, grid)
@@ -50,11 +74,17 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
         out[~fin] = np.nan  # a cycling chamber has no steady reading
         cyc = lambda tt: a * np.real(g[None, :] * np.exp(1j * (2 * np.pi * np.asarray(tt)[:, None] / period + phase)))
     if not fin.any():
-        return out
+        return out, {"transient": None, "estimated_error_K": None, "basis": None, "full_solves": None,
+                     "reason": "steady readings only"}
     t_end = float(t[fin].max())
     kw = {} if rtol is None else {"rtol": rtol}
-    tr = solve_transient(pb, max(t_end, 1.0), scheme="trbdf2", probes=probes, assembly=asm, error_control="probes",
-                         **kw)
+    tr, info = None, {"transient": "full", "estimated_error_K": None, "basis": None, "full_solves": None,
+                      "reason": "" if reduced else "asked for"}
+    if reduced:
+        tr, info = _reduced(pb, asm, st, probes, max(t_end, 1.0))
+    if tr is None:
+        tr = solve_transient(pb, max(t_end, 1.0), scheme="trbdf2", probes=probes, assembly=asm,
+                             error_control="probes", **kw)
     fine = np.union1d(np.asarray(tr.times), t[fin])
     rf = np.column_stack([np.interp(fine, tr.times, tr.probe_C[:, j] - amb) for j in range(m)])
     if signal:
@@ -66,7 +96,20 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
     out[fin] = np.column_stack([np.interp(t[fin], fine, rf[:, j]) for j in range(m)])
     if cyc is not None:
         out[fin] += cyc(t[fin])
-    return out
+    return out, info
+
+
+def _reduced(pb, asm, steady, probes: dict, t_end: float) -> tuple:
+    """(TransientResult or None, info dict) of the checked reduced transient; None: run the full FEM."""
+    from imutherm.thermal.reduced_transient import reduced_power_on
+    try:
+        tr, check = reduced_power_on(pb, asm, steady, probes, t_end)
+    except InputError as e:   # e.g. a fixed-temperature face, a fixture away from ambient
+        return None, {"transient": "full", "estimated_error_K": None, "basis": None, "full_solves": None,
+                      "reason": f"reduced transient not applicable ({e})"}
+    return tr, {"transient": "reduced" if tr is not None else "full",
+                "estimated_error_K": float(check.max_site_error_K), "basis": int(check.basis_size),
+                "full_solves": int(check.full_solves), "reason": check.reason}
 
 
 def switched_rise(before: ModelVariant, after: ModelVariant, t_switch: float, grid, probes: dict, times,

@@ -690,6 +690,8 @@ REFUSED_EARLY = {  # name -> (argv without --out, expected tokens); files from _
                                      ["--attitude-seeds", "without --attitude"]),
     "ignored_patch_no_cavity": (["solve", "--cavity-patch-mm", "2", "--no-cavity-radiation"],
                                 ["--cavity-patch-mm", "--no-cavity-radiation"]),
+    "ignored_full_without_rerun": (["correlate", "--measured", "{paper_air}", "--no-rerun", "--full"],
+                                   ["--full", "with --no-rerun"]),
     "ignored_patch_without_s2s": (["correlate", "--measured", "{paper_air}", "--cavity-law", "effective",
                                    "--cavity-patch-mm", "2"], ["--cavity-patch-mm", "without --cavity-law s2s"]),
     "ignored_uncertainty_size": (["compare", "--uncertainty-samples", "64"], ["--uncertainty-samples",
