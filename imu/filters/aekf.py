@@ -198,13 +198,132 @@ def _rotvec_dcm(a):
     K = _skew(a)
     if th < 1e-12:
         return np.eye(3) + K
-    return np.eye(3) + np.sin(th) / th * K + (1.0 - np.cos(th)) / (th * th) * (K @ K)
+    return np.eye(3) + np.sin(th) / th * K + (1.0 - np.cos(th)) / (th * th) * _mm3(K, K)
+
+
+@njit(cache=True)
+def _mm3(A, B):
+    """A @ B for 3x3 matrices, written out (numba's @ calls BLAS: ~1 us of overhead per call)."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+    return out
+
+
+@njit(cache=True)
+def _mv3(A, x):
+    """A @ x for a 3x3 matrix and a 3-vector, written out."""
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = A[i, 0] * x[0] + A[i, 1] * x[1] + A[i, 2] * x[2]
+    return out
 
 
 @njit(cache=True)
 def _orthonormalise(C):
     u, s, vt = np.linalg.svd(C)
     return u @ vt
+
+
+@njit(cache=True)
+def _propagate(P, C, S, h, G, Hp):
+    """P <- Phi P Phi^T in place, Phi = I + F h, for the error state (attitude, velocity, gyro bias) whose
+    F has two non-zero blocks: F[0:3, 6:9] = -C (bias into attitude), F[3:6, 0:3] = -S (S = [C f x],
+    attitude into velocity). Phi P Phi^T = P + h (F P + (F P)^T) + h^2 F P F^T for a symmetric P, with
+    F P and F P F^T formed from those blocks alone (the dense 9x9 products cost ~2 us per sample).
+    G (6, 9), Hp (6, 6): work space."""
+    for i in range(3):
+        for j in range(9):
+            a = 0.0
+            b = 0.0
+            for m in range(3):
+                a += C[i, m] * P[6 + m, j]
+                b += S[i, m] * P[m, j]
+            G[i, j] = -a          # (F P)[i, j], i < 3
+            G[3 + i, j] = -b      # (F P)[3 + i, j]
+    for c in range(6):            # (F P F^T)[r, c] = sum_m F[r, m] (F P)[c, m]
+        for i in range(3):
+            a = 0.0
+            b = 0.0
+            for m in range(3):
+                a += C[i, m] * G[c, 6 + m]
+                b += S[i, m] * G[c, m]
+            Hp[i, c] = -a
+            Hp[3 + i, c] = -b
+    for r in range(9):
+        for c in range(r, 9):
+            x = P[r, c]
+            if r < 6:
+                x += h * G[r, c]
+            if c < 6:
+                x += h * G[c, r] + h * h * Hp[r, c]
+            P[r, c] = x
+            P[c, r] = x
+
+
+@njit(cache=True)
+def _hpht(H, P):
+    """H P H^T (3, 3) for H (3, 9), P (9, 9), written out."""
+    HP = np.zeros((3, 9))
+    for i in range(3):
+        for j in range(9):
+            a = 0.0
+            for m in range(9):
+                a += H[i, m] * P[m, j]
+            HP[i, j] = a
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            a = 0.0
+            for m in range(9):
+                a += HP[i, m] * H[j, m]
+            out[i, j] = a
+    return out
+
+
+@njit(cache=True)
+def _joseph_update(P, H, Sinv, r, nu, I9):
+    """The Kalman update in Joseph form, P <- (I - K H) P (I - K H)^T + K diag(r) K^T (symmetrised) in
+    place, K = P H^T S^-1; returns the state correction K nu (9,). H (3, 9), Sinv (3, 3), r (3,) the
+    measurement variances, nu (3,) the innovation. Written out: numba's @ on these small matrices calls
+    BLAS, ~1 us of overhead per product."""
+    PHt = np.zeros((9, 3))
+    for i in range(9):
+        for j in range(3):
+            a = 0.0
+            for m in range(9):
+                a += P[i, m] * H[j, m]
+            PHt[i, j] = a
+    K = np.zeros((9, 3))
+    for i in range(9):
+        for j in range(3):
+            K[i, j] = PHt[i, 0] * Sinv[0, j] + PHt[i, 1] * Sinv[1, j] + PHt[i, 2] * Sinv[2, j]
+    dx = np.zeros(9)
+    IKH = I9.copy()
+    for i in range(9):
+        dx[i] = K[i, 0] * nu[0] + K[i, 1] * nu[1] + K[i, 2] * nu[2]
+        for j in range(9):
+            IKH[i, j] -= K[i, 0] * H[0, j] + K[i, 1] * H[1, j] + K[i, 2] * H[2, j]
+    T = np.zeros((9, 9))
+    for i in range(9):
+        for j in range(9):
+            a = 0.0
+            for m in range(9):
+                a += IKH[i, m] * P[m, j]
+            T[i, j] = a
+    for i in range(9):
+        for j in range(i, 9):
+            a = K[i, 0] * r[0] * K[j, 0] + K[i, 1] * r[1] * K[j, 1] + K[i, 2] * r[2] * K[j, 2]
+            c = 0.0
+            e = 0.0
+            for m in range(9):
+                c += T[i, m] * IKH[j, m]
+                e += T[j, m] * IKH[i, m]
+            x = 0.5 * (c + e) + a
+            P[i, j] = x
+            P[j, i] = x
+    return dx
 
 
 @njit(cache=True)
@@ -257,6 +376,8 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
     last_m = -1
     qj = 0
     I9 = np.eye(9)
+    G = np.empty((6, 9))   # F P's non-zero rows (_propagate's work space)
+    Hp = np.empty((6, 6))  # F P F^T's non-zero block
     for k in range(n):
         if qj < q_idx.shape[0] and q_idx[qj] == k:  # an ALS estimate of the gyro noise is ready
             qg = q_val[qj]
@@ -265,25 +386,20 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
             h = dts[k]  # the step from sample k-1 to k (dt: the design step of the blocks, memory and timers)
             w = 0.5 * (gyro[k - 1] + gyro[k]) - b
             f = 0.5 * (accel[k - 1] + accel[k])
-            Cf = C @ f
+            Cf = _mv3(C, f)
             Rk = _rotvec_dcm(w * h)
-            C = C @ Rk
+            C = _mm3(C, Rk)
             if not use_gnss:
-                fsum = Rk.T @ fsum  # a nav-fixed vector seen from the rotated body
+                fsum = _mv3(Rk.T, fsum)  # a nav-fixed vector seen from the rotated body
                 if use_lp:
                     for i in range(4):
-                        lps[i] = Rk.T @ lps[i]
+                        lps[i] = _mv3(Rk.T, lps[i])
             v = v + (Cf + gn) * h
-            F = np.zeros((9, 9))
-            F[0:3, 6:9] = -C
-            F[3:6, 0:3] = -_skew(Cf)
-            Phi = I9 + F * h
-            Qd = np.zeros((9, 9))
+            _propagate(P, C, _skew(Cf), h, G, Hp)
             for i in range(3):
-                Qd[i, i] = (qg + sf2 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2])) * h
-                Qd[3 + i, 3 + i] = qa * qa * h
-                Qd[6 + i, 6 + i] = rbw * rbw * h
-            P = Phi @ P @ Phi.T + Qd
+                P[i, i] += (qg + sf2 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2])) * h
+                P[3 + i, 3 + i] += qa * qa * h
+                P[6 + i, 6 + i] += rbw * rbw * h
         if k % 50 == 0:
             C = _orthonormalise(C)
         meas = False
@@ -313,11 +429,11 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                 wgt = 1.0 if ea < accel_gate else (accel_gate / ea) ** 2
             if cnt == 0 and (use_lp or ea < accel_gate):
                 H = np.zeros((3, 9))
-                H[:, 0:3] = -(C.T @ _skew(gn))
-                nu = fk + C.T @ gn
+                H[:, 0:3] = -_mm3(C.T, _skew(gn))
+                nu = fk + _mv3(C.T, gn)
                 meas = True
         if meas:
-            HPH = H @ P @ H.T
+            HPH = _hpht(H, P)
             if fresh and k >= n_hold:  # R is held over the rest window (started from its measured noise)
                 for i in range(3):
                     Cv[i] = R[i] + HPH[i, i]
@@ -350,7 +466,7 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                                 P[j, i] = 0.0
                         P[0, 0] = P[1, 1] = (10.0 * np.pi / 180.0) ** 2
                         P[2, 2] = p0_yaw
-                        HPH = H @ P @ H.T
+                        HPH = _hpht(H, P)
                         S = HPH.copy()
                         for i in range(3):
                             S[i, i] += R[i] / wgt
@@ -358,12 +474,8 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                 else:
                     rej_t = 0.0
             if accept:
-                K = P @ H.T @ np.linalg.inv(S)
-                dx = K @ nu
-                IKH = I9 - K @ H
-                P = IKH @ P @ IKH.T + K @ np.diag(R / wgt) @ K.T
-                P = 0.5 * (P + P.T)
-                C = _rotvec_dcm(dx[0:3]) @ C
+                dx = _joseph_update(P, H, np.linalg.inv(S), R / wgt, nu, I9)
+                C = _mm3(_rotvec_dcm(dx[0:3]), C)
                 v = v + dx[3:6]
                 b = b + dx[6:9]
                 if wgt >= 0.5:

@@ -181,16 +181,15 @@ def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams(), *,
     ahrs = make_ahrs(dt, params)
     gd = np.ascontiguousarray(np.degrees(gyro) * _FLU)
     ag = np.ascontiguousarray(accel * (_FLU / G0))
-    n = len(gyro)
-    q = np.empty((n, 4))
-    used = np.empty(n, bool)
     upd, getq, st = ahrs.update_no_magnetometer, ahrs.get_quaternion, ahrs.get_internal_states
     bias = make_bias(dt, params)
     period = ahrs.set_sample_period
-    for k in range(n):
+    q, ignored = [], []   # lists, not rows of an array: this loop is the peer's cost (~1 us per sample)
+    for k, (g, a) in enumerate(zip(gd, ag)):
         if dts is not None:
             period(dts[k])
-        upd(gd[k] if bias is None else bias.update(gd[k]), ag[k])
-        q[k] = getq()
-        used[k] = not st().accelerometer_ignored
-    return estimate_from_gravity("fusion", _down_frd(q), used, time.perf_counter() - t0)
+        upd(g if bias is None else bias.update(g), a)
+        q.append(getq())
+        ignored.append(st().accelerometer_ignored)
+    return estimate_from_gravity("fusion", _down_frd(np.array(q).reshape(-1, 4)), ~np.array(ignored, bool),
+                                 time.perf_counter() - t0)
