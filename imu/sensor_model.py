@@ -328,7 +328,7 @@ def _curve(params: np.ndarray, T_C) -> np.ndarray:
     """Evaluate the per-axis smooth curve; params (3,6), T_C (...,3) [°C] -> (...,3), zero at 25 °C."""
     x = (np.asarray(T_C, dtype=float) - T_REF_C) / _X_SCALE
     c1, c2, c3, w, nu, phi = (params[:, k] for k in range(6))
-    return c1 * x + c2 * x**2 + c3 * x**3 + w * (np.sin(2 * np.pi * nu * x + phi) - np.sin(phi))
+    return x * (c1 + x * (c2 + x * c3)) + w * (np.sin(2 * np.pi * nu * x + phi) - np.sin(phi))  # Horner: x**3 is a pow call
 
 
 def _draw_curves(rng: np.random.Generator, amplitude: float) -> np.ndarray:
