@@ -127,7 +127,7 @@ class _LinSolver:
         preconditioner is built from when ``A`` is an operator (a LinearOperator).
         """
         if rtol is not None:
-            return self._solve_loose(A, b, rtol)
+            return self._solve_loose(A, b, rtol, pc_matrix)
         bn = np.linalg.norm(b)
         if bn == 0.0:
             return np.zeros_like(b), 0, 0.0
@@ -169,12 +169,12 @@ class _LinSolver:
             raise ConvergenceError(f"linear solve failed: relative residual {rel:.3g}")
         return x, its, rel
 
-    def _solve_loose(self, A, b, rtol):
+    def _solve_loose(self, A, b, rtol, pc_matrix=None):
         bn = np.linalg.norm(b)
         if bn == 0.0:
             return np.zeros_like(b), 0, 0.0
         if self.pc is None:
-            self.prepare(A)
+            self.prepare(A if pc_matrix is None else pc_matrix)
         if self.method == "direct" and A is self.A_pc:
             x, its = self.lu.solve(b), 1
         else:

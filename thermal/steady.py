@@ -39,6 +39,11 @@ from imutherm.thermal.results import SteadyResult
 #: Relative residual of the CG solve of each Newton step (inexact Newton: the
 #: right-hand side is the current residual, so the outer loop tightens it).
 NEWTON_CG_RTOL = 1e-4
+#: Forcing of the Newton steps' CG solves (inexact Newton, Eisenstat & Walker 1996): the first step to
+#: FORCING_MAX, each next one to FORCING_GAMMA times the residual's last contraction, never tighter than
+#: NEWTON_CG_RTOL (the solve then also keeps the preconditioner's rebuild check).
+FORCING_MAX = 1e-2
+FORCING_GAMMA = 0.5
 
 
 def _check_heat_exit(asm: Assembly, n_dirichlet: int, what: str):
@@ -160,15 +165,18 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
     exchanges = [bc.law for bc in asm.nonlinear if isinstance(bc.law, CavityExchange)]
     lin_its = 0
     it = 0
+    eta = FORCING_MAX
     for it in range(1, max_iter + 1):
         if nonlinear:
             data = base.copy()
             data[D.free_diag] += J[free]
             A = asm.pattern.csr(data)
+        loose = nonlinear and eta > lin.rtol   # inexact Newton: the step solved no tighter than it is worth
+        kw = {"rtol": eta} if loose else {}
         if exchanges:   # the exchange's coupling itself, not its diagonal slope (cavity_radiation's docstring)
-            dT, its, _ = lin.solve(_with_exchanges(A, exchanges, T, D.mask), -r, pc_matrix=A)
+            dT, its, _ = lin.solve(_with_exchanges(A, exchanges, T, D.mask), -r, pc_matrix=A, **kw)
         else:
-            dT, its, _ = lin.solve(A, -r)
+            dT, its, _ = lin.solve(A, -r, **kw)
         lin_its += its
         if not nonlinear:
             T += dT
@@ -185,6 +193,9 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
         else:  # no decrease found (residual at round-off level): take the full step
             step = 1.0
             T_new, r_new, N_new, J_new = T + dT, *residual(T + dT)
+        # the next forcing term follows the outer contraction (Eisenstat & Walker 1996, choice 2 with
+        # alpha = 1: the Newton matrix is approximate, so the outer rate is linear, ~1/50 per step)
+        eta = min(FORCING_MAX, FORCING_GAMMA * np.linalg.norm(r_new) / max(rn0, 1e-300))
         T, r, N, J = T_new, r_new, N_new, J_new
         _check_diverging(problem, T, amb, it)
         change = step * np.abs(dT).max()
