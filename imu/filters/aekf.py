@@ -263,55 +263,38 @@ def _propagate(P, C, S, h, G, Hp):
 
 
 @njit(cache=True)
-def _hpht(H, P):
-    """H P H^T (3, 3) for H (3, 9), P (9, 9), written out."""
-    HP = np.zeros((3, 9))
-    for i in range(3):
-        for j in range(9):
+def _mm(A, B, transpose_b=False):
+    """A @ B (or A @ B.T) written out: numba's @ on these small matrices calls BLAS, ~1 us of overhead a
+    product, more than the product itself."""
+    n, l = A.shape
+    m = B.shape[0] if transpose_b else B.shape[1]
+    out = np.zeros((n, m))
+    for i in range(n):
+        for j in range(m):
             a = 0.0
-            for m in range(9):
-                a += H[i, m] * P[m, j]
-            HP[i, j] = a
-    out = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            a = 0.0
-            for m in range(9):
-                a += HP[i, m] * H[j, m]
+            for k in range(l):
+                a += A[i, k] * (B[j, k] if transpose_b else B[k, j])
             out[i, j] = a
     return out
+
+
+@njit(cache=True)
+def _hpht(H, P):
+    """H P H^T (3, 3) for H (3, 9), P (9, 9)."""
+    return _mm(_mm(H, P), H, True)
 
 
 @njit(cache=True)
 def _joseph_update(P, H, Sinv, r, nu, I9):
     """The Kalman update in Joseph form, P <- (I - K H) P (I - K H)^T + K diag(r) K^T (symmetrised) in
     place, K = P H^T S^-1; returns the state correction K nu (9,). H (3, 9), Sinv (3, 3), r (3,) the
-    measurement variances, nu (3,) the innovation. Written out: numba's @ on these small matrices calls
-    BLAS, ~1 us of overhead per product."""
-    PHt = np.zeros((9, 3))
-    for i in range(9):
-        for j in range(3):
-            a = 0.0
-            for m in range(9):
-                a += P[i, m] * H[j, m]
-            PHt[i, j] = a
-    K = np.zeros((9, 3))
-    for i in range(9):
-        for j in range(3):
-            K[i, j] = PHt[i, 0] * Sinv[0, j] + PHt[i, 1] * Sinv[1, j] + PHt[i, 2] * Sinv[2, j]
+    measurement variances, nu (3,) the innovation. Written out (:func:`_mm`)."""
+    K = _mm(_mm(P, H, True), Sinv)
     dx = np.zeros(9)
-    IKH = I9.copy()
     for i in range(9):
         dx[i] = K[i, 0] * nu[0] + K[i, 1] * nu[1] + K[i, 2] * nu[2]
-        for j in range(9):
-            IKH[i, j] -= K[i, 0] * H[0, j] + K[i, 1] * H[1, j] + K[i, 2] * H[2, j]
-    T = np.zeros((9, 9))
-    for i in range(9):
-        for j in range(9):
-            a = 0.0
-            for m in range(9):
-                a += IKH[i, m] * P[m, j]
-            T[i, j] = a
+    IKH = I9 - _mm(K, H)
+    T = _mm(IKH, P)
     for i in range(9):
         for j in range(i, 9):
             a = K[i, 0] * r[0] * K[j, 0] + K[i, 1] * r[1] * K[j, 1] + K[i, 2] * r[2] * K[j, 2]
