@@ -41,7 +41,10 @@ from imutherm.thermal.results import SteadyResult
 #: Relative residual of the CG solve of each Newton step (inexact Newton: the
 #: right-hand side is the current residual, so the outer loop tightens it).
 NEWTON_CG_RTOL = 1e-4
-#: Forcing of the Newton steps' CG solves (inexact Newton, Eisenstat & Walker 1996): the first step to
+#: Forcing of the Newton steps' CG solves (inexact Newton; S. C. Eisenstat, H. F. Walker, "Choosing the forcing
+#: terms in an inexact Newton method", SIAM J. Sci. Comput. 17(1), 16-32, 1996, their choice 2 with alpha = 1
+#: since this Newton matrix is approximate and the outer rate linear; the constants chosen on the reference unit,
+#: 1e-1 first took more Newton steps on potted): the first step to
 #: FORCING_MAX, each next one to FORCING_GAMMA times the residual's last contraction, never tighter than
 #: NEWTON_CG_RTOL (the solve then also keeps the preconditioner's rebuild check).
 FORCING_MAX = 1e-2
