@@ -899,7 +899,7 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
     from dataclasses import replace
 
     from imutherm.cache import cached
-    from imutherm.studies.forward import checked_rise, full_rise
+    from imutherm.studies.forward import checked_rise
     if transient not in ("reduced", "full"):
         raise InputError(f"correlate: the re-run's transient is 'reduced' or 'full', not {transient!r}")
     model_vals, signal = {}, []
@@ -916,11 +916,7 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
     def build():
         variant = K.variant(geo, options, model_vals)
         grid = build_mesh(variant.geometry, mesh_size_mm, min_cells)
-        if transient == "full":
-            return (full_rise(variant, grid, probes, run.times_s, signal, rtol=STUDY_CG_RTOL),
-                    {"transient": "full", "estimated_error_K": None, "basis": None, "full_solves": None,
-                     "reason": "asked for (--full)"})
-        return checked_rise(variant, grid, probes, run.times_s, signal, rtol=STUDY_CG_RTOL)
+        return checked_rise(variant, grid, probes, run.times_s, signal, rtol=STUDY_CG_RTOL, full=transient == "full")
     parts = (replace(geo.layout, path=""), geo.scheme.name, options, model_vals, signal, probes,
              np.asarray(run.times_s, float), float(mesh_size_mm), int(min_cells), STUDY_CG_RTOL, transient)
     rises, info = cached("full_rerun", parts, build, use_cache=use_cache)[0]

@@ -37,7 +37,8 @@ def full_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol:
     return _rise(variant, grid, probes, times, signal, rtol, ambient_cycle, reduced=False)[0]
 
 
-def checked_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol: float | None = None) -> tuple:
+def checked_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rtol: float | None = None,
+                 full: bool = False) -> tuple:
     """(site rises [K] (len(times), len(probes)), how the transient was computed: dict) as :func:`full_rise`,
     the transient on the checked reduced model of the study
     (:func:`imutherm.thermal.reduced_transient.reduced_power_on`: the full steady field, a Krylov basis about
@@ -50,10 +51,13 @@ def checked_rise(variant: ModelVariant, grid, probes: dict, times, signal=(), rt
     library's 1e-2 K is up to 0.055 K off, in 33-41 % of its time (``benchmarks/bench_rerun_transient.py``;
     figures in docs/benchmarks/correlation_speed.md).
 
-    The dict: ``transient`` 'reduced' or 'full', ``estimated_error_K`` (the check's largest site estimate,
-    None without one), ``basis``, ``full_solves``, ``reason`` (why the full FEM ran; '' if it did not).
+    ``rtol``: the CG tolerance of the full transient's stage solves where it runs; ``full``: run the full
+    adaptive TR-BDF2 without trying the reduced model (``imutherm correlate --full``).
+    The dict: ``transient`` 'reduced' or 'full' (None: steady readings only), ``estimated_error_K`` (the
+    check's largest site estimate, None without one), ``basis``, ``full_solves``, ``reason`` (why the full
+    FEM ran; '' if it did not).
     """
-    return _rise(variant, grid, probes, times, signal, rtol, None, reduced=True)
+    return _rise(variant, grid, probes, times, signal, rtol, None, reduced=not full)
 
 
 def _rise(variant, grid, probes, times, signal, rtol, ambient_cycle, reduced: bool) -> tuple:
@@ -74,12 +78,10 @@ def _rise(variant, grid, probes, times, signal, rtol, ambient_cycle, reduced: bo
         out[~fin] = np.nan  # a cycling chamber has no steady reading
         cyc = lambda tt: a * np.real(g[None, :] * np.exp(1j * (2 * np.pi * np.asarray(tt)[:, None] / period + phase)))
     if not fin.any():
-        return out, {"transient": None, "estimated_error_K": None, "basis": None, "full_solves": None,
-                     "reason": "steady readings only"}
+        return out, _info(None, "steady readings only")
     t_end = float(t[fin].max())
     kw = {} if rtol is None else {"rtol": rtol}
-    tr, info = None, {"transient": "full", "estimated_error_K": None, "basis": None, "full_solves": None,
-                      "reason": "" if reduced else "asked for"}
+    tr, info = None, _info("full", "asked for")
     if reduced:
         tr, info = _reduced(pb, asm, st, probes, max(t_end, 1.0))
     if tr is None:
@@ -105,11 +107,15 @@ def _reduced(pb, asm, steady, probes: dict, t_end: float) -> tuple:
     try:
         tr, check = reduced_power_on(pb, asm, steady, probes, t_end)
     except InputError as e:   # e.g. a fixed-temperature face, a fixture away from ambient
-        return None, {"transient": "full", "estimated_error_K": None, "basis": None, "full_solves": None,
-                      "reason": f"reduced transient not applicable ({e})"}
-    return tr, {"transient": "reduced" if tr is not None else "full",
-                "estimated_error_K": float(check.max_site_error_K), "basis": int(check.basis_size),
-                "full_solves": int(check.full_solves), "reason": check.reason}
+        return None, _info("full", f"reduced transient not applicable ({e})")
+    return tr, _info("reduced" if tr is not None else "full", check.reason, float(check.max_site_error_K),
+                     int(check.basis_size), int(check.full_solves))
+
+
+def _info(transient, reason: str, estimated_error_K=None, basis=None, full_solves=None) -> dict:
+    """How a rise's transient was computed (:func:`checked_rise`)."""
+    return {"transient": transient, "estimated_error_K": estimated_error_K, "basis": basis,
+            "full_solves": full_solves, "reason": reason}
 
 
 def switched_rise(before: ModelVariant, after: ModelVariant, t_switch: float, grid, probes: dict, times,

@@ -126,6 +126,25 @@ def test_newton_forcing_saves_inner_iterations_not_accuracy(monkeypatch):
     assert forced.residual < 1e-9
 
 
+def test_newton_forcing_falls_back_to_the_full_solve(monkeypatch):
+    """A loose Newton-step solve that fails (a stale preconditioner hitting maxiter) is redone on the solver's
+    full path, which rebuilds the preconditioner: the same field as with every loose solve succeeding."""
+    from imutherm.thermal import linear
+
+    pr = _fine_nonlinear_problem()
+    ref = solve_steady(pr, solver="amg")
+    calls = []
+
+    def fail(self, *a, **k):
+        calls.append(1)
+        raise ConvergenceError("stale preconditioner")
+
+    monkeypatch.setattr(linear._LinSolver, "_solve_loose", fail)
+    res = solve_steady(pr, solver="amg")
+    assert calls                                                    # the loose path was tried
+    assert np.abs(res.T_C - ref.T_C).max() < 1e-9 * (ref.T_C.max() - 25.0)
+
+
 def test_amg_public_fallback_gives_the_same_field(monkeypatch):
     """pyamg's private V-cycle (linear._private_vcycle) is the one use of a pyamg private; without it the
     preconditioner falls back to the public ``aspreconditioner``. Forced here: the same field to the

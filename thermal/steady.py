@@ -177,12 +177,17 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
             data = base.copy()
             data[D.free_diag] += J[free]
             A = asm.pattern.csr(data)
-        loose = nonlinear and eta > lin.rtol   # inexact Newton: the step solved no tighter than it is worth
-        kw = {"rtol": eta} if loose else {}
-        if exchanges:   # the exchange's coupling itself, not its diagonal slope (cavity_radiation's docstring)
-            dT, its, _ = lin.solve(_with_exchanges(A, exchanges, T, D.mask), -r, pc_matrix=A, **kw)
-        else:
-            dT, its, _ = lin.solve(A, -r, **kw)
+        # the exchange's coupling itself, not its diagonal slope (cavity_radiation's docstring)
+        op = _with_exchanges(A, exchanges, T, D.mask) if exchanges else A
+        pc = A if exchanges else None
+        dT = None
+        if nonlinear and eta > lin.rtol:   # inexact Newton: the step solved no tighter than it is worth
+            try:
+                dT, its, _ = lin.solve(op, -r, rtol=eta, pc_matrix=pc)
+            except ConvergenceError:      # a stale preconditioner: the full path below rebuilds it
+                dT = None
+        if dT is None:
+            dT, its, _ = lin.solve(op, -r, pc_matrix=pc)
         lin_its += its
         if not nonlinear:
             T += dT
