@@ -27,7 +27,10 @@ COMMANDS = {
     "attitude": "run the attitude filters on a motion profile and report roll/pitch errors",
     "correlate": "compare measured site temperatures with the model: localise, re-tune, name the missing effect, correlation.pdf",
     "sweep": "parameter sweep of one scheme (grid, LHS, Morris): results.csv, sensitivity ranking, sweep.pdf",
+    "import": "your own board (KiCad .kicad_pcb, IDF .emn) into a layout file: parts, stack-up, housing, schemes",
 }
+#: a subcommand whose module is not named after it (``import`` is a Python keyword)
+MODULES = {"import": "import_board"}
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -47,7 +50,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         if name != command:
             sub.add_parser(name, help=text)
             continue
-        module = importlib.import_module(f"{__name__}.{name}")
+        module = importlib.import_module(f"{__name__}.{MODULES.get(name, name)}")
         p = sub.add_parser(name, help=text, description=help_text(module.__doc__),
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_args(p)

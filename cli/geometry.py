@@ -2,7 +2,8 @@
 
 Outputs in ``--out DIR``: ``geometry.json`` (mass, power, parts, mesh summary),
 ``geometry.stl`` and ``geometry.glb`` (parts in mm), ``mesh.vtu`` (ParaView:
-cell data ``part`` / ``material``) and ``layout.png``.
+cell data ``part`` / ``material``), ``layout.png`` and, for each board imported from a board file
+(``imutherm import``), ``board_<name>.png``: the board over its true outline, every part with its reference.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.export import material_names, write_glb, write_stl, write_vtu
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh, mesh_info
+from imutherm.reports.board_plot import imported_boards
 
 
 def geometry_summary(geometry, grid) -> dict:
@@ -48,7 +50,7 @@ def add_args(parser) -> None:
     """The options of ``imutherm geometry``."""
     add_layout_arguments(parser)
     add_out_argument(parser)
-    parser.add_argument("--no-png", action="store_true", help="skip layout.png")
+    parser.add_argument("--no-png", action="store_true", help="skip layout.png (and board_<name>.png)")
 
 
 def main(argv=None) -> int:
@@ -72,11 +74,16 @@ def run(args) -> int:
         write_glb(geometry, tmp / "geometry.glb")
         write_vtu(grid, geometry, tmp / "mesh.vtu")
         if not args.no_png:
+            from imutherm.reports.board_plot import plot_board
             from imutherm.reports.layout_plot import plot_layout
             plot_layout(geometry, tmp / "layout.png")
+            for name in imported_boards(geometry):  # an imported board over its true outline, every reference
+                plot_board(geometry, name, tmp / f"board_{name}.png")
     m = summary["mesh"]
     print(f"{layout.name} / {geometry.scheme.name}: mass {summary['mass_g']:.1f} g, power {summary['total_power_W']:.3f} W, "
           f"{len(geometry.parts)} parts; mesh {m['cells']} cells, {m['nodes']} nodes, "
           f"cell edge {m['min_cell_mm']:.3g}..{m['max_cell_mm']:.3g} mm")
-    print(f"wrote {args.out}/geometry.json geometry.stl geometry.glb mesh.vtu" + ("" if args.no_png else " layout.png"))
+    boards = "" if args.no_png else "".join(f" board_{b}.png" for b in imported_boards(geometry))
+    print(f"wrote {args.out}/geometry.json geometry.stl geometry.glb mesh.vtu" + ("" if args.no_png else " layout.png")
+          + boards)
     return 0

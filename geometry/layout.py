@@ -15,7 +15,7 @@ from pathlib import Path
 
 from imutherm import InputError
 from imutherm.geometry.electrical import ElectricalSpec, parse_electrical, rail_losses
-from imutherm.geometry.materials import load_library
+from imutherm.geometry.materials import load_library, material_from_table, register_materials
 from imutherm.textio import quote, read_text
 
 try:  # Python >= 3.11
@@ -105,13 +105,33 @@ class MountingSpec:
 
 @dataclass(frozen=True)
 class BoardSpec:
-    """A PCB: global lower corner and size [mm]; ``normal`` is its thin axis."""
+    """A PCB: global lower corner and size [mm]; ``normal`` is its thin axis.
+
+    The model is the rectangle; an imported board also keeps, for drawings and reports:
+    outline_mm : tuple of polylines or None, the true outline, each a tuple of (u, v) board-local points [mm]
+    source : str or None, the file the board was imported from (and its format)
+    """
 
     name: str
     normal: str
     min_mm: tuple
     size_mm: tuple
     material: str
+    outline_mm: tuple | None = None
+    source: str | None = None
+    merged_parts: tuple = ()
+
+
+@dataclass(frozen=True)
+class MergedPartSpec:
+    """A small unpowered part of an imported board, merged into the board material (drawings and IDF export):
+    board-local centre (u, v) and size (u, v, height) [mm], side, footprint library name."""
+
+    name: str
+    side: str
+    center_mm: tuple
+    size_mm: tuple
+    footprint: str | None = None
 
 
 @dataclass(frozen=True)
@@ -144,6 +164,7 @@ class ComponentSpec:
     power_W : float [W] dissipated in the die
     power_source : str, where ``power_W`` comes from (``layout power_W``, or the electrical design's
         formula for a rail's regulator without an explicit ``power_W``)
+    footprint : str or None, the ECAD footprint it was imported from (information only)
     """
 
     name: str
@@ -160,6 +181,7 @@ class ComponentSpec:
     power_W: float
     axis: str | None
     power_source: str = "layout power_W"
+    footprint: str | None = None
 
 
 @dataclass(frozen=True)
@@ -209,6 +231,15 @@ class LayoutSpec:
     schemes: dict
     #: the supply and rails the regulators' powers follow from (None: every power is given explicitly)
     electrical: ElectricalSpec | None = None
+    #: the layout's own materials (``[materials.<name>]``), beside the library's
+    materials: tuple = ()
+
+    def __post_init__(self):
+        register_materials(self.materials, self.path)
+
+    def __setstate__(self, state):  # unpickled in a worker process: its own materials known there too
+        self.__dict__.update(state)
+        register_materials(self.materials, self.path)
 
     def scheme(self, name: str | None) -> SchemeSpec:
         """The scheme ``name`` (default: the layout's default scheme)."""
@@ -312,7 +343,7 @@ class _Table:
 _TOP = {"name": "layout name", "description": "text", "default_scheme": "scheme name",
         "environment": "table", "housing": "table", "mounting": "table", "boards": "array of tables",
         "parts": "array of tables", "components": "array of tables", "sites": "table",
-        "schemes": "table", "electrical": "table", "rails": "array of tables"}
+        "schemes": "table", "electrical": "table", "rails": "array of tables", "materials": "table"}
 
 
 def _table_array(top: _Table, key: str) -> list:
@@ -354,8 +385,9 @@ def load_layout(path: str | Path | None = None) -> LayoutSpec:
 
 def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
     """Check a layout already read into a dict (see :func:`load_layout`); one parser per table, in file order."""
-    mats = load_library()
     top = _Table(path, "layout", data, _TOP)
+    own = _parse_materials(path, top)
+    mats = {**load_library(), **{m.name: m for m in own}}
     ambient = _parse_environment(path, top)
     housing = _parse_housing(path, top, mats)
     mounting = _parse_mounting(path, top, ambient)
@@ -372,7 +404,20 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         top.fail("default_scheme", f"unknown scheme {default!r}; valid: {', '.join(schemes)}")
     return LayoutSpec(top.string("name", Path(path).stem), path, top.string("description", ""), default,
                       ambient, housing, mounting, tuple(boards), tuple(parts), tuple(components),
-                      tuple(sites), schemes, electrical)
+                      tuple(sites), schemes, electrical, own)
+
+
+def _parse_materials(path, top) -> tuple:
+    """``[materials.<name>]``: the layout's own materials (the library's fields, a ``source`` required)."""
+    lib = load_library()
+    out = []
+    for name, table in _named_tables(top, "materials", "[materials.<name>] tables").items():
+        if name in lib:
+            top.fail("materials", f"{name!r} is a library material; give yours another name")
+        if not isinstance(table, dict):
+            top.fail("materials", f"[materials.{name}] must be a table, got {type(table).__name__}")
+        out.append(material_from_table(name, table, f"{path}: [materials.{name}]"))
+    return tuple(out)
 
 
 def _component_powers(path, components, electrical) -> list:
@@ -451,16 +496,68 @@ def _parse_boards(path, top, mats, names: _Names) -> list:
     boards = []
     for i, t in enumerate(_table_array(top, "boards")):
         b = _Table(path, f"boards[{i}]", t, {"name": "str", "normal": "x|y|z", "min_mm": "3 numbers",
-                                              "size_mm": "3 sizes", "material": "name"})
+                                              "size_mm": "3 sizes", "material": "name",
+                                              "outline_mm": "polylines of (u, v)", "source": "text",
+                                              "merged_parts": "[{ name, side, center_mm, size_mm, footprint }]"})
         b.where = f"board {quote(b.string('name'), 60)}"
         spec = BoardSpec(b.string("name"), b.string("normal", choices=AXES), b.vector("min_mm", 3),
                          b.vector("size_mm", 3, positive=True), b.material("material", mats))
         b.where = f"board {quote(spec.name, 60)}"
         if spec.size_mm[AXES.index(spec.normal)] != min(spec.size_mm):
             b.fail("size_mm", f"the size along the normal {spec.normal!r} must be the board thickness (smallest size)")
+        spec = replace(spec, outline_mm=_outline(b, spec), source=b.string("source", None),
+                       merged_parts=_merged_parts(path, b, spec))
         names.claim(spec.name, b.where)
         boards.append(spec)
     return boards
+
+
+#: most points of a board outline (a real outline with its arcs drawn as polylines has a few hundred)
+MAX_OUTLINE_POINTS = 20000
+
+
+def _outline(b: _Table, board: BoardSpec):
+    """``outline_mm``: polylines of (u, v) board-local points [mm] within the board's rectangle (drawings only)."""
+    value = b.get("outline_mm", None)
+    if value is None:
+        return None
+    if not isinstance(value, list) or not value:
+        b.fail("outline_mm", "must be a non-empty list of polylines, each a list of [u, v] points [mm]")
+    a0, a1 = (a for a in range(3) if a != AXES.index(board.normal))
+    span = (board.size_mm[a0], board.size_mm[a1])
+    lines, count = [], 0
+    for line in value:
+        if not isinstance(line, list) or len(line) < 2:
+            b.fail("outline_mm", f"each polyline needs at least 2 [u, v] points, got {quote(line, 80)}")
+        pts = []
+        for p in line:
+            if (not isinstance(p, list) or len(p) != 2
+                    or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in p)):
+                b.fail("outline_mm", f"points must be [u, v] pairs of finite numbers [mm], got {quote(p, 80)}")
+            if not all(-1e-3 <= v <= s + 1e-3 for v, s in zip(p, span)):
+                b.fail("outline_mm", f"point {p} lies outside the board (0..{span[0]:g}, 0..{span[1]:g} mm)")
+            pts.append((float(p[0]), float(p[1])))
+        count += len(pts)
+        if count > MAX_OUTLINE_POINTS:
+            b.fail("outline_mm", f"more than {MAX_OUTLINE_POINTS} points")
+        lines.append(tuple(pts))
+    return tuple(lines)
+
+
+def _merged_parts(path, b: _Table, board: BoardSpec) -> tuple:
+    """``merged_parts``: the imported parts merged into the board (drawings and export only)."""
+    value = b.get("merged_parts", [])
+    if not isinstance(value, list):
+        b.fail("merged_parts", "must be a list of { name, side, center_mm, size_mm, footprint } tables")
+    out = []
+    for i, t in enumerate(value):
+        m = _Table(path, f"board {quote(board.name, 60)}: merged_parts[{i}]", t,
+                   {"name": "str", "side": "top|bottom", "center_mm": "(u, v)", "size_mm": "(u, v, height)",
+                    "footprint": "text"})
+        out.append(MergedPartSpec(m.string("name"), m.string("side", choices=("top", "bottom")),
+                                  m.vector("center_mm", 2), m.vector("size_mm", 3, positive=True),
+                                  m.string("footprint", None)))
+    return tuple(out)
 
 
 def _parse_parts(path, top, mats, names: _Names) -> list:
@@ -487,7 +584,7 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
                    {"name": "str", "board": "board name", "side": "top|bottom", "center_mm": "(u, v)",
                     "size_mm": "(u, v, height)", "material": "name", "die_mm": "(u, v, thickness)",
                     "die_base_mm": "mm", "exposed_pad": "bool", "pad_mm": "(u, v)", "vias": "bool",
-                    "power_W": "W", "axis": "x|y|z"})
+                    "power_W": "W", "axis": "x|y|z", "footprint": "text"})
         name = c.string("name")
         c.where = f"component {quote(name, 60)}"
         board = c.string("board")
@@ -517,7 +614,7 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
                              size, c.material("material", mats), die, die_base, pad,
                              (pad_mm or (die[:2] if pad else None)), vias,
                              c.number("power_W", None, nonneg=True, bounds=POWER_BOUNDS),
-                             c.string("axis", None, choices=AXES))
+                             c.string("axis", None, choices=AXES), footprint=c.string("footprint", None))
         names.claim(name, c.where)
         for sub in ("_die", "_pad", "_vias"):
             names.claim(name + sub, c.where)

@@ -1,6 +1,10 @@
 """The materials library: thermal properties as data, each with its source.
 
-The data live in ``materials.toml`` beside this module; select by name.
+The data live in ``materials.toml`` beside this module; select by name. A layout may define materials of its
+own (``[materials.<name>]``, the same fields, a ``source`` required), such as an imported board's stack-up:
+:func:`register_materials` adds them beside the library for :func:`get_material`, in every process that
+reads or unpickles that layout. A name is defined once per process: a library name cannot be redefined, and
+a second layout giving other values to the same name is refused.
 """
 
 from __future__ import annotations
@@ -56,6 +60,12 @@ class Material:
         return self.density * self.specific_heat
 
 
+def material_from_table(name: str, table: dict, where: str) -> Material:
+    """A :class:`Material` from a TOML table (``k`` or ``k_in_plane`` + ``k_through``, ``density``,
+    ``specific_heat``, optional ``emissivity``, ``source``); InputError naming ``where`` and the field."""
+    return _material_from_table(name, table, where)
+
+
 def _material_from_table(name: str, table: dict, where: str) -> Material:
     allowed = {"k", "k_in_plane", "k_through", "density", "specific_heat", "emissivity", "source"}
     unknown = sorted(set(table) - allowed)
@@ -90,12 +100,40 @@ def load_library(path: str | None = None) -> dict:
     return {name: _material_from_table(name, table, str(path)) for name, table in data.items()}
 
 
-def get_material(name: str) -> Material:
-    """The library material ``name``; InputError listing the valid names otherwise."""
+#: materials defined by the layouts read in this process (:func:`register_materials`): name -> Material
+_LAYOUT_MATERIALS: dict = {}
+
+
+def register_materials(materials, where: str) -> None:
+    """Make a layout's own materials known to :func:`get_material` in this process.
+
+    A name of the library, or one another layout defined with other values, is refused (InputError naming
+    ``where``); the same definition again (the layout read twice, or unpickled in a worker) is accepted."""
     lib = load_library()
-    if name not in lib:
-        raise InputError(f"unknown material {name!r}; valid: {', '.join(sorted(lib))}")
-    return lib[name]
+    for m in materials:
+        if m.name in lib:
+            raise InputError(f"{where}: material {m.name!r} is already a library material; give yours another name")
+        old = _LAYOUT_MATERIALS.get(m.name)
+        if old is not None and old != m:
+            raise InputError(f"{where}: material {m.name!r} is defined with other values by another layout read in "
+                             f"this process ({old.source[:80]}); give this one another name")
+        _LAYOUT_MATERIALS[m.name] = m
+
+
+def material_names() -> tuple:
+    """Every material name :func:`get_material` knows: the library's and the layouts' own, sorted."""
+    return tuple(sorted({*load_library(), *_LAYOUT_MATERIALS}))
+
+
+def get_material(name: str) -> Material:
+    """The material ``name``: the library's, or a layout's own (:func:`register_materials`); InputError listing
+    the valid names otherwise."""
+    lib = load_library()
+    if name in lib:
+        return lib[name]
+    if name in _LAYOUT_MATERIALS:
+        return _LAYOUT_MATERIALS[name]
+    raise InputError(f"unknown material {name!r}; valid: {', '.join(material_names())}")
 
 
 #: the properties :func:`with_properties` may change: ``k`` (isotropic materials) or ``k_in_plane`` /

@@ -1,0 +1,173 @@
+"""``imutherm import BOARD``: your own board (KiCad ``.kicad_pcb`` or IDF ``.emn``) into a layout file.
+
+Writes a complete single-board unit (``--out my_unit.toml``, default: the board file's name with ``.toml``):
+the board with its stack-up's conductivity and true outline, every footprint modelled, merged into the board
+or skipped (each with its reason, printed), standoffs under the mounting holes, a housing around it and the
+three cooling schemes. ``--into LAYOUT --board NAME`` replaces one board of an existing layout instead (its
+place in the unit kept), so a unit of several boards is assembled from several files.
+
+Powers: a footprint field ``Power_W``, ``--powers FILE`` (CSV ``reference,power_W[,source]``), ``--power
+REF=W``, or ``--electrical FILE`` (the supply and rails, regulators and loads by reference). Heights: the
+package-class table (``imutherm.ecad.packages``), a footprint field ``Height_mm``, ``--heights FILE`` (CSV
+``reference,height_mm[,source]``) or ``--height REF=MM``. Sensor sites: ``--site U3=imu`` (a 6-axis chip: every
+gyro and accelerometer site), ``--site U5=gyro``, ``--site U6=accel``, ``--site U7=gyro_z``, ``--site U2=probe``.
+
+Prints what it did and the estimated mesh of the result before anything is meshed; a bad board ends in one
+line (exit 2) and nothing is written.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+
+from imutherm import InputError
+from imutherm.cli import run_command
+
+
+def add_args(parser) -> None:
+    """The options of ``imutherm import``."""
+    from imutherm.ecad.to_layout import SITE_KINDS, HousingOptions
+
+    parser.add_argument("board_file", metavar="BOARD", help="the board file: .kicad_pcb (KiCad 4-9) or .emn (IDF 3.0, .emp beside it)")
+    parser.add_argument("--out", default=None, metavar="FILE",
+                        help="the layout file to write (default: the board file's name with .toml, here)")
+    parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    parser.add_argument("--into", default=None, metavar="LAYOUT",
+                        help="replace board --board of this layout (a file or a built-in name) instead of writing a "
+                             "single-board unit")
+    parser.add_argument("--board", default="main", metavar="NAME",
+                        help="the board's name in the layout (with --into: the board it replaces; default main)")
+    parser.add_argument("--name", default=None, help="the layout's name (default: the board file's name)")
+    g = parser.add_argument_group("powers, heights and sites")
+    g.add_argument("--powers", default=None, metavar="FILE", help="CSV reference,power_W[,source] [W]")
+    g.add_argument("--power", action="append", metavar="REF=W", help="one part's power [W] (repeatable)")
+    g.add_argument("--electrical", default=None, metavar="FILE",
+                   help="TOML with [electrical] and [[rails]] naming references as regulators and loads: the "
+                        "regulators' losses follow from the supply")
+    g.add_argument("--heights", default=None, metavar="FILE", help="CSV reference,height_mm[,source] [mm]")
+    g.add_argument("--height", action="append", metavar="REF=MM", help="one part's body height [mm] (repeatable)")
+    g.add_argument("--site", action="append", metavar="REF=KIND",
+                   help=f"a sensor site on part REF; KIND: {', '.join(SITE_KINDS)} (repeatable)")
+    g.add_argument("--keep", action="append", metavar="REF[,REF]",
+                   help="model these parts even if small and unpowered (repeatable)")
+    g.add_argument("--merge-area", type=float, default=None, metavar="MM2",
+                   help="largest body area of an unpowered part merged into the board [mm^2] (default 10)")
+    g.add_argument("--grease", default=None, metavar="REF[,REF]",
+                   help="the parts the grease scheme moves to the back and bonds to the base (default: the "
+                        "dissipators above 10 %% of the power and 0.05 W)")
+    d = HousingOptions()
+    h = parser.add_argument_group("the unit around a single board (lengths [mm])")
+    h.add_argument("--clearance", type=float, default=d.clearance_mm, metavar="MM",
+                   help=f"board edges to the walls, tallest part to the lid and base (default {d.clearance_mm:g})")
+    h.add_argument("--wall", type=float, default=d.wall_mm, metavar="MM", help=f"wall (default {d.wall_mm:g})")
+    h.add_argument("--base", type=float, default=d.base_mm, metavar="MM", help=f"base (default {d.base_mm:g})")
+    h.add_argument("--lid", type=float, default=d.lid_mm, metavar="MM", help=f"lid (default {d.lid_mm:g})")
+    h.add_argument("--housing-material", default=d.material, help=f"(default {d.material})")
+    h.add_argument("--standoff-material", default=d.standoff_material, help=f"(default {d.standoff_material})")
+    h.add_argument("--mounting", choices=("fixture", "free"), default=d.mounting,
+                   help="the base bolted to a fixture at the ambient (default) or free-standing")
+    h.add_argument("--mount-conductance", type=float, default=d.contact_conductance_W_m2K, metavar="W/m2K",
+                   help=f"base-to-fixture contact conductance [W/m^2 K] (default {d.contact_conductance_W_m2K:g})")
+    h.add_argument("--ambient", type=float, default=d.ambient_C, metavar="C",
+                   help=f"ambient and fixture temperature [degC] (default {d.ambient_C:g})")
+
+
+def main(argv=None) -> int:
+    """``imutherm import ARGV...``; returns the exit status."""
+    return run_command("import", argv)
+
+
+def _options(args):
+    from imutherm.ecad.to_layout import SITE_KINDS, HousingOptions, ImportOptions
+    from imutherm.ecad.user_tables import (parse_assignments, parse_refs, parse_sites, read_electrical,
+                                           read_value_csv)
+
+    for flag in ("clearance", "wall", "base", "lid"):
+        value = getattr(args, flag)
+        if not (value == value and 0 < value <= 100):
+            raise InputError(f"--{flag} {value!r}: valid: a length in 0..100 mm (exclusive of 0)")
+    if args.merge_area is not None and not (args.merge_area == args.merge_area and 0 <= args.merge_area <= 1e4):
+        raise InputError(f"--merge-area {args.merge_area!r}: valid: 0..10000 mm^2")
+    powers = read_value_csv(args.powers, "power_W") if args.powers else {}
+    powers.update(parse_assignments(args.power, "power_W", "--power"))
+    heights = read_value_csv(args.heights, "height_mm") if args.heights else {}
+    heights.update(parse_assignments(args.height, "height_mm", "--height"))
+    housing = HousingOptions(args.clearance, args.wall, args.base, args.lid, material=args.housing_material,
+                             standoff_material=args.standoff_material, mounting=args.mounting,
+                             contact_conductance_W_m2K=args.mount_conductance, ambient_C=args.ambient)
+    return ImportOptions(powers=powers, heights=heights, sites=parse_sites(args.site, SITE_KINDS),
+                         keep=frozenset(parse_refs(args.keep)),
+                         electrical=read_electrical(args.electrical) if args.electrical else None,
+                         electrical_source=args.electrical or "",
+                         grease=parse_refs([args.grease]) if args.grease is not None else None,
+                         board_name=args.board, layout_name=args.name, housing=housing,
+                         merge_area_mm2=args.merge_area)
+
+
+def _print_report(result, out: Path) -> None:
+    from imutherm.ecad.to_layout import _natural
+
+    b = result.board
+    print(f"{b.source}: {b.format}, {b.width_mm:.2f} x {b.height_mm:.2f} mm, {b.thickness_mm:g} mm, "
+          f"{b.copper_layers} copper layers ({b.stackup_source})")
+    print(f"{len(result.decisions)} footprints: {result.count('modelled')} modelled, {result.count('merged')} merged "
+          f"into the board, {result.count('skipped')} skipped")
+    for d in sorted((d for d in result.decisions if d.fate == "modelled"), key=lambda d: _natural(d.footprint.ref)):
+        fp, body = d.footprint, d.body
+        power = f"{d.power_W:g} W ({d.power_source})" if d.power_W else "unpowered"
+        print(f"  modelled {fp.ref:<6} {fp.value[:22]:<22} {body.width:5.2f} x {body.height:5.2f} x {d.height_mm:4.2f} mm "
+              f"{fp.side:<6} {power}")
+    merged = sorted((d.footprint.ref for d in result.decisions if d.fate == "merged"), key=_natural)
+    if merged:
+        print(f"  merged ({len(merged)}, mass and heat capacity smeared into the board): {', '.join(merged)}")
+    by_reason = defaultdict(list)
+    for d in result.decisions:
+        if d.fate == "skipped":
+            by_reason[d.reason].append(d.footprint.ref)
+    for reason, refs in by_reason.items():
+        print(f"  skipped ({len(refs)}) {', '.join(sorted(refs, key=_natural))}: {reason}")
+    for note in result.notes:
+        print(f"note: {note}")
+
+
+def _estimate(spec) -> str:
+    from imutherm.budget import fmt_bytes, thermal_cost
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.mesh import grid_shape
+
+    parts = []
+    for scheme in spec.schemes:
+        shape = grid_shape(build_geometry(spec, scheme))
+        cost = thermal_cost(scheme, shape)
+        parts.append(f"{scheme} {cost.cells:,} cells (~{fmt_bytes(cost.memory_bytes)} to solve)")
+    return "estimated mesh at the default --mesh-size: " + "; ".join(parts)
+
+
+def run(args) -> int:
+    """Read, decide, check and write (see the module docstring); returns 0."""
+    from imutherm.ecad.read import read_board
+    from imutherm.ecad.to_layout import import_board, replace_board
+    from imutherm.io import atomic_write
+
+    board_path = Path(args.board_file)
+    out = Path(args.out) if args.out else Path(board_path.name).with_suffix(".toml")
+    if out.suffix.lower() != ".toml":
+        raise InputError(f"--out {out}: a layout file ends in .toml")
+    if out.exists() and not args.force:
+        raise InputError(f"--out {out}: exists; give another --out or --force to overwrite it")
+    if out.exists() and out.is_dir():
+        raise InputError(f"--out {out}: is a directory; give a .toml file")
+    if not out.parent.exists():
+        raise InputError(f"--out {out}: its folder {out.parent} does not exist")
+    opts = _options(args)
+    board = read_board(board_path)
+    if args.into:
+        result = replace_board(args.into, args.board, board, opts)
+    else:
+        result = import_board(board, opts)
+    _print_report(result, out)
+    print(_estimate(result.spec), flush=True)
+    atomic_write(out, lambda tmp: Path(tmp).write_text(result.text, encoding="utf-8"))
+    print(f"wrote {out} (layout {result.spec.name!r}; next: imutherm geometry {out}, imutherm compare {out})")
+    return 0

@@ -1,0 +1,42 @@
+"""``read_board(path)``: a board file of any supported format into a :class:`~imutherm.ecad.board.BoardDesign`.
+
+KiCad ``.kicad_pcb`` (KiCad 4-9, :mod:`imutherm.ecad.kicad`) and IDF 3.0 ``.emn`` with its ``.emp`` library
+beside it (:mod:`imutherm.ecad.idf`); the format is told by the file's first word, not only its suffix.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from imutherm import InputError
+
+FORMATS = ".kicad_pcb (KiCad 4-9) or .emn (IDF 3.0, with its .emp library beside it)"
+
+
+def read_board(path: str | Path):
+    """The board of ``path``; InputError in one line for anything that is not a readable board file."""
+    from imutherm.ecad.idf import read_idf
+    from imutherm.ecad.kicad import read_kicad
+
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: board file not found; valid: a {FORMATS}")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory; give a board file: a {FORMATS}")
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the board file ({exc.strerror or exc})") from None
+    if not head.strip():
+        raise InputError(f"{path}: the board file is empty; valid: a {FORMATS}")
+    if b"\0" in head or head[:2] in (b"\x1f\x8b", b"PK"):
+        kind = {b"\x1f\x8b": "gzip", b"PK": "zip"}.get(head[:2], "binary")
+        raise InputError(f"{path}: a {kind} file, not a board file; valid: a {FORMATS} (unpack it first)"
+                         if kind != "binary" else f"{path}: a binary file, not a board file; valid: a {FORMATS}")
+    text = head.lstrip(b"\xef\xbb\xbf").lstrip()
+    if text.startswith(b"(kicad_pcb") or path.suffix.lower() == ".kicad_pcb":
+        return read_kicad(path)
+    if text.upper().startswith(b".HEADER") or path.suffix.lower() == ".emn":
+        return read_idf(path)
+    raise InputError(f"{path}: not a board file (it starts with {head[:20]!r}); valid: a {FORMATS}")

@@ -1,0 +1,650 @@
+"""An imported board as a layout: the same TOML a hand-written unit has, around one board or into a unit.
+
+:func:`import_board` takes a :class:`~imutherm.ecad.board.BoardDesign` and the user's powers, heights and
+sites, decides each footprint's fate (:mod:`imutherm.ecad.classify`) and writes a complete single-board
+unit: the board (its bounding rectangle; the true outline kept for drawings; its conductivity from the
+stack-up, :mod:`imutherm.geometry.board_material`), every modelled part as a component (body, die, exposed
+pad and via field), standoffs under the mounting holes, a housing around it with stated clearances, the
+three cooling schemes, and the sensor sites. :func:`replace_board` puts the imported board in place of one
+board of an existing layout instead. Both check the result as any layout is checked (``parse_layout`` and
+every scheme's ``build_geometry``) before anything is written.
+
+The unit around a single board (every number overridable, :class:`HousingOptions`): the housing and its
+mounting are the reference unit's (2.5 mm anodised aluminium walls, 3 mm base, 2.5 mm lid, the base bolted to
+a fixture at the ambient through 500 W/m^2 K; ``layouts/imu_reference.toml`` gives the sources); 1 mm
+clearance from the board's edges to the walls and above the tallest part to the lid; the board on standoffs
+(nylon, as the reference unit's) under its mounting holes (or at its corners when it has none), as tall as
+the tallest bottom-side part plus 1 mm, 2 mm at least.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field, replace
+
+from imutherm import InputError
+from imutherm.ecad.board import BoardDesign, Rect
+from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, body_local, decide, merged_heat, off_axis
+from imutherm.ecad.toml_writer import NOTE, Inline, Note, dumps
+from imutherm.geometry.board_material import DEFAULT_COVERAGE, board_material
+from imutherm.geometry.layout import SCHEME_NAMES, parse_layout
+from imutherm.geometry.materials import get_material
+from imutherm.site_table import ACCEL_SITES, GYRO_SITES, SITES
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover
+    import tomli as tomllib
+
+#: what ``--site REF=KIND`` accepts: the sensor sites it gives (a probe is a plain temperature output)
+SITE_KINDS = {"imu": SITES, "gyro": GYRO_SITES, "accel": ACCEL_SITES, **{s: (s,) for s in SITES}, "probe": ()}
+#: the die of a powered or sensing package: its footprint this fraction of the body's, as the reference unit's
+#: assumed dies (0.3-0.45 of the body: LQFP-100 6/14, SOT-223 2.5/6.5, LCC 2/5); thickness and base as there
+DIE_FRACTION = 0.4
+DIE_THICKNESS_MM = 0.3
+DIE_BASE_MM = 0.2
+#: an exposed pad: the largest copper pad inside a package of 3+ pads covering at least this body fraction
+EP_MIN_FRACTION = 0.15
+#: vias inside an exposed pad (board vias and the footprint's own through-holes) that make a via field
+MIN_VIAS = 2
+#: power [W] above which a part is a dissipator the grease scheme bonds to the base: 10 % of the board's
+#: total, and at least this (the reference unit's grease scheme moves its 0.24-0.9 W chips, not its 0.04 W ADC)
+GREASE_MIN_W = 0.05
+#: bond gap limit of the grease scheme [mm], as the reference unit's (the paper's "millimetre-order gap")
+MAX_BOND_GAP_MM = 2.0
+#: lengths in the layout to this precision [mm] (10 um: far below any cell; keeps the file readable)
+DIGITS = 3
+
+
+@dataclass(frozen=True)
+class HousingOptions:
+    """The unit around a single imported board (see the module docstring); lengths [mm]."""
+
+    clearance_mm: float = 1.0
+    wall_mm: float = 2.5
+    base_mm: float = 3.0
+    lid_mm: float = 2.5
+    min_standoff_mm: float = 2.0
+    material: str = "aluminium_6061_anodised"
+    standoff_material: str = "nylon_66"
+    mounting: str = "fixture"
+    contact_conductance_W_m2K: float = 500.0
+    ambient_C: float = 70.0
+
+
+@dataclass(frozen=True)
+class ImportOptions:
+    """What the user adds to the board file.
+
+    powers : ref -> power [W] (``--powers FILE``, ``--power REF=W``); heights : ref -> height [mm]
+    sites : ref -> kind (:data:`SITE_KINDS`); keep : refs modelled whatever their size
+    electrical : dict or None, an ``[electrical]`` table and its ``[[rails]]`` (``--electrical FILE``)
+    grease : tuple of refs or None, the parts the grease scheme moves to the back (None: the dissipators)
+    board_name, layout_name : str; prefix : str, put before every component name (``--into``)
+    """
+
+    powers: dict = field(default_factory=dict)
+    powers_source: str = "--powers"
+    heights: dict = field(default_factory=dict)
+    heights_source: str = "--height"
+    sites: dict = field(default_factory=dict)
+    keep: frozenset = frozenset()
+    electrical: dict | None = None
+    electrical_source: str = ""
+    grease: tuple | None = None
+    board_name: str = "main"
+    layout_name: str | None = None
+    prefix: str = ""
+    housing: HousingOptions = HousingOptions()
+    merge_area_mm2: float | None = None
+
+
+@dataclass(frozen=True)
+class ImportResult:
+    """An import: the layout text and its checked spec, each footprint's fate, and notes for the user.
+
+    decisions : tuple of Decision, one per footprint; notes : tuple of str (what was assumed or left out)
+    names : dict, footprint ref -> component name in the layout
+    """
+
+    board: BoardDesign
+    decisions: tuple
+    text: str
+    spec: object
+    notes: tuple
+    names: dict
+
+    def count(self, fate: str) -> int:
+        return sum(d.fate == fate for d in self.decisions)
+
+
+def component_name(ref: str, prefix: str = "") -> str:
+    """A layout name for reference designator ``ref``: letters, digits, ``_`` and ``-`` kept, others ``_``."""
+    return prefix + (re.sub(r"[^A-Za-z0-9_-]", "_", ref) or "part")
+
+
+def _r(v: float) -> float:
+    return round(float(v), DIGITS)
+
+
+def _check_refs(board: BoardDesign, opts: ImportOptions) -> None:
+    refs = {fp.ref for fp in board.footprints}
+    for what, given in (("--site", opts.sites), ("--power/--powers", opts.powers), ("--height/--heights", opts.heights),
+                        ("--keep", opts.keep), ("--grease", opts.grease or ())):
+        unknown = sorted(set(given) - refs)
+        if unknown:
+            listed = ", ".join(sorted(refs, key=_natural)[:40])
+            raise InputError(f"{board.source}: {what}: no footprint {', '.join(unknown[:5])} on the board; its "
+                             f"references: {listed}{' ...' if len(refs) > 40 else ''}")
+    for ref, kind in opts.sites.items():
+        if kind not in SITE_KINDS:
+            raise InputError(f"--site {ref}={kind}: unknown kind; valid: {', '.join(SITE_KINDS)}")
+    dup = sorted({fp.ref for fp in board.footprints if [f.ref for f in board.footprints].count(fp.ref) > 1}
+                 & (set(opts.sites) | set(opts.powers) | set(opts.heights)))
+    if dup:
+        raise InputError(f"{board.source}: reference {dup[0]} names more than one footprint; give each part a unique "
+                         f"reference in KiCad (Annotate) before naming it in --site / --power / --height")
+
+
+def _natural(ref: str):
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", ref)]
+
+
+def _electrical_refs(electrical: dict | None) -> set:
+    if not electrical:
+        return set()
+    refs = set()
+    for rail in electrical.get("rails", []) or []:
+        if isinstance(rail, dict):
+            if isinstance(rail.get("regulator"), str):
+                refs.add(rail["regulator"])
+            if isinstance(rail.get("loads_A"), dict):
+                refs |= set(rail["loads_A"])
+    return refs
+
+
+def likely_dissipators(board: BoardDesign, limit: int = 6) -> str:
+    """The parts a user most likely has to give powers for: ICs and power packages, largest first."""
+    icish = [fp for fp in board.footprints if re.match(r"(U|IC|VR|Q)\d", fp.ref, re.I)
+             or re.search(r"SOT-223|TO-252|TO-263|LDO|regulat", f"{fp.library} {fp.value}", re.I)]
+    icish.sort(key=lambda fp: -(fp.fab.area if fp.fab else 0.0))
+    return "; ".join(f"{fp.ref} {fp.value or '?'} ({fp.library.split(':')[-1]})" for fp in icish[:limit]) or "none found"
+
+
+def _no_power(board: BoardDesign) -> InputError:
+    return InputError(f"{board.source}: no power anywhere on the board (no Power_W field, --powers or --electrical): "
+                      f"give the dissipated powers, e.g. --power REF=W; likely dissipators: {likely_dissipators(board)}")
+
+
+def _unknown_heights(board: BoardDesign, missing: list) -> InputError:
+    shown = "; ".join(f"{d.footprint.ref} ({d.footprint.library}, value {d.footprint.value or '?'})" for d in missing[:5])
+    more = f" and {len(missing) - 5} more" if len(missing) > 5 else ""
+    first = missing[0].footprint.ref
+    return InputError(f"{board.source}: no known package class and no height for {shown}{more}: add a Height_mm "
+                      f"field to the footprint in KiCad, or give --height {first}=MM (or --heights FILE with lines "
+                      f"'reference,height_mm')")
+
+
+def _exposed_pad(d: Decision):
+    """(pad (u, v) size [mm] in board orientation, pad rect in board coordinates) of an exposed pad, or None."""
+    fp = d.footprint
+    if len(fp.copper_pads) < 3:
+        return None
+    body = body_local(fp, d.package)
+    inside = [p for p in fp.copper_pads if p.rect.x0 >= body.x0 - 0.05 and p.rect.x1 <= body.x1 + 0.05
+              and p.rect.y0 >= body.y0 - 0.05 and p.rect.y1 <= body.y1 + 0.05]
+    if not inside:
+        return None
+    pad = max(inside, key=lambda p: p.rect.area)
+    if pad.rect.area < EP_MIN_FRACTION * body.area:
+        return None
+    w, h = (pad.rect.width, pad.rect.height) if round(fp.rotation_deg / 90.0) % 2 == 0 else (pad.rect.height, pad.rect.width)
+    cx, cy = fp.to_board(*pad.rect.centre)
+    return (w, h), Rect(cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2)
+
+
+def _vias_under(board: BoardDesign, d: Decision, pad_rect: Rect) -> int:
+    n = sum(pad_rect.x0 <= v.x <= pad_rect.x1 and pad_rect.y0 <= v.y <= pad_rect.y1 for v in board.vias)
+    fp = d.footprint
+    for p in fp.pads:
+        if p.kind == "thru_hole":
+            x, y = fp.to_board(*p.rect.centre)
+            n += pad_rect.x0 <= x <= pad_rect.x1 and pad_rect.y0 <= y <= pad_rect.y1
+    return n
+
+
+def _clip(body: Rect, board: BoardDesign) -> Rect:
+    return Rect(max(body.x0, 0.0), max(body.y0, 0.0), min(body.x1, board.width_mm), min(body.y1, board.height_mm))
+
+
+def _overlaps(a: Rect, b: Rect, tol: float = 1e-3) -> bool:
+    return min(a.x1, b.x1) - max(a.x0, b.x0) > tol and min(a.y1, b.y1) - max(a.y0, b.y0) > tol
+
+
+def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body: Rect, die: bool,
+               power_from_rails: bool, notes: list) -> dict:
+    """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it)."""
+    fp = d.footprint
+    h = d.height_mm
+    entry = {NOTE: (f"{fp.ref} {fp.value} ({fp.library}) at ({fp.x:.3f}, {fp.y:.3f}) mm, {fp.rotation_deg:g} deg, "
+                    f"{fp.side}; {d.reason}\nheight {h:g} mm: {d.height_source}"),
+             "name": name, "board": board_name, "side": fp.side,
+             "center_mm": [_r(body.centre[0]), _r(body.centre[1])],
+             "size_mm": Note([_r(body.width), _r(body.height), _r(h)],
+                             "body from the " + ("fab outline" if fp.fab is not None else "courtyard / pads")
+                             + (" and pads" if d.package is not None and d.package.body == "fab+pads" else "")
+                             + (f"; rotated {fp.rotation_deg:g} deg: the same area, aligned to the nearest axis"
+                                if off_axis(fp) else "")),
+             "material": d.package.material if d.package is not None else "mould_compound",
+             "footprint": fp.library}
+    if die:
+        dt, db = min(DIE_THICKNESS_MM, 0.35 * h), min(DIE_BASE_MM, 0.25 * h)
+        du, dv = DIE_FRACTION * body.width, DIE_FRACTION * body.height
+        ep = _exposed_pad(d)
+        if ep is not None:
+            (pu, pv), pad_rect = ep
+            pu, pv = min(pu, body.width), min(pv, body.height)
+            du, dv = min(du, pu), min(dv, pv)
+            entry["exposed_pad"] = Note(True, f"largest pad {pu:.3g} x {pv:.3g} mm under the body")
+            entry["pad_mm"] = [_r(pu), _r(pv)]
+            n = _vias_under(board, d, pad_rect)
+            if n >= MIN_VIAS:
+                entry["vias"] = Note(True, f"{n} vias inside the exposed pad")
+        entry["die_mm"] = Note([_r(du), _r(dv), _r(dt)], f"assumed: {DIE_FRACTION:g} of the body, as the reference "
+                                                          f"unit's dies")
+        entry["die_base_mm"] = _r(db)
+    if not power_from_rails:
+        entry["power_W"] = Note(float(d.power_W), d.power_source or "unpowered")
+    return entry
+
+
+def _has_die(d: Decision, site_refs: set, regulators: set) -> bool:
+    """A die for a powered chip (its power in the die, not spread through the package), a sensor site or a
+    regulator; a powered passive, inductor or connector dissipates through its whole body."""
+    ref = d.footprint.ref
+    chip = d.package.kind in ("ic", "discrete") if d.package is not None else bool(re.match(r"(U|IC|Q)\d", ref, re.I))
+    return ref in site_refs or ref in regulators or (d.power_W > 0 and chip)
+
+
+def _sites(opts: ImportOptions, names: dict) -> dict:
+    sites = {}
+    for ref, kind in opts.sites.items():
+        targets = SITE_KINDS[kind] or (names[ref],)
+        for s in targets:
+            if s in sites:
+                raise InputError(f"--site: {s} is given twice ({sites[s]['part'][:-4]} and {names[ref]})")
+            sites[s] = Inline({"part": names[ref] + "_die"})
+    return sites
+
+
+def _grease_parts(decisions: list, opts: ImportOptions, notes: list) -> list:
+    """The top-side parts the grease scheme moves to the back (where their footprint is free there)."""
+    modelled = [d for d in decisions if d.fate == "modelled"]
+    total = sum(d.power_W for d in modelled)
+    if opts.grease is not None:
+        chosen = [d for d in modelled if d.footprint.ref in opts.grease]
+        missing = set(opts.grease) - {d.footprint.ref for d in chosen}
+        if missing:
+            raise InputError(f"--grease: {', '.join(sorted(missing))} is not a modelled part (merged or skipped)")
+    else:
+        chosen = [d for d in modelled if d.power_W >= max(GREASE_MIN_W, 0.1 * total)]
+    out = []
+    for d in chosen:
+        if d.footprint.side != "top":
+            notes.append(f"grease scheme: {d.footprint.ref} is on the bottom already; the scheme moves top-side parts "
+                         f"to the back (bond it by hand if it faces the base)")
+            continue
+        clash = [o.footprint.ref for o in decisions if o.fate in ("modelled", "merged") and o.footprint.side == "bottom"
+                 and _overlaps(o.body, d.body)]
+        if clash:
+            notes.append(f"grease scheme: {d.footprint.ref} stays on top: its back-side footprint holds "
+                         f"{', '.join(clash[:4])}")
+            continue
+        out.append(d)
+    return out
+
+
+def _standoffs(board: BoardDesign, decisions: list, x0: float, y0: float, z0: float, height: float,
+               material: str) -> list:
+    """Standoffs under the mounting holes (clipped to the board), else at its corners."""
+    holes = [d.footprint for d in decisions if d.fate == "skipped" and d.reason.startswith("mounting hole")]
+    boxes = []
+    for fp in holes:
+        drills = [p.rect for p in fp.pads]
+        d_hole = min((min(r.width, r.height) for r in drills), default=3.0)
+        outer = 2.0 * d_hole if fp.courtyard is None else min(2.0 * d_hole, fp.courtyard.width)
+        side = outer * math.sqrt(math.pi) / 2.0  # the square of a round standoff's area
+        boxes.append((fp.ref, Rect(fp.x - side / 2, fp.y - side / 2, fp.x + side / 2, fp.y + side / 2)))
+    if not boxes:
+        s, inset = 3.0, 1.0
+        w, h = board.width_mm, board.height_mm
+        boxes = [(f"corner{i + 1}", Rect(x, y, x + s, y + s)) for i, (x, y) in
+                 enumerate(((inset, inset), (w - inset - s, inset), (inset, h - inset - s), (w - inset - s, h - inset - s)))]
+    parts = []
+    for i, (ref, r) in enumerate(boxes):
+        r = _clip(r, board)
+        if r.width <= 0.1 or r.height <= 0.1:
+            continue
+        parts.append({NOTE: f"standoff under {ref}" + (" (mounting hole)" if not ref.startswith("corner") else
+                                                        " (no mounting hole on the board: a corner, assumed)"),
+                      "name": f"standoff_{i + 1}", "min_mm": [_r(x0 + r.x0), _r(y0 + r.y0), _r(z0)],
+                      "size_mm": [_r(r.width), _r(r.height), _r(height)], "material": material})
+    return parts
+
+
+def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> ImportResult:
+    """A single-board unit around ``board`` (see the module docstring); InputError on any problem."""
+    _check_refs(board, opts)
+    rails_refs = _electrical_refs(opts.electrical)
+    unknown_rail = sorted(rails_refs - {fp.ref for fp in board.footprints})
+    if unknown_rail:
+        raise InputError(f"{opts.electrical_source or '--electrical'}: no footprint {', '.join(unknown_rail[:5])} on "
+                         f"the board {board.source}")
+    keep = set(opts.keep) | set(opts.sites) | rails_refs
+    merge = opts.merge_area_mm2 if opts.merge_area_mm2 is not None else 10.0
+    decisions = decide(board, powers=opts.powers, heights=opts.heights, keep=keep, merge_area_mm2=merge)
+    modelled = [d for d in decisions if d.fate == "modelled"]
+    missing = [d for d in modelled if d.height_mm is None]
+    if missing:
+        raise _unknown_heights(board, missing)
+    regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
+    if not any(d.power_W > 0 for d in modelled) and not regulators:
+        raise _no_power(board)
+    notes = []
+    names = _names(decisions, opts.prefix, notes)
+    layout, spec = _single_board_layout(board, decisions, names, opts, regulators, notes)
+    return ImportResult(board, tuple(decisions), layout, spec, tuple(notes), names)
+
+
+def _names(decisions: list, prefix: str, notes: list) -> dict:
+    names, used = {}, set()
+    for d in decisions:
+        if d.fate != "modelled":
+            continue
+        name = component_name(d.footprint.ref, prefix)
+        base, k = name, 2
+        while name in used or name.lower() in ("housing", "lid", "fill", "main") or name.startswith("standoff_"):
+            name, k = f"{base}_{k}", k + 1
+        if name != component_name(d.footprint.ref, prefix):
+            notes.append(f"{d.footprint.ref}: named {name!r} in the layout (its reference is taken)")
+        used.add(name)
+        names[d.footprint.ref] = name
+    return names
+
+
+def _check_placement(board: BoardDesign, modelled: list, notes: list) -> dict:
+    """Bodies on the board: centre inside the outline's rectangle, overhangs clipped, no two overlapping."""
+    bodies = {}
+    for d in modelled:
+        fp, b = d.footprint, d.body
+        cx, cy = b.centre
+        if not (0.0 <= cx <= board.width_mm and 0.0 <= cy <= board.height_mm):
+            raise InputError(f"{board.source}: footprint {fp.ref} ({fp.library}) at ({cx:.2f}, {cy:.2f}) mm lies outside "
+                             f"the board outline (0..{board.width_mm:.2f} x 0..{board.height_mm:.2f} mm)")
+        clipped = _clip(b, board)
+        if clipped != b:
+            over = max(-b.x0, -b.y0, b.x1 - board.width_mm, b.y1 - board.height_mm)
+            notes.append(f"{fp.ref}: its body overhangs the board edge by {over:.2f} mm; the model keeps the part "
+                         f"on the board")
+        bodies[fp.ref] = clipped
+    refs = list(bodies)
+    for i, a in enumerate(refs):
+        for b in refs[i + 1:]:
+            da = next(d for d in modelled if d.footprint.ref == a)
+            db = next(d for d in modelled if d.footprint.ref == b)
+            if da.footprint.side == db.footprint.side and _overlaps(bodies[a], bodies[b]):
+                ra, rb = bodies[a], bodies[b]
+                raise InputError(f"{board.source}: parts {a} and {b} overlap on the {da.footprint.side} side "
+                                 f"({a}: {ra.x0:.2f}..{ra.x1:.2f} x {ra.y0:.2f}..{ra.y1:.2f} mm; {b}: {rb.x0:.2f}.."
+                                 f"{rb.x1:.2f} x {rb.y0:.2f}..{rb.y1:.2f} mm); correct their fab outlines or "
+                                 f"placement in KiCad")
+    return bodies
+
+
+def _board_material_entry(board: BoardDesign, decisions: list, board_name: str) -> tuple:
+    merged = [d for d in decisions if d.fate == "merged"]
+    mass = sum(merged_heat(d)[0] for d in merged)
+    heat = sum(merged_heat(d)[1] for d in merged)
+    area = board.width_mm * board.height_mm
+    tag = f"{board.copper_layers}l_{round(board.thickness_mm * 1e3)}um_{round(mass * 1e6)}mg"
+    name = f"pcb_{re.sub(r'[^A-Za-z0-9_]', '_', board_name)}_{tag}"
+    m = board_material(name, board.thickness_mm, board.copper_um, coverage=DEFAULT_COVERAGE, merged_mass_kg=mass,
+                       merged_heat_capacity_J_K=heat, area_mm2=area,
+                       note=f"stack-up from {board.stackup_source}; {len(merged)} parts merged")
+    table = {NOTE: f"board {board_name}: {m.source}", "k_in_plane": m.k_in_plane, "k_through": m.k_through,
+             "density": m.density, "specific_heat": m.specific_heat, "emissivity": m.emissivity,
+             "source": m.source}
+    return name, table
+
+
+def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tuple:
+    hs = opts.housing
+    for mat in (hs.material, hs.standoff_material):
+        get_material(mat)
+    modelled = [d for d in decisions if d.fate == "modelled"]
+    bodies = _check_placement(board, modelled, notes)
+    site_refs = set(opts.sites)
+    moved = _grease_parts(decisions, opts, notes)
+    moved_refs = {d.footprint.ref for d in moved}
+    placed = [d for d in decisions if d.fate in ("modelled", "merged")]
+    top_h = max([d.height_mm or 0.0 for d in placed if d.footprint.side == "top"], default=0.0)
+    bottom_h = max([d.height_mm or 0.0 for d in placed if d.footprint.side == "bottom"]
+                   + [d.height_mm for d in moved], default=0.0)
+    standoff = max(bottom_h + hs.clearance_mm, hs.min_standoff_mm)
+    keep_moved = []
+    for d in moved:
+        gap = standoff - d.height_mm
+        if gap > MAX_BOND_GAP_MM + 1e-9:
+            notes.append(f"grease scheme: {d.footprint.ref} would sit {gap:.2f} mm from the base (more than "
+                         f"{MAX_BOND_GAP_MM:g} mm of grease): left on top")
+        else:
+            keep_moved.append(d)
+    moved = keep_moved
+    t = board.thickness_mm
+    c = hs.clearance_mm
+    cavity = (board.width_mm + 2 * c, board.height_mm + 2 * c, standoff + t + top_h + c)
+    outer = (cavity[0] + 2 * hs.wall_mm, cavity[1] + 2 * hs.wall_mm, cavity[2] + hs.base_mm + hs.lid_mm)
+    x0, y0, z0 = hs.wall_mm + c, hs.wall_mm + c, hs.base_mm + standoff
+    mat_name, mat_table = _board_material_entry(board, decisions, opts.board_name)
+
+    components = []
+    for d in modelled:
+        ref = d.footprint.ref
+        die = _has_die(d, site_refs, regulators)
+        components.append(_component(board, d, names[ref], opts.board_name, bodies[ref], die,
+                                     ref in regulators and ref not in opts.powers, notes))
+    doc = {
+        NOTE: _header(board, decisions, notes),
+        "name": opts.layout_name or _layout_name(board),
+        "description": f"single-board unit around {board.source.split('/')[-1]} ({board.format}), imported by "
+                       f"imutherm import",
+        "default_scheme": "grease" if moved else "air",
+        "environment": {"ambient_C": Note(hs.ambient_C, "the unit's highest working temperature (the reference "
+                                                        "unit's 70 degC unless given)")},
+        "housing": {NOTE: "the reference unit's housing (layouts/imu_reference.toml) around the board: "
+                          f"{c:g} mm clearance to the walls and above the tallest part",
+                    "outer_mm": [_r(v) for v in outer], "wall_mm": hs.wall_mm, "base_mm": hs.base_mm,
+                    "lid_mm": hs.lid_mm, "material": hs.material},
+        "mounting": _mounting(hs),
+        "materials": {mat_name: mat_table},
+        "boards": [{NOTE: f"{board.format} board {board.source}: {board.width_mm:.3f} x {board.height_mm:.3f} mm "
+                          f"(the outline's bounding rectangle), {t:g} mm, {board.copper_layers} copper layers",
+                    "name": opts.board_name, "normal": "z", "min_mm": [_r(x0), _r(y0), _r(z0)],
+                    "size_mm": [_r(board.width_mm), _r(board.height_mm), _r(t)], "material": mat_name,
+                    "source": f"{board.source} ({board.format})",
+                    "outline_mm": [[[_r(x), _r(y)] for x, y in line] for line in board.outline],
+                    "merged_parts": _merged_entries(decisions)}],
+        "parts": _standoffs(board, decisions, x0, y0, hs.base_mm, standoff, hs.standoff_material),
+        "components": components,
+    }
+    if opts.electrical:
+        doc.update(_renamed_electrical(opts.electrical, names))
+    sites = _sites(opts, names)
+    if sites:
+        doc["sites"] = sites
+    else:
+        notes.append("no sensor sites: `imutherm compare` needs them; import again with --site REF=imu (a 6-axis "
+                     "chip) or --site REF=gyro / REF=accel")
+    schemes = {"air": {"description": "every part on the board as designed; heat leaves through the air, the "
+                                      "standoffs and the housing", "fill": "air"}}
+    if moved:
+        schemes["grease"] = {"description": "the dissipators moved to the back of the board and bonded to the base "
+                                            "with silicone grease (the reference unit's scheme 2)",
+                             "fill": "air", "move_to_back": [names[d.footprint.ref] for d in moved],
+                             "bond_material": "silicone_grease",
+                             "max_bond_gap_mm": Note(MAX_BOND_GAP_MM, "the reference unit's limit")}
+    else:
+        notes.append("no grease scheme: no dissipator could move to the back of the board (see the notes above)")
+    schemes["potted"] = {"description": "the free interior potted", "fill": "potting_compound"}
+    doc["schemes"] = schemes
+    text = dumps(doc)
+    spec = check_layout_text(text, board.source)
+    return text, spec
+
+
+def _merged_entries(decisions: list) -> list:
+    """The board's ``merged_parts`` list (drawings and IDF export): body centre and size, side, footprint."""
+    out = []
+    for d in decisions:
+        if d.fate == "merged":
+            b = d.body
+            out.append(Inline({"name": d.footprint.ref, "side": d.footprint.side,
+                               "center_mm": [_r(b.centre[0]), _r(b.centre[1])],
+                               "size_mm": [_r(max(b.width, 1e-3)), _r(max(b.height, 1e-3)),
+                                           _r(d.height_mm or MERGED_UNKNOWN_HEIGHT_MM)],
+                               "footprint": d.footprint.library}))
+    return out
+
+
+def _mounting(hs: HousingOptions) -> dict:
+    if hs.mounting == "free":
+        return {"kind": "free", "face": "bottom"}
+    return {"kind": "fixture", "face": "bottom",
+            "contact_conductance_W_m2K": Note(hs.contact_conductance_W_m2K, "the reference unit's assumed bolted "
+                                                                             "Al-Al joint"),
+            "temperature_C": hs.ambient_C}
+
+
+def _layout_name(board: BoardDesign) -> str:
+    stem = re.sub(r"\.(kicad_pcb|emn)$", "", board.source.replace("\\", "/").split("/")[-1], flags=re.I)
+    return re.sub(r"[^A-Za-z0-9_-]", "_", stem) or "imported"
+
+
+def _renamed_electrical(electrical: dict, names: dict) -> dict:
+    """The ``[electrical]`` and ``[[rails]]`` tables with references turned into layout names."""
+    rails = []
+    for rail in electrical.get("rails", []):
+        r = dict(rail)
+        if "regulator" in r:
+            r["regulator"] = names.get(r["regulator"], r["regulator"])
+        if isinstance(r.get("loads_A"), dict):
+            r["loads_A"] = Inline({names.get(k, k): v for k, v in r["loads_A"].items()})
+        rails.append(r)
+    return {"electrical": dict(electrical.get("electrical", {})), "rails": rails}
+
+
+def _header(board: BoardDesign, decisions: list, notes: list) -> str:
+    fates = {f: [d for d in decisions if d.fate == f] for f in ("modelled", "merged", "skipped")}
+    lines = [f"Imported by `imutherm import` from {board.source} ({board.format}).",
+             f"{len(decisions)} footprints: {len(fates['modelled'])} modelled, {len(fates['merged'])} merged into "
+             f"the board, {len(fates['skipped'])} skipped.",
+             "Lengths in mm, powers in W, temperatures in degC; board-local (u, v) = the board file's (x, y) with y "
+             "up, origin at the outline's lower left. Edit freely: this is an ordinary layout file.",
+             "merged (mass and heat capacity smeared into the board): " + ", ".join(
+                 sorted((d.footprint.ref for d in fates["merged"]), key=_natural))]
+    for d in sorted(fates["skipped"], key=lambda d: _natural(d.footprint.ref)):
+        lines.append(f"skipped {d.footprint.ref}: {d.reason}")
+    return "\n".join(lines)
+
+
+def check_layout_text(text: str, where: str):
+    """The layout ``text`` parsed and every scheme built (InputError with the first problem); its LayoutSpec."""
+    from imutherm.geometry.build import build_geometry
+
+    data = tomllib.loads(text)
+    spec = parse_layout(data, f"{where} (imported)")
+    for name in spec.schemes:
+        build_geometry(spec, name)
+    return spec
+
+
+def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: ImportOptions) -> ImportResult:
+    """The layout ``layout_path`` with its board ``board_name`` replaced by the imported one.
+
+    The board keeps its place (lower corner and normal) in the unit; its in-plane size and thickness are the
+    file's. The old board's components, their sites and their rail loads go; the imported board's modelled
+    parts come in with ``<board_name>_`` before their references. The result is regenerated from the data, so
+    comments of the original file are not carried over (the CLI says so).
+    """
+    from imutherm.geometry.layout import resolve_layout
+    from imutherm.textio import read_text
+
+    path = resolve_layout(layout_path)
+    try:
+        data = tomllib.loads(read_text(path, "layout file"))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    boards = data.get("boards", [])
+    target = next((b for b in boards if isinstance(b, dict) and b.get("name") == board_name), None)
+    if target is None:
+        raise InputError(f"{path}: --board {board_name!r}: no such board; boards: "
+                         f"{', '.join(str(b.get('name')) for b in boards if isinstance(b, dict))}")
+    opts = replace(opts, board_name=board_name, prefix=opts.prefix or f"{board_name}_")
+    _check_refs(board, opts)
+    keep = set(opts.keep) | set(opts.sites) | _electrical_refs(opts.electrical)
+    decisions = decide(board, powers=opts.powers, heights=opts.heights, keep=keep,
+                       merge_area_mm2=opts.merge_area_mm2 if opts.merge_area_mm2 is not None else 10.0)
+    modelled = [d for d in decisions if d.fate == "modelled"]
+    missing = [d for d in modelled if d.height_mm is None]
+    if missing:
+        raise _unknown_heights(board, missing)
+    notes = [f"{path}: board {board_name!r} replaced; the file is regenerated from its data, so its comments are "
+             f"not carried over"]
+    names = _names(decisions, opts.prefix, notes)
+    bodies = _check_placement(board, modelled, notes)
+    normal = target.get("normal", "z")
+    axis = "xyz".index(normal)
+    a0, a1 = (a for a in range(3) if a != axis)
+    size = [0.0, 0.0, 0.0]
+    size[a0], size[a1], size[axis] = board.width_mm, board.height_mm, board.thickness_mm
+    mat_name, mat_table = _board_material_entry(board, decisions, board_name)
+    target.update(size_mm=[_r(v) for v in size], material=mat_name, source=f"{board.source} ({board.format})",
+                  outline_mm=[[[_r(x), _r(y)] for x, y in line] for line in board.outline],
+                  merged_parts=_merged_entries(decisions))
+    data.setdefault("materials", {})[mat_name] = mat_table
+    old = {c.get("name") for c in data.get("components", []) if isinstance(c, dict) and c.get("board") == board_name}
+    data["components"] = [c for c in data.get("components", []) if c.get("name") not in old]
+    dies = {f"{n}_die" for n in old} | old | {f"{n}_pad" for n in old}
+    for s in [s for s, v in data.get("sites", {}).items()
+              if isinstance(v, dict) and (v.get("part") in dies or v.get("board") == board_name)]:
+        del data["sites"][s]
+        notes.append(f"site {s} went with board {board_name!r}'s old parts")
+    for scheme in data.get("schemes", {}).values():
+        if isinstance(scheme, dict) and "move_to_back" in scheme:
+            scheme["move_to_back"] = [c for c in scheme["move_to_back"] if c not in old]
+    for rail in data.get("rails", []) or []:
+        if isinstance(rail, dict):
+            if rail.get("regulator") in old:
+                raise InputError(f"{path}: rail {rail.get('name')!r} is regulated by {rail['regulator']!r}, a part of "
+                                 f"board {board_name!r} that the import replaces; give the rails again with "
+                                 f"--electrical FILE naming the imported parts")
+            if isinstance(rail.get("loads_A"), dict):
+                rail["loads_A"] = Inline({k: v for k, v in rail["loads_A"].items() if k not in old})
+    regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
+    for d in modelled:
+        ref = d.footprint.ref
+        die = _has_die(d, set(opts.sites), regulators)
+        data["components"].append(_component(board, d, names[ref], board_name, bodies[ref], die,
+                                             ref in regulators and ref not in opts.powers, notes))
+    if opts.electrical:
+        new = _renamed_electrical(opts.electrical, names)
+        data["electrical"] = new["electrical"]
+        data["rails"] = list(data.get("rails", []) or []) + new["rails"]
+    data["sites"] = {k: Inline(v) if isinstance(v, dict) else v for k, v in data.get("sites", {}).items()}
+    data["sites"].update(_sites(opts, names))
+    data[NOTE] = (f"{path} with board {board_name!r} imported from {board.source} ({board.format}) by "
+                  f"`imutherm import --into`.\n" + _header(board, decisions, notes))
+    text = dumps(data)
+    spec = check_layout_text(text, board.source)
+    return ImportResult(board, tuple(decisions), text, spec, tuple(notes), names)
