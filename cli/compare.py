@@ -170,13 +170,19 @@ def _study_config(args):
 
 
 def _scheme_files(res, folder) -> None:
-    """Each scheme's files (curves, residuals, attitude CSV; VTU; maps) and its ``layout_<s>.png``."""
+    """Each scheme's files (curves, residuals, attitude CSV; VTU; maps), its ``layout_<s>.png`` and, for a board
+    imported from a board file, ``board_<name>.png``."""
     from imutherm.reports.layout_plot import plot_layout
     from imutherm.studies.end_to_end import write_scheme_files
+
+    from imutherm.reports.board_plot import imported_boards, plot_board
 
     write_scheme_files(res, folder)
     for name, st in res.schemes.items():
         plot_layout(st.thermal.geometry, folder / f"layout_{name}.png")
+    first = next(iter(res.schemes.values())).thermal.geometry
+    for board in imported_boards(first):  # an imported board over its true outline, every part named
+        plot_board(first, board, folder / f"board_{board}.png")
 
 
 def _end_to_end(args, schemes, config) -> int:

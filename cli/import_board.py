@@ -53,6 +53,9 @@ def add_args(parser) -> None:
                    help="model these parts even if small and unpowered (repeatable)")
     g.add_argument("--merge-area", type=float, default=None, metavar="MM2",
                    help="largest body area of an unpowered part merged into the board [mm^2] (default 10)")
+    g.add_argument("--exact", action="store_true",
+                   help="keep every modelled part's exact outline (by default a part without a die has its edges "
+                        "snapped by up to 1 mm to its neighbours' lines, so it adds few mesh lines)")
     g.add_argument("--grease", default=None, metavar="REF[,REF]",
                    help="the parts the grease scheme moves to the back and bonds to the base (default: the "
                         "dissipators above 10 %% of the power and 0.05 W)")
@@ -102,7 +105,7 @@ def _options(args):
                          electrical_source=args.electrical or "",
                          grease=parse_refs([args.grease]) if args.grease is not None else None,
                          board_name=args.board, layout_name=args.name, housing=housing,
-                         merge_area_mm2=args.merge_area)
+                         merge_area_mm2=args.merge_area, exact=args.exact)
 
 
 def _print_report(result, out: Path) -> None:
@@ -113,9 +116,12 @@ def _print_report(result, out: Path) -> None:
           f"{b.copper_layers} copper layers ({b.stackup_source})")
     print(f"{len(result.decisions)} footprints: {result.count('modelled')} modelled, {result.count('merged')} merged "
           f"into the board, {result.count('skipped')} skipped")
+    comps = {c.name: c for c in result.spec.components}
     for d in sorted((d for d in result.decisions if d.fate == "modelled"), key=lambda d: _natural(d.footprint.ref)):
         fp, body = d.footprint, d.body
-        power = f"{d.power_W:g} W ({d.power_source})" if d.power_W else "unpowered"
+        c = comps[result.names[fp.ref]]
+        source = "the electrical design" if c.power_source.startswith("electrical") else d.power_source
+        power = f"{c.power_W:.3g} W ({source[:60]}{'...' if len(source) > 60 else ''})" if c.power_W else "unpowered"
         print(f"  modelled {fp.ref:<6} {fp.value[:22]:<22} {body.width:5.2f} x {body.height:5.2f} x {d.height_mm:4.2f} mm "
               f"{fp.side:<6} {power}")
     merged = sorted((d.footprint.ref for d in result.decisions if d.fate == "merged"), key=_natural)

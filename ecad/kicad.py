@@ -63,7 +63,8 @@ def read_kicad(path: str | Path) -> BoardDesign:
     tree = parse_sexpr(text, where)
     version_node = child(tree, "version")
     version = float(version_node[1]) if version_node and isinstance(version_node[1], float) else 0.0
-    release = kicad_release(version)
+    generator = child(tree, "generator_version")  # KiCad 8+ names its release
+    release = f"KiCad {generator[1]}" if generator and len(generator) > 1 else kicad_release(version)
     layers = _layer_table(tree, where)
     copper = [n for n, (_, kind) in layers.items() if kind in COPPER_TYPES] or [n for n in layers if n < 32]
     names = {name: n for n, (name, _) in layers.items()}
@@ -149,7 +150,7 @@ def _stackup(tree, where: str, n_copper: int) -> tuple:
         for um in copper_um:
             if not 5.0 <= um <= 500.0:
                 raise InputError(f"{where}: a stack-up copper layer is {um:g} um thick; valid 5..500 um")
-        return total, tuple(copper_um), f"the file's stack-up ({len(copper_um)} copper layers, {total:.3f} mm)"
+        return total, tuple(copper_um), f"the file's stack-up: {len(copper_um)} copper layers, {total:.3f} mm"
     if stated_mm is None:
         raise InputError(f"{where}: the board states no thickness ((general (thickness ...)) and no stack-up)")
     if not lo <= stated_mm <= hi:

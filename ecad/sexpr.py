@@ -94,3 +94,14 @@ def child(node, key: str):
         if isinstance(c, list) and c and c[0] == key:
             return c
     return None
+
+
+def dump_sexpr(node) -> str:
+    """The text of a parsed node (:func:`parse_sexpr`'s lists back to an S-expression, one line)."""
+    if isinstance(node, list):
+        return "(" + " ".join(dump_sexpr(c) for c in node) + ")"
+    if isinstance(node, Quoted):
+        return '"' + node.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(node, float):
+        return str(int(node)) if node.is_integer() else repr(node)
+    return str(node)

@@ -19,6 +19,7 @@ the tallest bottom-side part plus 1 mm, 2 mm at least.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 from dataclasses import dataclass, field, replace
@@ -55,6 +56,13 @@ GREASE_MIN_W = 0.05
 MAX_BOND_GAP_MM = 2.0
 #: lengths in the layout to this precision [mm] (10 um: far below any cell; keeps the file readable)
 DIGITS = 3
+#: least power [W] of a chip that gets a die of its own (sites and regulators always do): below it the power is
+#: spread through the package; a 10 mW die 100 K/W above its board is 1 K warmer, less than the mesh resolves
+DIE_MIN_W = 0.01
+#: a part without a die has its in-plane edges moved to a neighbour's line this close [mm] (half the default
+#: largest cell), else to this lattice [mm] (see _snap_soft_parts; ``imutherm import --exact`` keeps every edge)
+SNAP_MM = 1.0
+SNAP_LATTICE_MM = 0.5
 
 
 @dataclass(frozen=True)
@@ -82,6 +90,7 @@ class ImportOptions:
     electrical : dict or None, an ``[electrical]`` table and its ``[[rails]]`` (``--electrical FILE``)
     grease : tuple of refs or None, the parts the grease scheme moves to the back (None: the dissipators)
     board_name, layout_name : str; prefix : str, put before every component name (``--into``)
+    exact : bool, keep every part's exact outline (no snapping of the parts without a die)
     """
 
     powers: dict = field(default_factory=dict)
@@ -98,6 +107,7 @@ class ImportOptions:
     prefix: str = ""
     housing: HousingOptions = HousingOptions()
     merge_area_mm2: float | None = None
+    exact: bool = False
 
 
 @dataclass(frozen=True)
@@ -222,35 +232,43 @@ def _overlaps(a: Rect, b: Rect, tol: float = 1e-3) -> bool:
     return min(a.x1, b.x1) - max(a.x0, b.x0) > tol and min(a.y1, b.y1) - max(a.y0, b.y0) > tol
 
 
+def _die_and_pad(board: BoardDesign, d: Decision, body: Rect) -> tuple:
+    """((die u, v, thickness), die base, (pad u, v) or None, vias under the pad) [mm] of a part with a die."""
+    h = d.height_mm
+    dt, db = min(DIE_THICKNESS_MM, 0.35 * h), min(DIE_BASE_MM, 0.25 * h)
+    du, dv = DIE_FRACTION * body.width, DIE_FRACTION * body.height
+    ep = _exposed_pad(d)
+    if ep is None:
+        return (du, dv, dt), db, None, 0
+    (pu, pv), pad_rect = ep
+    pu, pv = min(pu, body.width), min(pv, body.height)
+    return (min(du, pu), min(dv, pv), dt), db, (pu, pv), _vias_under(board, d, pad_rect)
+
+
 def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body: Rect, die: bool,
-               power_from_rails: bool, notes: list) -> dict:
+               power_from_rails: bool, snapped: str = "") -> dict:
     """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it)."""
     fp = d.footprint
     h = d.height_mm
     entry = {NOTE: (f"{fp.ref} {fp.value} ({fp.library}) at ({fp.x:.3f}, {fp.y:.3f}) mm, {fp.rotation_deg:g} deg, "
-                    f"{fp.side}; {d.reason}\nheight {h:g} mm: {d.height_source}"),
+                    f"{fp.side}; {d.reason}\nheight {h:g} mm: {d.height_source}"
+                    + (f"\n{snapped}" if snapped else "")),
              "name": name, "board": board_name, "side": fp.side,
              "center_mm": [_r(body.centre[0]), _r(body.centre[1])],
              "size_mm": Note([_r(body.width), _r(body.height), _r(h)],
                              "body from the " + ("fab outline" if fp.fab is not None else "courtyard / pads")
                              + (" and pads" if d.package is not None and d.package.body == "fab+pads" else "")
                              + (f"; rotated {fp.rotation_deg:g} deg: the same area, aligned to the nearest axis"
-                                if off_axis(fp) else "")),
+                                if off_axis(fp) else "") + ("; edges snapped (see above)" if snapped else "")),
              "material": d.package.material if d.package is not None else "mould_compound",
              "footprint": fp.library}
     if die:
-        dt, db = min(DIE_THICKNESS_MM, 0.35 * h), min(DIE_BASE_MM, 0.25 * h)
-        du, dv = DIE_FRACTION * body.width, DIE_FRACTION * body.height
-        ep = _exposed_pad(d)
-        if ep is not None:
-            (pu, pv), pad_rect = ep
-            pu, pv = min(pu, body.width), min(pv, body.height)
-            du, dv = min(du, pu), min(dv, pv)
-            entry["exposed_pad"] = Note(True, f"largest pad {pu:.3g} x {pv:.3g} mm under the body")
-            entry["pad_mm"] = [_r(pu), _r(pv)]
-            n = _vias_under(board, d, pad_rect)
-            if n >= MIN_VIAS:
-                entry["vias"] = Note(True, f"{n} vias inside the exposed pad")
+        (du, dv, dt), db, pad, vias = _die_and_pad(board, d, body)
+        if pad is not None:
+            entry["exposed_pad"] = Note(True, f"largest pad {pad[0]:.3g} x {pad[1]:.3g} mm under the body")
+            entry["pad_mm"] = [_r(pad[0]), _r(pad[1])]
+            if vias >= MIN_VIAS:
+                entry["vias"] = Note(True, f"{vias} vias inside the exposed pad")
         entry["die_mm"] = Note([_r(du), _r(dv), _r(dt)], f"assumed: {DIE_FRACTION:g} of the body, as the reference "
                                                           f"unit's dies")
         entry["die_base_mm"] = _r(db)
@@ -259,12 +277,62 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
     return entry
 
 
+def _snap_soft_parts(board: BoardDesign, modelled: list, bodies: dict, hard: set, anchors_extra, exact: bool) -> tuple:
+    """Bodies of the parts without a die, their in-plane edges moved to the nearest line of the hard parts
+    (those with a die), the board, the standoffs or an already snapped edge within :data:`SNAP_MM`, else to the
+    :data:`SNAP_LATTICE_MM` lattice: they then add few grid lines (a tensor mesh carries every part's faces
+    across the unit). A part whose snapped body would overlap a neighbour, or lose more than half its width,
+    keeps its exact body. Returns (bodies, {ref: note})."""
+    if exact:
+        return bodies, {}
+    anchors = [{0.0, board.width_mm}, {0.0, board.height_mm}]
+    for d in modelled:
+        ref = d.footprint.ref
+        if ref not in hard:
+            continue
+        b = bodies[ref]
+        anchors[0] |= {b.x0, b.x1}
+        anchors[1] |= {b.y0, b.y1}
+        (du, dv, _), _, pad, _ = _die_and_pad(board, d, b)
+        cx, cy = b.centre
+        anchors[0] |= {cx - du / 2, cx + du / 2} | ({cx - pad[0] / 2, cx + pad[0] / 2} if pad else set())
+        anchors[1] |= {cy - dv / 2, cy + dv / 2} | ({cy - pad[1] / 2, cy + pad[1] / 2} if pad else set())
+    for r in anchors_extra:
+        anchors[0] |= {r.x0, r.x1}
+        anchors[1] |= {r.y0, r.y1}
+
+    def snap(v, axis):
+        near = min(anchors[axis], key=lambda a: abs(a - v))
+        return near if abs(near - v) <= SNAP_MM else round(v / SNAP_LATTICE_MM) * SNAP_LATTICE_MM
+
+    out, notes = dict(bodies), {}
+    soft = sorted((d for d in modelled if d.footprint.ref not in hard), key=lambda d: -bodies[d.footprint.ref].area)
+    for d in soft:
+        ref, b = d.footprint.ref, bodies[d.footprint.ref]
+        s = _clip(Rect(snap(b.x0, 0), snap(b.y0, 1), snap(b.x1, 0), snap(b.y1, 1)), board)
+        if s.width < 0.5 * b.width or s.height < 0.5 * b.height or s.width <= 0 or s.height <= 0:
+            continue
+        if any(o is not d and o.footprint.side == d.footprint.side and _overlaps(s, out[o.footprint.ref])
+               for o in modelled):
+            continue
+        if s != b:
+            out[ref] = s
+            anchors[0] |= {s.x0, s.x1}
+            anchors[1] |= {s.y0, s.y1}
+            move = max(abs(s.x0 - b.x0), abs(s.x1 - b.x1), abs(s.y0 - b.y0), abs(s.y1 - b.y1))
+            notes[ref] = (f"in-plane edges snapped by up to {move:.2f} mm to its neighbours' lines (a part without "
+                          f"a die: its exact outline would only add mesh lines); exact body {b.x0:.3f}..{b.x1:.3f} x "
+                          f"{b.y0:.3f}..{b.y1:.3f} mm")
+    return out, notes
+
+
 def _has_die(d: Decision, site_refs: set, regulators: set) -> bool:
-    """A die for a powered chip (its power in the die, not spread through the package), a sensor site or a
-    regulator; a powered passive, inductor or connector dissipates through its whole body."""
+    """A die for a chip dissipating at least :data:`DIE_MIN_W` (its power in the die, not spread through the
+    package), a sensor site or a regulator; a passive, inductor or connector, or a chip of less power,
+    dissipates through its whole body."""
     ref = d.footprint.ref
     chip = d.package.kind in ("ic", "discrete") if d.package is not None else bool(re.match(r"(U|IC|Q)\d", ref, re.I))
-    return ref in site_refs or ref in regulators or (d.power_W > 0 and chip)
+    return ref in site_refs or ref in regulators or (d.power_W >= DIE_MIN_W and chip)
 
 
 def _sites(opts: ImportOptions, names: dict) -> dict:
@@ -407,11 +475,12 @@ def _board_material_entry(board: BoardDesign, decisions: list, board_name: str) 
     mass = sum(merged_heat(d)[0] for d in merged)
     heat = sum(merged_heat(d)[1] for d in merged)
     area = board.width_mm * board.height_mm
-    tag = f"{board.copper_layers}l_{round(board.thickness_mm * 1e3)}um_{round(mass * 1e6)}mg"
-    name = f"pcb_{re.sub(r'[^A-Za-z0-9_]', '_', board_name)}_{tag}"
-    m = board_material(name, board.thickness_mm, board.copper_um, coverage=DEFAULT_COVERAGE, merged_mass_kg=mass,
+    m = board_material("board", board.thickness_mm, board.copper_um, coverage=DEFAULT_COVERAGE, merged_mass_kg=mass,
                        merged_heat_capacity_J_K=heat, area_mm2=area,
-                       note=f"stack-up from {board.stackup_source}; {len(merged)} parts merged")
+                       note=f"stack-up: {board.stackup_source}; {len(merged)} parts merged")
+    # named by its values, so two boards of the same name but other stack-ups never share a name in a process
+    digest = hashlib.sha1(repr((m.k_in_plane, m.k_through, m.density, m.specific_heat)).encode()).hexdigest()[:6]
+    name = f"pcb_{re.sub(r'[^A-Za-z0-9_]', '_', board_name)}_{board.copper_layers}l_{digest}"
     table = {NOTE: f"board {board_name}: {m.source}", "k_in_plane": m.k_in_plane, "k_through": m.k_through,
              "density": m.density, "specific_heat": m.specific_heat, "emissivity": m.emissivity,
              "source": m.source}
@@ -448,12 +517,19 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
     x0, y0, z0 = hs.wall_mm + c, hs.wall_mm + c, hs.base_mm + standoff
     mat_name, mat_table = _board_material_entry(board, decisions, opts.board_name)
 
+    standoffs = _standoffs(board, decisions, x0, y0, hs.base_mm, standoff, hs.standoff_material)
+    hard = {d.footprint.ref for d in modelled if _has_die(d, site_refs, regulators)}
+    local = [Rect(p["min_mm"][0] - x0, p["min_mm"][1] - y0, p["min_mm"][0] - x0 + p["size_mm"][0],
+                  p["min_mm"][1] - y0 + p["size_mm"][1]) for p in standoffs]
+    bodies, snapped = _snap_soft_parts(board, modelled, bodies, hard, local, opts.exact)
     components = []
     for d in modelled:
         ref = d.footprint.ref
-        die = _has_die(d, site_refs, regulators)
-        components.append(_component(board, d, names[ref], opts.board_name, bodies[ref], die,
-                                     ref in regulators and ref not in opts.powers, notes))
+        components.append(_component(board, d, names[ref], opts.board_name, bodies[ref], ref in hard,
+                                     ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
+    if snapped:
+        notes.append(f"{len(snapped)} parts without a die have their edges snapped (<= {SNAP_MM:g} mm) to their "
+                     f"neighbours' lines, so they add few mesh lines; --exact keeps every edge")
     doc = {
         NOTE: _header(board, decisions, notes),
         "name": opts.layout_name or _layout_name(board),
@@ -475,7 +551,7 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
                     "source": f"{board.source} ({board.format})",
                     "outline_mm": [[[_r(x), _r(y)] for x, y in line] for line in board.outline],
                     "merged_parts": _merged_entries(decisions)}],
-        "parts": _standoffs(board, decisions, x0, y0, hs.base_mm, standoff, hs.standoff_material),
+        "parts": standoffs,
         "components": components,
     }
     if opts.electrical:
@@ -632,11 +708,12 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
             if isinstance(rail.get("loads_A"), dict):
                 rail["loads_A"] = Inline({k: v for k, v in rail["loads_A"].items() if k not in old})
     regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
+    hard = {d.footprint.ref for d in modelled if _has_die(d, set(opts.sites), regulators)}
+    bodies, snapped = _snap_soft_parts(board, modelled, bodies, hard, (), opts.exact)
     for d in modelled:
         ref = d.footprint.ref
-        die = _has_die(d, set(opts.sites), regulators)
-        data["components"].append(_component(board, d, names[ref], board_name, bodies[ref], die,
-                                             ref in regulators and ref not in opts.powers, notes))
+        data["components"].append(_component(board, d, names[ref], board_name, bodies[ref], ref in hard,
+                                             ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
     if opts.electrical:
         new = _renamed_electrical(opts.electrical, names)
         data["electrical"] = new["electrical"]

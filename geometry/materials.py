@@ -114,10 +114,15 @@ def register_materials(materials, where: str) -> None:
         if m.name in lib:
             raise InputError(f"{where}: material {m.name!r} is already a library material; give yours another name")
         old = _LAYOUT_MATERIALS.get(m.name)
-        if old is not None and old != m:
+        if old is not None and _values(old) != _values(m):
             raise InputError(f"{where}: material {m.name!r} is defined with other values by another layout read in "
                              f"this process ({old.source[:80]}); give this one another name")
         _LAYOUT_MATERIALS[m.name] = m
+
+
+def _values(m: Material) -> tuple:
+    """The physical values of a material (its source text aside: the same numbers are the same material)."""
+    return (m.k_in_plane, m.k_through, m.density, m.specific_heat, m.emissivity)
 
 
 def material_names() -> tuple:

@@ -135,13 +135,22 @@ def answer_figure(fig, rect, data: dict) -> None:
     axes[len(comps) - 1].legend(fontsize=6.5, ncol=min(len(filters), 3), loc="upper right")
 
 
+def boards_line(data: dict) -> str:
+    """Where each board comes from: ``boards: main from openuav.kicad_pcb (KiCad 7 ...)``, or "" if all are
+    the layout file's own."""
+    imported = [b for b in data.get("boards", []) if b.get("source")]
+    if not imported:
+        return ""
+    return "boards: " + "; ".join(f"{b['name']} from {b['source']}" for b in imported) + "; "
+
+
 def _answer_page(pdf, data: dict) -> None:
     """Page 1: the answer sentences and the answer as a figure (the tables follow)."""
     st = data["study"]
     prof = _main_profile(st)
     fig = plt.figure(figsize=A4)
     _title(fig, f"Which cooling scheme, and what it does to attitude accuracy: {data['layout']}", textwrap.fill(
-           f"ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; grade {st['grade']}, seeds "
+           f"{boards_line(data)}ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; grade {st['grade']}, seeds "
            f"{data['seeds'][0]}..{data['seeds'][-1]} (bars: mean, whiskers: std over the seeds, the same seeds in "
            f"every scheme); calibrated in the unit (oven -40..70 C with each scheme's self-heating); out-of-range "
            f"policy '{data['out_of_range_policy']}'; {prof} profile, attitude error RMS through the warm-up; "
@@ -237,6 +246,17 @@ def _bare_page(pdf, data: dict) -> None:
 
 
 def _image_pages(pdf, folder: Path, data: dict) -> None:
+    for b in data.get("boards", []):
+        png = folder / f"board_{b['name']}.png"
+        if png.exists():  # an imported board: its true outline, every part with its reference
+            fig = plt.figure(figsize=A4)
+            _title(fig, f"Board {b['name']}, imported from its board file", f"{b['source']}; "
+                   f"{b['merged_parts']} small unpowered parts merged into the board material ({b['material']})")
+            ax = fig.add_axes([0.02, 0.02, 0.96, 0.86])
+            ax.imshow(plt.imread(png))
+            ax.axis("off")
+            pdf.savefig(fig)
+            plt.close(fig)
     for name, s in data["schemes"].items():
         png = folder / f"layout_{name}.png"
         if not png.exists():
@@ -484,7 +504,7 @@ def _parameters_page(pdf, data: dict) -> None:
     fig = plt.figure(figsize=A4)
     _title(fig, "Parameters used and their sources",
            f"layout file {data['layout_path']} (every power, size and placement carries its source or 'assumed' "
-           "beside it)")
+           f"beside it); {boards_line(data) or 'every board from the layout file'}")
     lines = ["Materials:"]
     for name, m in data["materials"].items():
         k = f"k {m['k_in_plane']:g}" + ("" if m["k_through"] == m["k_in_plane"] else f"/{m['k_through']:g}")

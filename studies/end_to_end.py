@@ -755,6 +755,8 @@ def study_summary(result: StudyResult) -> dict:
     return {
         "layout": lay.name, "layout_path": str(lay.path), "ambient_C": lay.ambient_C,
         "power_W": first.total_power_W,
+        "boards": [{"name": b.name, "source": b.source, "size_mm": list(b.size_mm), "material": b.material,
+                    "merged_parts": len(b.merged_parts)} for b in lay.boards],
         "units": "temperatures degC, rises K, times s, angles deg, accel residuals mg, gyro residuals deg/s; "
                  "every IMU metric is {mean, std} over the seeds (population std)",
         "seeds": list(range(result.config.seed0, result.config.seed0 + result.config.seeds)),

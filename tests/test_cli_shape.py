@@ -12,7 +12,7 @@ import pytest
 
 import imutherm
 from imutherm import ConvergenceError, InputError
-from imutherm.cli import COMMANDS, build_parser, main
+from imutherm.cli import COMMANDS, MODULES, build_parser, main
 
 
 def test_top_level_help_lists_every_command_with_its_help(capsys):
@@ -27,14 +27,14 @@ def test_top_level_help_lists_every_command_with_its_help(capsys):
 
 @pytest.mark.parametrize("name", list(COMMANDS))
 def test_every_command_module_has_the_three_functions(name):
-    module = importlib.import_module(f"imutherm.cli.{name}")
+    module = importlib.import_module(f"imutherm.cli.{MODULES.get(name, name)}")   # import: import_board
     for func in ("add_args", "run", "main"):
         assert callable(getattr(module, func, None)), f"imutherm.cli.{name}.{func}"
 
 
 @pytest.mark.parametrize("name", list(COMMANDS))
 def test_command_help_is_the_same_through_imutherm_and_the_module(name, capsys):
-    module = importlib.import_module(f"imutherm.cli.{name}")
+    module = importlib.import_module(f"imutherm.cli.{MODULES.get(name, name)}")
     with pytest.raises(SystemExit) as exc:
         main([name, "--help"])
     assert exc.value.code == 0

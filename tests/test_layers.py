@@ -1,5 +1,5 @@
-"""The package's layers point one way: base -> geometry, imu -> thermal (the FEM core) -> unit (the unit model)
--> studies -> reports -> cli.
+"""The package's layers point one way: base -> geometry -> ecad (board files into layouts), imu -> thermal (the FEM
+core) -> unit (the unit model) -> studies -> reports -> cli.
 
 Every ``import`` of every module, at the top or inside a function (a hidden upward import is still a
 cycle), is read with :mod:`ast`; nothing is imported or run. A module's layer is its top folder
@@ -16,13 +16,14 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ("imutherm", "geometry", "imu", "layouts", "thermal", "unit", "studies", "reports", "cli")
+LAYERS = ("imutherm", "geometry", "ecad", "imu", "layouts", "thermal", "unit", "studies", "reports", "cli")
 #: what each layer must not import
 FORBIDDEN = {
-    "imutherm": {"geometry", "imu", "thermal", "unit", "studies", "reports", "cli"},
-    "geometry": {"imu", "thermal", "unit", "studies", "reports", "cli"},
-    "imu": {"geometry", "thermal", "unit", "studies", "reports", "cli"},
-    "thermal": {"imu", "unit", "studies", "reports", "cli"},
+    "imutherm": {"geometry", "ecad", "imu", "thermal", "unit", "studies", "reports", "cli"},
+    "geometry": {"ecad", "imu", "thermal", "unit", "studies", "reports", "cli"},
+    "ecad": {"imu", "thermal", "unit", "studies", "reports", "cli"},
+    "imu": {"geometry", "ecad", "thermal", "unit", "studies", "reports", "cli"},
+    "thermal": {"ecad", "imu", "unit", "studies", "reports", "cli"},
     "unit": {"imu", "studies", "reports", "cli"},
     "studies": {"reports", "cli"},
     "reports": {"cli"},
