@@ -19,6 +19,7 @@ hits both sides alike; ratios are of the medians.
 from __future__ import annotations
 
 import argparse
+import copy
 import gzip
 import os
 import resource
@@ -128,7 +129,7 @@ def _extent(fp) -> tuple:
             max(x + w / 2 for x, _, w, _ in pads), max(y + h / 2 for _, y, _, h in pads))
 
 
-def dense_board(folder: Path, copies: int = 4, fill: float = 0.8) -> Path:
+def dense_board(folder: Path, copies: int = 5, fill: float = 0.8) -> Path:
     """A board of real density: the footprints of ``copies`` shared boards (alternately openuav and drone-fc;
     their mounting holes and wire pads left out, four corner holes added) re-placed at rotation 0 by shelf
     packing onto a square board whose courtyards cover ``fill`` of it, with the copies' powers and heights."""
@@ -148,7 +149,8 @@ def dense_board(folder: Path, copies: int = 4, fill: float = 0.8) -> Path:
             ref = next(str(c[2]) for c in fp if isinstance(c, list) and c[:2] == ["fp_text", "reference"])
             if "MountingHole" in lib or "smallpad" in lib:
                 continue
-            fp = [("footprint" if c == "module" else c) for c in fp[:1]] + list(fp[1:])
+            fp = copy.deepcopy(fp)   # each copy its own (the pads' angles are changed below)
+            fp[0] = "footprint"
             rot = 0.0
             for i, c in enumerate(fp):
                 if isinstance(c, list) and c and c[0] == "at":

@@ -70,6 +70,8 @@ def add_args(parser) -> None:
     h.add_argument("--standoff-material", default=d.standoff_material, help=f"(default {d.standoff_material})")
     h.add_argument("--mounting", choices=("fixture", "free"), default=d.mounting,
                    help="the base bolted to a fixture at the ambient (default) or free-standing")
+    h.add_argument("--mounting-face", choices=("bottom", "top"), default=d.mounting_face,
+                   help="the housing face on the fixture (default bottom: the base)")
     h.add_argument("--mount-conductance", type=float, default=d.contact_conductance_W_m2K, metavar="W/m2K",
                    help=f"base-to-fixture contact conductance [W/m^2 K] (default {d.contact_conductance_W_m2K:g})")
     h.add_argument("--ambient", type=float, default=d.ambient_C, metavar="C",
@@ -98,6 +100,7 @@ def _options(args):
     heights.update(parse_assignments(args.height, "height_mm", "--height"))
     housing = HousingOptions(args.clearance, args.wall, args.base, args.lid, material=args.housing_material,
                              standoff_material=args.standoff_material, mounting=args.mounting,
+                             mounting_face=args.mounting_face,
                              contact_conductance_W_m2K=args.mount_conductance, ambient_C=args.ambient)
     return ImportOptions(powers=powers, heights=heights, sites=parse_sites(args.site, SITE_KINDS),
                          keep=frozenset(parse_refs(args.keep)),

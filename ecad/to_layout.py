@@ -77,6 +77,7 @@ class HousingOptions:
     material: str = "aluminium_6061_anodised"
     standoff_material: str = "nylon_66"
     mounting: str = "fixture"
+    mounting_face: str = "bottom"
     contact_conductance_W_m2K: float = 500.0
     ambient_C: float = 70.0
 
@@ -595,8 +596,8 @@ def _merged_entries(decisions: list) -> list:
 
 def _mounting(hs: HousingOptions) -> dict:
     if hs.mounting == "free":
-        return {"kind": "free", "face": "bottom"}
-    return {"kind": "fixture", "face": "bottom",
+        return {"kind": "free", "face": hs.mounting_face}
+    return {"kind": "fixture", "face": hs.mounting_face,
             "contact_conductance_W_m2K": Note(hs.contact_conductance_W_m2K, "the reference unit's assumed bolted "
                                                                              "Al-Al joint"),
             "temperature_C": hs.ambient_C}

@@ -2,7 +2,7 @@
 tests write (every rotation, both sides, four KiCad dialects), and every kind of bad input refused in one line.
 
 Real boards: ``examples/boards/`` (catphish/openuav, KiCad 7, 4 layers, 80 footprints; MarkSherstan/Drone
-flight controller, KiCad 5, 2 layers, 78 footprints; MIT licensed, see the README there).
+flight controller, KiCad 5, 2 layers, 78 footprints; MIT licensed, see SOURCES.md there).
 """
 
 import gzip
@@ -453,3 +453,38 @@ def test_snapping_changes_no_temperature_that_matters(real_boards, tmp_path):
     gyro = list(a.probe_names).index("gyro_x")
     assert abs(a.probe_C[gyro] - b.probe_C[gyro]) < 0.05
     assert abs(a.T_C.max() - b.T_C.max()) < 0.05
+
+
+def test_mutated_board_files_end_in_input_error_or_a_layout(tmp_path):
+    """300 mutations of a small board (a cut, a doubled slice, a number made text or nan or huge, a bracket
+    added or taken away, a token swapped), seeded: each is read and imported as a layout or refused with
+    InputError, never another exception."""
+    rng = np.random.default_rng(42)
+    base = kicad_board(ROTATED[:3] + [part("C1", "Capacitor_SMD:C_0603_1608Metric", (135, 125, 0),
+                                           fab=(-0.8, -0.4, 0.8, 0.4))],
+                       stackup=[("F.Cu", "copper", 0.035), ("core", "core", 1.53), ("B.Cu", "copper", 0.035)],
+                       copper=2, vias=[(110.5, 105.0, 0.3)])
+    tokens = ("nan", "inf", "-1", "1e400", "abc", '"x"', "(", ")", "0", "(at)", "(layer)", "(pad)", '""')
+    outcomes = {"layout": 0, "refused": 0}
+    for i in range(300):
+        text = base
+        for _ in range(int(rng.integers(1, 4))):
+            a = int(rng.integers(0, len(text)))
+            b = min(len(text), a + int(rng.integers(1, 40)))
+            kind = int(rng.integers(0, 4))
+            if kind == 0:
+                text = text[:a] + text[b:]
+            elif kind == 1:
+                text = text[:b] + text[a:b] + text[b:]
+            else:
+                text = text[:a] + " " + tokens[int(rng.integers(0, len(tokens)))] + " " + text[a:]
+        path = tmp_path / f"m{i}.kicad_pcb"
+        path.write_text(text)
+        try:
+            import_board(read_board(path), ImportOptions(powers={"U1": (0.1, "t")}) if "U1" in text else
+                         ImportOptions(powers={"C1": (0.1, "t")}))
+            outcomes["layout"] += 1
+        except InputError as exc:
+            assert "\n" not in str(exc), str(exc)
+            outcomes["refused"] += 1
+    assert outcomes["layout"] > 20 and outcomes["refused"] > 50, outcomes

@@ -92,3 +92,12 @@ def test_correlation_names_the_hidden_effect(tmp_path):
     assert res["verdict"] == "effect" and res["named_effect"] == "power@reg_5v"
     lo, hi = res["parameters"]["power@reg_5v"]["ci95"]
     assert lo <= 0.35 * 1.3 and hi >= 0.35 * 0.7
+
+
+def test_import_board_example(tmp_path):
+    out, text = run_example("plot_import_board", tmp_path)
+    assert "{'skipped': 4, 'merged': 59, 'modelled': 15}" in text
+    rises = {line.split()[0]: float(line.split("IMU die +")[1].split()[0]) for line in text.splitlines()
+             if "IMU die +" in line}
+    assert rises["potted"] < rises["grease"] < rises["air"]   # the schemes rank as the paper's on this board too
+    assert (out / "import_board" / "drone_fc_unit.toml").read_text().startswith("# Imported by `imutherm import`")
