@@ -272,7 +272,7 @@ def write_idf(layout, board_name: str, path: str | Path) -> tuple:
     for name, package, side, (u, v), (sw, sh, height), power in parts:
         geom, part = f"{package}@{name}", name
         lines += [f"{_q(geom)} {_q(part)} {_q(name)}", f"{u:.6f} {v:.6f} 0.0 0.0 {side.upper()} PLACED"]
-        lib += [f".ELECTRICAL", f"{_q(geom)} {_q(part)} MM {height:.6g}", f"PROP POWER_OPR {power:.9g}",
+        lib += [".ELECTRICAL", f"{_q(geom)} {_q(part)} MM {height:.6g}", f"PROP POWER_OPR {power:.9g}",
                 f"0 {-sw / 2:.6f} {-sh / 2:.6f} 0", f"0 {sw / 2:.6f} {-sh / 2:.6f} 0", f"0 {sw / 2:.6f} {sh / 2:.6f} 0",
                 f"0 {-sw / 2:.6f} {sh / 2:.6f} 0", f"0 {-sw / 2:.6f} {-sh / 2:.6f} 0", ".END_ELECTRICAL"]
     lines.append(".END_PLACEMENT")

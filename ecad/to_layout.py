@@ -29,7 +29,7 @@ from imutherm.ecad.board import BoardDesign, Rect
 from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, body_local, decide, merged_heat, off_axis
 from imutherm.ecad.toml_writer import NOTE, Inline, Note, dumps
 from imutherm.geometry.board_material import DEFAULT_COVERAGE, board_material
-from imutherm.geometry.layout import SCHEME_NAMES, parse_layout
+from imutherm.geometry.layout import parse_layout
 from imutherm.geometry.materials import get_material
 from imutherm.site_table import ACCEL_SITES, GYRO_SITES, SITES
 
@@ -139,6 +139,28 @@ def _r(v: float) -> float:
     return round(float(v), DIGITS)
 
 
+def _rs(v: float) -> float:
+    """A body's in-plane size [mm] to 0.0001 mm (a snapped edge may sit on a die's edge, a 0.0005 mm multiple)."""
+    return round(float(v), DIGITS + 1)
+
+
+def _rc(v: float) -> float:
+    """A centre [mm] to 0.0001 mm: the midpoint of two edges on the 0.001 mm lattice, exactly."""
+    return round(float(v), DIGITS + 2)
+
+
+def _lattice(v: float, step: float) -> float:
+    """``v`` on the lattice of ``step`` [mm] (a decimal with no more digits than ``step`` has)."""
+    return round(round(float(v) / step) * step, 6)
+
+
+def _quantised(body: Rect) -> Rect:
+    """A body's edges on the 0.001 mm lattice: every written size is then exact, every centre a multiple of
+    0.0005 mm, and the edges the mesh sees from them coincide to the last bit with the snapping's (no sliver
+    cells of a rounding's width)."""
+    return Rect(*(_lattice(v, 10.0**-DIGITS) for v in (body.x0, body.y0, body.x1, body.y1)))
+
+
 def _check_refs(board: BoardDesign, opts: ImportOptions) -> None:
     refs = {fp.ref for fp in board.footprints}
     for what, given in (("--site", opts.sites), ("--power/--powers", opts.powers), ("--height/--heights", opts.heights),
@@ -226,7 +248,8 @@ def _vias_under(board: BoardDesign, d: Decision, pad_rect: Rect) -> int:
 
 
 def _clip(body: Rect, board: BoardDesign) -> Rect:
-    return Rect(max(body.x0, 0.0), max(body.y0, 0.0), min(body.x1, board.width_mm), min(body.y1, board.height_mm))
+    w, h = _r(board.width_mm), _r(board.height_mm)   # the board as written
+    return Rect(max(body.x0, 0.0), max(body.y0, 0.0), min(body.x1, w), min(body.y1, h))
 
 
 def _overlaps(a: Rect, b: Rect, tol: float = 1e-3) -> bool:
@@ -236,13 +259,14 @@ def _overlaps(a: Rect, b: Rect, tol: float = 1e-3) -> bool:
 def _die_and_pad(board: BoardDesign, d: Decision, body: Rect) -> tuple:
     """((die u, v, thickness), die base, (pad u, v) or None, vias under the pad) [mm] of a part with a die."""
     h = d.height_mm
-    dt, db = min(DIE_THICKNESS_MM, 0.35 * h), min(DIE_BASE_MM, 0.25 * h)
-    du, dv = DIE_FRACTION * body.width, DIE_FRACTION * body.height
+    even = lambda v: _lattice(v, 2 * 10.0**-DIGITS)  # noqa: E731 - centred boxes: half sizes on the 0.001 lattice
+    dt, db = _r(min(DIE_THICKNESS_MM, 0.35 * h)), _r(min(DIE_BASE_MM, 0.25 * h))
+    du, dv = even(DIE_FRACTION * body.width), even(DIE_FRACTION * body.height)
     ep = _exposed_pad(d)
     if ep is None:
         return (du, dv, dt), db, None, 0
     (pu, pv), pad_rect = ep
-    pu, pv = min(pu, body.width), min(pv, body.height)
+    pu, pv = even(min(pu, body.width)), even(min(pv, body.height))
     return (min(du, pu), min(dv, pv), dt), db, (pu, pv), _vias_under(board, d, pad_rect)
 
 
@@ -255,8 +279,8 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
                     f"{fp.side}; {d.reason}\nheight {h:g} mm: {d.height_source}"
                     + (f"\n{snapped}" if snapped else "")),
              "name": name, "board": board_name, "side": fp.side,
-             "center_mm": [_r(body.centre[0]), _r(body.centre[1])],
-             "size_mm": Note([_r(body.width), _r(body.height), _r(h)],
+             "center_mm": [_rc(body.centre[0]), _rc(body.centre[1])],
+             "size_mm": Note([_rs(body.width), _rs(body.height), _r(h)],
                              "body from the " + ("fab outline" if fp.fab is not None else "courtyard / pads")
                              + (" and pads" if d.package is not None and d.package.body == "fab+pads" else "")
                              + (f"; rotated {fp.rotation_deg:g} deg: the same area, aligned to the nearest axis"
@@ -302,6 +326,8 @@ def _snap_soft_parts(board: BoardDesign, modelled: list, bodies: dict, hard: set
         anchors[0] |= {r.x0, r.x1}
         anchors[1] |= {r.y0, r.y1}
 
+    anchors = [{round(a, 6) for a in axis} for axis in anchors]
+
     def snap(v, axis):
         near = min(anchors[axis], key=lambda a: abs(a - v))
         return near if abs(near - v) <= SNAP_MM else round(v / SNAP_LATTICE_MM) * SNAP_LATTICE_MM
@@ -314,7 +340,7 @@ def _snap_soft_parts(board: BoardDesign, modelled: list, bodies: dict, hard: set
         if s.width < 0.5 * b.width or s.height < 0.5 * b.height or s.width <= 0 or s.height <= 0:
             continue
         if any(o is not d and o.footprint.side == d.footprint.side and _overlaps(s, out[o.footprint.ref])
-               for o in modelled):
+               for o in modelled) or (d.footprint.side == "bottom" and any(_overlaps(s, r) for r in anchors_extra)):
             continue
         if s != b:
             out[ref] = s
@@ -347,8 +373,9 @@ def _sites(opts: ImportOptions, names: dict) -> dict:
     return sites
 
 
-def _grease_parts(decisions: list, opts: ImportOptions, notes: list) -> list:
-    """The top-side parts the grease scheme moves to the back (where their footprint is free there)."""
+def _grease_parts(decisions: list, opts: ImportOptions, standoffs: list, notes: list) -> list:
+    """The top-side parts the grease scheme moves to the back (where their footprint is free there: no part,
+    no standoff)."""
     modelled = [d for d in decisions if d.fate == "modelled"]
     total = sum(d.power_W for d in modelled)
     if opts.grease is not None:
@@ -365,7 +392,8 @@ def _grease_parts(decisions: list, opts: ImportOptions, notes: list) -> list:
                          f"to the back (bond it by hand if it faces the base)")
             continue
         clash = [o.footprint.ref for o in decisions if o.fate in ("modelled", "merged") and o.footprint.side == "bottom"
-                 and _overlaps(o.body, d.body)]
+                 and _overlaps(o.body, d.body)] + [f"the standoff under {ref}" for ref, r in standoffs
+                                                  if _overlaps(r, d.body)]
         if clash:
             notes.append(f"grease scheme: {d.footprint.ref} stays on top: its back-side footprint holds "
                          f"{', '.join(clash[:4])}")
@@ -374,27 +402,42 @@ def _grease_parts(decisions: list, opts: ImportOptions, notes: list) -> list:
     return out
 
 
-def _standoffs(board: BoardDesign, decisions: list, x0: float, y0: float, z0: float, height: float,
-               material: str) -> list:
-    """Standoffs under the mounting holes (clipped to the board), else at its corners."""
+def _standoff_rects(board: BoardDesign, decisions: list, notes: list) -> list:
+    """(ref, Rect) of the standoffs in board coordinates: under the mounting holes (a round standoff of twice the
+    hole as its equal-area square, clipped to the board), else at the board's corners. One that would overlap
+    a part on the back shrinks to the hole's size, and goes (with a note) if that overlaps too."""
     holes = [d.footprint for d in decisions if d.fate == "skipped" and d.reason.startswith("mounting hole")]
+    back = [d for d in decisions if d.fate in ("modelled", "merged") and d.footprint.side == "bottom"]
     boxes = []
     for fp in holes:
-        drills = [p.rect for p in fp.pads]
-        d_hole = min((min(r.width, r.height) for r in drills), default=3.0)
+        d_hole = min((min(p.rect.width, p.rect.height) for p in fp.pads), default=3.0)
         outer = 2.0 * d_hole if fp.courtyard is None else min(2.0 * d_hole, fp.courtyard.width)
-        side = outer * math.sqrt(math.pi) / 2.0  # the square of a round standoff's area
-        boxes.append((fp.ref, Rect(fp.x - side / 2, fp.y - side / 2, fp.x + side / 2, fp.y + side / 2)))
-    if not boxes:
+        for size in (outer * math.sqrt(math.pi) / 2.0, d_hole * math.sqrt(math.pi) / 2.0):
+            r = _quantised(_clip(Rect(fp.x - size / 2, fp.y - size / 2, fp.x + size / 2, fp.y + size / 2), board))
+            clash = [d.footprint.ref for d in back if _overlaps(r, d.body)]
+            if not clash:
+                boxes.append((fp.ref, r))
+                break
+        else:
+            notes.append(f"no standoff under {fp.ref}: parts on the back ({', '.join(clash[:4])}) take its place")
+    if not boxes and not holes:
         s, inset = 3.0, 1.0
         w, h = board.width_mm, board.height_mm
-        boxes = [(f"corner{i + 1}", Rect(x, y, x + s, y + s)) for i, (x, y) in
-                 enumerate(((inset, inset), (w - inset - s, inset), (inset, h - inset - s), (w - inset - s, h - inset - s)))]
+        for i, (x, y) in enumerate(((inset, inset), (w - inset - s, inset), (inset, h - inset - s),
+                                    (w - inset - s, h - inset - s))):
+            r = Rect(x, y, x + s, y + s)
+            if not any(_overlaps(r, d.body) for d in back):
+                boxes.append((f"corner{i + 1}", r))
+    if not boxes:
+        raise InputError(f"{board.source}: no place for a standoff under the board (its mounting holes and corners are "
+                         f"taken by parts on the back); give the board a mounting hole or place the unit by hand")
+    return [(ref, r) for ref, r in boxes if r.width > 0.1 and r.height > 0.1]
+
+
+def _standoffs(rects: list, x0: float, y0: float, z0: float, height: float, material: str) -> list:
+    """The ``[[parts]]`` tables of the standoffs (board rects shifted to the unit)."""
     parts = []
-    for i, (ref, r) in enumerate(boxes):
-        r = _clip(r, board)
-        if r.width <= 0.1 or r.height <= 0.1:
-            continue
+    for i, (ref, r) in enumerate(rects):
         parts.append({NOTE: f"standoff under {ref}" + (" (mounting hole)" if not ref.startswith("corner") else
                                                         " (no mounting hole on the board: a corner, assumed)"),
                       "name": f"standoff_{i + 1}", "min_mm": [_r(x0 + r.x0), _r(y0 + r.y0), _r(z0)],
@@ -451,7 +494,7 @@ def _check_placement(board: BoardDesign, modelled: list, notes: list) -> dict:
         if not (0.0 <= cx <= board.width_mm and 0.0 <= cy <= board.height_mm):
             raise InputError(f"{board.source}: footprint {fp.ref} ({fp.library}) at ({cx:.2f}, {cy:.2f}) mm lies outside "
                              f"the board outline (0..{board.width_mm:.2f} x 0..{board.height_mm:.2f} mm)")
-        clipped = _clip(b, board)
+        clipped = _quantised(_clip(b, board))
         if clipped != b:
             over = max(-b.x0, -b.y0, b.x1 - board.width_mm, b.y1 - board.height_mm)
             notes.append(f"{fp.ref}: its body overhangs the board edge by {over:.2f} mm; the model keeps the part "
@@ -495,8 +538,8 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
     modelled = [d for d in decisions if d.fate == "modelled"]
     bodies = _check_placement(board, modelled, notes)
     site_refs = set(opts.sites)
-    moved = _grease_parts(decisions, opts, notes)
-    moved_refs = {d.footprint.ref for d in moved}
+    standoff_rects = _standoff_rects(board, decisions, notes)
+    moved = _grease_parts(decisions, opts, standoff_rects, notes)
     placed = [d for d in decisions if d.fate in ("modelled", "merged")]
     top_h = max([d.height_mm or 0.0 for d in placed if d.footprint.side == "top"], default=0.0)
     bottom_h = max([d.height_mm or 0.0 for d in placed if d.footprint.side == "bottom"]
@@ -518,11 +561,9 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
     x0, y0, z0 = hs.wall_mm + c, hs.wall_mm + c, hs.base_mm + standoff
     mat_name, mat_table = _board_material_entry(board, decisions, opts.board_name)
 
-    standoffs = _standoffs(board, decisions, x0, y0, hs.base_mm, standoff, hs.standoff_material)
+    standoffs = _standoffs(standoff_rects, x0, y0, hs.base_mm, standoff, hs.standoff_material)
     hard = {d.footprint.ref for d in modelled if _has_die(d, site_refs, regulators)}
-    local = [Rect(p["min_mm"][0] - x0, p["min_mm"][1] - y0, p["min_mm"][0] - x0 + p["size_mm"][0],
-                  p["min_mm"][1] - y0 + p["size_mm"][1]) for p in standoffs]
-    bodies, snapped = _snap_soft_parts(board, modelled, bodies, hard, local, opts.exact)
+    bodies, snapped = _snap_soft_parts(board, modelled, bodies, hard, [r for _, r in standoff_rects], opts.exact)
     components = []
     for d in modelled:
         ref = d.footprint.ref

@@ -488,3 +488,23 @@ def test_mutated_board_files_end_in_input_error_or_a_layout(tmp_path):
             assert "\n" not in str(exc), str(exc)
             outcomes["refused"] += 1
     assert outcomes["layout"] > 20 and outcomes["refused"] > 50, outcomes
+
+
+def test_standoffs_give_way_to_parts_on_the_back(tmp_path):
+    """A mounting hole with a part under it on the back: the standoff shrinks to the hole or goes, and the grease
+    scheme does not move a chip onto a standoff; the unit builds in every scheme."""
+    hole = lambda ref, x, y: part(ref, "MountingHole:MountingHole_3.2mm_M3", (x, y, 0), fab=None,  # noqa: E731
+                                  pads=[("", "np_thru_hole", 0, 0, 3.2, 3.2)], attr=("exclude_from_bom",))
+    parts = [hole("H1", 104, 104), hole("H2", 136, 104), hole("H3", 104, 126), hole("H4", 136, 126),
+             part("U9", "Package_SO:SOIC-8_3.9x4.9mm", (104.0, 109.0, 0), side="bottom", fab=(-2, -2.5, 2, 2.5)),
+             part("U1", "Package_SO:SOIC-8_3.9x4.9mm", (136.0, 126.0, 0), fab=(-2, -2.5, 2, 2.5)),
+             part("U2", "Package_SO:SOIC-8_3.9x4.9mm", (120.0, 115.0, 0), fab=(-2, -2.5, 2, 2.5))]
+    path = tmp_path / "holes.kicad_pcb"
+    path.write_text(kicad_board(parts))
+    r = import_board(read_board(path), ImportOptions(powers={"U1": (0.2, "t"), "U2": (0.2, "t"), "U9": (0.01, "t")}))
+    standoffs = [p for p in r.spec.parts if p.name.startswith("standoff_")]
+    assert len(standoffs) == 4 and any(p.size_mm[0] < 3.0 for p in standoffs)   # the one by U9 shrank
+    assert r.spec.schemes["grease"].move_to_back == ("U2",)   # U1 sits over the standoff under H4
+    assert any("U1 stays on top" in n and "standoff under H4" in n for n in r.notes)
+    for scheme in r.spec.schemes:
+        build_geometry(r.spec, scheme)
