@@ -14,42 +14,22 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from imutherm import InputError
-from imutherm.imu.filters import KFParams
 from imutherm.imu.attitude_math import roll_pitch_from_gravity
 from imutherm.studies.attitude_study import GateConfig, error_metrics, run_filters
 
 #: platform defaults of the gate design inputs: lever arm d (3,) [m] and turn radius L [m].
-#: handheld: sensor 8 cm from the wrist, arm swing radius 0.5 m [ASSUMED]; vehicle: dashboard mount
+#: handheld: no lever arm (the rotation centre of hand and body motion moves between wrist, elbow and shoulder, so
+#: no fixed d holds; a wrong one is worse than none: the aekf subtracts ω × (ω × d), 46 m/s² at BROAD's 1400 °/s
+#: for the 8 cm once assumed here, which tripled its error on that trial, 3.7° -> 1.2° with none; with d = 0 the
+#: gated filter's angular-acceleration gate, which bounds the tangential term ω̇ × d, is open), arm swing radius
+#: 0.5 m [ASSUMED]; vehicle: dashboard mount
 #: 0.5 m ahead / 0.3 m above the reference point, town-corner radius 50 m [ASSUMED]; aircraft: the flight
 #: profile's 0.3 m lever arm and the 1146 m standard-rate turn radius at 60 m/s (GateConfig).
 PLATFORMS = {
-    "handheld": ((0.08, 0.0, 0.0), 0.5),
+    "handheld": ((0.0, 0.0, 0.0), 0.5),
     "vehicle": ((0.5, 0.0, -0.3), 50.0),
     "aircraft": ((0.3, 0.0, 0.05), GateConfig.L),
 }
-
-#: platform settings of the gated filter (GateConfig fields) beside the defaults. handheld: the accelerometer
-#: low-passed in the estimate's frame (VQF's idea, Laidig & Seel, Information Fusion 91, 2023) with
-#: tau_acc = 1 s and kp_lp = 1 1/s: hand and pendulum motion reverses within a second, so its accelerations
-#: average out in 1 s while the gyro (scale errors of a consumer part at hundreds of °/s) drifts within
-#: seconds. Chosen from the grid (tau_acc, kp) in {(1, 1), (1, 0.3), (3, 0.3)} by the mean inclination RMS
-#: on the six RepoIMU files (benchmarks/bench_repoimu.py); leave-one-file-out picks (1, 1) for every file.
-#: vehicle / aircraft: the seed's per-sample gate (sustained linear accelerations and turns, which a 1 s
-#: low-pass does not remove: on the simulated vehicle profile the low-pass mode doubled the roll error).
-PLATFORM_GATE = {"handheld": {"tau_acc": 1.0, "kp_lp": 1.0}, "vehicle": {}, "aircraft": {}}
-
-#: platform settings of the horizontal-attitude KF paper's KF (KFParams fields) beside its defaults. handheld: the measurement low-passed
-#: in a strapdown frame with the same tau_acc = 1 s, one measurement per sample (the low-pass replaces the seed's
-#: window mean), and the gyro scale-factor uncertainty sf_std = 0.03 in the process noise (the ±3 % sensitivity
-#: tolerance of a consumer MEMS gyro, e.g. InvenSense MPU-6000/6050 product specification, at 25 °C). Same grid
-#: procedure as PLATFORM_GATE (tau_acc 1 vs 3 s; n_window 1 vs 10; sf_std 0, 0.01, 0.03: the last two within
-#: 0.01° of each other). vehicle / aircraft: the seed's filter.
-PLATFORM_KF = {"handheld": {"tau_acc": 1.0, "n_window": 1, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
-
-#: platform settings of Wang et al.'s adaptive EKF (AEKFParams fields). handheld: the same low-pass (tau_acc 1 s,
-#: an update every sample: lp_update_s 0.1 s was 0.9° worse on the mean) and sf_std 0.03 (as PLATFORM_KF;
-#: without it the filter diverged on 02a/3: 35.8°). vehicle / aircraft: the seed's filter.
-PLATFORM_AEKF = {"handheld": {"tau_acc": 1.0, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
 
 #: the simulated motion profile whose tuned settings (``studies/filter_settings.toml``, the one tuning procedure
 #: of :mod:`imutherm.studies.filter_tuning` on seeds 100-101) stand for each platform where a setting is taken
@@ -73,13 +53,26 @@ def platform_mahony(platform: str) -> dict:
     return tuned["mahony"]
 
 
-def platform_params(platform: str) -> dict:
-    """{filter: params} of ``platform`` for :func:`~imutherm.studies.attitude_study.run_filters` (``kf`` is
-    passed separately: :data:`PLATFORM_KF`)."""
-    from imutherm.imu.filters import AEKFParams
-    from imutherm.imu.filters.peers import MahonyParams
+def platform_settings(platform: str, names=None) -> dict:
+    """{filter: {field: value}} of ``platform`` for :func:`~imutherm.studies.attitude_study.run_filters`'s
+    ``settings`` (fields of each filter's registry ``params_cls`` on top of its library defaults). handheld: the
+    real-motion settings of every filter in :mod:`imutherm.studies.real_settings` (the one tuning procedure on the
+    nine real development files, cross-validated by file; ours and the peers alike), and ``mahony``'s tuned
+    profile setting where that file has none; vehicle / aircraft: the library defaults (the seed filters) but
+    ``mahony``, at its profile's tuned setting (:func:`platform_mahony`). names None: every filter."""
+    from imutherm.imu.filters.registry import filter_names
 
-    return {"aekf": AEKFParams(**PLATFORM_AEKF[platform]), "mahony": MahonyParams(**platform_mahony(platform))}
+    if platform not in PLATFORMS:
+        raise InputError(f"--platform: {platform!r} is unknown; valid: {', '.join(PLATFORMS)}")
+    names = filter_names(gnss=False) if names is None else tuple(names)
+    out = {}
+    if platform == "handheld":
+        from imutherm.studies.real_settings import load_real_settings
+
+        out = load_real_settings().for_names(names)
+    if "mahony" in names and "mahony" not in out:
+        out["mahony"] = platform_mahony(platform)
+    return out
 
 
 @dataclass(frozen=True)
@@ -139,16 +132,19 @@ def true_steps(log):
 
 
 def sample_report(log, names) -> dict:
-    """What became of the log's rows, for attitude.json: n_repeats (sample-and-hold rows dropped), n_dup_time
+    """What became of the log's rows, for attitude.json: n_rows, n_repeats (sample-and-hold rows, interpolated on
+    the rows' grid), longest_hold_s [s], gaps (bridged: row, t_s, length_s) and max_gap_s [s], n_dup_time
     (rows with a repeated time stamp dropped), step_median_s [s] (the filters' sample period), step_spread [-]
     (max |step - median| / median of the true samples), step_min_s / step_max_s [s], resampled (put on a uniform
-    grid: spread beyond :data:`imutherm.imu.imu_log.MAX_STEP_SPREAD`), and, for an irregular log kept as it is,
+    grid: spread beyond :data:`imutherm.imu.log_samples.MAX_STEP_SPREAD`), and, for an irregular log kept as it is,
     the filters that integrate its true steps and those run at the median step."""
     from imutherm.imu.filters.registry import REGISTRY
-    from imutherm.imu.imu_log import MAX_STEP_SPREAD
+    from imutherm.imu.log_samples import MAX_STEP_SPREAD
 
     st = log.true_steps
-    out = {"n_repeats": int(log.n_repeats), "n_dup_time": int(log.n_dup_time), "step_median_s": float(log.dt),
+    out = {"n_rows": int(log.n_rows), "n_repeats": int(log.n_repeats), "n_dup_time": int(log.n_dup_time),
+           "longest_hold_s": float(log.longest_hold_s), "max_gap_s": float(log.max_gap_s),
+           "gaps": [{"row": r, "t_s": t0, "length_s": ln} for r, t0, ln in log.gaps], "step_median_s": float(log.dt),
            "step_spread": float(log.step_spread),
            "step_min_s": float(np.min(st[1:])) if st is not None and st.size > 1 else float(log.dt),
            "step_max_s": float(np.max(st[1:])) if st is not None and st.size > 1 else float(log.dt),
@@ -190,10 +186,10 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
     if unknown:
         raise InputError(f"filters: {unknown} unknown or not runnable on a recorded log (aekf_gnss needs GNSS "
                          f"fixes); valid: {', '.join(log_filters())}")
-    gate = replace(GateConfig(), L=L, init_s=float(init_s), **PLATFORM_GATE[platform])
+    gate = replace(GateConfig(), L=L, init_s=float(init_s))
     steps = true_steps(log)
-    est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, kf=KFParams(**PLATFORM_KF[platform]),
-                         names=tuple(names), params=platform_params(platform), steps=steps,
+    est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, names=tuple(names),
+                         settings=platform_settings(platform, names), steps=steps, gyro_sample=log.gyro_sample,
                          **({} if fusion is None else {"fusion": fusion}))
     metrics = {}
     series = {"t": log.t}

@@ -526,11 +526,11 @@ def test_mahony_is_never_run_at_the_ahrs_defaults_on_motion():
     from imutherm.imu.motion import PROFILES
     from imutherm.studies.attitude_study import _profile_settings
     from imutherm.studies.filter_settings import load_settings
-    from imutherm.studies.recorded import PLATFORM_PROFILE, PLATFORMS, platform_params
+    from imutherm.studies.recorded import PLATFORM_PROFILE, PLATFORMS, platform_settings
 
     fs = load_settings()
     for plat in PLATFORMS:
-        p = platform_params(plat)["mahony"]
+        p = MahonyParams(**platform_settings(plat, ("mahony",))["mahony"])
         assert dataclasses.asdict(p) == fs.profiles[PLATFORM_PROFILE[plat]]["mahony"], plat
         assert p.k_I <= 0.03 < MahonyParams().k_I, plat  # far from the ahrs integral gain that winds up
         assert fs.provenance[PLATFORM_PROFILE[plat]]["mahony"]["command"].startswith("python benchmarks/tune_")
@@ -542,7 +542,8 @@ def test_mahony_is_never_run_at_the_ahrs_defaults_on_motion():
     g = gyro + rng.normal(0, 0.002, gyro.shape) + np.radians([0.5, -0.3, 0.2])
     a = f + rng.normal(0, 0.02, f.shape)
     rms = {}
-    for name, p in (("handheld", platform_params("handheld")["mahony"]), ("ahrs", MahonyParams())):
+    for name, p in (("handheld", MahonyParams(**platform_settings("handheld", ("mahony",))["mahony"])),
+                    ("ahrs", MahonyParams())):
         err = _tilt_err_deg(run_mahony(g, a, DT, p, init_s=1.5).gravity, q)[t > 5]
         rms[name] = float(np.sqrt(np.mean(err**2)))
     assert rms["handheld"] < 1.0 and rms["ahrs"] > 1.4, rms
