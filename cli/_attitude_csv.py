@@ -126,18 +126,23 @@ def run(args) -> int:
                  + (f", {', '.join(sm['median_step'])} at the median step (one sample period)" if sm["median_step"]
                     else "") if sm.get("true_steps") is not None else ""))
     first = next(iter(res.metrics.values()), {})
-    if first.get("alignment") and first["alignment"]["mode"] != "none":
-        al = first["alignment"]
-        print(f"reference -> IMU rotation ({al['mode']}): {al['angle_deg']:.2f}°"
-              + (f" (vertical residual {al['vertical_resid_deg']:.2f}° over {al['n_still']} still samples)"
-                 if al["mode"] == "auto" else ""))
+    al = first.get("alignment")
+    if al and al["mode"] == "declared":
+        print(f"reference -> IMU rotation (declared): {al['angle_deg']:.2f}°")
+    elif al and al["mode"] == "auto":
+        print(f"reference -> IMU rotation (auto): {al['why']}")
+    elif al and not al.get("mounting") and al.get("applied"):
+        print(f"note: {al['why']}; --align auto would apply it (below {al['fitted_angle_deg']:.0f}°: not a mounting "
+              "error)")
     if "fusion" in res.metrics:
         _print_fusion_range(res.fusion)
     if first.get("reference_samples_dropped"):
         print(f"reference: {first['reference_samples_dropped']} samples without a value (empty / NaN) left out of "
               "the scores")
     for name, m in res.metrics.items():
-        if res.has_reference:
+        if m.get("not_scored"):
+            score = "not scored (mounting error: see the warning)"
+        elif res.has_reference:
             score = (f"roll rms {m['roll_rms_deg']:.3f} deg  pitch rms {m['pitch_rms_deg']:.3f} deg  inclination rms "
                      f"{m['inclination_rms_deg']:.3f} deg")
         else:

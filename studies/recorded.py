@@ -209,8 +209,16 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         ref_roll, ref_pitch = roll_pitch_from_gravity(r_ref)
         series["truth_roll_deg"] = np.degrees(ref_roll)
         series["truth_pitch_deg"] = np.degrees(ref_pitch)
+    mounting = align_info.get("mounting") if align_info and align_info["mode"] == "none" else None
+    warnings = list(log.warnings)
+    if mounting:
+        warnings.append(mounting_warning(align_info))
     for n, e in est.items():
-        if log.has_reference:
+        if log.has_reference and mounting:  # the reference disagrees with the IMU by a mounting: not filter error
+            m = {k: None for k in ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg",
+                                   "inclination_rms_deg", "inclination_max_deg")}
+            m["not_scored"] = "mounting error between the reference and the IMU frames (see warnings)"
+        elif log.has_reference:
             m = error_metrics(e.roll - ref_roll, e.pitch - ref_pitch, {"all": valid})["all"]
             c = np.sum(e.gravity[valid] / np.linalg.norm(e.gravity[valid], axis=1)[:, None] * r_ref[valid], axis=1)
             inc = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
@@ -232,7 +240,17 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
 
     return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
                           L, float(init_s), log.g_rest, log.has_reference, metrics, series,
-                          fusion_range_info(fusion, log.gyro), sample_report(log, names), tuple(log.warnings))
+                          fusion_range_info(fusion, log.gyro), sample_report(log, names), tuple(warnings))
+
+
+def mounting_warning(info: dict) -> str:
+    """The one-line note on a mounting error found under ``--align none`` (:func:`reference_alignment`)."""
+    r, p, y = info["align_rpy_deg"]
+    return (f"the reference and the IMU disagree by a mounting rotation of {info['fitted_angle_deg']:.0f}° "
+            f"({info['mounting']}): with it the record's consistency residual falls from "
+            f"{info['identity']['residual_deg']:.2f}° to {info['fitted']['residual_deg']:.2f}°, so scores against "
+            f"the reference as logged would measure the mounting, not the filters, and are not given. Fix: "
+            f"--align {r:g},{p:g},{y:g} (the IMU's roll,pitch,yaw in the reference body frame) or --align auto")
 
 
 def _down(roll, pitch) -> np.ndarray:
@@ -241,32 +259,28 @@ def _down(roll, pitch) -> np.ndarray:
 
 
 def reference_alignment(log, align, valid, init_s: float):
-    """(A (3,3) reference body -> IMU, info dict) for ``align``: 'none' (identity), a declared (roll, pitch, yaw)
-    [deg] of the IMU frame in the reference body frame, or 'auto': the least-squares rotation (Kabsch) between the
-    reference's down direction and the accelerometer's (-f/|f|) over the quasi-static samples (|ω| < 5 °/s,
-    ||f| - g_rest| < 0.02 g). 'auto' needs quasi-static moments at two attitudes at least 10° apart (one
-    vertical leaves the rotation about it free): refused otherwise, with the fix named."""
-    from imutherm.imu.attitude_math import G0, euler_to_quat, quat_to_dcm
-    from imutherm.imu.reference_log import kabsch, rotation_angle_deg
+    """(A (3,3) reference body -> IMU, info dict) for ``align``: a declared (roll, pitch, yaw) [deg] of the IMU frame
+    in the reference body frame; 'auto': the rotation fitted on the record's own evidence
+    (:func:`imutherm.imu.mounting.decide`: rest samples and gyro windows), applied only when it beats the identity by
+    the stated margin, else the identity, and info says which and why; 'none': the identity, with the same test run
+    so that a mounting error of 10° or more (a 90° yaw, an axis swap, a sign flip) is found and named
+    (info["mounting"]: what it is and the --align that undoes it)."""
+    from imutherm.imu.attitude_math import euler_to_quat, quat_to_dcm
+    from imutherm.imu.mounting import decide
+    from imutherm.imu.reference_log import rotation_angle_deg
 
-    if isinstance(align, str) and align == "none":
-        return np.eye(3), {"mode": "none", "angle_deg": 0.0}
-    if isinstance(align, str) and align == "auto":
-        w = np.linalg.norm(log.gyro, axis=1)
-        fn = np.linalg.norm(log.accel, axis=1)
-        still = valid & (w < np.radians(5.0)) & (np.abs(fn - log.g_rest) < 0.02 * G0)
-        u = _down(log.ref_roll[still], log.ref_pitch[still])
-        v = -log.accel[still] / fn[still, None]
-        spread = 0.0 if len(u) < 2 else float(np.degrees(np.arccos(np.clip(np.min(u @ u.mean(axis=0) /
-                                                                        np.linalg.norm(u.mean(axis=0))), -1, 1))))
-        if len(u) < 20 or spread < 10.0:
-            raise InputError(f"{log.path}: --align auto needs quasi-static moments at two attitudes at least 10° apart "
-                             f"(found {len(u)} samples within {spread:.1f}°); valid: --align none, or the IMU's "
-                             "roll,pitch,yaw [deg] in the reference body frame")
-        A = kabsch(u, v)
-        res = np.degrees(np.arccos(np.clip(np.sum((u @ A.T) * v, axis=1), -1, 1)))
-        return A, {"mode": "auto", "angle_deg": rotation_angle_deg(A), "vertical_resid_deg": float(np.median(res)),
-                   "n_still": int(len(u))}
+    if isinstance(align, str) and align in ("none", "auto"):
+        n0 = max(1, int(round(init_s / log.dt)))
+        r_ref = np.where(valid[:, None], _down(log.ref_roll, log.ref_pitch), np.nan)
+        d = decide(r_ref, log.gyro, log.accel, log.dt, log.g_rest, log.gyro[:n0].mean(axis=0))
+        info = {"mode": align, **d.to_json()}
+        if align == "auto":
+            info["angle_deg"] = rotation_angle_deg(d.A)
+            return d.A, info
+        info["angle_deg"] = 0.0
+        if not d.mounting:
+            info["mounting"] = None
+        return np.eye(3), info
     rpy = np.radians(np.asarray(align, float))
     A = quat_to_dcm(euler_to_quat(*rpy)).T  # v_ref = C v_imu  ->  v_imu = C^T v_ref
     return A, {"mode": "declared", "rpy_deg": [float(v) for v in np.degrees(rpy)], "angle_deg": rotation_angle_deg(A)}
