@@ -82,3 +82,24 @@ def _load(path: str) -> RealSettings:
 def load_real_settings(path=None) -> RealSettings:
     """Read (cached) the real-motion settings (default :data:`REAL_SETTINGS_PATH`)."""
     return _load(str(REAL_SETTINGS_PATH if path is None else Path(path)))
+
+
+def real_motion_lines(names, path=None) -> list:
+    """A short table of ``names`` on real motion, to print beside a simulated answer: each filter's cross-validated
+    mean inclination RMS [deg] over the real development files at its real-motion settings and its ratio to VQF's
+    (the same procedure); [] without the settings file. Filters the file does not hold are left out."""
+    try:
+        rs = load_real_settings(path)
+    except InputError:
+        return []
+    e = rs.entries
+    vq = e.get("vqf", {}).get("cv_mean")
+    cells = [f"{n} {e[n]['cv_mean']:.2f}" + (f" ({e[n]['cv_mean'] / vq:.2f}x vqf)" if vq and n != "vqf" else "")
+             for n in names if n in e and "cv_mean" in e[n]]
+    if not cells:
+        return []
+    files = rs.meta.get("files", [])
+    head = (f"the same filters on real motion: inclination RMS [deg], mean of {len(files)} real development files "
+            f"(RepoIMU pendulum, BROAD), each at its real-motion settings, cross-validated by file "
+            f"({Path(rs.path).name}, {rs.meta.get('date', '')}; docs: benchmarks/real_motion)")
+    return [head] + ["  " + " | ".join(cells[i:i + 4]) for i in range(0, len(cells), 4)]
