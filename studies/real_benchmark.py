@@ -222,7 +222,7 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
             "true_step_median_s": rec.step_median_true, "grid_step_s": rec.dt, "init_s": rec.init_s,
             "scored": "the rows marked movement" if broad else f"every row after {skip_s:g} s",
             "reference_rows_missing": rec.n_ref_missing, "reference_rows_scored": int(rec.t_rows.size),
-            "alignment": {"mode": "data set (aligned)" if broad else "auto", "angle_deg": al.angle_deg,
+            "alignment": {"mode": "the data set's" if broad else "auto", "angle_deg": al.angle_deg,
                           "A": al.A.tolist(), "up_world": al.up_world.tolist(),
                           "rate_resid_deg": None if broad else al.rate_resid_deg,
                           "vertical_resid_deg": None if broad else al.up_resid_deg},
