@@ -3,9 +3,10 @@
 
 Written by ``benchmarks/bench_real_motion.py --write`` (:mod:`imutherm.studies.real_tuning`): every filter with
 tuning axes, ours and the peers, tuned by the one procedure (:mod:`imutherm.studies.filter_tuning`) on the nine
-real development files (RepoIMU and BROAD), with the physical base settings of :data:`~imutherm.studies.
-real_tuning.BASE` beside the tuned axes. The file holds per filter the values, the grid, the per-file scores, the
-cross-validated scores (each file scored by the setting tuned on the other eight), the date and the command:
+real development files (RepoIMU and BROAD), with the physical base settings of
+:data:`~imutherm.studies.real_tuning.BASE` beside the tuned axes. The file holds per filter the values, the
+grid, the per-file scores, the cross-validated scores (each file scored by the setting tuned on the other
+eight), the date and the command:
 the values are a *development* choice (fitted on the files they are scored on); the cross-validated figures are
 the evidence that they generalise.
 """
