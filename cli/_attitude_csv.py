@@ -28,10 +28,15 @@ def add_arguments(p) -> None:
     g.add_argument("--gyro-units", default=None, help=f"{' | '.join(GYRO_UNITS)} (default: header, else rad/s)")
     g.add_argument("--accel-units", default=None, help=f"{' | '.join(ACCEL_UNITS)} (default: header, else m/s2)")
     g.add_argument("--axes", default=None, help=f"{' | '.join(AXES)} body axes of the log (default: header, else FRD)")
+    g.add_argument("--gyro-sample", default=None, help="interval | point: a gyro sample is the mean rate over the "
+                   "step ending at it, or the rate at its instant (default: header, else interval)")
     g.add_argument("--platform", default="handheld", help=f"{' | '.join(PLATFORMS)}: lever arm and turn radius "
                    "defaults of the gates (default handheld)")
     g.add_argument("--lever-arm", default=None, help="sensor position from the rotation centre x,y,z [m] (FRD)")
     g.add_argument("--turn-radius", type=float, default=None, help="turn radius L of the rate gate [m]")
+    g.add_argument("--max-gap", type=float, default=None, metavar="S",
+                   help="longest gap in the time column (or one sample held) bridged by linear interpolation [s] "
+                        "(default 0.5; longer gaps are refused, naming the row)")
     g.add_argument("--init-s", type=float, default=None,
                    help="rest window at the start of the log [s] (default 8; 1 for a ';'-separated reference log)")
     g.add_argument("--align", default="none", metavar="none|auto|R,P,Y",
@@ -77,15 +82,16 @@ def run(args) -> int:
         raise InputError("--imu-csv and --profile: give one (a recorded log or a simulated profile)")
     if args.gyro_range is not None and not (np.isfinite(args.gyro_range) and args.gyro_range > 0):
         raise InputError(f"--gyro-range must be the gyro's full scale in deg/s (> 0), got {args.gyro_range}")
-    if _is_semicolon(args.imu_csv):
-        return _run_semicolon(args)
+    if _is_reference_layout(args.imu_csv):
+        return _run_reference(args)
     if args.init_s is None:
         args.init_s = 8.0
     if not (np.isfinite(args.init_s) and args.init_s > 0):
         raise InputError(f"--init-s must be a positive number of seconds, got {args.init_s}")
     lever = _lever(args.lever_arm)
     log = read_imu_csv(args.imu_csv, gyro_units=args.gyro_units, accel_units=args.accel_units, axes=args.axes,
-                       init_s=args.init_s)
+                       init_s=args.init_s, gyro_sample=args.gyro_sample,
+                       **({} if args.max_gap is None else {"max_gap_s": args.max_gap}))
     from imutherm.imu.filters import FusionParams
 
     from imutherm.imu.filters.registry import parse_filters
@@ -108,27 +114,35 @@ def run(args) -> int:
         print(f"warning: {w}")
     sm = res.samples
     if sm["n_repeats"] or sm["n_dup_time"] or sm["resampled"] or sm.get("true_steps") is not None:
-        print(f"samples: {sm['n_repeats']} sample-and-hold repeats and {sm['n_dup_time']} repeated time stamps dropped"
-              + (f"; true steps vary by up to {100 * sm['step_spread']:.0f} % of the median: resampled onto a uniform "
-                 f"{1e3 * sm['step_median_s']:.2f} ms grid" if sm["resampled"] else "")
+        print(f"samples: {sm['n_rows']} rows; {sm['n_repeats']} sample-and-hold repeats kept as the time base (held "
+              f"samples interpolated, longest hold {1e3 * sm['longest_hold_s']:.1f} ms) and {sm['n_dup_time']} "
+              "repeated time stamps dropped"
+              + (f"; {len(sm['gaps'])} gap(s) bridged" if sm["gaps"] else "")
+              + (f"; resampled onto a uniform {1e3 * sm['step_median_s']:.2f} ms grid (true steps vary by up to "
+                 f"{100 * sm['step_spread']:.0f} % of it)" if sm["resampled"] else "")
               + (f"; true steps {1e3 * sm['step_min_s']:.2f}-{1e3 * sm['step_max_s']:.2f} ms (median "
                  f"{1e3 * sm['step_median_s']:.2f} ms, spread {100 * sm['step_spread']:.0f} %): "
                  f"{', '.join(sm['true_steps']) or 'no filter'} integrate the true steps"
                  + (f", {', '.join(sm['median_step'])} at the median step (one sample period)" if sm["median_step"]
                     else "") if sm.get("true_steps") is not None else ""))
     first = next(iter(res.metrics.values()), {})
-    if first.get("alignment") and first["alignment"]["mode"] != "none":
-        al = first["alignment"]
-        print(f"reference -> IMU rotation ({al['mode']}): {al['angle_deg']:.2f}°"
-              + (f" (vertical residual {al['vertical_resid_deg']:.2f}° over {al['n_still']} still samples)"
-                 if al["mode"] == "auto" else ""))
+    al = first.get("alignment")
+    if al and al["mode"] == "declared":
+        print(f"reference -> IMU rotation (declared): {al['angle_deg']:.2f}°")
+    elif al and al["mode"] == "auto":
+        print(f"reference -> IMU rotation (auto): {al['why']}")
+    elif al and not al.get("mounting") and al.get("applied"):
+        print(f"note: {al['why']}; --align auto would apply it (below {al['fitted_angle_deg']:.0f}°: not a mounting "
+              "error)")
     if "fusion" in res.metrics:
         _print_fusion_range(res.fusion)
     if first.get("reference_samples_dropped"):
         print(f"reference: {first['reference_samples_dropped']} samples without a value (empty / NaN) left out of "
               "the scores")
     for name, m in res.metrics.items():
-        if res.has_reference:
+        if m.get("not_scored"):
+            score = "not scored (mounting error: see the warning)"
+        elif res.has_reference:
             score = (f"roll rms {m['roll_rms_deg']:.3f} deg  pitch rms {m['pitch_rms_deg']:.3f} deg  inclination rms "
                      f"{m['inclination_rms_deg']:.3f} deg")
         else:
@@ -152,43 +166,57 @@ def _print_fusion_range(info: dict) -> None:
 
 def _is_semicolon(path) -> bool:
     """True if the log's first line is ';'-separated (the two-header-line layout of
-    :func:`imutherm.imu.reference_log.read_semicolon_log`)."""
+    :func:`imutherm.imu.reference_log.read_semicolon_log`). Only the first bytes are looked at, undecoded: a file
+    that is not UTF-8 (UTF-16, binary) is not ';'-separated here and is refused by the comma reader, in one line."""
     import gzip
     from pathlib import Path
 
     p = Path(path)
     try:
-        with (gzip.open(p, "rt", encoding="utf-8-sig") if p.suffix == ".gz" else p.open(encoding="utf-8-sig")) as fh:
-            first = fh.readline()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    return ";" in first
+        with (gzip.open(p, "rb") if p.suffix == ".gz" else p.open("rb")) as fh:
+            head = fh.read(4096)
+    except (OSError, EOFError) as exc:
+        raise InputError(f"{path}: cannot be read ({getattr(exc, 'strerror', None) or exc})") from None
+    if b"\0" in head:  # UTF-16/32 text or binary: not this layout
+        return False
+    return b";" in head.split(b"\n", 1)[0]
 
 
-def _run_semicolon(args) -> int:
-    """A ';'-separated reference log: repeats and true times, alignment auto, inclination scores."""
+def _is_reference_layout(path) -> bool:
+    """A reference log with its own reader: a BROAD HDF5 trial (``.hdf5`` / ``.h5``) or the ';' layout."""
+    from pathlib import Path
+
+    return Path(path).suffix.lower() in (".hdf5", ".h5") or _is_semicolon(path)
+
+
+def _run_reference(args) -> int:
+    """A reference log (';'-separated RepoIMU layout or a BROAD HDF5 trial): repeats and true times, the
+    reference-to-IMU rotation (estimated for RepoIMU, the data set's for BROAD), inclination scores."""
     from imutherm.imu.filters import FusionParams
     from imutherm.studies.real_benchmark import run_reference_log
     from imutherm.imu.filters.registry import parse_filters
 
-    init_s = 1.0 if args.init_s is None else args.init_s
-    if not (np.isfinite(init_s) and init_s > 0):
-        raise InputError(f"--init-s must be a positive number of seconds, got {init_s}")
+    if args.init_s is not None and not (np.isfinite(args.init_s) and args.init_s > 0):
+        raise InputError(f"--init-s must be a positive number of seconds, got {args.init_s}")
     if args.platform != "handheld" or args.lever_arm or args.turn_radius or args.axes or args.gyro_units \
-            or args.accel_units or args.align not in ("none", "auto"):
-        raise InputError("a ';'-separated reference log is read in its own units (m/s², rad/s) and run as "
-                         "--platform handheld; valid: drop --platform/--lever-arm/--turn-radius/--axes/--*-units/--align (always auto there)")
-    res = run_reference_log(args.imu_csv, names=parse_filters(args.filters, gnss=False), init_s=init_s,
+            or args.accel_units or args.align not in ("none", "auto") or args.gyro_sample or args.max_gap:
+        raise InputError("a reference log (';'-separated or BROAD HDF5) is read in its own units (m/s², rad/s) and "
+                         "run as --platform handheld; valid: drop --platform/--lever-arm/--turn-radius/--axes/"
+                         "--*-units/--gyro-sample/--max-gap/--align (its rotation is estimated or the data set's)")
+    res = run_reference_log(args.imu_csv, names=parse_filters(args.filters, gnss=False), init_s=args.init_s,
                             fusion=FusionParams(gyroscope_range=args.gyro_range))
     with atomic_outdir(args.out) as tmp:
         write_json(tmp / "attitude.json", res)
     al = res["alignment"]
-    print(f"{res['source']}: {res['rows']} rows, {res['sample_and_hold_repeats']} sample-and-hold repeats and "
-          f"{res['repeated_times']} repeated times dropped (true step median {1e3 * res['true_step_median_s']:.1f} "
-          f"ms; filters on a {1e3 * res['grid_step_s']:.1f} ms grid from the true times); reference rows missing "
-          f"{res['reference_rows_missing']}, scored {res['reference_rows_scored']} (after {res['skip_s']:g} s); "
-          f"reference->IMU rotation (auto) {al['angle_deg']:.1f}° (residuals: rate {al['rate_resid_deg']:.1f}°, "
-          f"vertical {al['vertical_resid_deg']:.2f}°)")
+    rot = (f"reference->IMU rotation ({al['mode']}) {al['angle_deg']:.1f}°"
+           + (f" (residuals: rate {al['rate_resid_deg']:.1f}°, vertical {al['vertical_resid_deg']:.2f}°)"
+              if al["rate_resid_deg"] is not None else ""))
+    print(f"{res['source']} ({res['layout']}): {res['rows']} rows, {res['sample_and_hold_repeats']} sample-and-hold "
+          f"repeats kept as the time base (held samples interpolated) and {res['repeated_times']} repeated times "
+          f"dropped (true step median {1e3 * res['true_step_median_s']:.1f} ms; filters on a "
+          f"{1e3 * res['grid_step_s']:.1f} ms grid from the true times); rest window {res['init_s']:g} s; reference "
+          f"rows missing {res['reference_rows_missing']}, scored {res['reference_rows_scored']} ({res['scored']}); "
+          f"{rot}")
     if "fusion" in res["filters"]:
         _print_fusion_range(res["fusion"])
     for name, m in res["filters"].items():

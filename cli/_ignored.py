@@ -92,7 +92,7 @@ IGNORED = (
             lambda a: a.imu_csv is not None, "with --imu-csv",
             "a recorded log is run as recorded, with no simulated sensor or motion; drop them or --imu-csv"),
     Ignored(("attitude",), ("--gyro-units", "--accel-units", "--axes", "--platform", "--lever-arm", "--turn-radius",
-                            "--init-s"),
+                            "--init-s", "--max-gap", "--gyro-sample"),
             lambda a: a.imu_csv is None, "without --imu-csv", "they describe a recorded log; drop them or give --imu-csv"),
 )
 

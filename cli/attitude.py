@@ -131,4 +131,8 @@ def run(args) -> int:
         print(f"{name:8s} roll rms {o['roll_rms_deg']['mean']:.3f} deg  pitch rms {o['pitch_rms_deg']['mean']:.3f} deg"
               f"  runtime {m[name]['runtime_s']['mean']:.2f} s"
               + (f"  heading rms {m[name]['heading']['rms_deg']['mean']:.2f} deg" if "heading" in m[name] else ""))
+    from imutherm.studies.real_settings import real_motion_lines
+
+    for line in real_motion_lines(list(m)):
+        print(line)
     return 0

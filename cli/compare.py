@@ -304,5 +304,9 @@ def print_answer(summary: dict) -> None:
     if fs.get("tuned"):
         print(f"filters at their tuned settings ({Path(fs['file']).name}, tuned on seeds "
               f"{', '.join(map(str, fs['meta'].get('seeds', [])))}; --filter-defaults: at defaults)")
+    from imutherm.studies.real_settings import real_motion_lines
+
+    for line in real_motion_lines(st["filters"]):
+        print(line)
     for name, s in summary["schemes"].items():
         print(s["answer"])

@@ -51,9 +51,9 @@ source = found[0]
 # RepoIMU: ``;``-separated, two header lines; time [s], Vicon quaternion W, X, Y, Z, accelerometer
 # [m/s²], gyro [rad/s], magnetometer. As in many real logs the sampling is not uniform: a few time stamps
 # repeat, and some 750 steps differ from the median 11 ms by more than half of it (up to a 0.19 s gap).
-# ``--imu-csv`` refuses such steps (a gap is not something a filter should integrate over silently), so the
-# record is resampled here, linearly, onto a uniform grid at its median step — a choice of this example,
-# stated, not something the command does for you. The IMU's x axis points up at rest; a fixed permutation
+# ``--imu-csv`` reads such a file directly (repeats kept as the time base, the gap bridged with a warning
+# naming its row); here each step is spelled out: the record is resampled, linearly, onto a uniform grid at
+# its median step. The IMU's x axis points up at rest; a fixed permutation
 # (a rotation) makes it the down axis z of an FRD frame, so that the filters' roll and pitch are far from the
 # pitch = ±90° singularity.
 with gzip.open(source, "rt") as f:

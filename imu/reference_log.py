@@ -48,7 +48,9 @@ class ReferenceLog:
     """A reference log as read (rows, not yet de-duplicated).
 
     path : str; t : (N,) [s]; quat : (N,4) [-] reference body -> world (W, X, Y, Z), NaN where missing;
-    accel : (N,3) [m/s^2] and gyro : (N,3) [rad/s] in the IMU's own axes.
+    accel : (N,3) [m/s^2] and gyro : (N,3) [rad/s] in the IMU's own axes; layout : 'semicolon' | 'broad';
+    movement : (N,) bool the rows the data set scores (BROAD's ``movement``), None: every row after a skip;
+    aligned : the data set's reference is already in the IMU frame (BROAD), so identity is the expected rotation.
     """
 
     path: str
@@ -56,6 +58,56 @@ class ReferenceLog:
     quat: np.ndarray = field(repr=False)
     accel: np.ndarray = field(repr=False)
     gyro: np.ndarray = field(repr=False)
+    layout: str = "semicolon"
+    movement: np.ndarray | None = field(default=None, repr=False)
+    aligned: bool = False
+
+
+#: the HDF5 datasets of a BROAD trial (Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial
+#: Orientation Estimation", Data 6 (7), 72, 2021, doi:10.3390/data6070072)
+BROAD_KEYS = ("imu_gyr", "imu_acc", "opt_quat", "movement")
+
+
+def read_broad_hdf5(path) -> ReferenceLog:
+    """Read a BROAD trial (HDF5; h5py): ``imu_gyr`` [rad/s], ``imu_acc`` [m/s^2] in the IMU frame, ``opt_quat``
+    (w, x, y, z; IMU -> ENU, synchronised and aligned to the IMU frame by the data set's authors; NaN where the
+    optical system lost the body), ``movement`` (the rows scored) and the attribute ``sampling_rate`` [Hz]; rows
+    at t = k / rate. The data set's rows keep a regular time base: the IMU's sample-and-hold repeats are rows
+    like any other (:func:`true_samples` finds them). Refused in one line (InputError, naming the file and what
+    is missing) for a file that is not HDF5 or lacks a dataset or the rate."""
+    import h5py
+
+    path = Path(path)
+    try:
+        with h5py.File(path, "r") as h:
+            missing = [k for k in BROAD_KEYS if k not in h]
+            rate = h.attrs.get("sampling_rate")
+            if missing or rate is None:
+                raise InputError(f"{path}: not a BROAD trial ({', '.join(missing) or 'sampling_rate'} missing); "
+                                 f"valid: HDF5 with datasets {', '.join(BROAD_KEYS)} and attribute sampling_rate")
+            gyro, acc, quat = (np.asarray(h[k][:], float) for k in BROAD_KEYS[:3])
+            movement = np.asarray(h["movement"][:], bool)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read as HDF5 ({exc})") from None
+    rate = float(rate)
+    n = len(gyro)
+    if not (math.isfinite(rate) and rate > 0) or acc.shape != (n, 3) or gyro.shape != (n, 3) \
+            or quat.shape != (n, 4) or movement.shape != (n,):
+        raise InputError(f"{path}: BROAD datasets of unequal length or shape (gyro {gyro.shape}, acc {acc.shape}, "
+                         f"quat {quat.shape}, movement {movement.shape}) or rate {rate}; valid: (N,3), (N,3), (N,4), "
+                         "(N,) and a positive rate [Hz]")
+    bad = ~(np.all(np.isfinite(gyro), axis=1) & np.all(np.isfinite(acc), axis=1))
+    if np.any(bad):
+        raise InputError(f"{path}: row {int(np.argmax(bad))} lacks an IMU value; valid: finite gyro and "
+                         "accelerometer in every row (only the reference may be NaN)")
+    return ReferenceLog(str(path), np.arange(n) / rate, quat, acc, gyro, "broad", movement, True)
+
+
+def read_reference_log(path) -> ReferenceLog:
+    """:func:`read_broad_hdf5` for ``.hdf5`` / ``.h5``, else :func:`read_semicolon_log`."""
+    if Path(path).suffix.lower() in (".hdf5", ".h5"):
+        return read_broad_hdf5(path)
+    return read_semicolon_log(path)
 
 
 def _num(cell: str) -> float:

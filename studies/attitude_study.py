@@ -224,7 +224,7 @@ def _spread(values):
 
 def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig(),
                 fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=None, params=None,
-                gnss=None, lever_comp: bool = False, settings=None, steps=None):
+                gnss=None, lever_comp: bool = False, settings=None, steps=None, gyro_sample: str = "point"):
     """Run the named filters on one record; returns ({name: AttitudeEstimate}, thresholds).
 
     gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
@@ -246,6 +246,8 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     before the rest-window levels are added).
     ``steps`` (N,) [s]: the true step ending at each sample of an irregular record (None: ``dt`` throughout);
     the filters whose registry entry says ``varying_dt`` integrate over it, the others (VQF) run at ``dt``.
+    ``gyro_sample`` ('point' | 'interval', :data:`imutherm.imu.filters.common.GYRO_SAMPLES`): what a gyro sample
+    is (the simulated sensor's: 'point'; a recorded log's: 'interval'), passed to our filters.
     """
     from imutherm.imu.filters.registry import REGISTRY, FilterInputs, filter_names
 
@@ -269,7 +271,7 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
         raise InputError("filter aekf_gnss: needs GNSS velocity fixes (gnss=...); valid: run it from the attitude "
                          "study, which simulates them")
     x = FilterInputs(gyro, accel, accel_raw, dt, init_s, gp, kf, fusion, lever_arm=aekf_lever, gnss=gnss,
-                     ungated=replace(gp, kp=gate.kp), steps=steps)
+                     ungated=replace(gp, kp=gate.kp), steps=steps, gyro_sample=gyro_sample)
     for n, vals in settings.items():
         if n in names:
             params[n] = replace(params.get(n) or REGISTRY[n].params(x), **vals)

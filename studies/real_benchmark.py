@@ -1,51 +1,69 @@
 """Every attitude filter on real recordings with an optical reference, scored by inclination.
 
-Data: the RepoIMU pendulum trials in ``../shared/data/repoimu`` (Szczęsna et al., ICCVG 2016, LNCS 9972,
-pp. 509-520, doi:10.1007/978-3-319-46418-3_45), read by :func:`imutherm.imu.reference_log.read_semicolon_log`.
+Data (the development set, ``../shared/data``; cite them where you use them):
+
+* ``repoimu/``: six RepoIMU pendulum trials (Szczęsna, Skurowski, Pruszowski, Pęszor, Paszkuta, Wojciechowski,
+  *Reference Data Set for Accuracy Evaluation of Orientation Estimation Algorithms for Inertial Motion Capture
+  Systems*, ICCVG 2016, LNCS 9972, pp. 509-520, doi:10.1007/978-3-319-46418-3_45), ``;``-separated
+  (:func:`imutherm.imu.reference_log.read_semicolon_log`): a consumer MEMS IMU on a swinging pendulum, Vicon
+  reference in its own body frame;
+* ``broad-dev/``: three trials of BROAD (Laidig, Caruso, Cereatti, Seel, *BROAD - A Benchmark for Robust Inertial
+  Orientation Estimation*, Data 6 (7), 72, 2021, doi:10.3390/data6070072; CC BY 4.0), HDF5
+  (:func:`~imutherm.imu.reference_log.read_broad_hdf5`): fast rotation, fast translation, a vibrating phone;
+  OptiTrack reference aligned to the IMU frame by the data set's authors.
 
 Procedure per file (:func:`prepare`), identical for our filters and the peers:
 
 1. true samples: sample-and-hold repeats and repeated time stamps dropped
-   (:func:`~imutherm.imu.reference_log.true_samples`);
-2. the true samples interpolated linearly onto a uniform grid at the log's row step (the median step of the
-   rows, 11 ms here), since every filter takes one sample period;
-3. the IMU axes turned by the smallest rotation that takes the specific force of the rest window (the first
+   (:func:`~imutherm.imu.reference_log.true_samples`), then interpolated linearly onto a uniform grid at the
+   rows' median step (11 ms RepoIMU, 3.5 ms BROAD), the held samples filled by the straight line between the new
+   ones (:mod:`imutherm.imu.log_samples`: the ``--imu-csv`` reader does the same);
+2. the IMU axes turned by the smallest rotation that takes the specific force of the rest window (the first
    ``init_s`` [s]) to -z, so that every filter starts near level in its FRD convention (a fixed, proper
    rotation: the scores are unchanged by it);
-4. the reference-to-IMU rotation and the world's up direction estimated from the reference and the raw
-   sensor (:func:`~imutherm.imu.reference_log.estimate_alignment`), once per file, never from a filter;
-5. the filters run with the leveling / rest window ``init_s`` = 1 s (the pendulum is released 1.3-1.5 s
-   into each file) and the gate design inputs and gated settings of ``--platform handheld`` (the defaults
-   of ``imutherm attitude --imu-csv``: :data:`~imutherm.studies.recorded.PLATFORM_GATE`, ``PLATFORM_KF``, ``PLATFORM_AEKF``), each filter at its
-   defaults unless ``params`` says otherwise;
-6. score: the inclination error (angle between the filter's and the reference's vertical) at every row
-   after ``skip_s`` = 5 s with a reference, the filter's estimate linearly interpolated to the row's time;
-   RMS [deg] per file.
+3. the reference-to-IMU rotation: RepoIMU's estimated from the reference and the raw sensor
+   (:func:`~imutherm.imu.reference_log.estimate_alignment`), once per file, never from a filter; BROAD's is the
+   identity (the data set's reference is aligned to the IMU frame) and its world is ENU (up = z);
+4. the filters run with the rest window ``init_s`` (RepoIMU 1 s: the pendulum is released 1.3-1.5 s into each
+   file; BROAD 8 s: its trials start with 26-46 s at rest), the gyro samples read as means over the step ending
+   at them (``gyro_sample='interval'``, as every peer integrates them), at their library defaults or at the
+   settings given (:func:`run`);
+5. score: the inclination error (the angle between the filter's and the reference's vertical), the filter's
+   estimate linearly interpolated to each scored row's time: RepoIMU every row after ``skip_s`` = 5 s with a
+   reference, BROAD the rows its ``movement`` marks with a reference (as the data set's publication scores 6D
+   filters); RMS [deg] per file.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from imutherm.imu.reference_log import (Alignment, estimate_alignment, inclination_error_deg, read_semicolon_log,
+from imutherm.imu.reference_log import (Alignment, estimate_alignment, inclination_error_deg, read_reference_log,
                                         resample_uniform, true_samples)
 
-#: the shared real recordings (relative to the repository's parent folder)
-DATA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "repoimu"
-INIT_S = 1.0
+#: the shared real recordings (relative to the repository's parent folder), one folder per data set
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA_DIRS = {"repoimu": SHARED / "repoimu", "broad": SHARED / "broad-dev"}
+DATA_DIR = DATA_DIRS["repoimu"]
+#: rest window [s] per layout (RepoIMU: released 1.3-1.5 s in; BROAD: 26-46 s at rest first, the --imu-csv default)
+INIT_S = {"semicolon": 1.0, "broad": 8.0}
 SKIP_S = 5.0
+#: files of the data sets
+PATTERNS = ("*.csv.gz", "*.csv", "*.hdf5", "*.h5")
 
 
 @dataclass(frozen=True)
 class RealRecord:
-    """One prepared file: name; dt [s] grid step; gyro, accel (N,3) on the grid in the turned axes (FRD-like);
-    M (3,3) IMU -> turned axes; t_rows (R,) [s] and quat_rows (R,4) the reference rows scored; align : the
-    reference-to-IMU rotation; n_rows, n_repeats, n_dup_time; step_median_true [s]."""
+    """One prepared file: name; dataset ('repoimu' | 'broad'); dt [s] grid step; gyro, accel (N,3) on the grid in
+    the turned axes (FRD-like); t0 [s] the grid's first time; M (3,3) IMU -> turned axes; t_rows (R,) [s] and
+    quat_rows (R,4) the reference rows scored; align : the reference-to-IMU rotation; init_s [s] the rest window;
+    n_rows, n_repeats, n_dup_time; step_median_true [s]; n_ref_missing : rows without a reference value."""
 
     name: str
+    dataset: str
     dt: float
     gyro: np.ndarray = field(repr=False)
     accel: np.ndarray = field(repr=False)
@@ -54,10 +72,19 @@ class RealRecord:
     t_rows: np.ndarray = field(repr=False)
     quat_rows: np.ndarray = field(repr=False)
     align: Alignment
+    init_s: float
     n_rows: int
     n_repeats: int
     n_dup_time: int
     step_median_true: float
+    n_ref_missing: int = 0
+
+    @property
+    def short(self) -> str:
+        """A short label: ``02a/1`` (RepoIMU test / segment), ``B07`` (BROAD trial number)."""
+        if self.dataset == "broad":
+            return "B" + self.name.split("_")[0]
+        return self.name.replace("Pendulum_Test", "").replace("_Trial1_Segment_", "/")
 
 
 def level_rotation(f_rest) -> np.ndarray:
@@ -72,97 +99,136 @@ def level_rotation(f_rest) -> np.ndarray:
     return np.eye(3) + K + K @ K / (1.0 + c)
 
 
-def prepare(path, *, init_s: float = INIT_S, skip_s: float = SKIP_S) -> RealRecord:
-    """Steps 1-4 of the module docstring for one file."""
-    log = read_semicolon_log(path)
+def identity_alignment() -> Alignment:
+    """The rotation of a reference already in the IMU frame, its world ENU (up = z)."""
+    return Alignment(np.eye(3), np.array([0.0, 0.0, 1.0]), 0.0, float("nan"), float("nan"), 0, 0)
+
+
+def prepare(path, *, init_s: float | None = None, skip_s: float = SKIP_S) -> RealRecord:
+    """Steps 1-3 of the module docstring for one file (init_s None: :data:`INIT_S` of its layout)."""
+    log = read_reference_log(path)
+    init_s = INIT_S[log.layout] if init_s is None else float(init_s)
     ts = true_samples(log.t, log.gyro, log.accel)
     dt = float(np.median(np.diff(log.t)[np.diff(log.t) > 0]))
     grid, x = resample_uniform(ts.t, np.hstack([ts.gyro, ts.accel]), dt)
     n0 = int(round(init_s / dt))
     M = level_rotation(x[:n0, 3:].mean(axis=0))
-    al = estimate_alignment(ts.t, log.quat[ts.idx], ts.gyro, ts.accel)
-    keep = (log.t >= log.t[0] + skip_s) & (log.t <= grid[-1]) & np.all(np.isfinite(log.quat), axis=1)
-    return RealRecord(Path(path).name.split(".")[0], dt, x[:, :3] @ M.T, x[:, 3:] @ M.T, float(grid[0]), M,
-                      log.t[keep], log.quat[keep], al, ts.n_rows, ts.n_repeats, ts.n_dup_time, ts.step_median)
+    ok = np.all(np.isfinite(log.quat), axis=1)
+    if log.aligned:
+        al = identity_alignment()
+        keep = log.movement & ok & (log.t <= grid[-1])
+    else:
+        al = estimate_alignment(ts.t, log.quat[ts.idx], ts.gyro, ts.accel)
+        keep = (log.t >= log.t[0] + skip_s) & (log.t <= grid[-1]) & ok
+    name = Path(path).name.split(".")[0]
+    return RealRecord(name, "broad" if log.layout == "broad" else "repoimu", dt, x[:, :3] @ M.T, x[:, 3:] @ M.T,
+                      float(grid[0]), M, log.t[keep], log.quat[keep], al, init_s, ts.n_rows, ts.n_repeats,
+                      ts.n_dup_time, ts.step_median, int(np.sum(~ok)))
 
 
-def load_all(data_dir=DATA_DIR, **kw) -> list[RealRecord]:
-    """:func:`prepare` for every ``*.csv.gz`` / ``*.csv`` of ``data_dir``, sorted by name."""
-    files = sorted(list(Path(data_dir).glob("*.csv.gz")) + list(Path(data_dir).glob("*.csv")))
-    return [prepare(f, **kw) for f in files]
+def data_files(dirs=None) -> list:
+    """The data sets' files, by folder then name (dirs None: :data:`DATA_DIRS`, those present)."""
+    out = []
+    for d in (DATA_DIRS.values() if dirs is None else dirs):
+        d = Path(d)
+        if d.is_dir():
+            out += sorted({f for p in PATTERNS for f in d.glob(p)})
+    return out
 
 
-def score(rec: RealRecord, gravity) -> dict:
-    """Inclination error of a filter's gravity direction (N,3) on ``rec``'s grid: rms_deg, max_deg, p95_deg."""
+def load_all(dirs=None, **kw) -> list[RealRecord]:
+    """:func:`prepare` for every file of :func:`data_files`."""
+    return [prepare(f, **kw) for f in data_files(dirs)]
+
+
+def errors(rec: RealRecord, gravity) -> np.ndarray:
+    """Inclination error [deg] (R,) of a filter's gravity direction (N,3) on ``rec``'s grid at the scored rows."""
     g = np.asarray(gravity, float)
     tg = rec.t0 + rec.dt * np.arange(len(g))
     d = np.column_stack([np.interp(rec.t_rows, tg, g[:, j]) for j in range(3)]) @ rec.M  # back to IMU axes
-    e = inclination_error_deg(d, rec.quat_rows, rec.align)
+    return inclination_error_deg(d, rec.quat_rows, rec.align)
+
+
+#: contiguous blocks of the scored rows over which a file's scoring noise is measured (:func:`score`)
+NOISE_BLOCKS = 10
+
+
+def score(rec: RealRecord, gravity) -> dict:
+    """Inclination error of a filter's gravity direction (N,3) on ``rec``'s grid: rms_deg, max_deg, p95_deg, and
+    noise_deg, the standard error of the RMS: the spread of the RMS over :data:`NOISE_BLOCKS` contiguous blocks of
+    the scored rows, / sqrt(blocks) (how much the file's figure would move on another stretch of the same motion)."""
+    e = errors(rec, gravity)
+    blocks = [float(np.sqrt(np.mean(b ** 2))) for b in np.array_split(e, NOISE_BLOCKS)]
     return {"rms_deg": float(np.sqrt(np.mean(e**2))), "max_deg": float(np.max(e)),
-            "p95_deg": float(np.percentile(e, 95))}
+            "p95_deg": float(np.percentile(e, 95)), "noise_deg": float(np.std(blocks) / np.sqrt(NOISE_BLOCKS))}
 
 
-def run(names, rec: RealRecord, params=None, *, init_s: float = INIT_S) -> dict:
-    """Run ``names`` on ``rec`` (:func:`imutherm.studies.attitude_study.run_filters`, platform handheld) and
-    score each: {name: score dict + accel_used_fraction}."""
+#: the gate design inputs on real hand / body motion (:data:`imutherm.studies.recorded.PLATFORMS` handheld)
+def _platform():
+    from imutherm.studies.recorded import PLATFORMS
+
+    return PLATFORMS["handheld"]
+
+
+def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
+    """Run ``names`` on ``rec`` (:func:`imutherm.studies.attitude_study.run_filters`: the handheld lever arm and
+    turn radius, the record's rest window, interval gyro samples) with ``settings`` {name: {field: value}} on top
+    of the library defaults (None: every filter at its defaults; :func:`imutherm.studies.recorded.platform_settings`
+    gives a platform's), and score each: {name: score dict + accel_used_fraction, runtime_s}."""
+    from imutherm.imu.filters import FusionParams
     from imutherm.studies.attitude_study import GateConfig, run_filters
-    from imutherm.imu.filters import KFParams
-    from imutherm.studies.recorded import PLATFORM_GATE, PLATFORM_KF, PLATFORMS, platform_params
 
-    d, L = PLATFORMS["handheld"]
-    gate = replace(GateConfig(), L=L, init_s=init_s, **PLATFORM_GATE["handheld"])
-    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, gate, kf=KFParams(**PLATFORM_KF["handheld"]),
-                         names=tuple(names), params={**platform_params("handheld"), **(params or {})})
+    d, L = _platform()
+    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, GateConfig(L=L, init_s=rec.init_s),
+                         fusion=fusion or FusionParams(), names=tuple(names), settings=settings or {},
+                         gyro_sample="interval")
     out = {}
     for n, e in est.items():
         s = score(rec, e.gravity)
         s["accel_used_fraction"] = float(np.mean(e.accel_used))
+        s["runtime_s"] = float(e.runtime_s)
         out[n] = s
     return out
 
 
-def table(names, recs, params=None) -> dict:
-    """{name: {file: score}} plus per name ``mean_rms_deg``."""
+def table(names, recs, settings=None) -> dict:
+    """{name: {"files": {file: score}, "mean_rms_deg"}} of :func:`run` over ``recs``."""
     per = {n: {} for n in names}
     for r in recs:
-        for n, s in run(names, r, params).items():
+        for n, s in run(names, r, settings).items():
             per[n][r.name] = s
     return {n: {"files": per[n], "mean_rms_deg": float(np.mean([s["rms_deg"] for s in per[n].values()]))}
             for n in names}
 
 
-__all__ = ["DATA_DIR", "RealRecord", "prepare", "load_all", "score", "run", "table", "level_rotation"]
-
-
-def run_reference_log(path, *, names, init_s: float = INIT_S, skip_s: float = SKIP_S, fusion=None) -> dict:
-    """``imutherm attitude --imu-csv`` on a ``;``-separated reference log: :func:`prepare` (repeats, true
-    times, alignment ``auto``), every filter in ``names`` (platform handheld), the inclination scores.
-    fusion : FusionParams or None (its defaults: gyro range not declared, over-range recovery off; never the
-    data's peak). Returns a JSON-ready dict."""
-    from imutherm.imu.filters import FusionParams, KFParams
+def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float = SKIP_S, fusion=None) -> dict:
+    """``imutherm attitude --imu-csv`` on a reference log (``;``-separated RepoIMU layout or a BROAD HDF5 trial):
+    :func:`prepare`, every filter in ``names`` at the handheld platform's settings
+    (:func:`imutherm.studies.recorded.platform_settings`), the inclination scores. fusion : FusionParams or None
+    (its defaults: gyro range not declared, over-range recovery off; never the data's peak). Returns a JSON-ready
+    dict."""
     from imutherm.imu.filters.fusion_peer import fusion_range_info
-    from imutherm.studies.attitude_study import GateConfig, run_filters
-    from imutherm.studies.recorded import PLATFORM_GATE, PLATFORM_KF, PLATFORMS, platform_params
+    from imutherm.studies.recorded import platform_settings
 
-    log = read_semicolon_log(path)
-    n_missing = int(np.sum(~np.all(np.isfinite(log.quat), axis=1)))
     rec = prepare(path, init_s=init_s, skip_s=skip_s)
-    d, L = PLATFORMS["handheld"]
-    gate = replace(GateConfig(), L=L, init_s=init_s, **PLATFORM_GATE["handheld"])
-    est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, gate, kf=KFParams(**PLATFORM_KF["handheld"]),
-                         fusion=fusion or FusionParams(), names=tuple(names), params=platform_params("handheld"))
-    filters = {}
-    for n, e in est.items():
-        s = score(rec, e.gravity)
-        filters[n] = {"inclination_rms_deg": s["rms_deg"], "inclination_max_deg": s["max_deg"],
-                      "accel_used_fraction": float(np.mean(e.accel_used)), "runtime_s": e.runtime_s}
-    return {"source": str(path), "layout": "semicolon, two header lines (RepoIMU)", "rows": rec.n_rows,
-            "sample_and_hold_repeats": rec.n_repeats, "repeated_times": rec.n_dup_time,
-            "true_step_median_s": rec.step_median_true, "grid_step_s": rec.dt, "init_s": init_s, "skip_s": skip_s,
-            "reference_rows_missing": n_missing, "reference_rows_scored": int(rec.t_rows.size),
-            "alignment": {"mode": "auto", "angle_deg": rec.align.angle_deg, "A": rec.align.A.tolist(),
-                          "up_world": rec.align.up_world.tolist(), "rate_resid_deg": rec.align.rate_resid_deg,
-                          "vertical_resid_deg": rec.align.up_resid_deg},
+    res = run(names, rec, platform_settings("handheld", names), fusion=fusion)
+    filters = {n: {"inclination_rms_deg": s["rms_deg"], "inclination_max_deg": s["max_deg"],
+                   "accel_used_fraction": s["accel_used_fraction"], "runtime_s": s["runtime_s"]}
+               for n, s in res.items()}
+    al = rec.align
+    broad = rec.dataset == "broad"
+    return {"source": str(path), "layout": "BROAD HDF5" if broad else "semicolon, two header lines (RepoIMU)",
+            "rows": rec.n_rows, "sample_and_hold_repeats": rec.n_repeats, "repeated_times": rec.n_dup_time,
+            "true_step_median_s": rec.step_median_true, "grid_step_s": rec.dt, "init_s": rec.init_s,
+            "scored": "the rows marked movement" if broad else f"every row after {skip_s:g} s",
+            "reference_rows_missing": rec.n_ref_missing, "reference_rows_scored": int(rec.t_rows.size),
+            "alignment": {"mode": "the data set's" if broad else "auto", "angle_deg": al.angle_deg,
+                          "A": al.A.tolist(), "up_world": al.up_world.tolist(),
+                          "rate_resid_deg": None if broad else al.rate_resid_deg,
+                          "vertical_resid_deg": None if broad else al.up_resid_deg},
             "platform": "handheld", "score": "inclination: angle between the filter's and the reference's vertical",
-            "fusion": fusion_range_info(fusion, log.gyro), "filters": filters}
+            "fusion": fusion_range_info(fusion, rec.gyro @ rec.M), "filters": filters}
 
+
+__all__ = ["DATA_DIRS", "DATA_DIR", "RealRecord", "prepare", "data_files", "load_all", "errors", "score", "run",
+           "table", "level_rotation", "identity_alignment", "run_reference_log"]

@@ -14,42 +14,22 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from imutherm import InputError
-from imutherm.imu.filters import KFParams
 from imutherm.imu.attitude_math import roll_pitch_from_gravity
 from imutherm.studies.attitude_study import GateConfig, error_metrics, run_filters
 
 #: platform defaults of the gate design inputs: lever arm d (3,) [m] and turn radius L [m].
-#: handheld: sensor 8 cm from the wrist, arm swing radius 0.5 m [ASSUMED]; vehicle: dashboard mount
+#: handheld: no lever arm (the rotation centre of hand and body motion moves between wrist, elbow and shoulder, so
+#: no fixed d holds; a wrong one is worse than none: the aekf subtracts ω × (ω × d), 46 m/s² at BROAD's 1400 °/s
+#: for the 8 cm once assumed here, which tripled its error on that trial, 3.7° -> 1.2° with none; with d = 0 the
+#: gated filter's angular-acceleration gate, which bounds the tangential term ω̇ × d, is open), arm swing radius
+#: 0.5 m [ASSUMED]; vehicle: dashboard mount
 #: 0.5 m ahead / 0.3 m above the reference point, town-corner radius 50 m [ASSUMED]; aircraft: the flight
 #: profile's 0.3 m lever arm and the 1146 m standard-rate turn radius at 60 m/s (GateConfig).
 PLATFORMS = {
-    "handheld": ((0.08, 0.0, 0.0), 0.5),
+    "handheld": ((0.0, 0.0, 0.0), 0.5),
     "vehicle": ((0.5, 0.0, -0.3), 50.0),
     "aircraft": ((0.3, 0.0, 0.05), GateConfig.L),
 }
-
-#: platform settings of the gated filter (GateConfig fields) beside the defaults. handheld: the accelerometer
-#: low-passed in the estimate's frame (VQF's idea, Laidig & Seel, Information Fusion 91, 2023) with
-#: tau_acc = 1 s and kp_lp = 1 1/s: hand and pendulum motion reverses within a second, so its accelerations
-#: average out in 1 s while the gyro (scale errors of a consumer part at hundreds of °/s) drifts within
-#: seconds. Chosen from the grid (tau_acc, kp) in {(1, 1), (1, 0.3), (3, 0.3)} by the mean inclination RMS
-#: on the six RepoIMU files (benchmarks/bench_repoimu.py); leave-one-file-out picks (1, 1) for every file.
-#: vehicle / aircraft: the seed's per-sample gate (sustained linear accelerations and turns, which a 1 s
-#: low-pass does not remove: on the simulated vehicle profile the low-pass mode doubled the roll error).
-PLATFORM_GATE = {"handheld": {"tau_acc": 1.0, "kp_lp": 1.0}, "vehicle": {}, "aircraft": {}}
-
-#: platform settings of the horizontal-attitude KF paper's KF (KFParams fields) beside its defaults. handheld: the measurement low-passed
-#: in a strapdown frame with the same tau_acc = 1 s, one measurement per sample (the low-pass replaces the seed's
-#: window mean), and the gyro scale-factor uncertainty sf_std = 0.03 in the process noise (the ±3 % sensitivity
-#: tolerance of a consumer MEMS gyro, e.g. InvenSense MPU-6000/6050 product specification, at 25 °C). Same grid
-#: procedure as PLATFORM_GATE (tau_acc 1 vs 3 s; n_window 1 vs 10; sf_std 0, 0.01, 0.03: the last two within
-#: 0.01° of each other). vehicle / aircraft: the seed's filter.
-PLATFORM_KF = {"handheld": {"tau_acc": 1.0, "n_window": 1, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
-
-#: platform settings of Wang et al.'s adaptive EKF (AEKFParams fields). handheld: the same low-pass (tau_acc 1 s,
-#: an update every sample: lp_update_s 0.1 s was 0.9° worse on the mean) and sf_std 0.03 (as PLATFORM_KF;
-#: without it the filter diverged on 02a/3: 35.8°). vehicle / aircraft: the seed's filter.
-PLATFORM_AEKF = {"handheld": {"tau_acc": 1.0, "sf_std": 0.03}, "vehicle": {}, "aircraft": {}}
 
 #: the simulated motion profile whose tuned settings (``studies/filter_settings.toml``, the one tuning procedure
 #: of :mod:`imutherm.studies.filter_tuning` on seeds 100-101) stand for each platform where a setting is taken
@@ -73,13 +53,26 @@ def platform_mahony(platform: str) -> dict:
     return tuned["mahony"]
 
 
-def platform_params(platform: str) -> dict:
-    """{filter: params} of ``platform`` for :func:`~imutherm.studies.attitude_study.run_filters` (``kf`` is
-    passed separately: :data:`PLATFORM_KF`)."""
-    from imutherm.imu.filters import AEKFParams
-    from imutherm.imu.filters.peers import MahonyParams
+def platform_settings(platform: str, names=None) -> dict:
+    """{filter: {field: value}} of ``platform`` for :func:`~imutherm.studies.attitude_study.run_filters`'s
+    ``settings`` (fields of each filter's registry ``params_cls`` on top of its library defaults). handheld: the
+    real-motion settings of every filter in :mod:`imutherm.studies.real_settings` (the one tuning procedure on the
+    nine real development files, cross-validated by file; ours and the peers alike), and ``mahony``'s tuned
+    profile setting where that file has none; vehicle / aircraft: the library defaults (the seed filters) but
+    ``mahony``, at its profile's tuned setting (:func:`platform_mahony`). names None: every filter."""
+    from imutherm.imu.filters.registry import filter_names
 
-    return {"aekf": AEKFParams(**PLATFORM_AEKF[platform]), "mahony": MahonyParams(**platform_mahony(platform))}
+    if platform not in PLATFORMS:
+        raise InputError(f"--platform: {platform!r} is unknown; valid: {', '.join(PLATFORMS)}")
+    names = filter_names(gnss=False) if names is None else tuple(names)
+    out = {}
+    if platform == "handheld":
+        from imutherm.studies.real_settings import load_real_settings
+
+        out = load_real_settings().for_names(names)
+    if "mahony" in names and "mahony" not in out:
+        out["mahony"] = platform_mahony(platform)
+    return out
 
 
 @dataclass(frozen=True)
@@ -139,16 +132,19 @@ def true_steps(log):
 
 
 def sample_report(log, names) -> dict:
-    """What became of the log's rows, for attitude.json: n_repeats (sample-and-hold rows dropped), n_dup_time
+    """What became of the log's rows, for attitude.json: n_rows, n_repeats (sample-and-hold rows, interpolated on
+    the rows' grid), longest_hold_s [s], gaps (bridged: row, t_s, length_s) and max_gap_s [s], n_dup_time
     (rows with a repeated time stamp dropped), step_median_s [s] (the filters' sample period), step_spread [-]
     (max |step - median| / median of the true samples), step_min_s / step_max_s [s], resampled (put on a uniform
-    grid: spread beyond :data:`imutherm.imu.imu_log.MAX_STEP_SPREAD`), and, for an irregular log kept as it is,
+    grid: spread beyond :data:`imutherm.imu.log_samples.MAX_STEP_SPREAD`), and, for an irregular log kept as it is,
     the filters that integrate its true steps and those run at the median step."""
     from imutherm.imu.filters.registry import REGISTRY
-    from imutherm.imu.imu_log import MAX_STEP_SPREAD
+    from imutherm.imu.log_samples import MAX_STEP_SPREAD
 
     st = log.true_steps
-    out = {"n_repeats": int(log.n_repeats), "n_dup_time": int(log.n_dup_time), "step_median_s": float(log.dt),
+    out = {"n_rows": int(log.n_rows), "n_repeats": int(log.n_repeats), "n_dup_time": int(log.n_dup_time),
+           "longest_hold_s": float(log.longest_hold_s), "max_gap_s": float(log.max_gap_s),
+           "gaps": [{"row": r, "t_s": t0, "length_s": ln} for r, t0, ln in log.gaps], "step_median_s": float(log.dt),
            "step_spread": float(log.step_spread),
            "step_min_s": float(np.min(st[1:])) if st is not None and st.size > 1 else float(log.dt),
            "step_max_s": float(np.max(st[1:])) if st is not None and st.size > 1 else float(log.dt),
@@ -190,10 +186,10 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
     if unknown:
         raise InputError(f"filters: {unknown} unknown or not runnable on a recorded log (aekf_gnss needs GNSS "
                          f"fixes); valid: {', '.join(log_filters())}")
-    gate = replace(GateConfig(), L=L, init_s=float(init_s), **PLATFORM_GATE[platform])
+    gate = replace(GateConfig(), L=L, init_s=float(init_s))
     steps = true_steps(log)
-    est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, kf=KFParams(**PLATFORM_KF[platform]),
-                         names=tuple(names), params=platform_params(platform), steps=steps,
+    est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, names=tuple(names),
+                         settings=platform_settings(platform, names), steps=steps, gyro_sample=log.gyro_sample,
                          **({} if fusion is None else {"fusion": fusion}))
     metrics = {}
     series = {"t": log.t}
@@ -213,8 +209,16 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         ref_roll, ref_pitch = roll_pitch_from_gravity(r_ref)
         series["truth_roll_deg"] = np.degrees(ref_roll)
         series["truth_pitch_deg"] = np.degrees(ref_pitch)
+    mounting = align_info.get("mounting") if align_info and align_info["mode"] == "none" else None
+    warnings = list(log.warnings)
+    if mounting:
+        warnings.append(mounting_warning(align_info))
     for n, e in est.items():
-        if log.has_reference:
+        if log.has_reference and mounting:  # the reference disagrees with the IMU by a mounting: not filter error
+            m = {k: None for k in ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg",
+                                   "inclination_rms_deg", "inclination_max_deg")}
+            m["not_scored"] = "mounting error between the reference and the IMU frames (see warnings)"
+        elif log.has_reference:
             m = error_metrics(e.roll - ref_roll, e.pitch - ref_pitch, {"all": valid})["all"]
             c = np.sum(e.gravity[valid] / np.linalg.norm(e.gravity[valid], axis=1)[:, None] * r_ref[valid], axis=1)
             inc = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
@@ -236,7 +240,17 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
 
     return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
                           L, float(init_s), log.g_rest, log.has_reference, metrics, series,
-                          fusion_range_info(fusion, log.gyro), sample_report(log, names), tuple(log.warnings))
+                          fusion_range_info(fusion, log.gyro), sample_report(log, names), tuple(warnings))
+
+
+def mounting_warning(info: dict) -> str:
+    """The one-line note on a mounting error found under ``--align none`` (:func:`reference_alignment`)."""
+    r, p, y = info["align_rpy_deg"]
+    return (f"the reference and the IMU disagree by a mounting rotation of {info['fitted_angle_deg']:.0f}° "
+            f"({info['mounting']}): with it the record's consistency residual falls from "
+            f"{info['identity']['residual_deg']:.2f}° to {info['fitted']['residual_deg']:.2f}°, so scores against "
+            f"the reference as logged would measure the mounting, not the filters, and are not given. Fix: "
+            f"--align {r:g},{p:g},{y:g} (the IMU's roll,pitch,yaw in the reference body frame) or --align auto")
 
 
 def _down(roll, pitch) -> np.ndarray:
@@ -245,32 +259,28 @@ def _down(roll, pitch) -> np.ndarray:
 
 
 def reference_alignment(log, align, valid, init_s: float):
-    """(A (3,3) reference body -> IMU, info dict) for ``align``: 'none' (identity), a declared (roll, pitch, yaw)
-    [deg] of the IMU frame in the reference body frame, or 'auto': the least-squares rotation (Kabsch) between the
-    reference's down direction and the accelerometer's (-f/|f|) over the quasi-static samples (|ω| < 5 °/s,
-    ||f| - g_rest| < 0.02 g). 'auto' needs quasi-static moments at two attitudes at least 10° apart (one
-    vertical leaves the rotation about it free): refused otherwise, with the fix named."""
-    from imutherm.imu.attitude_math import G0, euler_to_quat, quat_to_dcm
-    from imutherm.imu.reference_log import kabsch, rotation_angle_deg
+    """(A (3,3) reference body -> IMU, info dict) for ``align``: a declared (roll, pitch, yaw) [deg] of the IMU frame
+    in the reference body frame; 'auto': the rotation fitted on the record's own evidence
+    (:func:`imutherm.imu.mounting.decide`: rest samples and gyro windows), applied only when it beats the identity by
+    the stated margin, else the identity, and info says which and why; 'none': the identity, with the same test run
+    so that a mounting error of 10° or more (a 90° yaw, an axis swap, a sign flip) is found and named
+    (info["mounting"]: what it is and the --align that undoes it)."""
+    from imutherm.imu.attitude_math import euler_to_quat, quat_to_dcm
+    from imutherm.imu.mounting import decide
+    from imutherm.imu.reference_log import rotation_angle_deg
 
-    if isinstance(align, str) and align == "none":
-        return np.eye(3), {"mode": "none", "angle_deg": 0.0}
-    if isinstance(align, str) and align == "auto":
-        w = np.linalg.norm(log.gyro, axis=1)
-        fn = np.linalg.norm(log.accel, axis=1)
-        still = valid & (w < np.radians(5.0)) & (np.abs(fn - log.g_rest) < 0.02 * G0)
-        u = _down(log.ref_roll[still], log.ref_pitch[still])
-        v = -log.accel[still] / fn[still, None]
-        spread = 0.0 if len(u) < 2 else float(np.degrees(np.arccos(np.clip(np.min(u @ u.mean(axis=0) /
-                                                                        np.linalg.norm(u.mean(axis=0))), -1, 1))))
-        if len(u) < 20 or spread < 10.0:
-            raise InputError(f"{log.path}: --align auto needs quasi-static moments at two attitudes at least 10° apart "
-                             f"(found {len(u)} samples within {spread:.1f}°); valid: --align none, or the IMU's "
-                             "roll,pitch,yaw [deg] in the reference body frame")
-        A = kabsch(u, v)
-        res = np.degrees(np.arccos(np.clip(np.sum((u @ A.T) * v, axis=1), -1, 1)))
-        return A, {"mode": "auto", "angle_deg": rotation_angle_deg(A), "vertical_resid_deg": float(np.median(res)),
-                   "n_still": int(len(u))}
+    if isinstance(align, str) and align in ("none", "auto"):
+        n0 = max(1, int(round(init_s / log.dt)))
+        r_ref = np.where(valid[:, None], _down(log.ref_roll, log.ref_pitch), np.nan)
+        d = decide(r_ref, log.gyro, log.accel, log.dt, log.g_rest, log.gyro[:n0].mean(axis=0))
+        info = {"mode": align, **d.to_json()}
+        if align == "auto":
+            info["angle_deg"] = rotation_angle_deg(d.A)
+            return d.A, info
+        info["angle_deg"] = 0.0
+        if not d.mounting:
+            info["mounting"] = None
+        return np.eye(3), info
     rpy = np.radians(np.asarray(align, float))
     A = quat_to_dcm(euler_to_quat(*rpy)).T  # v_ref = C v_imu  ->  v_imu = C^T v_ref
     return A, {"mode": "declared", "rpy_deg": [float(v) for v in np.degrees(rpy)], "angle_deg": rotation_angle_deg(A)}

@@ -102,18 +102,28 @@ def test_missing_columns_refused(tmp_path, rec):
         read_imu_csv(q)
 
 
-def test_non_monotonic_time_and_gaps_refused(tmp_path, rec):
+def test_non_monotonic_time_and_gaps(tmp_path, rec):
+    """Decreasing time refused naming the row; a gap of 0.2 s (20 median steps) bridged with a warning naming its
+    row; one of 0.51 s refused naming the row and the rule, and bridged when --max-gap allows it."""
     t = _t(rec)
     t2 = t.copy()
     t2[500] = t2[498]
     p = write_imu_csv(tmp_path / "m.csv", t2, rec.gyro, rec.accel)
-    with pytest.raises(InputError, match="time_s is not strictly increasing at row"):
+    with pytest.raises(InputError, match="time_s is not strictly increasing at row 506 .*rule: times increase"):
         read_imu_csv(p)
-    t3 = t.copy()
-    t3[3000:] += 0.5
-    p = write_imu_csv(tmp_path / "g.csv", t3, rec.gyro, rec.accel)
-    with pytest.raises(InputError, match="a gap or a rate change"):
+    cut = np.r_[0:3000, 3050:len(t)]  # 50 rows lost: the time column jumps 0.51 s, the motion went on
+    t3 = t[cut]
+    p = write_imu_csv(tmp_path / "g.csv", t3, rec.gyro[cut], rec.accel[cut])
+    with pytest.raises(InputError, match=r"jumps 0.51 s .* after row 3005 .*rule: gaps over 5 median steps are "
+                                         r"bridged up to 0.5 s; valid: --max-gap 0.6"):
         read_imu_csv(p)
+    log = read_imu_csv(p, max_gap_s=0.6)
+    assert log.gaps == ((3005, pytest.approx(t3[2999]), pytest.approx(0.51)),) and log.resampled
+    assert log.t[-1] == pytest.approx(t3[-1] - t3[0]) and "bridged" in log.warnings[0]
+    cut = np.r_[0:3000, 3018:len(t)]
+    log = read_imu_csv(write_imu_csv(tmp_path / "s.csv", t[cut], rec.gyro[cut], rec.accel[cut]))
+    assert len(log.gaps) == 1 and log.gaps[0][0] == 3005 and "after row 3005" in log.warnings[0]  # file lines
+    assert main(["--imu-csv", str(p), "--max-gap", "-1", "--out", str(tmp_path / "o")]) == 2
 
 
 def test_not_at_rest_or_non_numeric_refused(tmp_path, rec):
@@ -124,7 +134,7 @@ def test_not_at_rest_or_non_numeric_refused(tmp_path, rec):
     lines = q.read_text().splitlines()
     lines[10] = lines[10].replace(",", ",x", 1)
     q.write_text("\n".join(lines) + "\n")
-    with pytest.raises(InputError, match="row 8 is short or not numeric"):
+    with pytest.raises(InputError, match="row 11 is short or not numeric"):  # the file's line 11
         read_imu_csv(q)
     with pytest.raises(InputError, match="do not cover the 8 s leveling window"):
         read_imu_csv(write_imu_csv(tmp_path / "s.csv", _t(rec)[:300], rec.gyro[:300], rec.accel[:300]))

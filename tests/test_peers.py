@@ -126,4 +126,9 @@ def test_benchmark_turn_radius_matches_the_platform_defaults():
     from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM
 
     for prof in ("vehicle", "handheld"):
-        assert fb.TURN_RADIUS[prof] == PLATFORMS[prof][1] and DEFAULT_LEVER_ARM[prof] == PLATFORMS[prof][0]
+        assert fb.TURN_RADIUS[prof] == PLATFORMS[prof][1]
+    assert DEFAULT_LEVER_ARM["vehicle"] == PLATFORMS["vehicle"][0]
+    # the simulated hand motion has a known 8 cm lever arm; a real hand-held log's rotation centre is unknown (it
+    # moves between wrist, elbow and shoulder), and a wrong lever-arm correction is worse than none: the
+    # recorded-log platform assumes none (issue 44)
+    assert DEFAULT_LEVER_ARM["handheld"] == (0.08, 0.0, 0.0) and PLATFORMS["handheld"][0] == (0.0, 0.0, 0.0)

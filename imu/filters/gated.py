@@ -52,9 +52,9 @@ from numba import njit
 
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0
-from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
-                                         initial_quat, sample_steps)
-from imutherm.imu.filters.inertial_lp import butter2_coeffs, lp3, lp3_init
+from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, estimate_from_gravity,
+                                         initial_bias, initial_quat, sample_steps, step_rates)
+from imutherm.imu.filters.inertial_lp import REST_BIAS_TAU, REST_STATE, REST_TAU, butter2_coeffs, lp3, lp3_init, rest_step
 from imutherm.imu.filters.gate import (GateThresholds, _lp, gate_noise_level, gate_signals, gate_thresholds,
                                       lowpass_alpha, rest_reference)
 
@@ -77,6 +77,12 @@ class GatedParams:
                             the rate gate tests the low-passed (sustained) rate, on/off, and the |f| and ω̇
                             gates become a gain weight Π min(1, (σ/e)²) (:func:`_lp_core`; ``tau``,
                             ``hold_s``, ``recover_s`` unused)
+    gyro_sample : str       'point': a gyro sample is the rate at its instant, the step from k-1 to k
+                            integrates (ω_{k-1} + ω_k)/2 (the simulated sensor's samples); 'interval': it is the
+                            mean rate over the step ending at it, the step integrates ω_k (what a MEMS gyro's
+                            decimation filter outputs and every peer assumes; recorded logs)
+    rest_bias : bool        low-pass mode: the bias follows the low-passed gyro while the unit is at rest
+                            (VQF's rest detector, :func:`~imutherm.imu.filters.inertial_lp.rest_step`)
     """
 
     thresholds: GateThresholds | None
@@ -87,8 +93,11 @@ class GatedParams:
     g: float = G0
     recover_s: float = 30.0
     tau_acc: float = 0.0
+    gyro_sample: str = "point"
+    rest_bias: bool = True
 
     def __post_init__(self):
+        check_gyro_sample("GatedParams", self.gyro_sample)
         for name in ("kp", "ki", "tau", "hold_s", "g"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0) or (name in ("tau", "g") and v <= 0):
@@ -197,7 +206,7 @@ def gated_step(state: GatedState, gyro, accel, dt: float, params: GatedParams) -
                        gate_open=bool(used[0]))
     gx, gy, gz = (float(v) for v in gyro)
     fx, fy, fz = (float(v) for v in accel)
-    pg = state.prev_gyro if state.prev_gyro is not None else (gx, gy, gz)
+    pg = state.prev_gyro if state.prev_gyro is not None and params.gyro_sample == "point" else (gx, gy, gz)
     wbx, wby, wbz = 0.5 * (pg[0] + gx), 0.5 * (pg[1] + gy), 0.5 * (pg[2] + gz)
     th = params.thresholds
     run, quiet = state.run, state.quiet
@@ -264,7 +273,7 @@ class ComplementaryFilter(GatedStrapdown):
         super().__init__(replace(params, thresholds=None), q0, bias0)
 
 
-def _loop(gyro, accel, gate, dts, kp, ki, q0, b0, rate_gate=None):
+def _loop(gyro, accel, gate, dts, kp, ki, q0, b0, rate_gate=None, gyro_sample="point"):
     """Tight batch loop of :func:`_update` (inlined, compiled with numba); returns (gravity (N,3), used (N,) bool).
 
     dts (N,) [s] the step ending at each sample (:func:`~imutherm.imu.filters.common.sample_steps`);
@@ -273,9 +282,7 @@ def _loop(gyro, accel, gate, dts, kp, ki, q0, b0, rate_gate=None):
     from the bias-corrected rate |lp_w - b| with the current bias estimate (see :func:`gated_step`).
     """
     n = len(gyro)
-    wbar = np.empty_like(gyro)
-    wbar[0] = gyro[0]
-    wbar[1:] = 0.5 * (gyro[:-1] + gyro[1:])
+    wbar = step_rates(gyro, gyro_sample)
     fn = np.sqrt(accel[:, 0] * accel[:, 0] + accel[:, 1] * accel[:, 1] + accel[:, 2] * accel[:, 2])
     m = -accel / fn[:, None]
     if rate_gate is None:
@@ -388,14 +395,15 @@ def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, 
             params = replace(params, thresholds=lp_thresholds(gyro, accel, dt, params, bias0, init_s))
         r, gate, _ = run_lp_core(gyro, accel, dt, params, lp_state0(q0, bias0), steps=dts)
     elif th is None:
-        r, gate = _loop(gyro, accel, np.ones(len(gyro), bool), dts, params.kp, params.ki, q0, bias0)
+        r, gate = _loop(gyro, accel, np.ones(len(gyro), bool), dts, params.kp, params.ki, q0, bias0,
+                        gyro_sample=params.gyro_sample)
     else:
         e_a, _, e_wd = gate_signals(gyro, accel, dt, params.tau, params.g)
         lpw = _lp(gyro, lowpass_alpha(dt, params.tau))
         ok_aw = (e_a < th.sigma_a) & (e_wd < th.sigma_wdot)
         r, gate = _loop(gyro, accel, None, dts, params.kp, params.ki, q0, bias0,
                         (lpw, ok_aw, th.sigma_w, _hold_samples(params.hold_s, dt),
-                         _hold_samples(params.recover_s, dt)))
+                         _hold_samples(params.recover_s, dt)), gyro_sample=params.gyro_sample)
     return estimate_from_gravity(name, r, gate, time.perf_counter() - t0)
 
 
@@ -407,21 +415,26 @@ def run_ungated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None
 
 
 # --------------------------------------------------------------------------- inertial low-pass mode
-#: layout of the state vector of :func:`_lp_core`: q (4), bias (3), low-pass of f_n (12), of ω_n (12),
-#: previous low-passed ω_n (3), previous gyro (3), started flag (1)
-_LP_STATE = 38
+#: layout of the state vector of :func:`_lp_core`: q (4), bias (3), low-pass of f_I (12), of ω_I (12), previous
+#: low-passed ω_I (3), previous gyro (3), started flag (1), strapdown frame q_I (4), rest detector (8)
+_LP_STATE = 42 + REST_STATE
 
 
 @njit(cache=True)
-def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S):
-    """Liu et al. 2012 strapdown with the accelerometer low-passed in the estimate's frame and a soft gate.
+def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0):
+    """Liu et al. 2012 strapdown with the accelerometer low-passed in a strapdown frame and a soft gate.
 
-    gyro, accel (N,3) raw samples; S (38,) state (see :data:`_LP_STATE`), updated in place. Per sample:
-    f_n = C_nb f, ω_n = C_nb (ω - b) low-passed (:mod:`imutherm.imu.filters.inertial_lp`, coefficients c);
-    the gate signals of the seed on the low-passed vectors, e_a = ||f̄_n| - g|, e_w = |ω̄_n|,
-    e_ẇ = |Δω̄_n| / dt; dts (N,) [s] the step ending at each sample (its own dt); gain weight w = min(1, (σa / e_a)²) min(1, (σω̇ / e_ẇ)²), and w = 0 while
-    e_w > σω (a sustained turn: the apparent vertical is not the vertical); the PI correction of the seed
-    toward m = -C_bn f̄_n / |f̄_n| with kp w and ki w. Returns (gravity (N,3), used (N,) = w >= 0.5, w (N,)).
+    gyro, accel (N,3) raw samples; S (50,) state (see :data:`_LP_STATE`), updated in place. Per sample: the rate
+    ω̄ = (ω_{k-1} + ω_k)/2 - b (``trap``: point samples) or ω_k - b (interval samples); the strapdown frame q_I
+    (the gyro alone, bias-corrected, never corrected by the accelerometer: VQF's almost-inertial frame, so the
+    low-pass stays outside the correction loop and any tau_acc is stable); f_I = C(q_I) f and ω_I = C(q_I) (ω - b)
+    low-passed there (:mod:`imutherm.imu.filters.inertial_lp`, coefficients c); the gate signals of the seed on
+    the low-passed vectors, e_a = ||f̄_I| - g|, e_w = |ω̄_I|, e_ẇ = |Δω̄_I| / dt; gain weight
+    w = min(1, (σa / e_a)²) min(1, (σω̇ / e_ẇ)²), and w = 0 while e_w > σω (a sustained turn: the apparent vertical
+    is not the vertical); the PI correction of the seed toward m = -C(q_I)ᵀ f̄_I / |f̄_I| with kp w and ki w (the
+    bias in motion); at rest (``rest``: :func:`~imutherm.imu.filters.inertial_lp.rest_step`) the bias follows the
+    low-passed gyro with REST_BIAS_TAU (the bias at rest). dts (N,) [s] the step ending at each sample; dt0 [s] the
+    design step of the rest detector. Returns (gravity (N,3), used (N,) = w >= 0.5, w (N,)).
     """
     n = gyro.shape[0]
     out = np.empty((n, 3))
@@ -429,19 +442,43 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S):
     wt = np.empty(n)
     w, x, y, z = S[0], S[1], S[2], S[3]
     bx, by, bz = S[4], S[5], S[6]
+    qw, qx, qy, qz = S[38], S[39], S[40], S[41]
+    ra = dt0 / (REST_TAU + dt0)
     for k in range(n):
         dt = dts[k]
         hdt = 0.5 * dt
         gx, gy, gz = gyro[k, 0], gyro[k, 1], gyro[k, 2]
+        fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
         if S[37] == 0.0:
             S[34], S[35], S[36] = gx, gy, gz
-        wx, wy, wz = 0.5 * (S[34] + gx) - bx, 0.5 * (S[35] + gy) - by, 0.5 * (S[36] + gz) - bz
+        if rest:
+            at_rest, lgx, lgy, lgz = rest_step(S, 42, gx, gy, gz, fx, fy, fz, ra, dt0)
+            if at_rest:
+                kr = dt / REST_BIAS_TAU
+                bx, by, bz = bx + kr * (lgx - bx), by + kr * (lgy - by), bz + kr * (lgz - bz)
+        if trap:
+            wx, wy, wz = 0.5 * (S[34] + gx) - bx, 0.5 * (S[35] + gy) - by, 0.5 * (S[36] + gz) - bz
+        else:
+            wx, wy, wz = gx - bx, gy - by, gz - bz
         S[34], S[35], S[36] = gx, gy, gz
-        # C_nb (body -> nav) of q
-        c00, c01, c02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
-        c10, c11, c12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
-        c20, c21, c22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
-        fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
+        # strapdown frame q_I <- q_I ⊗ exp(ω̄ dt / 2) (the gyro alone)
+        hx, hy, hz = hdt * wx, hdt * wy, hdt * wz
+        n2 = hx * hx + hy * hy + hz * hz
+        if n2 > 1e-24:
+            nn = math.sqrt(n2)
+            sh = math.sin(nn) / nn
+            ch = math.cos(nn)
+        else:
+            sh = 1.0 - n2 / 6.0
+            ch = 1.0 - n2 / 2.0
+        dx, dy, dz = hx * sh, hy * sh, hz * sh
+        qw, qx, qy, qz = (qw * ch - qx * dx - qy * dy - qz * dz, qw * dx + qx * ch + qy * dz - qz * dy,
+                          qw * dy - qx * dz + qy * ch + qz * dx, qw * dz + qx * dy - qy * dx + qz * ch)
+        inv = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+        qw, qx, qy, qz = qw * inv, qx * inv, qy * inv, qz * inv
+        c00, c01, c02 = 1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy)
+        c10, c11, c12 = 2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx)
+        c20, c21, c22 = 2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)
         fn0, fn1, fn2 = c00 * fx + c01 * fy + c02 * fz, c10 * fx + c11 * fy + c12 * fz, c20 * fx + c21 * fy + c22 * fz
         ux, uy, uz = gx - bx, gy - by, gz - bz
         wn0, wn1, wn2 = c00 * ux + c01 * uy + c02 * uz, c10 * ux + c11 * uy + c12 * uz, c20 * ux + c21 * uy + c22 * uz
@@ -466,14 +503,14 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S):
             q_w *= (swd / e_wd) ** 2
         wt[k] = q_w
         used[k] = q_w >= 0.5
-        # measurement in body axes: C_bn f̄_n
+        # measurement in body axes: C(q_I)ᵀ f̄_I
         mbx = c00 * lf[0] + c10 * lf[1] + c20 * lf[2]
         mby = c01 * lf[0] + c11 * lf[1] + c21 * lf[2]
         mbz = c02 * lf[0] + c12 * lf[1] + c22 * lf[2]
         mn = math.sqrt(mbx * mbx + mby * mby + mbz * mbz)
         if mn > 0.0 and q_w > 0.0:
             mx, my, mz = -mbx / mn, -mby / mn, -mbz / mn
-            rx, ry, rz = c20, c21, c22
+            rx, ry, rz = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
             ex = my * rz - mz * ry
             ey = mz * rx - mx * rz
             ez = mx * ry - my * rx
@@ -488,14 +525,14 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S):
         n2 = hx * hx + hy * hy + hz * hz
         if n2 > 1e-24:
             nn = math.sqrt(n2)
-            s = math.sin(nn) / nn
-            cc = math.cos(nn)
+            sh = math.sin(nn) / nn
+            ch = math.cos(nn)
         else:
-            s = 1.0 - n2 / 6.0
-            cc = 1.0 - n2 / 2.0
-        dx, dy, dz = hx * s, hy * s, hz * s
-        w, x, y, z = (w * cc - x * dx - y * dy - z * dz, w * dx + x * cc + y * dz - z * dy,
-                      w * dy - x * dz + y * cc + z * dx, w * dz + x * dy - y * dx + z * cc)
+            sh = 1.0 - n2 / 6.0
+            ch = 1.0 - n2 / 2.0
+        dx, dy, dz = hx * sh, hy * sh, hz * sh
+        w, x, y, z = (w * ch - x * dx - y * dy - z * dz, w * dx + x * ch + y * dz - z * dy,
+                      w * dy - x * dz + y * ch + z * dx, w * dz + x * dy - y * dx + z * ch)
         inv = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
         w, x, y, z = w * inv, x * inv, y * inv, z * inv
         out[k, 0] = 2 * (x * z - w * y)
@@ -503,6 +540,7 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S):
         out[k, 2] = 1 - 2 * (x * x + y * y)
     S[0], S[1], S[2], S[3] = w, x, y, z
     S[4], S[5], S[6] = bx, by, bz
+    S[38], S[39], S[40], S[41] = qw, qx, qy, qz
     return out, used, wt
 
 
@@ -524,10 +562,12 @@ def lp_thresholds(gyro, accel, dt, params: "GatedParams", bias, init_s: float) -
 
 
 def lp_state0(q0, b0) -> np.ndarray:
-    """Initial state vector of :func:`_lp_core` (attitude q0 (4,) [-], bias b0 (3,) [rad/s])."""
+    """Initial state vector of :func:`_lp_core` (attitude q0 (4,) [-], bias b0 (3,) [rad/s]); the strapdown frame
+    starts at q0."""
     S = np.zeros(_LP_STATE)
     S[0:4] = np.asarray(q0, float)
     S[4:7] = np.asarray(b0, float)
+    S[38:42] = np.asarray(q0, float)
     return S
 
 
@@ -539,4 +579,5 @@ def run_lp_core(gyro, accel, dt, params: "GatedParams", S, steps=None):
     return _lp_core(np.ascontiguousarray(gyro, float), np.ascontiguousarray(accel, float),
                     sample_steps(steps, len(gyro), dt),
                     float(params.kp), float(params.ki), float(params.g), float(sa), float(sw), float(swd),
-                    butter2_coeffs(params.tau_acc, dt), S)
+                    butter2_coeffs(params.tau_acc, dt), S, params.gyro_sample == "point", bool(params.rest_bias),
+                    float(dt))

@@ -44,9 +44,9 @@ from numba import njit
 
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0
-from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
-                                         initial_quat, sample_steps)
-from imutherm.imu.filters.inertial_lp import lp3, lp3_init
+from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, estimate_from_gravity,
+                                         initial_bias, initial_quat, sample_steps, step_rates)
+from imutherm.imu.filters.inertial_lp import REST_BIAS_TAU, REST_STATE, REST_TAU, lp3, lp3_init, rest_step
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,10 @@ class KFParams:
                               innovation (sqrt(p + R_eff)) where that exceeds innov_max
     sf_std : float [-]        low-pass mode: gyro scale-factor uncertainty; the process noise of r grows by
                               (sf_std |ω|)² [rad²/s] (fast motion makes the gyro-only prediction worse)
+    gyro_sample : str         'point' (trapezoid) or 'interval' (ω_k over the step ending at k): what a gyro
+                              sample is (:data:`~imutherm.imu.filters.common.GYRO_SAMPLES`)
+    rest_bias : bool          low-pass mode: the bias follows the low-passed gyro while the unit is at rest
+                              (VQF's rest detector, :func:`~imutherm.imu.filters.inertial_lp.rest_step`)
     """
 
     n_window: int = 10
@@ -83,8 +87,11 @@ class KFParams:
     g: float = G0
     tau_acc: float = 0.0
     sf_std: float = 0.0
+    gyro_sample: str = "point"
+    rest_bias: bool = True
 
     def __post_init__(self):
+        check_gyro_sample("KFParams", self.gyro_sample)
         if not (isinstance(self.n_window, (int, np.integer)) and self.n_window >= 1):
             raise InputError(f"KFParams: n_window={self.n_window!r} is invalid; valid: an integer >= 1")
         for name in ("a", "innov_max", "q", "R", "p0", "reject_timeout_s", "g", "kb"):
@@ -195,7 +202,7 @@ def kf_step(state: KFState, gyro, accel, dt: float, params: KFParams) -> KFState
                        lp=tuple(S), used=bool(u[0]))
     gx, gy, gz = (float(v) for v in gyro)
     fx, fy, fz = (float(v) for v in accel)
-    pg = state.prev_gyro if state.prev_gyro is not None else (gx, gy, gz)
+    pg = state.prev_gyro if state.prev_gyro is not None and params.gyro_sample == "point" else (gx, gy, gz)
     b = state.bias
     rx, ry, rz = _propagate(*state.r, 0.5 * (pg[0] + gx) - b[0], 0.5 * (pg[1] + gy) - b[1],
                             0.5 * (pg[2] + gz) - b[2], dt)
@@ -268,9 +275,7 @@ def run_kf(gyro, accel, dt: float, params: KFParams, r0=None, bias0=None, *,
     if params.tau_acc > 0:
         r, used = run_kf_lp_core(gyro, accel, dt, params, kf_lp_state0(r0, params.p0, bias0), steps=dts)
         return estimate_from_gravity("kf", r, used, time.perf_counter() - t0)
-    wbar = np.empty_like(gyro)
-    wbar[0] = gyro[0]
-    wbar[1:] = 0.5 * (gyro[:-1] + gyro[1:])
+    wbar = step_rates(gyro, params.gyro_sample)
     r, used = _kf_loop(np.ascontiguousarray(wbar, float), np.ascontiguousarray(accel, float), float(dt), dts,
                        int(params.n_window), float(params.a), float(params.g), float(params.q), float(params.R),
                        float(params.innov_max), float(params.reject_timeout_s), float(params.kb), float(params.p0),
@@ -329,12 +334,13 @@ def _kf_loop(wbar, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, bias0,
 
 # --------------------------------------------------------------------------- inertial low-pass mode
 #: state vector of :func:`_kf_lp_core`: r (3), p (1), bias (3), strapdown frame q_I (4), low-pass of f_I (12),
-#: previous gyro (3), started (1), samples in the window (1), rejection time (1), window max of e_a (1)
-_KF_LP_STATE = 30
+#: previous gyro (3), started (1), samples in the window (1), rejection time (1), window max of e_a (1), rest
+#: detector (8)
+_KF_LP_STATE = 30 + REST_STATE
 
 
 @njit(cache=True)
-def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, S, sf2):
+def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, S, sf2, trap, rest):
     """The horizontal-attitude KF paper's KF with the measurement low-passed in a strapdown (almost-inertial) frame.
 
     The frame q_I is the gyro-only strapdown attitude (bias-corrected with the filter's estimate, never
@@ -343,8 +349,10 @@ def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, 
     Every ``nw`` samples the measurement r_m = -C(q_I)ᵀ f̄_I / |f̄_I| updates r through the seed's gate 2 and
     re-level, with gate 1 as a variance inflation instead of a rejection: R / w, w = min(1, (a / max e_a)²)
     over the window (and the bias gain kb w), gate 2 at max(innov_max, 3 sqrt(p + R / w)); process noise
-    q + sf2 |ω|² over each step dts[k] [s] (dt [s]: the design step of the window and the low-pass c). Returns
-    (gravity (N,3), used (N,) bool); S updated in place.
+    q + sf2 |ω|² over each step dts[k] [s] (dt [s]: the design step of the window and the low-pass c). The rate
+    of a step: the trapezoid (``trap``: point samples) or the sample (interval samples). At rest (``rest``:
+    :func:`~imutherm.imu.filters.inertial_lp.rest_step`) the bias follows the low-passed gyro with REST_BIAS_TAU.
+    Returns (gravity (N,3), used (N,) bool); S updated in place.
     """
     n = gyro.shape[0]
     out = np.empty((n, 3))
@@ -353,13 +361,23 @@ def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, 
     bx, by, bz = S[4], S[5], S[6]
     qw, qx, qy, qz = S[7], S[8], S[9], S[10]
     period = nw * dt
+    ra = dt / (REST_TAU + dt)
     for k in range(n):
         gx, gy, gz = gyro[k, 0], gyro[k, 1], gyro[k, 2]
+        fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
+        h = dts[k]
         if S[26] == 0.0:
             S[23], S[24], S[25] = gx, gy, gz
-        wx, wy, wz = 0.5 * (S[23] + gx) - bx, 0.5 * (S[24] + gy) - by, 0.5 * (S[25] + gz) - bz
+        if rest:
+            at_rest, lgx, lgy, lgz = rest_step(S, 30, gx, gy, gz, fx, fy, fz, ra, dt)
+            if at_rest:
+                kr = h / REST_BIAS_TAU
+                bx, by, bz = bx + kr * (lgx - bx), by + kr * (lgy - by), bz + kr * (lgz - bz)
+        if trap:
+            wx, wy, wz = 0.5 * (S[23] + gx) - bx, 0.5 * (S[24] + gy) - by, 0.5 * (S[25] + gz) - bz
+        else:
+            wx, wy, wz = gx - bx, gy - by, gz - bz
         S[23], S[24], S[25] = gx, gy, gz
-        h = dts[k]
         ax, ay, az = -wx * h, -wy * h, -wz * h
         th2 = ax * ax + ay * ay + az * az
         if th2 > 1e-24:
@@ -393,7 +411,6 @@ def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, 
         c00, c01, c02 = 1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy)
         c10, c11, c12 = 2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx)
         c20, c21, c22 = 2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)
-        fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
         f0, f1, f2 = c00 * fx + c01 * fy + c02 * fz, c10 * fx + c11 * fy + c12 * fz, c20 * fx + c21 * fy + c22 * fz
         if S[26] == 0.0:
             lp3_init(S, 11, f0, f1, f2)
@@ -445,4 +462,4 @@ def run_kf_lp_core(gyro, accel, dt, params: "KFParams", S, steps=None):
                        sample_steps(steps, len(gyro), dt), int(params.n_window), float(params.a), float(params.g),
                        float(params.q), float(params.R), float(params.innov_max), float(params.reject_timeout_s),
                        float(params.kb), float(params.p0), butter2_coeffs(params.tau_acc, dt), S,
-                       float(params.sf_std ** 2))
+                       float(params.sf_std ** 2), params.gyro_sample == "point", bool(params.rest_bias))

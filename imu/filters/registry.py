@@ -16,7 +16,7 @@ module lists filters by name.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -32,7 +32,9 @@ class FilterInputs:
     :func:`~imutherm.imu.filters.gravity_kf.kf_params_from_rest`), fusion (FusionParams), lever_arm (3,) [m] or
     None (the aekf's own lever-arm correction), gnss (GnssVelocity or None), ungated (GatedParams of the ungated
     baseline; None: ``gated``'s), steps ((N,) [s] the true step ending at each sample of an irregular record, or
-    None: ``dt`` throughout; a runner that takes it passes it on, :attr:`FilterSpec.varying_dt`)."""
+    None: ``dt`` throughout; a runner that takes it passes it on, :attr:`FilterSpec.varying_dt`), gyro_sample
+    ('point' | 'interval', :data:`~imutherm.imu.filters.common.GYRO_SAMPLES`: what a gyro sample is; ours take it
+    into their params, the peers always integrate ω_k over the step ending at k)."""
 
     gyro: np.ndarray = field(repr=False)
     accel: np.ndarray = field(repr=False)
@@ -46,6 +48,7 @@ class FilterInputs:
     gnss: object = None
     ungated: object = None
     steps: np.ndarray | None = field(default=None, repr=False)
+    gyro_sample: str = "point"
 
 
 #: the study's tuning ladder: every tuned value is 10^(k / TUNING_STEPS_PER_DECADE) for an integer k, the same
@@ -113,7 +116,10 @@ class FilterSpec:
     in_study : shown in the end-to-end study's answer (``imutherm compare``, :func:`study_filters`);
     in_sweep : run in a sweep case's lean IMU side (:func:`sweep_filters`);
     varying_dt : the runner integrates over the true per-sample steps ``inputs.steps`` of an irregular record
-    (False: it takes one sample period, ``dt``, the median step).
+    (False: it takes one sample period, ``dt``, the median step);
+    real_tuned : tuned on the real development files (:mod:`imutherm.studies.real_tuning`, :func:`real_filters`)
+    for the recorded-log settings; False where the procedure's guard (no file worse than the library defaults)
+    would keep defaults that are themselves a trap on real motion.
     """
 
     name: str
@@ -129,6 +135,7 @@ class FilterSpec:
     in_sweep: bool = False
     varying_dt: bool = False
     linestyle: object = "-"
+    real_tuned: bool = True
 
     def params(self, inputs: "FilterInputs"):
         """The params object the filter runs with by default on ``inputs`` (None: it takes none)."""
@@ -174,6 +181,11 @@ def tuned_filters() -> tuple:
     return tuple(n for n, s in REGISTRY.items() if s.tuning and not s.needs_gnss)
 
 
+def real_filters() -> tuple:
+    """The filters tuned on the real development files (:func:`tuned_filters` whose entry says ``real_tuned``)."""
+    return tuple(n for n in tuned_filters() if REGISTRY[n].real_tuned)
+
+
 def color(name: str):
     """Plot colour of a filter (None if it is not registered)."""
     s = REGISTRY.get(name)
@@ -210,15 +222,26 @@ def _register_builtin() -> None:
     from imutherm.imu.filters.peers import (EKFParams, MadgwickParams, MahonyParams, VQFParams, run_ekf,
                                             run_madgwick, run_mahony, run_vqf)
 
+    def gs(p, x):  # the record's gyro sample convention into our filters' params
+        return replace(p, gyro_sample=x.gyro_sample)
+
     def gated(x, p):
-        return run_gated(x.gyro, x.accel, x.dt, p or x.gated, init_s=x.init_s, steps=x.steps)
+        return run_gated(x.gyro, x.accel, x.dt, gs(p or x.gated, x), init_s=x.init_s, steps=x.steps)
 
     def kf(x, p):  # the design KFParams plus the rest window's |f| reference and gate level
-        return run_kf(x.gyro, x.accel, x.dt, kf_params_from_rest(x.gyro, x.accel, x.dt, x.init_s, p or x.kf),
+        return run_kf(x.gyro, x.accel, x.dt, kf_params_from_rest(x.gyro, x.accel, x.dt, x.init_s, gs(p or x.kf, x)),
                       init_s=x.init_s, steps=x.steps)
 
     def ungated(x, p):
-        return run_ungated(x.gyro, x.accel, x.dt, p or x.ungated or x.gated, init_s=x.init_s, steps=x.steps)
+        return run_ungated(x.gyro, x.accel, x.dt, gs(p or x.ungated or x.gated, x), init_s=x.init_s, steps=x.steps)
+
+    def aekf(x, p):
+        return run_aekf(x.gyro, x.accel, x.dt, gs(p or AEKFParams(), x), init_s=x.init_s, lever_arm=x.lever_arm,
+                        steps=x.steps)
+
+    def aekf_gnss(x, p):
+        return run_aekf(x.gyro, x.accel_raw, x.dt, gs(p or AEKFParams(), x), gnss=x.gnss, init_s=x.init_s,
+                        steps=x.steps)
 
     specs = [
         FilterSpec("gated", gated, GatedParams, "ours", "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig",
@@ -245,15 +268,13 @@ def _register_builtin() -> None:
                    tuning=(Tuned("gain", 3.16e-3, 1.0, (1e-4, 10.0), "gain [-] of x-io Fusion"),
                            Tuned("rejection_timeout", 3.16, 1000.0, (0.1, 1e4), "acceleration-rejection timeout "
                                                                                 "[s]"))),
-        FilterSpec("aekf", lambda x, p: run_aekf(x.gyro, x.accel, x.dt, p or AEKFParams(), init_s=x.init_s,
-                                                 lever_arm=x.lever_arm, steps=x.steps), AEKFParams, "ours",
+        FilterSpec("aekf", aekf, AEKFParams, "ours",
                    "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple", in_study=True,
                    varying_dt=True, linestyle=(0, (3, 1)),
                    tuning=(Tuned("tau_acc", 1.0, 1.0, (0.1, 100.0), "tau_acc [s]; 0 = the block mean", off=(0.0,)),
                            Tuned("memory_s", 1.0, 31.6, (0.1, 1000.0), "memory_s [s] the fading memory of the "
                                                                        "adaptation laws"))),
-        FilterSpec("aekf_gnss", lambda x, p: run_aekf(x.gyro, x.accel_raw, x.dt, p or AEKFParams(), gnss=x.gnss,
-                                                      init_s=x.init_s, steps=x.steps), AEKFParams, "ours",
+        FilterSpec("aekf_gnss", aekf_gnss, AEKFParams, "ours",
                    "Wang et al.'s adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True, varying_dt=True),
         FilterSpec("vqf", lambda x, p: run_vqf(x.gyro, x.accel, x.dt, p or VQFParams(), init_s=x.init_s), VQFParams,
                    "peer", "VQF, Laidig & Seel, Information Fusion 91, 2023 (vqf package defaults)", "black",
@@ -272,8 +293,9 @@ def _register_builtin() -> None:
         FilterSpec("mahony", lambda x, p: run_mahony(x.gyro, x.accel, x.dt, p or MahonyParams(), init_s=x.init_s,
                                                      steps=x.steps), MahonyParams, "peer",
                    "ahrs Mahony defaults (k_P 1.0, k_I 0.3), a trap on real motion: every motion profile and "
-                   "recorded-log platform runs its tuned setting (studies.recorded.platform_mahony)",
-                   "tab:pink", varying_dt=True,
+                   "recorded-log platform runs its tuned setting (studies.recorded.platform_mahony); not tuned on "
+                   "the real files, where the guard against its defaults keeps them (24 deg on BROAD trial 16)",
+                   "tab:pink", varying_dt=True, real_tuned=False,
                    tuning=(Tuned("k_P", 3.16e-3, 1.0, (1e-4, 10.0), "k_P [1/s], k_I [1/s^2] = 0.3 k_P^2 (published "
                                                                    "default (1, 0.3))",
                                  derived={"k_I": lambda k: 0.3 * k * k}),)),
