@@ -43,10 +43,14 @@ def _fmt(stat, digits=2) -> str:
     return f"{stat['mean']:.{digits}f}±{stat['std']:.{digits}f}"
 
 
-def _title(fig, text: str, sub: str = "") -> None:
+def _title(fig, text: str, sub: str = "") -> float:
+    """A page's title and subtitle; returns the figure height fraction just below the subtitle."""
     fig.text(0.03, 0.965, text, fontsize=14, weight="bold", va="top")
-    if sub:
-        fig.text(0.03, 0.925, sub, fontsize=8.5, va="top", color="0.25")
+    if not sub:
+        return 0.925
+    fig.text(0.03, 0.925, sub, fontsize=8.5, va="top", color="0.25")
+    line = 8.5 * 1.25 / 72 / fig.get_figheight()   # one subtitle line [figure fraction]
+    return 0.925 - line * (sub.count("\n") + 1) - 0.008
 
 
 def _table(ax, rows, cols, fontsize=7.0, col_widths=None, scale_y=1.25) -> None:
@@ -141,7 +145,9 @@ def boards_line(data: dict) -> str:
     imported = [b for b in data.get("boards", []) if b.get("source")]
     if not imported:
         return ""
-    return "boards: " + "; ".join(f"{b['name']} from {b['source']}" for b in imported) + "; "
+    # the file's name and format; the full path is on the parameters page
+    short = lambda src: src.replace("\\", "/").rsplit("/", 1)[-1]  # noqa: E731
+    return "board " + "; ".join(f"{b['name']} from {short(b['source'])}" for b in imported) + "; "
 
 
 def _answer_page(pdf, data: dict) -> None:
@@ -149,13 +155,13 @@ def _answer_page(pdf, data: dict) -> None:
     st = data["study"]
     prof = _main_profile(st)
     fig = plt.figure(figsize=A4)
-    _title(fig, f"Which cooling scheme, and what it does to attitude accuracy: {data['layout']}", textwrap.fill(
+    below = _title(fig, f"Which cooling scheme, and what it does to attitude accuracy: {data['layout']}", textwrap.fill(
            f"{boards_line(data)}ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; grade {st['grade']}, seeds "
            f"{data['seeds'][0]}..{data['seeds'][-1]} (bars: mean, whiskers: std over the seeds, the same seeds in "
            f"every scheme); calibrated in the unit (oven -40..70 C with each scheme's self-heating); out-of-range "
            f"policy '{data['out_of_range_policy']}'; {prof} profile, attitude error RMS through the warm-up; "
            f"{_settings_note(data)}", 165))
-    y = 0.88
+    y = min(0.88, below)
     model = data.get("model")
     if model:  # the study ran on a correlated model: name it and its correlation's before/after
         rms = (f"; correlation RMS {model['rms_before_K']:.2f} -> {model['rms_after_K']:.2f} K"
@@ -188,10 +194,10 @@ def _answer_table_page(pdf, data: dict) -> None:
     st = data["study"]
     prof = _main_profile(st)
     fig = plt.figure(figsize=A4)
-    _title(fig, "The answer in numbers: attitude error per scheme, compensation and filter", textwrap.fill(
+    below = _title(fig, "The answer in numbers: attitude error per scheme, compensation and filter", textwrap.fill(
            f"{prof} profile, calibrated in the unit, mean±std over seeds {data['seeds'][0]}..{data['seeds'][-1]}; "
            f"{_settings_note(data)}", 165))
-    y = 0.88
+    y = min(0.88, below)
     schemes = list(data["schemes"])
     rows = []
     for name in schemes:
@@ -504,7 +510,8 @@ def _parameters_page(pdf, data: dict) -> None:
     fig = plt.figure(figsize=A4)
     _title(fig, "Parameters used and their sources",
            f"layout file {data['layout_path']} (every power, size and placement carries its source or 'assumed' "
-           f"beside it); {boards_line(data) or 'every board from the layout file'}")
+           f"beside it); " + ("; ".join(f"board {b['name']} from {b['source']}" for b in data.get("boards", [])
+                                        if b.get("source")) or "every board from the layout file"))
     lines = ["Materials:"]
     for name, m in data["materials"].items():
         k = f"k {m['k_in_plane']:g}" + ("" if m["k_through"] == m["k_in_plane"] else f"/{m['k_through']:g}")
