@@ -39,6 +39,8 @@ def add_args(parser) -> None:
     parser.add_argument("--board", default="main", metavar="NAME",
                         help="the board's name in the layout (with --into: the board it replaces; default main)")
     parser.add_argument("--name", default=None, help="the layout's name (default: the board file's name)")
+    parser.add_argument("--copper-layers", type=int, default=None, metavar="N",
+                        help="an IDF board's copper layers of 35 um (IDF carries no stack-up; default 4, assumed)")
     g = parser.add_argument_group("powers, heights and sites")
     g.add_argument("--powers", default=None, metavar="FILE", help="CSV reference,power_W[,source] [W]")
     g.add_argument("--power", action="append", metavar="REF=W", help="one part's power [W] (repeatable)")
@@ -170,7 +172,7 @@ def run(args) -> int:
     if not out.parent.exists():
         raise InputError(f"--out {out}: its folder {out.parent} does not exist")
     opts = _options(args)
-    board = read_board(board_path)
+    board = read_board(board_path, copper_layers=args.copper_layers)
     if args.into:
         result = replace_board(args.into, args.board, board, opts)
     else:

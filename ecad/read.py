@@ -13,8 +13,11 @@ from imutherm import InputError
 FORMATS = ".kicad_pcb (KiCad 4-9) or .emn (IDF 3.0, with its .emp library beside it)"
 
 
-def read_board(path: str | Path):
-    """The board of ``path``; InputError in one line for anything that is not a readable board file."""
+def read_board(path: str | Path, copper_layers: int | None = None):
+    """The board of ``path``; InputError in one line for anything that is not a readable board file.
+
+    copper_layers : int or None, for an IDF board (which carries no stack-up): its copper layers of 35 um
+        (default 4, assumed and said so); a KiCad board states its own, and giving them is refused."""
     from imutherm.ecad.idf import read_idf
     from imutherm.ecad.kicad import read_kicad
 
@@ -36,7 +39,11 @@ def read_board(path: str | Path):
                          if kind != "binary" else f"{path}: a binary file, not a board file; valid: a {FORMATS}")
     text = head.lstrip(b"\xef\xbb\xbf").lstrip()
     if text.startswith(b"(kicad_pcb") or path.suffix.lower() == ".kicad_pcb":
+        if copper_layers is not None:
+            raise InputError(f"{path}: --copper-layers is for IDF boards; a KiCad board states its own stack-up")
         return read_kicad(path)
     if text.upper().startswith(b".HEADER") or path.suffix.lower() == ".emn":
-        return read_idf(path)
+        if copper_layers is not None and not (isinstance(copper_layers, int) and 1 <= copper_layers <= 64):
+            raise InputError(f"--copper-layers {copper_layers!r}: valid: 1..64")
+        return read_idf(path) if copper_layers is None else read_idf(path, copper_layers=copper_layers)
     raise InputError(f"{path}: not a board file (it starts with {head[:20]!r}); valid: a {FORMATS}")

@@ -508,3 +508,16 @@ def test_standoffs_give_way_to_parts_on_the_back(tmp_path):
     assert any("U1 stays on top" in n and "standoff under H4" in n for n in r.notes)
     for scheme in r.spec.schemes:
         build_geometry(r.spec, scheme)
+
+
+def test_import_command_reads_an_idf_board_with_its_copper_layers(real_boards, tmp_path, capsys):
+    from imutherm.cli.import_board import main as import_main
+
+    first = import_board(read_kicad(real_boards["drone-fc"]), _drone_options())
+    emn, _ = write_idf(first.spec, "main", tmp_path / "fc.emn")
+    out = tmp_path / "fc.toml"
+    assert import_main([str(emn), "--copper-layers", "2", "--site", "U2=imu", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "IDF 3.0" in text and "2 copper layers of 35 um assumed" in text
+    assert import_main([str(real_boards["drone-fc"]), "--copper-layers", "2", "--out", str(tmp_path / "x.toml")]) == 2
+    assert "for IDF boards" in capsys.readouterr().err
