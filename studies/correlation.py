@@ -197,6 +197,9 @@ class CorrelationResult:
     written: dict | None = None
     #: the model's known form error (:mod:`imutherm.studies.form_error`): the term's cap, the band of the rules
     form_scale: dict | None = None
+    #: the corrected model's physics alone: its effects and the re-tune fitted without the discrepancy term, with
+    #: pooled held-out figures (``after`` itself where no term was fitted); its intervals are the findings'
+    physics: Fit | None = None
 
 
 # --------------------------------------------------------------------------- forward model
@@ -1663,7 +1666,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                              {"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
                               "total_s": time.perf_counter() - t0, "reason": reason},
                              words, rerun_stats, named_effects, tuple(steps), dsum, plain, band, found, written,
-                             fscale.summary())
+                             fscale.summary(), free)
 
 
 def _disc_curve(disc: Discrepancy | None, coefs: dict, i: int, run) -> np.ndarray:
@@ -1903,7 +1906,11 @@ def result_json(res: CorrelationResult) -> dict:
         fit = next(x for x in f["ranking"] if x.effects and x.effects[-1] == res.named_effects[k])
         base = f["base"]
         p = params(fit)
+        phys = res.physics.ci.get(res.named_effects[k]) if res.physics is not None else None
         return {"name": res.named_effects[k], "step": k + 1, "parameters": {n: p[n] for n in fit.effects},
+                # the corrected physics fitted without the discrepancy term: the effect's value and 95 % interval
+                "without_term": ({"value": res.physics.values.get(res.named_effects[k]), "ci95": list(phys)}
+                                 if phys is not None else None),
                 "in_words": effect_words(res.named_effects[k], fit.values),
                 "heldout_rms_before_K": base.heldout_rms_K, "heldout_rms_K": fit.heldout_rms_K,
                 "heldout_gain_K": base.heldout_rms_K - fit.heldout_rms_K,

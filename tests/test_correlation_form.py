@@ -177,3 +177,31 @@ def test_contacts_as_thin_solid_layers():
         np.testing.assert_allclose(k[..., ax][cells], kb, rtol=1e-12)
     np.testing.assert_allclose(k0[..., 2][cells], kb, rtol=1e-12)  # the default: the normal only
     assert np.all(k0[..., 0][cells] == geo_k)
+
+
+@pytest.mark.slow
+def test_layered_path_a_strong_effect_is_named_first_and_a_null_gets_no_library_name(tmp_path):
+    """The campaign's hardest path at test size: data with every contact a thin solid layer, on a grid 1.5x
+    coarser than the inversion's 6 mm, ±10 % nuisance on every conductivity, contact and emissivity, noise and
+    probe offsets. The 5 V regulator at -0.4 W of its 0.90 W (0.55x, issue 43's case) is named first, within 1.5x, and the
+    held-out error falls to at most 0.3 of the nominal model's; the null case of the same generator gets no
+    library name and its written model is no worse than the nominal one."""
+    from imutherm.measured import read_measured
+    from imutherm.studies.correlation import build_models
+    from imutherm.studies.form_generator import generator_mesh_mm
+    from imutherm.studies.hidden_effect import make_case, model_form_options
+    models = build_models([("air", 70.0), ("grease", 70.0)], mesh_size_mm=6.0, min_cells=1)
+    gen = model_form_options(models.options, "layered")
+    case = make_case(tmp_path / "reg", "power@reg_5v", np.random.default_rng(43), mesh_size_mm=generator_mesh_mm(6.0, 0),
+                     min_cells=1, samples=30, value=-0.4, options=gen, nuisance_all=True)
+    res = correlate([read_measured(f) for f in case.files], models=models, rerun=False)
+    j = result_json(res)
+    assert j["named_first"] == "power@reg_5v", (res.verdict, j["named_first"], res.timings["reason"])
+    assert -0.4 * 1.5 <= res.after.values["power@reg_5v"] <= -0.4 / 1.5
+    assert j["heldout_rms_after_K"] <= 0.3 * j["heldout_rms_before_K"]
+    null = make_case(tmp_path / "none", "none", np.random.default_rng(44), mesh_size_mm=generator_mesh_mm(6.0, 0),
+                     min_cells=1, samples=30, options=gen, nuisance_all=True)
+    res0 = correlate([read_measured(f) for f in null.files], models=models, rerun=False)
+    assert res0.named_effects == (), (res0.named_effects, res0.timings["reason"])
+    w = res0.written
+    assert w["heldout_rms_K"] <= w["nominal_heldout_rms_K"] * 1.000001
