@@ -36,6 +36,15 @@
    nothing and the re-tune already predicts held-out data within the noise standard, the term is still
    fitted on the re-tuned model: ``none`` only if the data do not support it. On sparse files the term cannot
    be fitted; the cavity law's form is reported as a prior band at each reading instead (:func:`form_band`).
+   **Through the model's own error** (issue 43): the term's prior scale is capped at twice the model's known
+   form error (:mod:`imutherm.studies.form_error`: the grid's and the reduced model's, per scheme), library
+   effects that take the re-tuned model's held-out error from far beyond that level to within it are named
+   without the term (:func:`imutherm.studies.form_error.named_through_form`), and on the term's path a further
+   effect must halve the term the effects before it leave. A re-tuned parameter that moved far and explains
+   most of the gap is named as a finding (:mod:`imutherm.studies.findings`; verdict ``finding`` when no library
+   effect is named); the model written is never worse than the nominal one on held-out data without the term
+   (:mod:`imutherm.studies.written_model`); implausible readings are refused before any fit
+   (:mod:`imutherm.studies.plausibility`).
 6. **Re-run**: the corrected model on the full model (:func:`rerun_full`) for the "after" figures: its full
    steady solve and its transient on the study's checked reduced model (the full adaptive FEM where the check
    fails, or with ``rerun_transient='full'``).
@@ -155,7 +164,7 @@ class Fit:
 class CorrelationResult:
     """What ``correlate`` found.
 
-    verdict : 'effect' | 'none' | 'ambiguous' | 'not_in_library' | 'discrepancy'
+    verdict : 'effect' | 'finding' | 'none' | 'ambiguous' | 'not_in_library' | 'discrepancy'
     named_effect : str or None (the first of ``named_effects``), ambiguous_set : tuple
     before : dict (rms/max over all data, nominal model), after : Fit of the chosen model on all data
     retune : Fit ('none'), ranking : tuple of Fit (candidates, best first)
@@ -1369,6 +1378,20 @@ def _with_term(runs, models, form, form_retune: bool, nominal: dict, noise: floa
     return fwd, disc, _held(none_fit, _pooled(fwd, "none", folds, ratio, noise, disc)), ratio
 
 
+def _truncate(steps, chosen, k: int, verdict: str, why: str, say) -> tuple:
+    """(steps, chosen) of a forward selection cut to its first ``k`` effects, step k's verdict replaced by
+    ``verdict`` with the reason '<effect k> <why>'."""
+    say(f"named: {', '.join(c.effects[-1] for c in chosen[:k])}; not {chosen[k].effects[-1]}, which {why}")
+    steps = steps[:k] + [dict(steps[k], verdict=verdict, named=None, reason=f"{chosen[k].effects[-1]} {why}")]
+    return steps, chosen[:k]
+
+
+def _gain_words(f: Fit, retune: Fit) -> str:
+    """'the library's choice (NAME) takes the re-tuned model's held-out error from A to B K'."""
+    return (f"the library's choice ({f.name}) takes the re-tuned model's held-out error from "
+            f"{retune.heldout_rms_K:.3f} to {f.heldout_rms_K:.3f} K")
+
+
 def _rank_key(f: Fit):
     return (f.aicc if math.isfinite(f.aicc) else math.inf, f.heldout_rms_K if math.isfinite(f.heldout_rms_K) else math.inf)
 
@@ -1518,11 +1541,9 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
             if plain_sel[1] and FE.named_through_form(plain.heldout_rms_K, plain_sel[1][-1].heldout_rms_K, band,
                                                       noise, NONE_NOISE_FACTOR):
                 discrepancy = False
-                f = plain_sel[1][-1]
-                disc_note = (f"{f.name} takes the re-tuned model's held-out error from {plain.heldout_rms_K:.3f} to "
-                             f"{f.heldout_rms_K:.3f} K, within the model's known form error ({band:.3f} K held out, "
-                             f"{FE.FORM_SIGMAS:g} sigmas {FE.FORM_SIGMAS * band:.3f} K; noise {noise:.3f} K): named "
-                             f"through the form error, no discrepancy term asked")
+                disc_note = (_gain_words(plain_sel[1][-1], plain) + f", within the model's known form error ({band:.3f} "
+                             f"K held out, {FE.FORM_SIGMAS:g} sigmas {FE.FORM_SIGMAS * band:.3f} K; noise "
+                             f"{noise:.3f} K): named through the form error, no discrepancy term asked")
                 say(disc_note)
             elif _plain_explains(plain_sel, noise, plain):
                 discrepancy = False
@@ -1530,11 +1551,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                 # data support all the same (the model's form, or an effect outside the library the re-tune hid)?
                 term_check = not plain_sel[1]
             elif _plain_explains(plain_sel, noise):  # within the noise, but no more than a form error's gain
-                f = plain_sel[1][-1]
-                disc_note = (f"the library's choice ({f.name}) takes the re-tuned model's held-out error from "
-                             f"{plain.heldout_rms_K:.3f} to {f.heldout_rms_K:.3f} K, less than "
-                             f"{1 / EXPLAIN_FRACTION:g}x: a gain the model's form error could give; judged with the "
-                             f"discrepancy term")
+                disc_note = (_gain_words(plain_sel[1][-1], plain) + f", less than {1 / EXPLAIN_FRACTION:g}x: a gain "
+                             f"the model's form error could give; judged with the discrepancy term")
                 say(disc_note)
             else:
                 disc_note = ("the library effects and the re-tune do not predict held-out data within "
@@ -1567,24 +1585,16 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         k = next((k for k in range(1, len(chosen)) if not explains_term(chosen[k], chosen[k - 1], noise,
                                                                        chosen[k:k + 1])), None)
         if k is not None:
-            say(f"named: {', '.join(c.effects[-1] for c in chosen[:k])}; not {chosen[k].effects[-1]}, which does "
-                f"not halve the term the effects before it leave where it acts")
-            steps = steps[:k] + [dict(steps[k], verdict="none", named=None,
-                                      reason=f"{chosen[k].effects[-1]} does not halve the discrepancy the effects "
-                                             f"before it leave where it acts")]
-            chosen = chosen[:k]
+            steps, chosen = _truncate(steps, chosen, k, "none", "does not halve the discrepancy the effects before it "
+                                      "leave where it acts", say)
     if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
         # the longest first part of the selection that does explain it (a later step may add an effect that
         # acts where the form error is and explains it not)
         keep = next((k for k in range(len(chosen) - 1, 0, -1)
                      if explains_term(chosen[k - 1], none_fit, noise, chosen[:k])), 0)
         if keep:
-            say(f"named: {', '.join(c.effects[-1] for c in chosen[:keep])}; not "
-                f"{', '.join(c.effects[-1] for c in chosen[keep:])}, which leaves the model's error where it acts")
-            steps = steps[:keep] + [dict(steps[keep], verdict="not_in_library", named=None,
-                                         reason=f"{chosen[keep].effects[-1]} does not explain the model's error "
-                                                f"where it acts")]
-            chosen = chosen[:keep]
+            steps, chosen = _truncate(steps, chosen, keep, "not_in_library", "does not explain the model's error "
+                                      "where it acts", say)
     if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
         f = chosen[-1]
         unexplained = (f"no candidate explains the model's error: the best, {f.name}, leaves a discrepancy of "
