@@ -40,7 +40,7 @@ def _headline(res) -> tuple:
         return head, sub
     if res.named_effects:
         n = res.named_effects[0]
-        fit = res.physics if res.physics is not None and n in res.physics.ci else res.after
+        fit = res.after if n in res.after.ci or res.physics is None else res.physics
         v = fit.values.get(n)
         lo, hi = fit.ci.get(n, (math.nan, math.nan))
         from imutherm.unit.effects import effect_of
@@ -67,10 +67,10 @@ def first_page_figure(res):
     h_re = res.retune_plain.heldout_rms_K if res.retune_plain is not None else res.retune.heldout_rms_K
     h_phys = w.get("corrected_heldout_rms_K", math.nan)
     h_term = res.after.heldout_rms_K if res.after.criterion == "evidence" else math.nan
-    bars = [("nominal model", h_nom, "tab:red"), ("re-tuned only", h_re, "tab:orange"),
-            ("corrected (physics)", h_phys, "tab:green")]
+    bars = [("nominal\nmodel", h_nom, "tab:red"), ("re-tuned\nonly", h_re, "tab:orange"),
+            ("corrected\n(physics)", h_phys, "tab:green")]
     if math.isfinite(h_term):
-        bars.append(("corrected + form term", h_term, "tab:olive"))
+        bars.append(("corrected\n+ form term", h_term, "tab:olive"))
     ax = fig.add_axes([0.07, 0.14, 0.5, 0.62])
     names = [b[0] for b in bars]
     vals = [b[1] if math.isfinite(b[1]) else 0.0 for b in bars]
@@ -84,7 +84,7 @@ def first_page_figure(res):
                  f"{2 * res.noise_K:.2f} K)", fontsize=12)
     ax.tick_params(labelsize=10)
     # the gap's shares: what the named finding/effects and re-tune explain, what the form term takes, what is left
-    ax2 = fig.add_axes([0.65, 0.14, 0.3, 0.62])
+    ax2 = fig.add_axes([0.62, 0.14, 0.18, 0.62])
     gap = h_nom if math.isfinite(h_nom) and h_nom > 0 else math.nan
     physics = max(gap - h_phys, 0.0) if math.isfinite(h_phys) else 0.0
     term = max(h_phys - h_term, 0.0) if math.isfinite(h_term) else 0.0
@@ -95,8 +95,10 @@ def first_page_figure(res):
     for label, x, col in parts:
         share = x / gap if math.isfinite(gap) else math.nan
         ax2.bar([0], [share], bottom=bottom, color=col, width=0.6)
-        if share > 0.04:
+        if share > 0.12:
             ax2.text(0, bottom + share / 2, f"{label}\n{100 * share:.0f} %", ha="center", va="center", fontsize=10)
+        elif share > 0.0:  # a thin slice: its label beside the bar
+            ax2.text(0.32, bottom + share / 2, f"{label}: {100 * share:.0f} %", ha="left", va="center", fontsize=9)
         bottom += share if math.isfinite(share) else 0.0
     ax2.set_xlim(-0.6, 0.6)
     ax2.set_ylim(0, 1)

@@ -257,7 +257,8 @@ def test_cli_end_to_end_writes_the_outputs(tmp_path):
     j = json.loads((out / "correlation.json").read_text())
     for k in KEYS:
         assert k in j
-    assert j["verdict"] in ("effect", "none", "ambiguous", "not_in_library", "discrepancy")
+    assert j["verdict"] in ("effect", "finding", "none", "ambiguous", "not_in_library", "discrepancy")
+    assert j["written_model"]["model"] in ("corrected", "corrected without the term", "nominal")
     assert math.isfinite(j["rms_after_K"]) and j["rms_after_K"] < j["rms_before_K"]
     assert "[retune]" in (out / "updated_model.toml").read_text()
     assert len(PdfReader(out / "correlation.pdf").pages) >= 3
