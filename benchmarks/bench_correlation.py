@@ -32,7 +32,8 @@ import numpy as np
 from imutherm.io import write_json
 from imutherm.measured import read_measured
 from imutherm.studies.correlation import FORM_RETUNE, _Forward, build_models, correlate, result_json
-from imutherm.studies.hidden_effect import (MODEL_FORMS, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case,
+from imutherm.studies.form_generator import generator_mesh_mm
+from imutherm.studies.hidden_effect import (FINDING_KINDS, MODEL_FORMS, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case,
                                            model_form_options)
 
 DEFAULT_EFFECTS = ("contact@bond", "emissivity", "cavity_emissivity", "power@reg_5v", "fixture_leak",
@@ -64,8 +65,11 @@ def main(argv=None) -> int:
     ap.add_argument("--model-form", nargs="?", const="cavity-law", default=None, choices=MODEL_FORMS,
                     help="model-form cases (hidden_effect.model_form_options): 'cavity-law' (the default of the "
                          "flag) generates with the other cavity-radiation law than the inversion's, "
-                         "'discretisation' with the s2s cavity discretised otherwise, so the data differ from "
-                         "the inverted model in form")
+                         "'discretisation' with the s2s cavity discretised otherwise, 'layered' every "
+                         "contact a thin solid layer, ±10 %% nuisance on every conductivity, contact and emissivity, "
+                         "on a grid 1.5x coarser or 2x finer than the inversion's by turns (--gen-mesh-size "
+                         "ignored; imutherm.studies.form_generator), so the data differ from the inverted model "
+                         "in form")
     ap.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=None,
                     help="the discrepancy term: default as correlate's ('auto': where the library does not explain "
                          "the data); --discrepancy always, --no-discrepancy never")
@@ -76,11 +80,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
-    if args.gen_mesh_size >= args.mesh_size:
+    layered = args.model_form == "layered"
+    if args.gen_mesh_size >= args.mesh_size and not layered:
         ap.error("--gen-mesh-size must be finer (smaller) than --mesh-size: the data come from a finer model")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    kinds = args.kinds or (list(args.effects) + ["none", *OUT_OF_LIBRARY_KINDS])
+    kinds = args.kinds or (list(args.effects) + ["none", *OUT_OF_LIBRARY_KINDS, *FINDING_KINDS])
     experiments = (("air", 70.0), ("grease", 70.0))
     n_cases = len(kinds) * args.cases
     print(f"campaign: {n_cases} cases; each generates {len(experiments)} full transients on a {args.gen_mesh_size:g} mm "
@@ -92,7 +97,7 @@ def main(argv=None) -> int:
     gen_options = model_form_options(models.options, args.model_form) if args.model_form else None
     form = f"model-form ({args.model_form})" if args.model_form else "same-model"
     tag = "" if args.kinds is None and not args.first_case else f"_{'_'.join(kinds)}_from{args.first_case}"
-    form_tag = {"cavity-law": "mf", "discretisation": "mfd", None: ""}[args.model_form]  # in file and case names
+    form_tag = {"cavity-law": "mf", "discretisation": "mfd", "layered": "mfl", None: ""}[args.model_form]  # in file and case names
     tag += f"_{form_tag}" if form_tag else ""
     rows_path = out / f"campaign_rows{tag}.json"
     rows = []
@@ -109,9 +114,10 @@ def main(argv=None) -> int:
                 case = HiddenCase(m["hidden"], m["value"], m["nuisance"], tuple(m["files"]), m["seed"],
                                   m.get("extra", {}))
             else:
+                gen_mm = generator_mesh_mm(args.mesh_size, c) if layered else args.gen_mesh_size
                 case = make_case(d, hidden, np.random.default_rng(seed), experiments=experiments,
-                                 mesh_size_mm=args.gen_mesh_size, min_cells=args.gen_min_cells, seed=seed,
-                                 options=gen_options, samples=args.samples)
+                                 mesh_size_mm=gen_mm, min_cells=args.gen_min_cells, seed=seed,
+                                 options=gen_options, samples=args.samples, nuisance_all=layered)
                 write_json(meta, {"hidden": case.hidden, "value": case.value, "nuisance": case.nuisance,
                                   "files": list(case.files), "seed": seed, "extra": case.extra})
             t_gen = time.perf_counter() - t0
@@ -128,6 +134,8 @@ def main(argv=None) -> int:
             sig = signature(models, runs, case, res.noise_K)
             shape = residual_shape(_Forward(tuple(runs), models.roms, models.geometries), res.retune.values)
             rows.append({"form": form, "named_effects": list(res.named_effects),
+                         "findings": [f.parameter for f in res.findings], "named_first": j["named_first"],
+                         "written_model": j["written_model"]["model"] if j["written_model"] else None,
                          "discrepancy_supported": bool(res.discrepancy and res.discrepancy["supported"]),
                          "discrepancy_rms_K": res.discrepancy["rms_K"] if res.discrepancy else None,
                          "heldout_retune_K": j["heldout_rms_retune_K"],
@@ -140,14 +148,15 @@ def main(argv=None) -> int:
                          "retune_residual": shape,
                          "named_values": dict(res.after.values) if res.verdict == "effect" else None})
             print(f"{hidden:<20} {case.value!s:<12.8} sig {sig if sig is None else round(sig, 1)!s:<6} -> "
-                  f"{called:<20} {'+'.join(res.named_effects) or '-':<30} "
+                  f"{called:<20} {'+'.join([f.parameter for f in res.findings] + list(res.named_effects)) or '-':<30} "
                   f"disc {'yes' if rows[-1]['discrepancy_supported'] else 'no'} ({time.perf_counter() - t0:.0f} s)",
                   flush=True)
             write_json(rows_path, rows)
     if args.generate_only:
         return 0
     form = () if args.cavity_emissivity_as_effect else tuple(FORM_RETUNE)
-    summary = summarise(rows, [k for k in kinds if k not in ("none", *OUT_OF_LIBRARY_KINDS, *form)], form)
+    summary = summarise(rows, [k for k in kinds if k not in ("none", *OUT_OF_LIBRARY_KINDS, *form, *FINDING_KINDS)],
+                        form)
     write_json(out / f"campaign{tag}.json",
                {"rows": rows, "summary": summary, "args": vars(args)})
     print(json.dumps(summary, indent=1))
@@ -161,6 +170,8 @@ def signature(models, runs, case, noise_K: float) -> float | None:
         return None
     fwd = _Forward(tuple(runs), models.roms, models.geometries)
     base = dict(case.nuisance)
+    if case.hidden in FINDING_KINDS:  # a re-tune parameter moved far: against its nominal value
+        base[case.hidden] = fwd.nominal[case.hidden]
     d = [fwd.rise(i, {**base, case.hidden: case.value}) - fwd.rise(i, base) for i in range(len(runs))]
     d = np.concatenate([x.ravel() for x in d])
     return float(np.sqrt(np.mean(d**2)) / noise_K)
@@ -202,6 +213,11 @@ def summarise(rows, effects, form=()) -> dict:
     eff_rows = [r for r in rows if r["hidden"] in effects]
     form_rows = [r for r in rows if r["hidden"] in form]
     strong = [r for r in eff_rows if (r["signature_over_noise"] or 0) >= 5]
+    # strong library effects and strong re-tune moves (a form knob or a FINDING_KINDS parameter hidden far from
+    # its nominal) together: the first thing named (a finding or a library effect) must be the hidden one
+    found_rows = [r for r in rows if (r["hidden"] in form or r["hidden"] in FINDING_KINDS)
+                  and (r["signature_over_noise"] or 0) >= 5 and "named_first" in r]
+    strong_all = strong + found_rows
     conf = {}
     for r in rows:
         conf.setdefault(r["hidden"], Counter())[r["called"]] += 1
@@ -250,6 +266,20 @@ def summarise(rows, effects, form=()) -> dict:
                              "retuned": r["retune_values"].get(r["hidden"]), "verdict": r["verdict"],
                              "named_effects": r["named_effects"]} for r in form_rows],
         "median_correlate_s": float(np.median([r["correlate_s"] for r in rows])) if rows else None,
+        # issue 43's scores: strong effects and strong re-tune moves named first; null cases with no library
+        # name; out-of-library cases abstained or discrepancy (above); the written model never worse than nominal
+        "strong_named_first_incl_findings": (sum(r.get("named_first") == r["hidden"] for r in strong_all)
+                                             / len(strong_all)) if strong_all else None,
+        "strong_cases_incl_findings": len(strong_all),
+        "strong_named_first_by_kind": {k: f"{sum(r.get('named_first') == r['hidden'] for r in strong_all if r['hidden'] == k)}"
+                                          f"/{sum(r['hidden'] == k for r in strong_all)}"
+                                       for k in sorted({r['hidden'] for r in strong_all})},
+        "heldout_after_over_before_median_named_first": float(np.median(
+            [r["heldout_after_K"] / r["heldout_before_K"] for r in strong_all
+             if r.get("named_first") == r["hidden"] and r["heldout_before_K"]]))
+        if any(r.get("named_first") == r["hidden"] for r in strong_all) else None,
+        "null_no_library_name": (sum(not r.get("named_effects") for r in nulls) / len(nulls)) if nulls else None,
+        "written_nominal_or_term_free": dict(Counter(r.get("written_model") for r in rows)),
     }
 
 

@@ -148,6 +148,10 @@ def run(args) -> int:
     print(f"verdict: {res.verdict}" + (f" ({' + '.join(res.named_effects)})" if res.named_effects else "")
           + (f" {', '.join(res.ambiguous_set)}" if res.ambiguous_set else ""))
     print(f"  {res.words}")
+    for f in res.findings:
+        print(f"  finding: {f.words()}")
+    if res.written and res.written["model"] != "corrected":
+        print(f"  written: {res.written['model']}: {res.written['reason']}")
     print(f"  RMS {data['rms_before_K']:.2f} -> {data['rms_after_K']:.2f} K, max {data['max_before_K']:.2f} -> "
           f"{data['max_after_K']:.2f} K ({data['after_from']}), held-out RMS {data['heldout_rms_before_K'] or float('nan'):.2f} -> "
           f"{data['heldout_rms_after_K'] or float('nan'):.2f} K; noise {res.noise_K:.2f} K")

@@ -36,6 +36,15 @@
    nothing and the re-tune already predicts held-out data within the noise standard, the term is still
    fitted on the re-tuned model: ``none`` only if the data do not support it. On sparse files the term cannot
    be fitted; the cavity law's form is reported as a prior band at each reading instead (:func:`form_band`).
+   **Through the model's own error** (issue 43): the term's prior scale is capped at twice the model's known
+   form error (:mod:`imutherm.studies.form_error`: the grid's and the reduced model's, per scheme), library
+   effects that take the re-tuned model's held-out error from far beyond that level to within it are named
+   without the term (:func:`imutherm.studies.form_error.named_through_form`), and on the term's path a further
+   effect must halve the term the effects before it leave. A re-tuned parameter that moved far and explains
+   most of the gap is named as a finding (:mod:`imutherm.studies.findings`; verdict ``finding`` when no library
+   effect is named); the model written is never worse than the nominal one on held-out data without the term
+   (:mod:`imutherm.studies.written_model`); implausible readings are refused before any fit
+   (:mod:`imutherm.studies.plausibility`).
 6. **Re-run**: the corrected model on the full model (:func:`rerun_full`) for the "after" figures: its full
    steady solve and its transient on the study's checked reduced model (the full adaptive FEM where the check
    fails, or with ``rerun_transient='full'``).
@@ -61,8 +70,12 @@ from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build
 from imutherm.measured import MeasuredRun
 from imutherm.unit import knobs as K
 from imutherm.unit.effects import EFFECTS, apply_signal_effects, effect_of, setting
+from imutherm.studies import form_error as FE
 from imutherm.unit.model import ModelOptions
 from imutherm.thermal.reduced import Knob, build_reduced
+from imutherm.studies.findings import findings as findings_of
+from imutherm.studies.plausibility import check_plausible
+from imutherm.studies.written_model import choose as choose_written
 
 #: ΔAICc a candidate must gain over the re-tuned model (Burnham & Anderson 2002: > 10, essentially
 #: no support for the worse model)
@@ -151,7 +164,7 @@ class Fit:
 class CorrelationResult:
     """What ``correlate`` found.
 
-    verdict : 'effect' | 'none' | 'ambiguous' | 'not_in_library' | 'discrepancy'
+    verdict : 'effect' | 'finding' | 'none' | 'ambiguous' | 'not_in_library' | 'discrepancy'
     named_effect : str or None (the first of ``named_effects``), ambiguous_set : tuple
     before : dict (rms/max over all data, nominal model), after : Fit of the chosen model on all data
     retune : Fit ('none'), ranking : tuple of Fit (candidates, best first)
@@ -186,6 +199,16 @@ class CorrelationResult:
     retune_plain: Fit | None = None
     #: on sparse files, where the term cannot be fitted: the cavity law's form as a prior band (:func:`form_band`)
     form_band: dict | None = None
+    #: re-tuned parameters that moved far and explain most of the gap (:mod:`imutherm.studies.findings`), first
+    #: the largest share
+    findings: tuple = ()
+    #: which model ``updated_model.toml`` carries and why (:mod:`imutherm.studies.written_model`)
+    written: dict | None = None
+    #: the model's known form error (:mod:`imutherm.studies.form_error`): the term's cap, the band of the rules
+    form_scale: dict | None = None
+    #: the corrected model's physics alone: its effects and the re-tune fitted without the discrepancy term, with
+    #: pooled held-out figures (``after`` itself where no term was fitted); its intervals are the findings'
+    physics: Fit | None = None
 
 
 # --------------------------------------------------------------------------- forward model
@@ -282,6 +305,9 @@ class Discrepancy:
     sigma_K: float
     ratio: float
     groups: tuple = ()
+    #: scheme -> the largest prior scale [-] the type-II search may reach: the model's known form error
+    #: (:meth:`imutherm.studies.form_error.FormScale.cap`); empty: :data:`DISCREPANCY_PRIOR_RANGE` alone
+    caps: dict = field(default_factory=dict)
 
     def group(self, i: int) -> str:
         """The prior's group (the scheme) of run ``i``."""
@@ -337,10 +363,10 @@ class Discrepancy:
             return self.priors, 0.0
         s2 = self.sigma_K**2 / max(self.ratio, 1e-6)  # the white residual's variance per reading [K²]
         lo, hi = (math.log10(x) for x in DISCREPANCY_PRIOR_RANGE)
-        grid = np.linspace(lo, hi, 57)
         out, total = dict(self.priors), 0.0
         for g, (rr, lam_g, proj) in per.items():
             ev, b = np.concatenate(lam_g), np.concatenate(proj)
+            grid = np.linspace(lo, min(hi, math.log10(self.caps[g])), 57) if g in self.caps else np.linspace(lo, hi, 57)
 
             def C(logp, ev=ev, b=b, rr=rr):
                 lam = s2 / (10.0 ** (2 * logp))
@@ -367,8 +393,9 @@ class Discrepancy:
 
 
 def build_discrepancy(fwd: _Forward, values: dict, sigma_K: float, ratio: float,
-                      prior: float = DISCREPANCY_PRIOR) -> Discrepancy:
-    """The :class:`Discrepancy` basis of every series from the model at ``values`` (the nominal one)."""
+                      prior: float = DISCREPANCY_PRIOR, caps: dict | None = None) -> Discrepancy:
+    """The :class:`Discrepancy` basis of every series from the model at ``values`` (the nominal one); ``caps``:
+    scheme -> the prior scale's largest value [-] (the model's known form error), the start prior within it."""
     basis = {}
     for i, run in enumerate(fwd.runs):
         y = fwd.rise(i, values)
@@ -377,7 +404,11 @@ def build_discrepancy(fwd: _Forward, values: dict, sigma_K: float, ratio: float,
             dT = float(y_inf[j])
             s = np.clip(y[:, j] / dT, 0.0, 1.0) if dT > 0 else np.zeros(len(y))
             basis[(i, j)] = dT * np.column_stack([s, 4 * s * (1 - s)])
-    return Discrepancy(basis, prior, float(sigma_K), float(ratio), tuple(r.scheme for r in fwd.runs))
+    caps = dict(caps or {})
+    groups = tuple(r.scheme for r in fwd.runs)
+    if caps:
+        prior = {g: min(float(prior), caps.get(g, float(prior))) for g in sorted(set(groups))}
+    return Discrepancy(basis, prior, float(sigma_K), float(ratio), groups, caps)
 
 
 def _series(fwd: _Forward, values: dict, mask: dict):
@@ -442,7 +473,8 @@ def _knobs_for(name, fwd: _Forward) -> list:
 
 
 def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float, prior_K: float,
-         disc: Discrepancy | None = None, start: dict | None = None, hint: dict | None = None) -> Fit:
+         disc: Discrepancy | None = None, start: dict | None = None, hint: dict | None = None,
+         fixed: dict | None = None) -> Fit:
     """Bounded fit of the re-tune knobs plus candidate(s) ``name`` on ``train``; scored on ``test``.
 
     The re-tune knobs carry a weak prior towards their nominal values: a residual ``prior_K`` (u - u0)
@@ -455,9 +487,11 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
     held-out data predicted with the training fit's coefficients; the criterion is then the evidence
     form (n_eff / n) J / σ² + 2k (AICc's small-sample term kept) instead of AICc; ``hint``: the same
     effects' values fitted without the term, a further start (the better evidence of the two is kept).
+    ``fixed``: re-tune knobs held at the given values (not fitted; :mod:`imutherm.studies.findings`).
     """
     effects = _effects_of(name)
-    ks = _knobs_for(effects, fwd)
+    fixed = dict(fixed or {})
+    ks = [k for k in _knobs_for(effects, fwd) if k.name not in fixed]
     # start at the nominal (re-tune) / mid-range (effect) in the knob coordinate u in [-1, 1]
     u0 = np.array([float(k.to_u(K.RETUNE_NOMINAL[k.name])) if k.name in K.RETUNE_NOMINAL else 0.0 for k in ks])
     base = fwd.nominal
@@ -475,7 +509,7 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
                 us[idx] = float(np.clip(k.to_u(start[k.name]), -1, 1))
 
     def vals(u):
-        return {k.name: float(k.from_u(x)) for k, x in zip(ks, u)}
+        return {**fixed, **{k.name: float(k.from_u(x)) for k, x in zip(ks, u)}}
 
     def fun(u, d):
         res, pen, _ = _residuals_disc(fwd, vals(u), train, d)
@@ -984,14 +1018,23 @@ def _masks(runs, holdout: str | None):
     return [(train, test)]
 
 
-def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None) -> tuple:
+def _test_union(folds) -> dict:
+    """run index -> bool (n, m): every reading some fold holds out."""
+    out = {}
+    for _, test in folds:
+        for i, m in (test or {}).items():
+            out[i] = out.get(i, np.zeros_like(m)) | m
+    return out
+
+
+def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None, fixed=None) -> tuple:
     """Held-out RMS and max over the folds (each fold fitted on its training set; with the discrepancy
     term, the held-out readings are predicted with the training fit's coefficients)."""
     errs, blocks = [], []
     for k, (train, test) in enumerate(folds):
         if test is None:
             return math.nan, math.nan, ()
-        f = _fit(fwd, name, train, None, ratio, prior, disc, start)
+        f = _fit(fwd, name, train, None, ratio, prior, disc, start, fixed=fixed)
         for i, j, rows, r in _series(fwd, f.values, test):
             e = r[rows] - (disc.basis[(i, j)][rows] @ f.disc.get((i, j), np.zeros(2)) if disc is not None else 0.0)
             errs.append(e)
@@ -1317,20 +1360,36 @@ def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
     return out
 
 
-def _with_term(runs, models, form, form_retune: bool, nominal: dict, noise: float, ratio: float, full, folds):
+def _with_term(runs, models, form, form_retune: bool, nominal: dict, noise: float, ratio: float, full, folds,
+               caps: dict | None = None):
     """The re-tuned model with the discrepancy term: (forward model, :class:`Discrepancy`, its Fit with
     held-out figures, n_eff ratio). Where the model's form is in doubt the form knobs of :data:`FORM_IN_DOUBT`
     (the cavity law's blend) are re-tuned too; the residual level σ of the evidence is what the re-tune with
-    the term leaves, not below the noise, and the re-tuned model's own scales start every candidate's."""
+    the term leaves, not below the noise, and the re-tuned model's own scales start every candidate's. ``caps``:
+    scheme -> the term's largest prior scale [-] (the model's known form error, :mod:`imutherm.studies.form_error`)."""
     fwd = _Forward(runs, models.roms, models.geometries, models.options,
                    form + (tuple(FORM_IN_DOUBT) if form_retune else ()))
-    disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR)
+    disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR, caps)
     first = _fit(fwd, "none", full, None, ratio, noise, disc)
     ratio = n_eff_ratio(fwd, first.values, disc, first.disc)  # the term takes the smooth, correlated part
     disc = replace(disc, prior=dict(first.disc_priors), sigma_K=max(noise, first.rms_K), ratio=ratio)
     none_fit = _fit(fwd, "none", full, None, ratio, noise, disc)
     disc = disc.with_prior(none_fit.disc_priors)
     return fwd, disc, _held(none_fit, _pooled(fwd, "none", folds, ratio, noise, disc)), ratio
+
+
+def _truncate(steps, chosen, k: int, verdict: str, why: str, say) -> tuple:
+    """(steps, chosen) of a forward selection cut to its first ``k`` effects, step k's verdict replaced by
+    ``verdict`` with the reason '<effect k> <why>'."""
+    say(f"named: {', '.join(c.effects[-1] for c in chosen[:k])}; not {chosen[k].effects[-1]}, which {why}")
+    steps = steps[:k] + [dict(steps[k], verdict=verdict, named=None, reason=f"{chosen[k].effects[-1]} {why}")]
+    return steps, chosen[:k]
+
+
+def _gain_words(f: Fit, retune: Fit) -> str:
+    """'the library's choice (NAME) takes the re-tuned model's held-out error from A to B K'."""
+    return (f"the library's choice ({f.name}) takes the re-tuned model's held-out error from "
+            f"{retune.heldout_rms_K:.3f} to {f.heldout_rms_K:.3f} K")
 
 
 def _rank_key(f: Fit):
@@ -1411,9 +1470,12 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     if not runs:
         raise InputError("correlate: no measured files")
     refuse_duplicates(runs)
+    check_plausible(runs)
     if not isinstance(layout, LayoutSpec):
         layout = load_layout(layout)
     options = options or ModelOptions()
+    fscale = FE.form_scale(r.scheme for r in runs)
+    caps = {g: fscale.cap(g) for g in fscale.fraction}
     if models is None:
         check_inputs(runs, layout, holdout, mesh_size_mm=mesh_size_mm, min_cells=min_cells, options=options, say=say,
                      use_cache=use_cache)
@@ -1449,7 +1511,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
         folds = _masks(runs, holdout)
         none0 = _fit(fwd, "none", full, None, 1.0, noise)
-        ratio = n_eff_ratio(fwd, none0.values)
+        ratio = ratio0 = n_eff_ratio(fwd, none0.values)
         plain = _fit(fwd, "none", full, None, ratio, noise)
         plain = _held(plain, _pooled(fwd, "none", folds, ratio, noise))
         if candidates is None:
@@ -1475,24 +1537,30 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         if discrepancy == "auto":  # the library first; the term only where the library does not explain the data
             plain_sel = forward_select(fwd, plain, candidates, full, folds, ratio, noise, None, jobs, max_effects, say,
                                        costs=costs)
-            if _plain_explains(plain_sel, noise, plain):
+            band = FE.band_K(fwd, fscale, plain.values, _test_union(folds))
+            if plain_sel[1] and FE.named_through_form(plain.heldout_rms_K, plain_sel[1][-1].heldout_rms_K, band,
+                                                      noise, NONE_NOISE_FACTOR):
+                discrepancy = False
+                disc_note = (_gain_words(plain_sel[1][-1], plain) + f", within the model's known form error ({band:.3f} "
+                             f"K held out, {FE.FORM_SIGMAS:g} sigmas {FE.FORM_SIGMAS * band:.3f} K; noise "
+                             f"{noise:.3f} K): named through the form error, no discrepancy term asked")
+                say(disc_note)
+            elif _plain_explains(plain_sel, noise, plain):
                 discrepancy = False
                 # nothing named and the re-tune within the noise standard: is a smooth residual left that the
                 # data support all the same (the model's form, or an effect outside the library the re-tune hid)?
                 term_check = not plain_sel[1]
             elif _plain_explains(plain_sel, noise):  # within the noise, but no more than a form error's gain
-                f = plain_sel[1][-1]
-                disc_note = (f"the library's choice ({f.name}) takes the re-tuned model's held-out error from "
-                             f"{plain.heldout_rms_K:.3f} to {f.heldout_rms_K:.3f} K, less than "
-                             f"{1 / EXPLAIN_FRACTION:g}x: a gain the model's form error could give; judged with the "
-                             f"discrepancy term")
+                disc_note = (_gain_words(plain_sel[1][-1], plain) + f", less than {1 / EXPLAIN_FRACTION:g}x: a gain "
+                             f"the model's form error could give; judged with the discrepancy term")
                 say(disc_note)
             else:
                 disc_note = ("the library effects and the re-tune do not predict held-out data within "
                              f"{NONE_NOISE_FACTOR:g} noise sigmas: judged with the discrepancy term")
                 say(disc_note)
         if discrepancy:
-            fwd, disc, none_fit, ratio = _with_term(runs, models, form, form_retune, nominal, noise, ratio, full, folds)
+            fwd, disc, none_fit, ratio = _with_term(runs, models, form, form_retune, nominal, noise, ratio, full, folds,
+                                                    caps)
         if discrepancy or plain_sel is None:
             if plain_sel is None and disc is not None:  # the library's fits without the term: starts of those with it
                 plain_sel = ([{"ranking": tuple(_map(_fit, [(fwd, (n,), full, None, ratio, noise) for n in candidates],
@@ -1505,21 +1573,28 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         ranking = list(steps[0]["ranking"]) if steps else []
         if term_check:
             fwd, disc, none_fit, ratio = _with_term(runs, models, form, form_retune, nominal, noise, ratio, full,
-                                                    folds)
+                                                    folds, caps)
     t_fits = time.perf_counter() - t0 - t_rom
     unexplained = ""
+    if disc is not None and len(chosen) > 1:
+        # with the term capped at the model's known form error, a further effect must itself explain what the
+        # effects before it leave of the term, where it acts (halve it or leave it within 2 noise sigmas): the
+        # halving rule of the plain path, for the term. Else a form error beyond the known one is handed, piece by
+        # piece, to further library effects (toy, 6 % form error and a 0.5 W regulator error: power@processor named
+        # second, not hidden)
+        k = next((k for k in range(1, len(chosen)) if not explains_term(chosen[k], chosen[k - 1], noise,
+                                                                       chosen[k:k + 1])), None)
+        if k is not None:
+            steps, chosen = _truncate(steps, chosen, k, "none", "does not halve the discrepancy the effects before it "
+                                      "leave where it acts", say)
     if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
         # the longest first part of the selection that does explain it (a later step may add an effect that
         # acts where the form error is and explains it not)
         keep = next((k for k in range(len(chosen) - 1, 0, -1)
                      if explains_term(chosen[k - 1], none_fit, noise, chosen[:k])), 0)
         if keep:
-            say(f"named: {', '.join(c.effects[-1] for c in chosen[:keep])}; not "
-                f"{', '.join(c.effects[-1] for c in chosen[keep:])}, which leaves the model's error where it acts")
-            steps = steps[:keep] + [dict(steps[keep], verdict="not_in_library", named=None,
-                                         reason=f"{chosen[keep].effects[-1]} does not explain the model's error "
-                                                f"where it acts")]
-            chosen = chosen[:keep]
+            steps, chosen = _truncate(steps, chosen, keep, "not_in_library", "does not explain the model's error "
+                                      "where it acts", say)
     if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
         f = chosen[-1]
         unexplained = (f"no candidate explains the model's error: the best, {f.name}, leaves a discrepancy of "
@@ -1549,6 +1624,25 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         reason += f" ({disc_note})"
     if term_check and v == "none":  # the term was asked and is not needed: the re-tuned model stands as it is
         after, none_fit, disc = plain, plain, None
+    # the re-tune's far moves (findings) and the model to write, both on the physics without the term
+    with threadpool_limits(1):
+        free = after
+        if disc is not None:
+            free = _held(_fit(fwd, after.effects, full, None, ratio0, noise, None, after.values),
+                         _pooled(fwd, after.effects, folds, ratio0, noise, None, after.values))
+        held_out = _test_union(folds) if folds[0][1] is not None else full
+        found = findings_of(fwd, free, full, folds, ratio0, noise, held_out)
+        written = choose_written(fwd, nominal, after.values, free.values if disc is not None else None, held_out)
+    if found:
+        fw = "; ".join(f.words() for f in found)
+        if v == "effect":
+            reason = f"finding: {fw}; then the library: {reason}"
+        else:
+            reason = f"finding: {fw} (without it: {v}, {reason})"
+            v, named, amb_set = "finding", None, ()
+        say(f"finding: {fw}")
+    if written["model"] != "corrected":
+        say(written["reason"])
     curves = {}
     for i, run in enumerate(runs):
         d = _disc_curve(disc, after.disc, i, run)
@@ -1557,7 +1651,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                             "discrepancy_K": -d}
     before = {"rms_K": float(np.sqrt(np.mean(before_res**2))), "max_K": float(np.abs(before_res).max()),
               "heldout_rms_K": _heldout_nominal(fwd, folds, nominal)}
-    words = "; ".join(effect_words(n, after.values) for n in named_effects) if named_effects else reason
+    words = "; ".join([f.words() for f in found] + [effect_words(n, after.values) for n in named_effects]) or reason
     if dsum is not None and dsum["supported"]:
         words += f"; {dsum['words']}"
     band = form_band(fwd, after.values, full, named_effects) if sparse_term else None
@@ -1581,7 +1675,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                                     for (s, a), r in roms.items()},
                              {"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
                               "total_s": time.perf_counter() - t0, "reason": reason},
-                             words, rerun_stats, named_effects, tuple(steps), dsum, plain, band)
+                             words, rerun_stats, named_effects, tuple(steps), dsum, plain, band, found, written,
+                             fscale.summary(), free)
 
 
 def _disc_curve(disc: Discrepancy | None, coefs: dict, i: int, run) -> np.ndarray:
@@ -1821,7 +1916,11 @@ def result_json(res: CorrelationResult) -> dict:
         fit = next(x for x in f["ranking"] if x.effects and x.effects[-1] == res.named_effects[k])
         base = f["base"]
         p = params(fit)
+        phys = res.physics.ci.get(res.named_effects[k]) if res.physics is not None else None
         return {"name": res.named_effects[k], "step": k + 1, "parameters": {n: p[n] for n in fit.effects},
+                # the corrected physics fitted without the discrepancy term: the effect's value and 95 % interval
+                "without_term": ({"value": res.physics.values.get(res.named_effects[k]), "ci95": list(phys)}
+                                 if phys is not None else None),
                 "in_words": effect_words(res.named_effects[k], fit.values),
                 "heldout_rms_before_K": base.heldout_rms_K, "heldout_rms_K": fit.heldout_rms_K,
                 "heldout_gain_K": base.heldout_rms_K - fit.heldout_rms_K,
@@ -1836,6 +1935,12 @@ def result_json(res: CorrelationResult) -> dict:
                                           "heldout_rms_K": f.heldout_rms_K, "change_K": f.signature_K,
                                           "heldout_worse_z": heldout_worse_z(f, st["base"])}
                                          for f in st["ranking"][:8]]} for st in res.steps],
+        # re-tuned parameters that moved far and explain most of the gap, the largest share first; the first thing
+        # named is the first finding if there is one, else the first library effect
+        "findings": [f.as_dict() for f in res.findings],
+        "named_first": (res.findings[0].parameter if res.findings else res.named_effect),
+        "written_model": ({k: v for k, v in res.written.items() if k != "values"} if res.written else None),
+        "form_scale": res.form_scale,
         "discrepancy": res.discrepancy,
         "form_band": res.form_band,
         "criterion": res.retune.criterion,
@@ -1882,6 +1987,11 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
 
     lines = ["# imutherm correlate: the model after correlation", f"# verdict = {res.verdict}",
              f"# {res.words}", "# run a study on it: imutherm compare --model THIS_FILE (also solve, sweep)", ""]
+    written = res.written or {"model": "corrected", "values": res.after.values, "reason": ""}
+    values = written["values"]
+    effects = () if written["model"] == "nominal" else res.named_effects
+    if written["model"] != "corrected":
+        lines[3:3] = [f"# written: {written['model']}: {written['reason']}"]
     if layout_path is not None or options is not None:
         lines.append("[model]")
         if layout_path is not None:
@@ -1896,6 +2006,7 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
     data = result_json(res)
     lines.append("[correlation]")
     lines.append(f"verdict = {json.dumps(res.verdict)}")
+    lines.append(f"written_model = {json.dumps(written['model'])}")
     for key in ("rms_before_K", "rms_after_K", "heldout_rms_before_K", "heldout_rms_after_K", "noise_K"):
         v = data.get(key)
         if v is not None and np.isfinite(v):
@@ -1908,18 +2019,18 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
         lines.append("]")
     lines += ["", "[retune]"]
     for k, _ in K.RETUNE:
-        if k.name in res.after.values:
-            lines.append(f"{k.name} = {res.after.values[k.name]:.6g}   # {K.RETUNE_SOURCES[k.name]}")
+        if k.name in values:
+            lines.append(f"{k.name} = {values[k.name]:.6g}   # {K.RETUNE_SOURCES[k.name]}")
     for name, why in FORM_KNOBS.items():
-        if name in res.after.values and name not in res.named_effects:
-            lines.append(f"{name} = {res.after.values[name]:.6g}   # {why}")
+        if name in values and name not in effects:
+            lines.append(f"{name} = {values[name]:.6g}   # {why}")
     lines += ["", "# the named effects, in the order forward selection added them (one line each)", "[effects]"]
-    for name in res.named_effects:
+    for name in effects:
         e = effect_of(name)
-        lines.append(f'"{name}" = {{ {e.params[0].name} = {res.after.values[name]:.6g} }}')
-    if res.named_effects:
+        lines.append(f'"{name}" = {{ {e.params[0].name} = {values[name]:.6g} }}')
+    if effects:
         lines.append("# imutherm solve " + " ".join(f"--effect {n}:{effect_of(n).params[0].name}="
-                                                     f"{res.after.values[n]:.6g}" for n in res.named_effects))
+                                                     f"{values[n]:.6g}" for n in effects))
     if res.discrepancy is not None:  # a statistical term of the fit, not a model input: recorded, not applied
         lines += ["", f"# discrepancy term (prior scale {res.discrepancy['prior_fraction']:.3g} of each site's rise, estimated "
                       f"from the data; "

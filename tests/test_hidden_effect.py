@@ -218,11 +218,15 @@ def test_discretisation_path_differs_from_the_inversion_model_by_its_stated_amou
 
 def test_model_form_paths_and_their_refusals():
     """The 'cavity-law' path swaps the law; the 'discretisation' path keeps s2s and changes its patches and
-    rays (finer than the inversion's defaults); an effective-law inversion has no s2s to discretise otherwise."""
+    rays (finer than the inversion's defaults); an effective-law inversion has no s2s to discretise otherwise;
+    the 'layered' path keeps the laws and makes every contact a thin solid layer (the generator refines its grid
+    for them: tests/test_correlation_form.py)."""
     from imutherm import InputError
     from imutherm.studies.hidden_effect import FORM_PATCH_MM, FORM_RAYS, MODEL_FORMS, model_form_options
     s2s = ModelOptions(cavity_law="s2s")
-    assert MODEL_FORMS == ("cavity-law", "discretisation")
+    assert MODEL_FORMS == ("cavity-law", "discretisation", "layered")
+    lay = model_form_options(s2s, "layered")
+    assert lay.contact_layers and not s2s.contact_layers and lay.with_(contact_layers=False) == s2s
     assert model_form_options(s2s, "cavity-law").cavity_law == "effective"
     d = model_form_options(s2s, "discretisation")
     assert (d.cavity_law, d.cavity_patch_mm, d.cavity_rays) == ("s2s", FORM_PATCH_MM, FORM_RAYS)

@@ -656,6 +656,11 @@ MEASURED = {  # name -> (text, expected tokens)
     "kelvin_power_on": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,343.15\n300,358.1\n", ["kelvin", "power-on"]),
     "fahrenheit": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,158\n300,190\n", ["degF", "power-on"]),
     "one_row": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,70\n", ["one row"]),
+    # readings no unit of this kind can produce (studies/plausibility.py), refused before any model is built
+    "rise_300K": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,70\n300,90\n600,370.5\ninf,95\n",
+                  ["370.5", "solder"]),
+    "colder_than_ambient": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,70\n300,90\n600,61\ninf,95\n",
+                            ["below the ambient", "under power"]),
 }
 REFUSED_EARLY = {  # name -> (argv without --out, expected tokens); files from _refusal_files
     "s2s_patches_solve": (["solve", "--cavity-law", "s2s", "--cavity-patch-mm", "0.001", "--max-memory", "2G"],

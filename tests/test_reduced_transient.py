@@ -69,6 +69,26 @@ def test_a_failed_check_returns_nothing():
     assert chk.max_site_error_K > 1e-9 and chk.rounds == 1
 
 
+@pytest.mark.slow
+def test_a_heat_flux_law_is_accounted_on_its_face_nodes():
+    """A radiant load on the lid (a HeatFlux law, the correlation campaign's out-of-library kind): the reduced
+    transient's energy account scatters each flux law's nodal loads to its face's nodes (it multiplied them into a
+    vector of all the nodes and failed on the shapes) and balances."""
+    from dataclasses import replace
+    from imutherm.thermal.assembly import assemble
+    from imutherm.thermal.problem import HeatFlux
+    from imutherm.thermal.steady import solve_steady
+    res = run_scheme(None, "air", options=ModelOptions(cavity_law="effective"), **COARSE)
+    pb = res.steady.problem
+    pb = replace(pb, boundary={**pb.boundary, "zmax": tuple(pb.boundary["zmax"]) + (HeatFlux(300.0),)})
+    asm = assemble(pb)
+    sites = dict(res.geometry.sites)
+    st = solve_steady(pb, probes=sites, assembly=asm)
+    tr, chk = RT.reduced_power_on(pb, asm, st, sites, 120.0)
+    assert chk.accepted and tr is not None, chk.reason
+    assert asm.flux_in_W > 0 and tr.energy_balance_rel_error < 1e-3
+
+
 def test_run_scheme_falls_back_to_the_full_fem(monkeypatch):
     calls = []
     real = RT.reduced_power_on

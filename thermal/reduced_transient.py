@@ -353,8 +353,10 @@ def _result(problem, asm, red, sol, times, probe_C, names, save_times, res_max, 
     one = np.ones(asm.n)
     Y = np.asarray(sol.sol(times))                     # (r, k)
     H1 = asm.pattern.csr(asm.H_data).T @ one           # heat out through the linear laws: 1^T H (T - T_ref)
-    F_lin = asm.F_bc - sum((bc.law.q * bc.weights for bc in asm.fluxes), start=np.zeros(asm.n)) \
-        if asm.fluxes else asm.F_bc
+    F_flux = np.zeros(asm.n)  # the HeatFlux laws' nodal loads (each law's weights are on its face's nodes)
+    for bc in asm.fluxes:
+        np.add.at(F_flux, bc.nodes, bc.law.q * bc.weights)
+    F_lin = asm.F_bc - F_flux
     q_lin = (H1 @ V) @ Y + float(H1 @ (amb * one) - F_lin.sum())
     q_nl = np.zeros(len(times))
     for law in red.laws:

@@ -92,6 +92,11 @@ class ModelOptions:
         (a part's own ``board_contact_W_m2K`` in the layout overrides it towards boards)
     materials : tuple of Material, property sets used instead of the library entries of
         the same name (a sweep varies a material this way without touching the library)
+    contact_layers : bool, a contact conductance as a thin solid layer (default False: the touching cell
+        layer's conductivity *along the normal* takes the series resistance, :class:`Interface`): True sets every
+        component of the touching cells to the series value, the form of a resolved solid layer when the grid
+        has a thin cell layer there (:func:`imutherm.studies.form_generator.refine_contact_layers`); a
+        model-form device of the correlation campaign's generator, not a law of the default model
     """
 
     exterior: str = "natural"
@@ -118,6 +123,7 @@ class ModelOptions:
     # is ~40x larger, so this value hardly matters
     standoff_contact_W_m2K: float | None = AL_AL_AIR_JOINT_W_M2K
     materials: tuple = ()
+    contact_layers: bool = False
 
     def __post_init__(self):
         if self.exterior not in ("natural", "fixed", "none"):
@@ -237,7 +243,9 @@ def unit_interfaces(geometry: Geometry, options: ModelOptions) -> tuple:
     return tuple(out)
 
 
-def _apply_interface(k: np.ndarray, grid: TensorGrid, itf: Interface) -> None:
+def _apply_interface(k: np.ndarray, grid: TensorGrid, itf: Interface, layer: bool = False) -> None:
+    """The interface's series resistance in the cells of ``part_b`` that touch ``part_a``: along the normal
+    (default), or in every direction (``layer``: the cells are a thin solid layer, see ``contact_layers``)."""
     names = grid.part_names
     for p in (itf.part_a, itf.part_b):
         if p not in names:
@@ -248,6 +256,7 @@ def _apply_interface(k: np.ndarray, grid: TensorGrid, itf: Interface) -> None:
     cp = grid.cell_part
     widths = grid.cell_sizes()
     touched = 0
+    done = np.zeros(cp.shape, bool)  # a layer's cell takes the series value once (at a corner it touches twice)
     for axis in range(3):
         for shift in (1, -1):
             nb = np.roll(cp, shift, axis=axis)
@@ -257,10 +266,14 @@ def _apply_interface(k: np.ndarray, grid: TensorGrid, itf: Interface) -> None:
             cells = (cp == b) & (nb == a)
             if not cells.any():
                 continue
+            if layer:
+                cells &= ~done
+                done |= cells
             touched += int(cells.sum())
             w = np.broadcast_to(np.expand_dims(widths[axis], [i for i in range(3) if i != axis]), cp.shape)[cells]
-            kk = k[..., axis][cells]
-            k[..., axis][cells] = w / (w / kk + 1.0 / itf.conductance_W_m2K)
+            for ax in ((0, 1, 2) if layer else (axis,)):
+                kk = k[..., ax][cells]
+                k[..., ax][cells] = w / (w / kk + 1.0 / itf.conductance_W_m2K)
     if not touched:
         raise InputError(f"interface {itf.part_a!r}/{itf.part_b!r}: the parts do not touch")
 
@@ -303,7 +316,7 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
             runs = _run_lengths(air, w, axis)
             k[..., axis][air] += weight * cavity_radiation_conductivity(runs[air], mean_T, options.cavity_emissivity)
     for itf in unit_interfaces(geometry, options):
-        _apply_interface(k, grid, itf)
+        _apply_interface(k, grid, itf, options.contact_layers)
 
     housing = options.material(parts[grid.part_names.index("housing")].material)
     eps = options.emissivity if options.emissivity is not None else (housing.emissivity or 0.0)
