@@ -18,7 +18,7 @@ are this mesh's (the default mesh's are in ``imutherm compare``'s table, :doc:`/
 # Layout -> geometry -> mesh -> problem -> solve
 # ----------------------------------------------
 # ``geometry.sites`` are the sensor sites' positions [m]; given as probes, each solve records their
-# temperature. The transient stops once every site has settled (within 0.5 % of its steady rise), so it
+# temperature. The transient stops once every site has settled (within half a percent of its steady rise), so it
 # is given the steady temperatures.
 import os
 import tempfile
