@@ -10,11 +10,17 @@ peak memory <= 2 GB). Run it on an otherwise idle machine: the figures are the m
     python benchmarks/bench_study.py                # default settings of `imutherm compare`
     python benchmarks/bench_study.py -- --seeds 6   # extra arguments for imutherm compare
     python benchmarks/bench_study.py -- --full      # the transients on the full adaptive FEM (as before)
+    python benchmarks/bench_study.py --write        # and record the printed answer (defaults only)
+
+``--write`` records the answer the command printed (its table, the real-motion lines and the sentences) in
+``docs/benchmarks/tables/compare_answer.txt``, with the date and the commit: the one copy of that table, which
+the documentation includes and ``tests/test_docs_figures.py`` holds the README's copy to.
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
 import resource
@@ -26,6 +32,7 @@ from pathlib import Path
 
 TARGET_S = 40.0
 TARGET_MB = 2048.0
+ANSWER = Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "tables" / "compare_answer.txt"
 
 
 def _tree_rss_mb(pid: int) -> float:
@@ -44,10 +51,38 @@ def _tree_rss_mb(pid: int) -> float:
     return total
 
 
+def answer_lines(stdout: str) -> list:
+    """The answer of ``imutherm compare``'s printout: from the table's header to the last sentence (the cavity
+    law's notes before it and the closing ``wrote ...`` line left out)."""
+    lines = stdout.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("scheme "))
+    end = max(i for i, line in enumerate(lines) if line.startswith("wrote "))
+    return lines[start:end]
+
+
+def write_answer(stdout: str, path: Path = ANSWER) -> None:
+    """Record the printed answer of the default ``imutherm compare`` with the date and the commit."""
+    rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                         cwd=Path(__file__).resolve().parent).stdout.strip()
+    head = ["# imutherm compare at its defaults: the answer it prints (reference unit, default mesh, s2s cavity law,",
+            "# 3 seeds, the power-on transients on reduced models checked against the full FEM); progress lines, the",
+            "# cavity law's notes and the closing 'wrote ...' line left out. The one copy of this answer: the docs",
+            "# include this file and tests/test_docs_figures.py holds the README's copy to it.",
+            f"# Written by `python benchmarks/bench_study.py --write` on {datetime.date.today().isoformat()} at commit "
+            f"{rev}; do not edit, rerun the command."]
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text("\n".join(head + answer_lines(stdout)) + "\n", encoding="utf-8")
+    tmp.replace(path)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("extra", nargs="*", help="arguments passed to imutherm compare (after --)")
+    ap.add_argument("--write", action="store_true", help=f"record the printed answer in {ANSWER.name} "
+                    "(the command at its defaults only)")
     args = ap.parse_args(argv)
+    if args.write and args.extra:
+        ap.error("--write records the answer of the defaults: no extra arguments to imutherm compare")
     out = Path(tempfile.mkdtemp(prefix="bench_study_")) / "out"
     cmd = [sys.executable, "-m", "imutherm.cli", "compare", "--no-progress", "--out", str(out)] + args.extra
     t0 = time.perf_counter()
@@ -65,6 +100,9 @@ def main(argv=None) -> int:
     if proc.returncode != 0:
         print(f"imutherm compare failed with status {proc.returncode}")
         return 1
+    if args.write:
+        write_answer(text)
+        print(f"wrote {ANSWER}")
     s = json.loads((out / "summary.json").read_text())
     print(f"{'scheme':<8} {'nodes':>8} {'steady [s]':>10} {'transient [s]':>13} {'steps':>6} {'max rise [K]':>12} "
           f"{'model':>8} {'check [K]':>9}")

@@ -8,8 +8,11 @@ The examples gallery (``examples/*.py``) is executed by sphinx-gallery during th
 ``IMUTHERM_DOCS_NO_GALLERY=1`` to build the pages without running the examples (``plot_gallery = False``).
 """
 
+import atexit
 import os
+import shutil
 import sys
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -56,6 +59,12 @@ numpydoc_xref_param_type = False
 
 # -- sphinx-gallery: examples/*.py, each run in the build on coarse meshes
 plot_gallery = "False" if os.environ.get("IMUTHERM_DOCS_NO_GALLERY") else "True"
+# the examples write under $IMUTHERM_EXAMPLES_OUT, by default the system's temporary folder, which every build on
+# the machine shares (two builds side by side removed each other's sweep files): each build gets its own folder,
+# removed when it ends, unless the variable is set
+if "IMUTHERM_EXAMPLES_OUT" not in os.environ:
+    os.environ["IMUTHERM_EXAMPLES_OUT"] = _EXAMPLES_OUT = tempfile.mkdtemp(prefix="imutherm-docs-examples-")
+    atexit.register(shutil.rmtree, _EXAMPLES_OUT, ignore_errors=True)
 # the attitude example reads a RepoIMU log from the shared data folder beside the repository (CI: ../shared);
 # without it the example is shown but not run (run alone, it says so and stops)
 SHARED = Path(os.environ.get("IMUTHERM_SHARED") or ROOT.parent / "shared")

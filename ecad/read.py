@@ -16,8 +16,34 @@ FORMATS = ".kicad_pcb (KiCad 4-9) or .emn (IDF 3.0, with its .emp library beside
 def read_board(path: str | Path, copper_layers: int | None = None):
     """The board of ``path``; InputError in one line for anything that is not a readable board file.
 
+    Parameters
+    ----------
+    path : str or Path, a KiCad ``.kicad_pcb`` or an IDF ``.emn`` file (its ``.emp`` library beside it)
     copper_layers : int or None, for an IDF board (which carries no stack-up): its copper layers of 35 um
-        (default 4, assumed and said so); a KiCad board states its own, and giving them is refused."""
+        (default 4, assumed and said so); a KiCad board states its own, and giving them is refused
+
+    Returns
+    -------
+    BoardDesign (:class:`~imutherm.ecad.board.BoardDesign`: outline [mm], stack-up, footprints, holes)
+
+    Examples
+    --------
+    The open-hardware flight controller of the repository's ``examples/boards/`` (run from a clone):
+
+    >>> import gzip, tempfile
+    >>> from pathlib import Path
+    >>> from imutherm.ecad.read import read_board
+    >>> pcb = Path(tempfile.mkdtemp()) / "drone-fc.kicad_pcb"
+    >>> _ = pcb.write_bytes(gzip.decompress(Path("examples/boards/drone-fc.kicad_pcb.gz").read_bytes()))
+    >>> board = read_board(pcb)
+    >>> print(f"{board.format}: {board.width_mm:.1f} x {board.height_mm:.1f} x {board.thickness_mm} mm, "
+    ...       f"{board.copper_layers} copper layers, {len(board.footprints)} footprints")
+    KiCad 5 (20171130): 50.0 x 50.0 x 1.6 mm, 2 copper layers, 78 footprints
+    >>> read_board(Path("examples/boards/drone-fc.kicad_pcb.gz"))
+    Traceback (most recent call last):
+    ...
+    imutherm.InputError: examples/boards/drone-fc.kicad_pcb.gz: a gzip file, not a board file; valid: ... (unpack it first)
+    """
     from imutherm.ecad.idf import read_idf
     from imutherm.ecad.kicad import read_kicad
 

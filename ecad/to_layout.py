@@ -446,7 +446,42 @@ def _standoffs(rects: list, x0: float, y0: float, z0: float, height: float, mate
 
 
 def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> ImportResult:
-    """A single-board unit around ``board`` (see the module docstring); InputError on any problem."""
+    """A single-board unit around ``board`` (see the module docstring); InputError on any problem.
+
+    Parameters
+    ----------
+    board : BoardDesign, from :func:`imutherm.ecad.read.read_board`
+    opts : ImportOptions, what the board file does not say: powers [W], heights [mm], the sensor sites
+
+    Returns
+    -------
+    ImportResult: ``text`` the layout TOML (write it to a file: an ordinary layout), ``spec`` its checked
+    :class:`~imutherm.geometry.layout.LayoutSpec`, ``decisions`` each footprint's fate with its reason
+
+    Examples
+    --------
+    The flight controller of ``examples/boards/`` (run from a clone) with its powers and heights files and the
+    ICM-20689 (``U2``) as the sensor site, as ``imutherm import`` does it:
+
+    >>> import gzip, tempfile
+    >>> from pathlib import Path
+    >>> from imutherm.ecad.read import read_board
+    >>> from imutherm.ecad.to_layout import ImportOptions, import_board
+    >>> from imutherm.ecad.user_tables import read_value_csv
+    >>> pcb = Path(tempfile.mkdtemp()) / "drone-fc.kicad_pcb"
+    >>> _ = pcb.write_bytes(gzip.decompress(Path("examples/boards/drone-fc.kicad_pcb.gz").read_bytes()))
+    >>> options = ImportOptions(powers=read_value_csv("examples/boards/drone-fc_powers.csv", "power_W"),
+    ...                         heights=read_value_csv("examples/boards/drone-fc_heights.csv", "height_mm"),
+    ...                         sites={"U2": "imu"})
+    >>> unit = import_board(read_board(pcb), options)
+    >>> unit.count("modelled"), unit.count("merged"), unit.count("skipped")
+    (15, 59, 4)
+    >>> list(unit.spec.schemes), unit.spec.sites[0].name
+    (['air', 'grease', 'potted'], 'gyro_x')
+
+    ``unit.spec`` goes wherever a layout goes: ``build_geometry(unit.spec, "grease")``,
+    ``run_scheme(unit.spec, "grease")``.
+    """
     _check_refs(board, opts)
     rails_refs = _electrical_refs(opts.electrical)
     unknown_rail = sorted(rails_refs - {fp.ref for fp in board.footprints})

@@ -58,8 +58,11 @@ source = found[0]
 # pitch = ±90° singularity.
 with gzip.open(source, "rt") as f:
     raw = np.loadtxt(f, delimiter=";", skiprows=2)
-raw = raw[np.r_[True, np.diff(raw[:, 0]) > 0]]
+steps = np.diff(raw[:, 0])
+raw = raw[np.r_[True, steps > 0]]
 step = float(np.median(np.diff(raw[:, 0])))
+print(f"{int((steps <= 0).sum())} repeated time stamps; {int((abs(steps - step) > step / 2).sum())} steps off the "
+      f"median {step * 1e3:.1f} ms by more than half of it, the longest {steps.max():.2f} s")
 t = np.arange(raw[0, 0], raw[-1, 0], step)
 data = np.column_stack([np.interp(t, raw[:, 0], raw[:, j]) for j in range(1, 11)])
 quat, accel, gyro = data[:, 0:4], data[:, 4:7], data[:, 7:10]

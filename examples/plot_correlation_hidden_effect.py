@@ -32,7 +32,7 @@ from imutherm.studies.hidden_effect import make_case
 
 OUT = Path(os.environ.get("IMUTHERM_EXAMPLES_OUT", tempfile.gettempdir())) / "imutherm-examples" / "correlation"
 case = make_case(OUT / "case", "power@reg_5v", np.random.default_rng(3), experiments=(("air", 70.0),),
-                 mesh_size_mm=3.0, min_cells=1, value=0.35, samples=30)
+                 mesh_size_mm=3.0, min_cells=1, value=0.35, noise_K=0.05, samples=30)
 print(f"hidden: {case.hidden} = {case.value} W; nuisance {case.nuisance}; files {[Path(f).name for f in case.files]}")
 print(Path(case.files[0]).read_text().splitlines()[:4])
 

@@ -29,7 +29,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from imutherm.cli import main as imutherm
-from imutherm.geometry.layout import default_layout_path
+from imutherm.geometry.electrical import rail_losses
+from imutherm.geometry.layout import default_layout_path, load_layout
 
 OUT = Path(os.environ.get("IMUTHERM_EXAMPLES_OUT", tempfile.gettempdir())) / "imutherm-examples" / "custom_layout"
 OUT.mkdir(parents=True, exist_ok=True)
@@ -41,6 +42,9 @@ text, n = re.subn(r"^supply_V = 9\.0 .*$", "supply_V = 6.5   # a 6.5 V supply", 
 assert n == 1
 mine = OUT / "imu_6v_supply.toml"
 mine.write_text(text, encoding="utf-8")
+for layout in ("imu_reference", mine):   # the 5 V regulator's loss, as the layout's [electrical] gives it
+    loss = rail_losses(load_layout(layout).electrical)["reg_5v"]
+    print(f"{Path(layout).stem}: reg_5v dissipates {loss.formula} = {loss.loss_W:.3f} W")
 
 # %%
 # Draw it and solve both units

@@ -8,7 +8,7 @@ ambient (70 °C) and solved in time with
 Each site's rise, its t63 and its t95 (the times to 63 % and 95 % of its steady rise) are in
 ``result.json``; the curves are in ``probes.csv`` (``time_s`` and one column per site, °C).
 
-Coarse mesh and a loose tolerance (0.05 K; the default is 0.01 K) to keep the example short; the run
+Coarse mesh and a loose tolerance (0.05 K, five times the default) to keep the example short; the run
 stops once every site has settled (``--until-settled``).
 """
 

@@ -233,6 +233,17 @@ def build_geometry(layout: LayoutSpec | str | None = None, scheme: str | None = 
     ----------
     layout : LayoutSpec, path, or None (the built-in reference unit)
     scheme : str, one of the layout's schemes (``air``, ``grease``, ``potted``)
+
+    Examples
+    --------
+    >>> from imutherm.geometry.build import build_geometry
+    >>> geometry = build_geometry("imu_reference", "grease")
+    >>> len(geometry.parts), round(sum(p.power_W for p in geometry.parts), 3)   # parts, power [W]
+    (44, 1.962)
+    >>> [p.name for p in geometry.parts if p.kind == "bond"]   # the grease lines of the scheme
+    ['processor_bond', 'reg_5v_bond', 'reg_3v3_bond', 'reg_1v8_bond']
+    >>> [round(1e3 * float(v), 2) for v in geometry.sites["gyro_x"]]   # a sensor site [mm]
+    [58.65, 14.0, 14.3]
     """
     if not isinstance(layout, LayoutSpec):
         layout = load_layout(layout)

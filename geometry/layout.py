@@ -368,6 +368,19 @@ def load_layout(path: str | Path | None = None) -> LayoutSpec:
     ``path`` is a file, or the name of a built-in layout (``imu_cardguide``; see
     :func:`builtin_layouts`). Raises InputError naming the file, the part and the
     field on any problem.
+
+    Examples
+    --------
+    >>> from imutherm.geometry.layout import load_layout
+    >>> layout = load_layout("imu_reference")          # or a path to your own TOML file
+    >>> layout.name, layout.ambient_C, list(layout.schemes)
+    ('imu_reference', 70.0, ['air', 'grease', 'potted'])
+    >>> [site.name for site in layout.sites]
+    ['gyro_x', 'gyro_y', 'gyro_z', 'accel_x', 'accel_y', 'accel_z', 'tp1', 'tp2', 'tp3']
+    >>> load_layout("no_such_unit.toml")
+    Traceback (most recent call last):
+    ...
+    imutherm.InputError: no_such_unit.toml: layout file not found; built-in layouts: imu_cardguide, imu_reference
     """
     path = resolve_layout(path)
     spath = str(path)

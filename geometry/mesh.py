@@ -116,6 +116,20 @@ def build_mesh(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
     max_cell_mm : float [mm] largest cell edge
     min_cells : int, fewest cells across every part along each axis (boards, via fields and
         standoffs: ``BOARD_CELLS_FACTOR`` times as many)
+
+    Examples
+    --------
+    A coarse mesh (6 mm cells, one cell across the thinnest part; the default is 2 mm and two cells):
+
+    >>> from imutherm.geometry.build import build_geometry
+    >>> from imutherm.geometry.mesh import build_mesh, mesh_info
+    >>> grid = build_mesh(build_geometry("imu_reference", "grease"), max_cell_mm=6, min_cells=1)
+    >>> grid.shape, grid.n_nodes                 # cells along x, y, z; nodes
+    ((53, 51, 23), 67392)
+    >>> grid.part_names[:3]                      # one subdomain per part, named as in the layout
+    ('housing', 'lid', 'main')
+    >>> mesh_info(grid).cells_across["main"]     # cells through the main board's thickness
+    2
     """
     _check_mesh_arguments(max_cell_mm, min_cells)
     xs, ys, zs = (_axis_lines(geometry, a, max_cell_mm * MM, int(min_cells)) for a in range(3))

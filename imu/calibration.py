@@ -411,6 +411,25 @@ def calibrate_unit(unit: ImuUnit, rng: np.random.Generator, *, rig: RigConfig | 
     Returns
     -------
     Calibration
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imutherm.imu.calibration import calibrate_unit
+    >>> from imutherm.imu.sensor_model import draw_unit
+    >>> unit = draw_unit("adis16355", np.random.default_rng(0))
+    >>> bare = calibrate_unit(unit, np.random.default_rng(1))           # the sensors alone in the oven
+    >>> bare.segment_edges_C[[0, -1]].tolist(), len(bare.segment_edges_C) - 1   # chamber range [°C], segments
+    ([-40.0, 70.0], 22)
+
+    Calibrated assembled and powered, each die 8 K above the chamber (from a thermal model in the study), the
+    calibrated range moves up with the dies (reported temperatures, per site [°C]):
+
+    >>> in_unit = calibrate_unit(unit, np.random.default_rng(1), self_heating=lambda chamber_C: np.full(6, 8.0))
+    >>> [round(float(v), 1) for v in bare.site_range_C()[1]]
+    [70.5, 70.6, 70.7, 68.7, 70.7, 70.3]
+    >>> [round(float(v), 1) for v in in_unit.site_range_C()[1]]
+    [78.5, 78.6, 78.7, 76.7, 78.7, 78.2]
     """
     if not isinstance(rng, np.random.Generator):
         raise InputError(f"calibrate_unit: rng must be a numpy.random.Generator, got {type(rng).__name__}")

@@ -248,6 +248,27 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     the filters whose registry entry says ``varying_dt`` integrate over it, the others (VQF) run at ``dt``.
     ``gyro_sample`` ('point' | 'interval', :data:`imutherm.imu.filters.common.GYRO_SAMPLES`): what a gyro sample
     is (the simulated sensor's: 'point'; a recorded log's: 'interval'), passed to our filters.
+
+    Examples
+    --------
+    A turntable swing of ±80° in roll (10 s at rest first), an uncompensated unit at 25 °C, three filters;
+    the roll and pitch RMS errors [°]:
+
+    >>> import numpy as np
+    >>> from imutherm.imu.motion import make_profile
+    >>> from imutherm.imu.sensor_model import draw_unit, simulate_imu
+    >>> from imutherm.studies.attitude_study import run_filters
+    >>> traj = make_profile("swing", duration=60.0, rate_hz=100.0)
+    >>> unit = draw_unit("adis16355", np.random.default_rng(0))
+    >>> raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, np.full((traj.t.size, 6), 25.0),
+    ...                    np.random.default_rng(1))
+    >>> estimates, _ = run_filters(raw.gyro, raw.accel, 0.01, traj.lever_arm, names=("gated", "kf", "vqf"))
+    >>> for name, e in estimates.items():
+    ...     rms = [np.degrees(np.sqrt(np.mean((a - b) ** 2))) for a, b in ((e.roll, traj.roll), (e.pitch, traj.pitch))]
+    ...     print(f"{name:5s} roll {rms[0]:.2f} pitch {rms[1]:.2f}")
+    gated roll 0.67 pitch 0.49
+    kf    roll 1.18 pitch 0.41
+    vqf   roll 0.65 pitch 0.59
     """
     from imutherm.imu.filters.registry import REGISTRY, FilterInputs, filter_names
 

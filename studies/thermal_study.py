@@ -129,6 +129,25 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         steady field that checks itself against the full model, the full FEM when the check fails
         (:func:`imutherm.thermal.reduced_transient.reduced_power_on`; adaptive TR-BDF2 settings only:
         given steps or the θ-scheme always run the full FEM)
+
+    Returns
+    -------
+    SchemeResult (geometry, mesh, steady and transient results, :class:`~imutherm.thermal.metrics.ThermalMetrics`)
+
+    Examples
+    --------
+    What ``imutherm solve --scheme potted --mesh-size 6 --min-cells 1`` computes, in one call (a coarse mesh:
+    one cell across the thinnest part):
+
+    >>> from imutherm.studies.thermal_study import run_scheme
+    >>> run = run_scheme("imu_reference", "potted", mesh_size_mm=6, min_cells=1)
+    >>> print(f"max rise {run.metrics.max_rise_K:.1f} K in {run.metrics.max_part}")
+    max rise 15.4 K in reg_5v_die
+    >>> print(f"gyro_x +{run.metrics.probe_rise_K['gyro_x']:.1f} K")
+    gyro_x +2.1 K
+
+    With ``transient=True`` it adds the power-on transient from the ambient, and ``run.metrics`` each site's
+    t63 and t95 [s].
     """
     if transient_model not in TRANSIENT_MODELS:
         raise InputError(f"transient model must be one of {', '.join(TRANSIENT_MODELS)}, got {transient_model!r}")

@@ -42,3 +42,10 @@ def test_a_summary_that_opens_a_literal_block_survives_numpydoc_dedent():
 def test_unknown_headings_become_rubrics():
     out = hook.rewrite(["Summary.", "", "Profiles", "--------", "``static``  at rest."], module=True)
     assert ".. rubric:: Profiles" in out and "- ``static`` : at rest." in out
+
+
+def test_examples_sections_are_kept_as_written():
+    doc = ["Summary.", "", "Examples", "--------", "A wrapped sentence of prose", "    that is not joined here.", "",
+           ">>> f(1,", "...   2) | 3", "  4", "x : 1"]
+    out = hook.rewrite(doc)
+    assert out == doc

@@ -279,7 +279,38 @@ def _apply_interface(k: np.ndarray, grid: TensorGrid, itf: Interface, layer: boo
 
 
 def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | None = None) -> ThermalProblem:
-    """The thermal problem of one scheme of the unit on ``grid``, with the laws of ``options``."""
+    """The thermal problem of one scheme of the unit on ``grid``, with the laws of ``options``.
+
+    Parameters
+    ----------
+    geometry : Geometry, the scheme's parts (:func:`imutherm.geometry.build.build_geometry`)
+    grid : TensorGrid, its mesh (:func:`imutherm.geometry.mesh.build_mesh`)
+    options : ModelOptions or None (the defaults: natural convection and radiation outside, the ``s2s``
+        cavity law inside)
+
+    Returns
+    -------
+    ThermalProblem, ready for :func:`~imutherm.thermal.steady.solve_steady` and
+    :func:`~imutherm.thermal.transient.solve_transient`
+
+    Examples
+    --------
+    >>> from imutherm.geometry.build import build_geometry
+    >>> from imutherm.geometry.mesh import build_mesh
+    >>> from imutherm.unit.model import ModelOptions, build_problem
+    >>> geometry = build_geometry("imu_reference", "potted")
+    >>> grid = build_mesh(geometry, max_cell_mm=6, min_cells=1)
+    >>> problem = build_problem(geometry, grid)
+    >>> round(float(problem.q @ grid.cell_volumes().ravel()), 3)   # the power [W]
+    1.962
+    >>> [type(law).__name__ for law in problem.boundary["zmax"]]   # the lid's laws
+    ['NaturalConvection', 'Radiation']
+    >>> [type(law).__name__ for law in problem.boundary["zmin"]]   # the base, bolted to the fixture
+    ['Contact']
+    >>> calm = build_problem(geometry, grid, ModelOptions(exterior="fixed", h_fixed_W_m2K=5.0))
+    >>> [type(law).__name__ for law in calm.boundary["zmax"]]
+    ['Convection', 'Radiation']
+    """
     options = options or ModelOptions()
     parts = geometry.parts
     if tuple(p.name for p in parts) != tuple(grid.part_names):

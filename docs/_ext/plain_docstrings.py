@@ -11,7 +11,8 @@ This hook, run on every docstring before numpydoc parses it, changes only how su
   block that the docstring's dedent left unindented is indented again);
 - a heading that is not a numpydoc section (and any heading of a module docstring) becomes a rubric,
   since numpydoc drops the text of sections it does not know;
-- every ``|`` outside inline literals, roles and literal blocks is escaped.
+- every ``|`` outside inline literals, roles and literal blocks is escaped;
+- an ``Examples`` section (doctest lines, ``>>>``) is left exactly as written.
 
 The words are unchanged, so the API reference says what the docstrings say.
 """
@@ -25,6 +26,8 @@ NUMPYDOC_SECTIONS = {"parameters", "returns", "yields", "receives", "other param
                      "warnings", "see also", "notes", "references", "examples", "attributes", "methods"}
 LIST_SECTIONS = {"parameters", "returns", "yields", "receives", "other parameters", "raises", "warns",
                  "attributes", "methods"}
+#: sections kept verbatim: doctest blocks (a ``|`` there is code, and a continuation line is its own line)
+VERBATIM_SECTIONS = {"examples"}
 ITEM = re.compile(r"^(?P<name>\*{0,2}[A-Za-z_][\w.\[\]'*]*(?:, ?\*{0,2}[A-Za-z_][\w.\[\]'*]*)*) : (?P<rest>.*)$")
 LITERAL_ITEM = re.compile(r"^(?P<name>``[^`]+``)(?: +|: )(?P<rest>[^\s:,.;)].*)$")
 BULLET = re.compile(r"^([-*+•]|\d+[.)]|\(\d+\)|[a-z][.)]) ")
@@ -116,11 +119,14 @@ def prose(block: list[str]) -> list[str]:
 def rewrite(lines: list[str], module: bool = False) -> list[str]:
     """The docstring's lines with the plain-text layout turned into reStructuredText (see the module)."""
     out: list[str] = []
+    verbatim: set[int] = set()   # indices into out of the lines of VERBATIM_SECTIONS
     section = None
     block: list[str] = []
 
     def flush():
-        out.extend(block if section in LIST_SECTIONS else prose(block))
+        if section in VERBATIM_SECTIONS:
+            verbatim.update(range(len(out), len(out) + len(block)))
+        out.extend(block if section in LIST_SECTIONS or section in VERBATIM_SECTIONS else prose(block))
         block.clear()
 
     i = 0
@@ -140,7 +146,10 @@ def rewrite(lines: list[str], module: bool = False) -> list[str]:
     flush()
     # bars escaped outside literal blocks
     result, literal_at = [], None
-    for line in out:
+    for i, line in enumerate(out):
+        if i in verbatim:
+            result.append(line)
+            continue
         if literal_at is not None and (not line.strip() or indent(line) > literal_at):
             result.append(line)
             continue
