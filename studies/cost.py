@@ -29,6 +29,13 @@ def transient_steps(time_kwargs: dict) -> int:
     return int(math.ceil(t_end / (dt_max or DEFAULT_DT_MAX) - 1e-9))
 
 
+def usable_workers(jobs: int, tasks: int) -> int:
+    """Worker processes [-] a run of ``tasks`` independent tasks can use with ``--jobs jobs``: no more than the
+    tasks (a worker without a task would only hold memory), at least 1. The cost estimates count these, and
+    the runs start no more (``sweep --jobs 10000`` of 2 cases runs, and is estimated, on 2 workers)."""
+    return max(1, min(int(jobs), int(tasks)))
+
+
 # ------------------------------------------------------------------ the IMU side of `imutherm compare`
 #: wall time of one attitude filter over one motion sample in the end-to-end study's IMU side [s] (truth
 #: model and compensation included) and the fixed part of one (scheme, seed) case [s] (the in-unit
@@ -86,6 +93,7 @@ def check_study_cost(config, schemes: int, jobs: int | None, max_memory: int | N
     jobs = min(2, cpus) if jobs is None else int(jobs)
     if jobs < 1:
         raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    jobs = usable_workers(jobs, work["cases"])   # the study starts no more (run_study)
     workers = max(1, jobs - 1)
     seconds = (work["filter_samples"] * SECONDS_PER_FILTER_SAMPLE + work["cases"] * SECONDS_PER_CASE) / min(workers, cpus)
     case_bytes = BYTES_PER_SAMPLE_STUDY * work["longest_samples"]

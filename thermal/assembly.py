@@ -82,12 +82,13 @@ class Pattern:
         self.indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(counts, out=self.indptr[1:])
         itype = np.int32 if n * 27 < 2 ** 31 - 1 else np.int64
-        rows = np.arange(n, dtype=np.int64)
-        cols = rows[:, None] + flat[None, :]
-        self.indices = cols[valid].astype(itype)
+        # column of each stored entry: row + offset, built in the index type (a 2-D int64 temporary was the
+        # largest array of an 8x refined mesh's assembly)
+        self.indices = (np.arange(n, dtype=itype)[:, None] + flat.astype(itype)[None, :])[valid]
         self.indptr = self.indptr.astype(itype)
         self.rows = np.repeat(np.arange(n, dtype=itype), counts)
-        self.diag_pos = (self.indptr[:-1] + np.cumsum(valid, axis=1)[:, _CENTRE] - 1).astype(np.int64)
+        # the centre's position: the row start plus the row's entries before it
+        self.diag_pos = self.indptr[:-1].astype(np.int64) + valid[:, :_CENTRE].sum(axis=1)
         self.nnz = int(self.indptr[-1])
 
     def data(self, stencil: np.ndarray) -> np.ndarray:
