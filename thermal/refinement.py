@@ -10,9 +10,11 @@ field is singular. Solving again on the grid with every interval split in ``r`` 
 the extrapolated value T(h) + E and, from three grids, the observed order p (:func:`observed_order`).
 
 :data:`MESH_ERROR_ORDER` is the order the two-grid estimate of a study assumes: the lowest observed at the
-reference unit's sensor dies by the refinement study of ``imutherm verify`` (1x, 2x, 3x of its mesh, linear
-laws: 1.3 to 1.7 at the dies, 1.2 at the hot spot), rounded down, so the estimate errs on the large side where
-the field converges faster (a smooth field at p = 2: it overstates the error by 1.25x).
+reference unit's sensor dies by the refinement study of ``imutherm verify`` (``refinement_reference_unit``:
+1x, 2x, 3x of a 6 mm / 1-cell mesh, linear laws; 2026-12-04: air 1.22-1.52, grease 1.02-1.21 at the dies,
+1.3-1.45 at the hot spot), rounded down to 1. An order this low is the mark of the singular corners; where the
+field converges faster the estimate errs on the large side (a smooth field at p = 2: 1.5x the error; the
+board-in-cavity case of the verification suite: 1.2-1.3x).
 
 :func:`refined_steady` solves the refined problem from the coarse field (prolonged, exact on the nested grid):
 one or two Newton steps, since the start is within the discretisation error of the answer, each by CG with a
@@ -31,7 +33,7 @@ from scipy.optimize import brentq
 from imutherm import InputError
 
 #: the order of convergence [-] a two-grid estimate assumes (module docstring)
-MESH_ERROR_ORDER = 1.2
+MESH_ERROR_ORDER = 1.0
 #: refinement ratio [-] of the study's estimate: every interval split in two (8x the cells)
 REFINEMENT_RATIO = 2
 
