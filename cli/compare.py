@@ -30,7 +30,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from imutherm import InputError
-from imutherm.studies.cost import check_study_cost, transient_steps
+from imutherm.studies.cost import check_study_cost, check_transient_cost, transient_steps
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir, in_background
 from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,
@@ -125,7 +125,11 @@ def run(args) -> int:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
     steps = transient_steps(args.time_kwargs) if args.time_kwargs else 0
     for s in schemes:  # every scheme's mesh and memory estimated before the first is solved
-        check_thermal_cost(build_geometry(layout, s), args, steps=steps, refined=not args.no_mesh_error)
+        cost = check_thermal_cost(build_geometry(layout, s), args, steps=steps, refined=not args.no_mesh_error)
+        full = args.time_kwargs and (args.full or args.time_kwargs.get("dt") is not None
+                                     or args.time_kwargs.get("time_scheme") == "theta")
+        if full:   # the full-FEM transients' time, printed (refused past the limit) before anything is solved
+            check_transient_cost(f"compare / {s}", args.time_kwargs, cost.unknowns)
     args.time_kwargs["estimate_mesh_error"] = not args.no_mesh_error
     if not (args.thermal_only or args.steady_only):
         config = _study_config(args)

@@ -30,11 +30,6 @@ DEFAULT_MAX_CELL_MM = 2.0  # [mm] default largest cell edge; the mesh convergenc
 DEFAULT_MIN_CELLS = 2      # cells across the thinnest dimension of every part
 BOARD_CELLS_FACTOR = 2     # boards, via fields, standoffs: this many times min_cells across
 _FACTOR_KINDS = ("board", "vias", "box")
-_KIND_FACTOR = {k: BOARD_CELLS_FACTOR for k in _FACTOR_KINDS}
-_GAP_FACTOR = 1
-_POWER_FACTOR = 1
-_FACE_FRACTION = 0
-_GRADING = 1.5
 #: [mm] part faces closer than this share one grid line (1 um: no layer of a unit is that thin; faces a CAD
 #: export puts a rounding error apart make no sliver cells)
 LINE_TOL_MM = 1e-3
@@ -157,46 +152,18 @@ def _axis_counts(geometry: Geometry, axis: int, max_cell: float, min_cells: int,
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         n = np.maximum(np.ceil(widths / max_cell - 1e-9), 1.0)
         for p in geometry.parts:
-            cells = min_cells * _KIND_FACTOR.get(p.kind, 1) * (_POWER_FACTOR if p.power_W > 0 else 1)
+            cells = min_cells * (BOARD_CELLS_FACTOR if p.kind in _FACTOR_KINDS else 1)
             for lo, hi in _spans(p, geometry, axis):
                 i0, i1 = _line_index(lines, [lo, hi])
                 need = np.ceil(cells * widths[i0:i1] / (lines[i1] - lines[i0]) - 1e-9)
                 n[i0:i1] = np.maximum(n[i0:i1], need)
-        face = np.full(len(lines), np.inf)   # cell size [m] wanted at each line where fill meets a solid
         fill = [i for i, p in enumerate(geometry.parts) if p.kind == "fill"]
-        if fill:
-            solid = cp != fill[0]
-            gap, _ = _fill_runs(solid, widths, axis)
-            need = np.where(gap > 0, np.ceil(_GAP_FACTOR * min_cells * _along(widths, axis) / np.where(gap > 0, gap, 1.0) - 1e-9), 0)
+        if fill:   # a run of fill between two solids along the axis is a gap: min_cells across it, like a part
+            gap, _ = _fill_runs(cp != fill[0], widths, axis)
+            inside = gap > 0
+            need = np.where(inside, np.ceil(min_cells * _along(widths, axis) / np.where(inside, gap, 1.0) - 1e-9), 0)
             n = np.maximum(n, np.moveaxis(need, axis, 0).reshape(len(widths), -1).max(axis=1, initial=0))
-            if _FACE_FRACTION:
-                g = np.moveaxis(gap, axis, 0)
-                s = np.moveaxis(solid, axis, 0)
-                first = (g > 0) & np.concatenate([np.ones_like(s[:1]), s[:-1]], axis=0)   # fill after a solid
-                last = (g > 0) & np.concatenate([s[1:], np.ones_like(s[:1])], axis=0)     # fill before a solid
-                for mask, off in ((first, 0), (last, 1)):
-                    idx = np.nonzero(mask)
-                    np.minimum.at(face, idx[0] + off, g[idx] / _FACE_FRACTION)
-    return lines, n, face
-
-
-def _graded(lines: np.ndarray, n: np.ndarray, face: np.ndarray, max_cell: float) -> np.ndarray:
-    """Node coordinates along one axis [m]: each interval split into at least ``n`` cells, and cells growing by
-    at most :data:`_GRADING` per cell away from the sizes ``face`` [m] wanted at the lines (fill next to a solid)."""
-    if not _FACE_FRACTION or not np.isfinite(face).any():
-        pieces = [np.linspace(a, b, k + 1)[:-1] for a, b, k in zip(lines[:-1], lines[1:], n.astype(int))]
-        return np.concatenate(pieces + [lines[-1:]])
-    at = np.isfinite(face)
-    xj, sj = lines[at], face[at]
-    pieces = []
-    t = np.linspace(0.0, 1.0, 65)
-    for a, b, k in zip(lines[:-1], lines[1:], n.astype(int)):
-        x = a + (b - a) * t
-        h = np.minimum((b - a) / k, (sj[None, :] + (_GRADING - 1.0) * np.abs(x[:, None] - xj[None, :])).min(axis=1))
-        phi = np.concatenate([[0.0], np.cumsum(0.5 * (1 / h[1:] + 1 / h[:-1]) * np.diff(x))])
-        m = max(k, int(np.ceil(phi[-1] - 1e-6)))
-        pieces.append(np.interp(np.arange(m) * phi[-1] / m, phi, x))
-    return np.concatenate(pieces + [lines[-1:]])
+    return lines, n
 
 
 def _along(v: np.ndarray, axis: int) -> np.ndarray:
@@ -213,8 +180,9 @@ def _skeleton(geometry: Geometry) -> tuple:
 
 
 def _axis_lines(geometry: Geometry, axis: int, max_cell: float, min_cells: int, skeleton=None) -> np.ndarray:
-    lines, n, face = _axis_counts(geometry, axis, max_cell, min_cells, skeleton)
-    return _graded(lines, np.minimum(n, 1e7), face, max_cell)
+    lines, n = _axis_counts(geometry, axis, max_cell, min_cells, skeleton)
+    pieces = [np.linspace(a, b, k + 1)[:-1] for a, b, k in zip(lines[:-1], lines[1:], n.astype(int))]
+    return np.concatenate(pieces + [lines[-1:]])
 
 
 def grid_shape(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
@@ -224,9 +192,8 @@ def grid_shape(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
     Counts beyond 1e15 per axis are capped there."""
     _check_mesh_arguments(max_cell_mm, min_cells)
     sk = _skeleton(geometry)
-    counts = [_axis_counts(geometry, a, max_cell_mm * MM, int(min_cells), sk) for a in range(3)]
-    return tuple(int(min(float(np.sum(n)), 1e15)) if np.sum(n) > 1e6 else len(_graded(lines, n, face, 0)) - 1
-                 for lines, n, face in counts)
+    return tuple(int(min(float(np.sum(_axis_counts(geometry, a, max_cell_mm * MM, int(min_cells), sk)[1])), 1e15))
+                 for a in range(3))
 
 
 def _check_mesh_arguments(max_cell_mm, min_cells) -> None:

@@ -41,7 +41,7 @@ REFINEMENT_RATIO = 2
 def richardson(coarse, fine, ratio: float = REFINEMENT_RATIO, order: float = MESH_ERROR_ORDER) -> tuple:
     """(error of the coarse values [K], extrapolated values): ``E = (fine - coarse) r^p / (r^p - 1)``,
     ``coarse + E``. ``coarse``, ``fine`` [°C or K], arrays of the same shape; ``ratio`` r > 1, ``order`` p > 0."""
-    if not (ratio > 1 and order > 0):
+    if not (np.all(np.asarray(ratio) > 1) and np.all(np.asarray(order) > 0)):
         raise InputError(f"richardson: need ratio > 1 and order > 0, got {ratio!r}, {order!r}")
     c, f = np.asarray(coarse, float), np.asarray(fine, float)
     g = ratio**order
