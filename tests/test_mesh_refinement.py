@@ -169,3 +169,30 @@ def test_richardson_and_the_observed_order():
     np.testing.assert_allclose(extra, 10.0)
     np.testing.assert_allclose(err, [3.0, 3.0])
     assert np.isnan(observed_order([[0.0], [1.0], [0.5]], (1, 2, 3))[0])   # not monotone: no order
+
+
+def test_the_refined_solve_with_fixed_temperatures_and_nonlinear_laws():
+    """The two-level refined solve on a small problem with a fixed-temperature face and natural convection +
+    radiation: the same field as the refined problem's own steady solve."""
+    from imutherm.thermal import verification as V
+    from imutherm.thermal.problem import FixedTemperature, NaturalConvection, Radiation, ThermalProblem
+    from imutherm.thermal.refinement import refined_steady
+    from imutherm.thermal.steady import solve_steady
+
+    def problem(grid):
+        k = np.array([p[3] for p in V.BOARD_CAVITY_PARTS])[grid.cell_part].reshape(-1, 3)
+        die = grid.cell_part == grid.part_names.index("die")
+        q = np.where(die, 0.3 / grid.cell_volumes()[die].sum(), 0.0)
+        laws = {"zmin": FixedTemperature(70.0), "zmax": (NaturalConvection("up", 0.05), Radiation(0.8)),
+                "xmin": NaturalConvection("vertical", 0.02)}
+        return ThermalProblem(grid, k, 1.0, q.reshape(-1), 70.0, laws)
+
+    g = V._board_cavity_grid(1)
+    pts = {"die": (23.5e-3, 5e-3, 7.95e-3), "board": (40e-3, 5e-3, 7.6e-3)}
+    pc = problem(g)
+    st = solve_steady(pc, probes=pts)
+    f = refine_grid(g, 2)
+    est = refined_steady(problem(f), pc, st.T_C, prolongation(g, f), pts, st.probe_C, float(np.max(st.T_C)))
+    ref = solve_steady(problem(f), probes=pts)
+    np.testing.assert_allclose(est.fine_C[:-1], ref.probe_C, atol=2e-3)
+    assert est.error_K[0] > 0.1     # the die's rise is low on the base grid (cf. the verification case)
