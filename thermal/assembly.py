@@ -360,7 +360,8 @@ def pattern_of(node_shape: tuple) -> Pattern:
     return pattern
 
 
-def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool = True) -> Assembly:
+def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool = True,
+             cache_pattern: bool = True) -> Assembly:
     """Assemble stiffness, heat capacity, boundary matrices and loads of ``problem``.
 
     Parameters
@@ -370,6 +371,9 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
         Row-sum lumped heat capacity instead of the consistent one.
     mass : bool
         False: skip the heat capacity (a steady operator only; a third of the assembly time).
+    cache_pattern : bool
+        False: build the sparsity pattern for this assembly alone, not kept by :func:`pattern_of` (a one-off
+        large grid, e.g. a mesh-error estimate's refined one, whose pattern would otherwise stay in memory).
 
     Returns
     -------
@@ -377,7 +381,8 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
         Reusable across steady and transient solves of the same problem.
     """
     g = problem.grid
-    pattern = pattern_of(tuple(s + 1 for s in g.shape))
+    shape = tuple(s + 1 for s in g.shape)
+    pattern = pattern_of(shape) if cache_pattern else Pattern(shape)
     K_data = pattern.data(stiffness_stencil(problem))
     M_data = pattern.data(mass_stencil(problem, lumped=lumped_mass)) if mass else None
     F_q = volume_load(problem)
