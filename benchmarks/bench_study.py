@@ -5,7 +5,8 @@ attitude, three schemes, default seeds) and reports its wall time and the peak r
 whole process tree (the command and its worker processes, summed, sampled every 0.2 s from /proc), the
 stage times from ``summary.json``, the CPU seconds of the command and its workers (the load-independent
 cost), and PASS/FAIL against the targets (<= 20 s, issue 45's anchor (40 s before it), with checked reduced
-transients and each scheme's mesh-error estimate; peak memory <= 2 GB). Run it on an otherwise idle machine: the figures are the machine's.
+transients and each scheme's mesh-error estimate; peak memory <= 2 GB). Run it on an otherwise
+idle machine: the figures are the machine's.
 
     python benchmarks/bench_study.py                # default settings of `imutherm compare`
     python benchmarks/bench_study.py -- --seeds 6   # extra arguments for imutherm compare
@@ -76,7 +77,7 @@ def main(argv=None) -> int:
               f"{th.get('steps', 0):6d} {sch['max_rise_K']:12.2f} {th.get('transient_model', 'full'):>8} "
               f"{th.get('transient_check', {}).get('max_site_error_K', float('nan')):9.3f} "
               f"{sch.get('numerical_error', {}).get('mesh', {}).get('sensor_die_max_K', float('nan')):18.3f} "
-              f"{th.get('discretisation_error', {}).get('seconds', float('nan')):11.1f}")
+              f"{th.get('discretisation_error', {}).get('timings_s', {}).get('wall', float('nan')):11.1f}")
     print(f"\nimutherm compare end to end: {wall:.1f} s wall (study {s['wall_s']:.1f} s), peak memory {peak:.0f} MB "
           f"(process tree), {len(s['seeds'])} seeds, {os.cpu_count()} CPUs; CPU {cpu:.1f} s (user+sys, all "
           f"processes); load average {load0:.1f} before, {os.getloadavg()[0]:.1f} after")

@@ -225,9 +225,9 @@ def build_mesh(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
 
 
 def refine_grid(grid: TensorGrid, factor: int = 2) -> TensorGrid:
-    """``grid`` with every interval split into ``factor`` equal parts (each cell into ``factor``^3, the same part):
-    the uniform refinement of a mesh-convergence study. Its Q1 space contains the coarse one (nested), so the
-    coarse field is exactly representable on it (:func:`prolongation`)."""
+    """``grid`` with every interval split into ``factor`` equal parts (each cell into ``factor**3`` cells of the
+    same part): the uniform refinement of a mesh-convergence study. Its Q1 space contains the coarse one
+    (nested), so the coarse field is exactly representable on it (:func:`prolongation`)."""
     if int(factor) != factor or factor < 1:
         raise InputError(f"refinement factor must be an integer >= 1, got {factor!r}")
     factor = int(factor)

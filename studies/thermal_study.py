@@ -310,7 +310,8 @@ def result_summary(res: SchemeResult) -> dict:
 
 
 def _mesh_summary(grid: TensorGrid) -> dict:
-    """Cells, nodes and the thinnest gap of the fill with its cells across (:func:`~imutherm.geometry.mesh.mesh_info`)."""
+    """Cells, nodes and the thinnest gap of the fill with its cells across
+    (:func:`~imutherm.geometry.mesh.mesh_info`)."""
     from imutherm.geometry.mesh import _gaps
 
     gaps = _gaps(grid)

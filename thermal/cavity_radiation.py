@@ -500,7 +500,7 @@ class CavityExchange:
 
 def refined_patches(patches: Patches, fine: TensorGrid, factor: int) -> Patches:
     """The same patches on ``fine``, the grid of ``patches`` with every interval split into ``factor`` parts
-    (:func:`imutherm.geometry.mesh.refine_grid`): each face cell's ``factor``^2 sub-faces belong to its patch,
+    (:func:`imutherm.geometry.mesh.refine_grid`): each face cell's ``factor**2`` sub-faces belong to its patch,
     so the patches, their areas and the view factors between them are unchanged, and only the averaging
     ``P`` (and the per-face-cell arrays) are of the fine grid's nodes and faces."""
     f = int(factor)

@@ -110,7 +110,7 @@ class RefinementEstimate:
                           f"{self.ratio} ({self.fine_nodes:,} nodes), order p = {self.order:g} assumed "
                           "(imutherm.thermal.refinement.MESH_ERROR_ORDER)",
                 "ratio": self.ratio, "order": self.order, "coarse_nodes": self.coarse_nodes,
-                "fine_nodes": self.fine_nodes, "seconds": self.seconds, "cpu_s": self.cpu_s,
+                "fine_nodes": self.fine_nodes, "timings_s": {"wall": self.seconds, "cpu": self.cpu_s},
                 "sites": {n: {"default_C": float(c), "refined_C": float(f), "error_K": float(e),
                               "extrapolated_C": float(x)}
                           for n, c, f, e, x in zip(self.names, self.coarse_C, self.fine_C, self.error_K,

@@ -757,7 +757,8 @@ def case_refinement_board_cavity(reference=(4, 8, 16)) -> VerificationRecord:
     The error of the base grid's die temperature is estimated as the study estimates it (the base grid and the
     grid with every interval split in two, Richardson with the assumed order
     :data:`~imutherm.thermal.refinement.MESH_ERROR_ORDER`); the reference is the Richardson extrapolation of
-    grids 4x, 8x and 16x finer (their observed order; 32x lands within 0.01 K of it). The estimate passes when it brackets the reference
+    grids 4x, 8x and 16x finer (their observed order; 32x lands within 0.01 K of it). The estimate passes when
+    it brackets the reference
     (the base value plus the estimate lies beyond it, on the same side) without overstating the error more
     than 3x.
     """
