@@ -160,6 +160,12 @@ def run(args) -> int:
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     for line in [cols] + rows:
         print("  ".join(v.ljust(w) if i in (0, 3) else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths))))
+    from imutherm.imu.sensor_model import SITES
+    from imutherm.thermal.refinement import fmt_error
+
+    for s, res in comp.runs.items():
+        if res.mesh_error is not None:
+            print(f"numerical error, {s}: {fmt_error(res.mesh_error, SITES)}")
     if fitted is not None:
         print(fitted.line())
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png"

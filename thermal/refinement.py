@@ -228,5 +228,6 @@ def fmt_error(est: RefinementEstimate, sites) -> str:
     """One line: the largest estimated error at ``sites`` and at the hot spot [K]."""
     e, at = est.max_error(sites)
     h = float(est.error_K[est.names.index(HOT_SPOT)])
-    return (f"mesh error (Richardson, 2x refined, p {est.order:g}): sensor dies {e:+.2f} K at most ({at})"
-            if math.isfinite(e) else "mesh error (Richardson)") + f", hot spot {h:+.2f} K"
+    return (f"mesh (Richardson, {est.ratio}x refined, p {est.order:g}): sensor dies {e:+.2f} K at most ({at})"
+            if math.isfinite(e) else f"mesh (Richardson, {est.ratio}x refined, p {est.order:g})") + \
+        f", hot spot {h:+.2f} K"
