@@ -11,7 +11,12 @@ the rise of the peak resident memory (``ru_maxrss``) over the mesh and the patch
 and prints predicted (``imutherm.budget.s2s_cost``, the constants as they are) beside measured, so a
 drift of today's speed shows. The machine may be shared: the CPU time (user + sys) is the figure.
 
+``--transient``: instead, a full-FEM transient of given steps on the reference unit (grease, default mesh:
+``--t-end 50 --dt 5``, 10 steps) in a fresh subprocess, its CPU time per step against
+``imutherm.studies.cost.SECONDS_PER_STEP_UNKNOWN`` x unknowns (the estimate ``solve`` prints before a transient).
+
     python benchmarks/bench_cost_model.py [--mesh-size 3] [--patch-mm 8 5 3 2 1.5] [--rays 400]
+    python benchmarks/bench_cost_model.py --transient [--steps 10]
 """
 
 import argparse
@@ -41,12 +46,52 @@ print(json.dumps({"n": n, "cpu_s": cpu, "mem": resource.getrusage(resource.RUSAG
 """
 
 
+TRANSIENT_CHILD = r"""
+import json, sys
+from threadpoolctl import threadpool_limits
+threadpool_limits(1)
+from imutherm.studies.thermal_study import run_scheme
+steps = int(sys.argv[1])
+res = run_scheme(None, "grease", transient=steps > 0, t_end=5.0 * max(steps, 1), dt=5.0 if steps else None)
+print(json.dumps({"unknowns": res.steady.unknowns, "steps": res.transient.steps if steps else 0}))
+"""
+
+
+def _child_cpu(steps: int) -> tuple:
+    """(CPU time [s] of a fresh process solving the grease scheme steady, then ``steps`` steps of 5 s; its JSON)."""
+    import resource
+
+    ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    run = subprocess.run([sys.executable, "-c", TRANSIENT_CHILD, str(steps)], capture_output=True, text=True,
+                         check=True)
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (ru.ru_utime - ru0.ru_utime) + (ru.ru_stime - ru0.ru_stime), json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def transient(steps: int) -> None:
+    """The per-step CPU time of a given-step transient against the cost model's (``--transient``): a steady-only
+    process subtracted from one that also steps."""
+    from imutherm.studies.cost import SECONDS_PER_STEP_UNKNOWN
+
+    steady_cpu, _ = _child_cpu(0)
+    total_cpu, r = _child_cpu(steps)
+    per = (total_cpu - steady_cpu) / r["steps"]
+    print(f"grease, {r['unknowns']:,} unknowns, {r['steps']} steps of 5 s: {per:.2f} s of CPU a step (the process "
+          f"less a steady-only one: {total_cpu:.1f} - {steady_cpu:.1f} s); the cost model: "
+          f"{SECONDS_PER_STEP_UNKNOWN * r['unknowns']:.2f} s ({per / r['unknowns']:.2e} s per step and unknown "
+          f"measured, {SECONDS_PER_STEP_UNKNOWN:.2e} in imutherm.studies.cost)")
+
+
 def main():
     ap = argparse.ArgumentParser()
+    ap.add_argument("--transient", action="store_true", help="the transient's step cost instead of the s2s law's")
+    ap.add_argument("--steps", type=int, default=10)
     ap.add_argument("--mesh-size", type=float, default=3.0)
     ap.add_argument("--patch-mm", type=float, nargs="+", default=[8.0, 5.0, 3.0, 2.0, 1.5])
     ap.add_argument("--rays", type=int, default=400)
     args = ap.parse_args()
+    if args.transient:
+        return transient(args.steps)
     from imutherm.budget import s2s_cost
 
     rows = []

@@ -47,15 +47,21 @@ def add_layout_arguments(parser: argparse.ArgumentParser, scheme: bool = True) -
     add_memory_argument(parser)
 
 
-def check_thermal_cost(geometry, args, *, steps: int = 0, saved: int = 1, geometry_only: bool = False):
+def check_thermal_cost(geometry, args, *, steps: int = 0, saved: int = 1, geometry_only: bool = False,
+                       refined: bool = False):
     """Estimate the mesh (from its grid lines only) and the run's memory; InputError beyond ``--max-memory``.
-    With ``--cavity-law s2s`` the patches are counted too (:func:`check_cavity_cost`)."""
+    With ``--cavity-law s2s`` the patches are counted too (:func:`check_cavity_cost`); with ``refined``, the
+    mesh-error estimate's solve on the mesh refined 2x (:func:`imutherm.budget.refined_cost`)."""
+    from imutherm.budget import refined_cost
     from imutherm.geometry.mesh import grid_shape
 
     shape = grid_shape(geometry, args.mesh_size, args.min_cells)
     what = f"{'geometry' if geometry_only else 'solve'} of {geometry.layout.name} / {geometry.scheme.name}"
     cost = check_cost(thermal_cost(what, shape, steps=steps, saved=saved, geometry_only=geometry_only),
                       args.max_memory)
+    if refined:
+        check_cost(refined_cost(f"mesh-error estimate of {geometry.layout.name} / {geometry.scheme.name}", shape),
+                   args.max_memory, "use --no-mesh-error, a larger --mesh-size or a smaller --min-cells")
     if not geometry_only:
         check_cavity_cost(geometry, args, what, cost.memory_bytes)
     return cost

@@ -30,7 +30,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from imutherm import InputError
-from imutherm.studies.cost import check_study_cost, transient_steps
+from imutherm.studies.cost import check_study_cost, check_transient_cost, transient_steps
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir, in_background
 from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,
@@ -49,6 +49,10 @@ def add_args(parser) -> None:
                         help="power-on transients on the full adaptive FEM and the oven self-heating by the full "
                              "Newton solve (default: on reduced models checked against the full model, the full "
                              "FEM where a check fails)")
+    parser.add_argument("--no-mesh-error", action="store_true",
+                        help="skip the estimate of each scheme's discretisation error (default: the steady solve "
+                             "again on the mesh with every interval split in two, Richardson's extrapolation; "
+                             "~8x the steady solve's memory, one scheme at a time)")
     parser.add_argument("--steady-only", action="store_true", help="thermal steady states only (implies --thermal-only)")
     parser.add_argument("--thermal-only", action="store_true", help="thermal comparison only, no IMU / attitude")
     g = parser.add_argument_group("IMU and attitude (the end-to-end study)")
@@ -121,7 +125,12 @@ def run(args) -> int:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
     steps = transient_steps(args.time_kwargs) if args.time_kwargs else 0
     for s in schemes:  # every scheme's mesh and memory estimated before the first is solved
-        check_thermal_cost(build_geometry(layout, s), args, steps=steps)
+        cost = check_thermal_cost(build_geometry(layout, s), args, steps=steps, refined=not args.no_mesh_error)
+        full = args.time_kwargs and (args.full or args.time_kwargs.get("dt") is not None
+                                     or args.time_kwargs.get("time_scheme") == "theta")
+        if full:   # the full-FEM transients' time, printed (refused past the limit) before anything is solved
+            check_transient_cost(f"compare / {s}", args.time_kwargs, cost.unknowns)
+    args.time_kwargs["estimate_mesh_error"] = not args.no_mesh_error
     if not (args.thermal_only or args.steady_only):
         config = _study_config(args)
         check_study_cost(config, len(schemes), args.jobs, args.max_memory)  # the IMU side, before any solve
@@ -151,6 +160,12 @@ def run(args) -> int:
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     for line in [cols] + rows:
         print("  ".join(v.ljust(w) if i in (0, 3) else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths))))
+    from imutherm.imu.sensor_model import SITES
+    from imutherm.thermal.refinement import fmt_error
+
+    for s, res in comp.runs.items():
+        if res.mesh_error is not None:
+            print(f"numerical error, {s}: {fmt_error(res.mesh_error, SITES)}")
     if fitted is not None:
         print(fitted.line())
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png"
@@ -310,3 +325,25 @@ def print_answer(summary: dict) -> None:
         print(line)
     for name, s in summary["schemes"].items():
         print(s["answer"])
+    for line in numerical_error_lines(summary):
+        print(line)
+
+
+def numerical_error_lines(summary: dict) -> list:
+    """The answer's numerical errors per scheme, one line each: the reduced transient's check against the full
+    FEM and the mesh's discretisation error (Richardson; estimated error of the steady rise, T* - T)."""
+    lines = []
+    for name, s in summary["schemes"].items():
+        ne = s.get("numerical_error", {})
+        parts = []
+        if ne.get("reduced_transient_K") is not None:
+            parts.append(f"reduced transient within {ne['reduced_transient_K']:.3f} K of the full FEM")
+        elif "reduced_transient_note" in ne:
+            parts.append(ne["reduced_transient_note"])
+        m = ne.get("mesh")
+        if m:
+            parts.append(f"mesh (Richardson, 2x refined, p {m['order']:g}): sensor dies {m['sensor_die_max_K']:+.2f} K "
+                         f"at most ({m['sensor_die_max_site']}), hot spot {m['hot_spot_K']:+.2f} K")
+        if parts:
+            lines.append(f"numerical error, {name}: " + "; ".join(parts))
+    return lines

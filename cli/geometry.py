@@ -41,7 +41,10 @@ def geometry_summary(geometry, grid) -> dict:
                    "cells_across": info.cells_across[p.name]} for p in geometry.parts],
         "sites_mm": {k: [v / MM for v in pos] for k, pos in geometry.sites.items()},
         "mesh": {"cells": info.n_cells, "nodes": info.n_nodes, "min_cell_mm": info.min_cell_mm,
-                 "max_cell_mm": info.max_cell_mm, "shape": list(grid.shape), "part_index": list(grid.part_names),
+                 "max_cell_mm": info.max_cell_mm, "thinnest_gap_mm": info.thinnest_gap_mm,
+                 "thinnest_gap_cells": info.thinnest_gap_cells, "thinnest_gap_axis": info.thinnest_gap_axis,
+                 "thinnest_gap_at_mm": info.thinnest_gap_at_mm, "fewest_gap_cells": info.fewest_gap_cells,
+                 "shape": list(grid.shape), "part_index": list(grid.part_names),
                  "material_index": material_names(geometry), "faces": grid.face_names},
     }
 
@@ -82,7 +85,7 @@ def run(args) -> int:
     m = summary["mesh"]
     print(f"{layout.name} / {geometry.scheme.name}: mass {summary['mass_g']:.1f} g, power {summary['total_power_W']:.3f} W, "
           f"{len(geometry.parts)} parts; mesh {m['cells']} cells, {m['nodes']} nodes, "
-          f"cell edge {m['min_cell_mm']:.3g}..{m['max_cell_mm']:.3g} mm")
+          f"cell edge {m['min_cell_mm']:.3g}..{m['max_cell_mm']:.3g} mm; {mesh_info(grid).gap_line()}")
     boards = "" if args.no_png else "".join(f" board_{b}.png" for b in imported_boards(geometry))
     print(f"wrote {args.out}/geometry.json geometry.stl geometry.glb mesh.vtu" + ("" if args.no_png else " layout.png")
           + boards)

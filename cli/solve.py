@@ -21,7 +21,7 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.budget import MAX_SAVED_FIELDS
-from imutherm.studies.cost import transient_steps
+from imutherm.studies.cost import check_transient_cost, transient_steps
 from imutherm.cli import run_command
 from imutherm.cli._common import FIELD_FILES, _test_pause, atomic_outdir, check_outdir, write_json
 from imutherm.cli._options import (add_effect_argument, add_fitted_model_argument, add_layout_arguments,
@@ -84,8 +84,10 @@ def run(args) -> int:
     if len({e.name for e in effects}) != len(effects):
         raise InputError("--effect: an effect is given twice (or again beside the --model file's)")
     geometry = build_geometry(layout, args.scheme)
-    check_thermal_cost(geometry, args, steps=transient_steps(tkw) if args.transient else 0,
-                       saved=len(save_times) if save_times is not None else 1)
+    cost = check_thermal_cost(geometry, args, steps=transient_steps(tkw) if args.transient else 0,
+                              saved=len(save_times) if save_times is not None else 1)
+    if args.transient:   # the time it will take, printed (and refused past the limit) before anything is solved
+        check_transient_cost(f"solve of {geometry.layout.name} / {geometry.scheme.name}", tkw, cost.unknowns)
     sites = list(geometry.sites)
     if args.site:
         unknown = [s for s in args.site if s not in sites]

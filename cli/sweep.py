@@ -32,6 +32,7 @@ from imutherm.cli._common import check_outdir
 from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,
                                    add_model_arguments, add_out_argument, add_progress_argument, check_cavity_cost,
                                    run_inputs)
+from imutherm.studies.cost import usable_workers
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
 from imutherm.studies.sweep_surrogate import SURROGATES, VERIFY_DEFAULT, VERIFY_TOL_K, verify_words
 
@@ -99,8 +100,9 @@ def run(args) -> int:
                       surrogate=args.surrogate, verify=args.verify, verify_tol_K=args.verify_tol)
     if fitted is not None:
         print(fitted.line())
-    cost = estimate_cost(plan, 1 if args.dask else args.jobs)
-    workers = 1 if args.dask else args.jobs  # each local worker solves one case at a time
+    # each local worker solves one case at a time: no more workers than cases are started, or counted
+    workers = 1 if args.dask else usable_workers(args.jobs, len(plan.cases))
+    cost = estimate_cost(plan, workers)
     largest = int(plan.unknowns.max())
     one = BASE_BYTES + BYTES_PER_UNKNOWN_SOLVE * largest
     check_memory(f"sweep: {workers} worker(s) x the largest case ({largest:,} unknowns)", workers * one,
@@ -110,7 +112,8 @@ def run(args) -> int:
     # the s2s patches of the first case (the cases' geometries differ by the swept values only)
     check_cavity_cost(build_geometry(plan.cases[0].layout, plan.settings.scheme), args, "sweep: a case", one, workers)
     d = plan.design
-    runner = f"{args.jobs} local process{'es' if args.jobs > 1 else ''}"
+    runner = f"{workers} local process{'es' if workers > 1 else ''}" + (
+        f" (--jobs {args.jobs}: {len(plan.cases)} cases)" if workers < args.jobs else "")
     where = (f"{_duration(cost.total_s)} of one core, divided over the cluster's workers" if args.dask
              else f"{_duration(cost.total_s)} on {runner}")
     if plan.surrogate == "reduced":
@@ -121,7 +124,7 @@ def run(args) -> int:
         print(f"sweep of {d['scheme']} ({d['method']}): {cost.cases} cases of {', '.join(plan.keys)}; "
               f"~{cost.unknowns} unknowns each, ~{cost.case_s:.0f} s per case on an idle core; estimate {where}",
               flush=True)
-    res = run_sweep(plan, args.out, jobs=args.jobs, dask_address=args.dask, resume=args.resume,
+    res = run_sweep(plan, args.out, jobs=workers, dask_address=args.dask, resume=args.resume,
                     progress=not args.no_progress)
 
     from imutherm.reports.sweep_report import write_sweep_pdf

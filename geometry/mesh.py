@@ -30,6 +30,9 @@ DEFAULT_MAX_CELL_MM = 2.0  # [mm] default largest cell edge; the mesh convergenc
 DEFAULT_MIN_CELLS = 2      # cells across the thinnest dimension of every part
 BOARD_CELLS_FACTOR = 2     # boards, via fields, standoffs: this many times min_cells across
 _FACTOR_KINDS = ("board", "vias", "box")
+#: [mm] part faces closer than this share one grid line (1 um: no layer of a unit is that thin; faces a CAD
+#: export puts a rounding error apart make no sliver cells)
+LINE_TOL_MM = 1e-3
 
 #: names of the outer faces of the housing, by grid face
 HOUSING_FACE_NAMES = {"xmin": "side_xmin", "xmax": "side_xmax", "ymin": "side_ymin", "ymax": "side_ymax",
@@ -43,6 +46,10 @@ class MeshInfo:
     n_cells, n_nodes : int
     min_cell_mm, max_cell_mm : float [mm] smallest and largest cell edge
     cells_across : dict  part name -> fewest cells across the part along any axis
+    thinnest_gap_mm : float or None [mm] the thinnest gap of the fill between two solids, along any axis
+        (None: no fill); thinnest_gap_cells : int, the cells across it; thinnest_gap_axis : str (x, y, z);
+        thinnest_gap_at_mm : tuple [mm] the centre of one of its cells
+    fewest_gap_cells : int or None, the fewest cells across any gap of the fill (``min_cells`` or more)
     """
 
     n_cells: int
@@ -50,6 +57,19 @@ class MeshInfo:
     min_cell_mm: float
     max_cell_mm: float
     cells_across: dict
+    thinnest_gap_mm: float | None = None
+    thinnest_gap_cells: int | None = None
+    thinnest_gap_axis: str | None = None
+    thinnest_gap_at_mm: tuple | None = None
+    fewest_gap_cells: int | None = None
+
+    def gap_line(self) -> str:
+        """The thinnest gap in words, for the mesh summary lines of the commands."""
+        if self.thinnest_gap_mm is None:
+            return "no fill gaps"
+        at = ", ".join(f"{v:.1f}" for v in self.thinnest_gap_at_mm)
+        return (f"thinnest gap {self.thinnest_gap_mm:.3g} mm along {self.thinnest_gap_axis} at ({at}) mm, "
+                f"{self.thinnest_gap_cells} cells across; every gap >= {self.fewest_gap_cells} cells")
 
 
 def _spans(part, geometry: Geometry, axis: int) -> list:
@@ -66,26 +86,101 @@ def _spans(part, geometry: Geometry, axis: int) -> list:
     return [(part.lo[axis], part.hi[axis])]
 
 
-def _axis_counts(geometry: Geometry, axis: int, max_cell: float, min_cells: int) -> tuple:
-    """The part-face lines along one axis and the cells [-] (float, uncapped) between each two of them."""
+def _face_lines(geometry: Geometry, axis: int) -> np.ndarray:
+    """The grid lines of every part face along one axis [m]: faces closer than :data:`LINE_TOL_MM` share the
+    line of the lowest of them (a sliver between nearly coincident faces is no cell of its own)."""
     pts = [geometry.outer[0][axis], geometry.outer[1][axis], geometry.cavity[0][axis], geometry.cavity[1][axis]]
     for p in geometry.parts:
         pts += [p.lo[axis], p.hi[axis]]
-    lines = np.unique(np.round(np.asarray(pts), 12))
+    v = np.unique(np.asarray(pts, float))
+    keep = np.concatenate([[True], np.diff(v) >= LINE_TOL_MM * MM])
+    return v[keep]
+
+
+def _line_index(lines: np.ndarray, values) -> np.ndarray:
+    """Index of the grid line each face coordinate [m] lies on (within :data:`LINE_TOL_MM`, see :func:`_face_lines`)."""
+    return np.searchsorted(lines, np.asarray(values, float) + 0.5 * LINE_TOL_MM * MM, side="right") - 1
+
+
+def _paint(geometry: Geometry, lines: tuple) -> np.ndarray:
+    """Part index of every cell of the grid with lines ``lines`` (x, y, z) [m]: housing, fill, lid, then the inner
+    parts in layout order (packages before their dies and pads), each later part over the earlier ones."""
+    parts = geometry.parts
+    cell_part = np.empty(tuple(len(v) - 1 for v in lines), dtype=np.int32)
+    first = ("housing", "fill", "lid")
+    order = sorted(range(len(parts)), key=lambda i: first.index(parts[i].kind) if parts[i].kind in first else 3)
+    for i in order:
+        p = parts[i]
+        idx = tuple(slice(*_line_index(v, [p.lo[a], p.hi[a]])) for a, v in enumerate(lines))
+        cell_part[idx] = i
+    return cell_part
+
+
+def _fill_runs(solid: np.ndarray, widths: np.ndarray, axis: int) -> tuple:
+    """Runs of fill cells (``solid`` False) along ``axis`` between solid cells (``widths`` [m]: the cell widths
+    along it, 1-D): for each cell, the length [m] of the run through it (0 in solids) and the run's number of
+    cells, both shaped like ``solid``."""
+    m = np.moveaxis(~solid, axis, -1)
+    n = m.shape[-1]
+    rows = m.reshape(-1, n)
+    start = rows & ~np.concatenate([np.zeros((rows.shape[0], 1), bool), rows[:, :-1]], axis=1)
+    run = np.cumsum(start.ravel()).reshape(rows.shape) * rows      # run id, 0 in solids
+    ids = run[rows]
+    length = np.bincount(ids, weights=np.broadcast_to(np.asarray(widths, float), rows.shape)[rows])
+    count = np.bincount(ids)
+    out_len = np.zeros(rows.shape)
+    out_cnt = np.zeros(rows.shape, dtype=np.int64)
+    out_len[rows] = length[ids]
+    out_cnt[rows] = count[ids]
+    back = lambda a: np.moveaxis(a.reshape(m.shape), -1, axis)  # noqa: E731
+    return back(out_len), back(out_cnt)
+
+
+def _axis_counts(geometry: Geometry, axis: int, max_cell: float, min_cells: int, skeleton=None) -> tuple:
+    """The part-face lines along one axis and the cells [-] (float, uncapped) between each two of them.
+
+    Every interval gets cells no longer than ``max_cell`` [m]; every solid part ``min_cells`` across its
+    extent (boards, via fields, standoffs ``BOARD_CELLS_FACTOR`` times as many); every gap of the fill
+    between two solids (a run of fill along the axis, on the grid of the face lines) ``min_cells`` across.
+    ``skeleton``: (lines (x, y, z), cell part index) of that face-line grid, if already painted.
+    """
+    if skeleton is None:
+        skeleton = _skeleton(geometry)
+    lines3, cp = skeleton
+    lines = lines3[axis]
     widths = np.diff(lines)
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         n = np.maximum(np.ceil(widths / max_cell - 1e-9), 1.0)
         for p in geometry.parts:
             cells = min_cells * (BOARD_CELLS_FACTOR if p.kind in _FACTOR_KINDS else 1)
             for lo, hi in _spans(p, geometry, axis):
-                i0, i1 = np.searchsorted(lines, [lo - 1e-12, hi - 1e-12])
-                need = np.ceil(cells * widths[i0:i1] / (hi - lo) - 1e-9)
+                i0, i1 = _line_index(lines, [lo, hi])
+                need = np.ceil(cells * widths[i0:i1] / (lines[i1] - lines[i0]) - 1e-9)
                 n[i0:i1] = np.maximum(n[i0:i1], need)
+        fill = [i for i, p in enumerate(geometry.parts) if p.kind == "fill"]
+        if fill:   # a run of fill between two solids along the axis is a gap: min_cells across it, like a part
+            gap, _ = _fill_runs(cp != fill[0], widths, axis)
+            inside = gap > 0
+            need = np.where(inside, np.ceil(min_cells * _along(widths, axis) / np.where(inside, gap, 1.0) - 1e-9), 0)
+            n = np.maximum(n, np.moveaxis(need, axis, 0).reshape(len(widths), -1).max(axis=1, initial=0))
     return lines, n
 
 
-def _axis_lines(geometry: Geometry, axis: int, max_cell: float, min_cells: int) -> np.ndarray:
-    lines, n = _axis_counts(geometry, axis, max_cell, min_cells)
+def _along(v: np.ndarray, axis: int) -> np.ndarray:
+    """A 1-D array along ``axis`` shaped to broadcast over a 3-D cell array."""
+    shape = [1, 1, 1]
+    shape[axis] = len(v)
+    return np.reshape(v, shape)
+
+
+def _skeleton(geometry: Geometry) -> tuple:
+    """The grid of the part-face lines alone (one cell per interval) and its cell part index."""
+    lines = tuple(_face_lines(geometry, a) for a in range(3))
+    return lines, _paint(geometry, lines)
+
+
+def _axis_lines(geometry: Geometry, axis: int, max_cell: float, min_cells: int, skeleton=None) -> np.ndarray:
+    lines, n = _axis_counts(geometry, axis, max_cell, min_cells, skeleton)
     pieces = [np.linspace(a, b, k + 1)[:-1] for a, b, k in zip(lines[:-1], lines[1:], n.astype(int))]
     return np.concatenate(pieces + [lines[-1:]])
 
@@ -96,7 +191,8 @@ def grid_shape(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
     nothing of the mesh's size is allocated, so an unaffordable mesh can be refused before it is built).
     Counts beyond 1e15 per axis are capped there."""
     _check_mesh_arguments(max_cell_mm, min_cells)
-    return tuple(int(min(float(np.sum(_axis_counts(geometry, a, max_cell_mm * MM, int(min_cells))[1])), 1e15))
+    sk = _skeleton(geometry)
+    return tuple(int(min(float(np.sum(_axis_counts(geometry, a, max_cell_mm * MM, int(min_cells), sk)[1])), 1e15))
                  for a in range(3))
 
 
@@ -132,23 +228,47 @@ def build_mesh(geometry: Geometry, max_cell_mm: float = DEFAULT_MAX_CELL_MM,
     2
     """
     _check_mesh_arguments(max_cell_mm, min_cells)
-    xs, ys, zs = (_axis_lines(geometry, a, max_cell_mm * MM, int(min_cells)) for a in range(3))
-    names = tuple(p.name for p in geometry.parts)
-    cell_part = np.empty((len(xs) - 1, len(ys) - 1, len(zs) - 1), dtype=np.int32)
+    sk = _skeleton(geometry)
+    lines = tuple(_axis_lines(geometry, a, max_cell_mm * MM, int(min_cells), sk) for a in range(3))
+    cell_part = _paint(geometry, lines)
+    empty = [p.name for i, p in enumerate(geometry.parts) if not (cell_part == i).any()]
+    if empty:
+        raise InputError(f"{geometry.layout.path}: part(s) {', '.join(empty)} get no cell: thinner than the mesh's "
+                         f"line tolerance of {LINE_TOL_MM * 1e3:g} um, or covered by other parts")
+    return TensorGrid(*lines, cell_part, tuple(p.name for p in geometry.parts), dict(HOUSING_FACE_NAMES))
 
-    def index(lines, lo, hi):
-        return slice(*np.searchsorted(lines, [lo - 1e-12, hi - 1e-12]))
 
-    def paint(lo, hi, value):
-        cell_part[index(xs, lo[0], hi[0]), index(ys, lo[1], hi[1]), index(zs, lo[2], hi[2])] = value
+def refine_grid(grid: TensorGrid, factor: int = 2) -> TensorGrid:
+    """``grid`` with every interval split into ``factor`` equal parts (each cell into ``factor**3`` cells of the
+    same part): the uniform refinement of a mesh-convergence study. Its Q1 space contains the coarse one
+    (nested), so the coarse field is exactly representable on it (:func:`prolongation`)."""
+    if int(factor) != factor or factor < 1:
+        raise InputError(f"refinement factor must be an integer >= 1, got {factor!r}")
+    factor = int(factor)
+    t = np.arange(factor) / factor
 
-    order = sorted(range(len(names)), key=lambda i: ("housing", "fill", "lid").index(geometry.parts[i].kind)
-                   if geometry.parts[i].kind in ("housing", "fill", "lid") else 3)
-    for i in order:  # housing, fill, lid, then the inner parts (packages before their dies and pads)
-        p = geometry.parts[i]
-        paint(p.lo, p.hi, i)
-    face_names = dict(HOUSING_FACE_NAMES)
-    return TensorGrid(xs, ys, zs, cell_part, names, face_names)
+    def split(x):
+        return np.concatenate([(x[:-1, None] + np.diff(x)[:, None] * t[None, :]).ravel(), x[-1:]])
+
+    cp = grid.cell_part
+    for a in range(3):
+        cp = np.repeat(cp, factor, axis=a)
+    return TensorGrid(split(grid.xs), split(grid.ys), split(grid.zs), cp, grid.part_names, dict(grid.face_names))
+
+
+def prolongation(coarse: TensorGrid, fine: TensorGrid):
+    """Sparse (fine nodes, coarse nodes) trilinear interpolation of a nodal field from ``coarse`` to ``fine``
+    (exact for a refinement of ``coarse``: :func:`refine_grid`)."""
+    import scipy.sparse as sp
+
+    def interp(xc, xf):
+        i = np.clip(np.searchsorted(xc, xf, side="right") - 1, 0, len(xc) - 2)
+        w = np.clip((xf - xc[i]) / (xc[i + 1] - xc[i]), 0.0, 1.0)
+        rows = np.arange(len(xf))
+        return sp.csr_matrix((np.r_[1 - w, w], (np.r_[rows, rows], np.r_[i, i + 1])), shape=(len(xf), len(xc)))
+
+    return sp.kron(interp(coarse.xs, fine.xs), sp.kron(interp(coarse.ys, fine.ys), interp(coarse.zs, fine.zs)),
+                   format="csr")
 
 
 def mesh_info(grid: TensorGrid) -> MeshInfo:
@@ -163,7 +283,28 @@ def mesh_info(grid: TensorGrid) -> MeshInfo:
         # fewest cells the part spans along any axis, over the grid lines through it
         counts = [int(mask.sum(axis=a).max()) for a in range(3)]
         across[name] = min(counts)
-    return MeshInfo(grid.n_cells, grid.n_nodes, float(widths.min() / MM), float(widths.max() / MM), across)
+    gaps = _gaps(grid)
+    return MeshInfo(grid.n_cells, grid.n_nodes, float(widths.min() / MM), float(widths.max() / MM), across, **gaps)
+
+
+def _gaps(grid: TensorGrid) -> dict:
+    """The thinnest gap of the fill between solids and the fewest cells across any gap (:class:`MeshInfo`)."""
+    if "fill" not in grid.part_names or not (grid.cell_part == grid.part_names.index("fill")).any():
+        return {}
+    solid = grid.cell_part != grid.part_names.index("fill")
+    best, fewest = None, None
+    for axis, w in enumerate(grid.cell_sizes()):
+        length, count = _fill_runs(solid, w, axis)
+        inside = length > 0
+        c = int(count[inside].min())
+        fewest = c if fewest is None else min(fewest, c)
+        i = np.unravel_index(np.argmin(np.where(inside, length, np.inf)), length.shape)
+        if best is None or length[i] < best[0]:
+            best = (float(length[i]), int(count[i]), axis, i)
+    width, cells, axis, i = best
+    centre = tuple(float(c[j] / MM) for c, j in zip(grid.cell_centres(), i))
+    return {"thinnest_gap_mm": width / MM, "thinnest_gap_cells": cells, "thinnest_gap_axis": "xyz"[axis],
+            "thinnest_gap_at_mm": centre, "fewest_gap_cells": fewest}
 
 
 def to_skfem(grid: TensorGrid):

@@ -29,6 +29,70 @@ def transient_steps(time_kwargs: dict) -> int:
     return int(math.ceil(t_end / (dt_max or DEFAULT_DT_MAX) - 1e-9))
 
 
+# ------------------------------------------------------------------ a full-FEM transient's time
+#: CPU time of one time step of the full FEM per unknown [s]: TR-BDF2, two stage solves by CG (~21 iterations each
+#: at the study's 1e-5) with the step's AMG hierarchy and the s2s exchange lagged. Measured 2026-12-04 on the
+#: reference unit (grease, default mesh, 204,610 unknowns, ``imutherm solve --transient --t-end 50 --dt 5``): 10
+#: steps in 67 s of wall time on this 2-core machine at load ~10, ~3.3 s of CPU a step; an adaptive step adds one
+#: loose error-estimate solve (+~25 %)
+SECONDS_PER_STEP_UNKNOWN = 1.6e-5
+#: adaptive TR-BDF2 steps (accepted + rejected) of a power-on transient to settled at the default 0.01 K: the
+#: reference unit takes 20-30 (``benchmarks/bench_transient_accuracy.py``); the estimate assumes this many
+ADAPTIVE_STEPS = 40
+#: an estimate beyond this [s] is printed with a warning and the cheaper ways to the same answer
+WARN_TRANSIENT_S = 600.0
+#: an estimate beyond this [s] is refused (the limit of :data:`imutherm.budget.MAX_TIME_STEPS`, ~6 h)
+MAX_TRANSIENT_S = 6 * 3600.0
+
+
+def transient_cost(time_kwargs: dict, unknowns: int) -> dict:
+    """The full-FEM transient of ``run_scheme``'s time arguments on ``unknowns`` nodes: ``steps`` [-] (given
+    steps counted, error-controlled ones :data:`ADAPTIVE_STEPS`), ``given`` (bool) and ``seconds`` [s] of CPU."""
+    given = time_kwargs.get("dt") is not None or time_kwargs.get("time_scheme") == "theta"
+    steps = transient_steps(time_kwargs) if given else ADAPTIVE_STEPS
+    factor = 1.0 if given else 1.25
+    return {"steps": int(steps), "given": bool(given),
+            "seconds": float(steps * factor * SECONDS_PER_STEP_UNKNOWN * unknowns)}
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else (f"{seconds / 60:.0f} min" if seconds < 7200
+                                                      else f"{seconds / 3600:.1f} h")
+
+
+def check_transient_cost(what: str, time_kwargs: dict, unknowns: int) -> dict:
+    """Print the full-FEM transient's estimated cost before it starts; past :data:`WARN_TRANSIENT_S` with how to
+    make it cheaper, past :data:`MAX_TRANSIENT_S` refused (InputError). Returns :func:`transient_cost`."""
+    c = transient_cost(time_kwargs, unknowns)
+    how = (f"{c['steps']:,} given steps" if c["given"] else
+           f"~{c['steps']} error-controlled steps (power-on to settled)")
+    line = (f"{what}: transient on the full FEM, {how} on {unknowns:,} unknowns: estimated ~{_minutes(c['seconds'])} "
+            "of CPU")
+    cheaper = []
+    if c["given"]:
+        adaptive = transient_cost({k: v for k, v in time_kwargs.items() if k not in ("dt", "dt_max")}
+                                  | {"time_scheme": "trbdf2"}, unknowns)["seconds"]
+        cheaper.append(f"drop --dt/--theta: the error-controlled TR-BDF2 steps reach the same curves to 0.01 K in "
+                       f"~{ADAPTIVE_STEPS} steps (~{_minutes(adaptive)})")
+        cheaper.append("a larger --dt (or --dt-max with a growing step)")
+    cheaper.append("--until-settled (stop once settled)" if not time_kwargs.get("until_settled") else None)
+    cheaper.append("a larger --mesh-size or a smaller --min-cells")
+    hint = "; ".join(h for h in cheaper if h)
+    if c["seconds"] > MAX_TRANSIENT_S:
+        raise InputError(f"{line}, more than the limit of {MAX_TRANSIENT_S / 3600:g} h; cheaper: {hint}")
+    if c["seconds"] > WARN_TRANSIENT_S:
+        line += f" (more than {WARN_TRANSIENT_S / 60:g} min; cheaper: {hint})"
+    print(line, flush=True)
+    return c
+
+
+def usable_workers(jobs: int, tasks: int) -> int:
+    """Worker processes [-] a run of ``tasks`` independent tasks can use with ``--jobs jobs``: no more than the
+    tasks (a worker without a task would only hold memory), at least 1. The cost estimates count these, and
+    the runs start no more (``sweep --jobs 10000`` of 2 cases runs, and is estimated, on 2 workers)."""
+    return max(1, min(int(jobs), int(tasks)))
+
+
 # ------------------------------------------------------------------ the IMU side of `imutherm compare`
 #: wall time of one attitude filter over one motion sample in the end-to-end study's IMU side [s] (truth
 #: model and compensation included) and the fixed part of one (scheme, seed) case [s] (the in-unit
@@ -86,6 +150,7 @@ def check_study_cost(config, schemes: int, jobs: int | None, max_memory: int | N
     jobs = min(2, cpus) if jobs is None else int(jobs)
     if jobs < 1:
         raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    jobs = usable_workers(jobs, work["cases"])   # the study starts no more (run_study)
     workers = max(1, jobs - 1)
     seconds = (work["filter_samples"] * SECONDS_PER_FILTER_SAMPLE + work["cases"] * SECONDS_PER_CASE) / min(workers, cpus)
     case_bytes = BYTES_PER_SAMPLE_STUDY * work["longest_samples"]

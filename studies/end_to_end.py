@@ -396,12 +396,19 @@ def _imu_jobs(pool, config: StudyConfig, seeds, bare, args):
     return [pool.submit(imu_case, config.grade, s, *args, config, bare[s]) for s in seeds]
 
 
-def _one_blas_thread() -> None:
+def _one_blas_thread(lock=None) -> None:
     """Worker start-up: one BLAS thread per process. The workers already use every core; OpenBLAS's own
-    threads on top oversubscribe them (two schemes' solves side by side ran 2.4x slower on 2 cores)."""
+    threads on top oversubscribe them (two schemes' solves side by side ran 2.4x slower on 2 cores).
+    ``lock``: the study's lock around the refined solves of the mesh-error estimates (:func:`thermal_case`)."""
     from threadpoolctl import threadpool_limits
 
+    global _REFINED_LOCK
     threadpool_limits(1)
+    _REFINED_LOCK = lock
+
+
+#: a lock shared by the study's workers: one refined solve (~8x the memory of a scheme's solve) at a time
+_REFINED_LOCK = None
 
 
 def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, progress: bool = False,
@@ -413,12 +420,18 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     transient is (``transient_model`` 'reduced'), else full. Returns (SchemeResult, chamber, rise, oven solves
     (list of dicts, :func:`self_heating_table`)).
     """
-    from imutherm.studies.thermal_study import run_scheme
+    import contextlib
 
+    from imutherm.studies.thermal_study import mesh_error, run_scheme
+
+    estimate = thermal_kwargs.pop("estimate_mesh_error", False)
     res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, **thermal_kwargs)
     solves = []
     chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
                                        solves=solves)
+    if estimate:
+        with _REFINED_LOCK if _REFINED_LOCK is not None else contextlib.nullcontext():
+            res = replace(res, mesh_error=mesh_error(res))
     return res, chamber, rise, solves
 
 
@@ -451,9 +464,12 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
         result is in, whichever finishes first.
     progress : bool, print one line per stage
     **thermal_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme` (mesh_size_mm, min_cells,
-        transient time settings); the transient is always run
+        transient time settings); the transient is always run. ``estimate_mesh_error=True``: each scheme's
+        steady answer also gets its discretisation error (:func:`~imutherm.studies.thermal_study.mesh_error`,
+        one refined solve at a time over the workers)
     """
     from imutherm.imu.sensor_model import SITES
+    from imutherm.studies.cost import usable_workers
     from imutherm.studies.thermal_study import result_summary
 
     start = time.perf_counter()
@@ -468,6 +484,7 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     if jobs < 1:
         raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
     seeds = tuple(range(config.seed0, config.seed0 + config.seeds))
+    jobs = usable_workers(jobs, len(schemes) * len(seeds))   # the most tasks that can run at once
     thermal_kwargs.pop("transient", None)
     need_bare = "bare" in config.calibrations
     pool = None
@@ -476,8 +493,9 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
 
         # fork (where there is one) before any solve starts: user scripts need no __main__ guard
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context(method),
-                                   initializer=_one_blas_thread)
+        ctx = multiprocessing.get_context(method)
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_one_blas_thread,
+                                   initargs=(ctx.Lock(),))
     try:
         if pool is None:
             thermal_futs = None
@@ -700,6 +718,31 @@ def _settings_json(config: StudyConfig) -> dict:
                          for p in config.profiles}}
 
 
+def _numerical_error(th: dict) -> dict:
+    """The answer's numerical errors beside each other: the reduced transient's check against the full FEM and
+    the mesh's discretisation error (Richardson), in K at the sensor dies, the test points and the hot spot."""
+    from imutherm.imu.sensor_model import SITES
+    from imutherm.thermal.refinement import HOT_SPOT
+
+    out = {}
+    chk = th.get("transient_check")
+    if chk is not None:
+        out["reduced_transient_K"] = chk["max_site_error_K"] if chk["accepted"] else None
+        out["reduced_transient_note"] = ("estimated site error of the reduced power-on transient against the full "
+                                         "FEM" if chk["accepted"] else f"the full FEM ran ({chk['reason']})")
+    est = th.get("discretisation_error")
+    if est is not None:
+        sites = est["sites"]
+        dies = {n: sites[n]["error_K"] for n in SITES if n in sites}
+        worst = max(dies, key=lambda n: abs(dies[n])) if dies else None
+        out["mesh"] = {"sensor_die_max_K": dies[worst] if worst else None, "sensor_die_max_site": worst,
+                       "hot_spot_K": sites[HOT_SPOT]["error_K"] if HOT_SPOT in sites else None,
+                       "order": est["order"], "fine_nodes": est["fine_nodes"],
+                       "note": "estimated error of the default mesh's steady rise: T* - T (positive: the rise "
+                               "is low), Richardson from the default mesh and the mesh with every interval split"}
+    return out
+
+
 def study_summary(result: StudyResult) -> dict:
     """The ``summary.json`` content (module docstring; every metric ``{mean, std}`` over the seeds)."""
     from imutherm.geometry.materials import get_material
@@ -746,6 +789,7 @@ def study_summary(result: StudyResult) -> dict:
             "extrapolated_fraction": imu["extrapolated_fraction"]["unit"],
             "extrapolated_fraction_bare_calibration": imu["extrapolated_fraction"]["bare"],
             "thermal": th,
+            "numerical_error": _numerical_error(th),
         }
     answers = answer_sentences(schemes, result.config)
     for name, text in answers.items():

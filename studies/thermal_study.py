@@ -41,6 +41,7 @@ class SchemeResult:
     wall_s : float [s] wall time of the whole run
     transient_check : ReducedCheck or None, the check of a reduced transient
         (:mod:`imutherm.thermal.reduced_transient`; ``accepted`` False: the transient is the full FEM's)
+    mesh_error : RefinementEstimate or None, the steady answer's discretisation error (:func:`mesh_error`)
     """
 
     geometry: Geometry
@@ -51,6 +52,7 @@ class SchemeResult:
     options: ModelOptions
     wall_s: float
     transient_check: object | None = None
+    mesh_error: object | None = None
 
 
 #: growth factor of the transient step from ``dt`` to ``dt_max`` (first steps resolve the power-on jump)
@@ -101,7 +103,8 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
                options: ModelOptions | None = None, transient: bool = False, t_end: float = 1200.0,
                time_scheme: str = "trbdf2", tol_K: float | None = None, dt: float | None = None,
                dt_max: float | None = None, theta: float = 1.0, until_settled: bool = False, save_times=None,
-               progress: bool = False, effects=(), transient_model: str = "full") -> SchemeResult:
+               progress: bool = False, effects=(), transient_model: str = "full",
+               estimate_mesh_error: bool = False) -> SchemeResult:
     """Solve one cooling scheme of a layout.
 
     Parameters
@@ -129,6 +132,8 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         steady field that checks itself against the full model, the full FEM when the check fails
         (:func:`imutherm.thermal.reduced_transient.reduced_power_on`; adaptive TR-BDF2 settings only:
         given steps or the θ-scheme always run the full FEM)
+    estimate_mesh_error : bool, also estimate the steady answer's discretisation error (:func:`mesh_error`: one
+        steady solve on the mesh refined 2x in every direction, 8x the cells)
 
     Returns
     -------
@@ -198,7 +203,12 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         metrics = thermal_metrics(tr, final_rise_K=final)
     else:
         metrics = thermal_metrics(steady)
-    return SchemeResult(geometry, grid, steady, tr, metrics, options, time.perf_counter() - start, check)
+    res = SchemeResult(geometry, grid, steady, tr, metrics, options, time.perf_counter() - start, check)
+    if estimate_mesh_error:
+        if progress:
+            print("  mesh error: the steady solve on the mesh refined 2x ...", flush=True)
+        res = replace(res, mesh_error=mesh_error(res), wall_s=time.perf_counter() - start)
+    return res
 
 
 def _reduced_transient(problem, asm, steady, probes, t_end, settle, save_times, progress):
@@ -216,6 +226,32 @@ def _reduced_transient(problem, asm, steady, probes, t_end, settle, save_times, 
               f"{check.max_site_error_K:.2g} K: " + ("accepted" if check.accepted else f"{check.reason}: full FEM"),
               flush=True)
     return tr, check
+
+
+def mesh_error(res: SchemeResult, ratio: int = 2):
+    """The discretisation error of ``res``'s steady answer at its sites and hot spot
+    (:class:`~imutherm.thermal.refinement.RefinementEstimate`): the same problem on ``res.grid`` with every
+    interval split in ``ratio`` parts (:func:`~imutherm.geometry.mesh.refine_grid`), solved from the prolonged
+    steady field, Richardson's extrapolation of the two. The refined problem has the same parts, laws and
+    boundary (model effects included) and the same s2s exchange (patches and view factors of the coarse grid,
+    :meth:`~imutherm.thermal.cavity_radiation.CavityExchange.refined`): the difference is the conduction's
+    discretisation alone."""
+    from imutherm.geometry.mesh import prolongation, refine_grid
+    from imutherm.thermal.refinement import refined_steady
+    from imutherm.unit.model import cavity_exchange_law
+
+    st = res.steady
+    coarse_problem = st.problem
+    fine = refine_grid(res.grid, ratio)
+    exchange = None
+    if coarse_problem.exchanges:
+        exchange = cavity_exchange_law(res.geometry, res.grid, res.options).refined(fine, ratio)
+    fine_problem = replace(build_problem(res.geometry, fine, res.options, exchange=exchange),
+                           boundary=coarse_problem.boundary)
+    probes = {n: res.geometry.sites[n] for n in st.probe_names if n in res.geometry.sites}
+    coarse = [float(v) for n, v in zip(st.probe_names, st.probe_C) if n in probes]
+    return refined_steady(fine_problem, coarse_problem, st.T_C, prolongation(res.grid, fine), probes, coarse,
+                          float(np.max(st.T_C)), ratio=ratio)
 
 
 def _with_signal_effects(tr, steady, asm, effects, sites: dict):
@@ -272,7 +308,7 @@ def result_summary(res: SchemeResult) -> dict:
         "steady_residual": st.residual,
         "solver": st.solver,
         "timings_s": {"steady_assembly": st.assembly_s, "steady_solve": st.solve_s, "wall": res.wall_s},
-        "mesh": {"cells": res.grid.n_cells, "nodes": res.grid.n_nodes},
+        "mesh": _mesh_summary(res.grid),
         "model_options": _options_dict(res.options),
     }
     if tr is not None:
@@ -287,6 +323,21 @@ def result_summary(res: SchemeResult) -> dict:
         out["transient_model"] = "reduced" if tr.scheme == "reduced" else "full"
         if res.transient_check is not None:
             out["transient_check"] = res.transient_check.summary()
+    if res.mesh_error is not None:
+        out["discretisation_error"] = res.mesh_error.summary()
+    return out
+
+
+def _mesh_summary(grid: TensorGrid) -> dict:
+    """Cells, nodes and the thinnest gap of the fill with its cells across
+    (:func:`~imutherm.geometry.mesh.mesh_info`)."""
+    from imutherm.geometry.mesh import _gaps
+
+    gaps = _gaps(grid)
+    out = {"cells": grid.n_cells, "nodes": grid.n_nodes}
+    if gaps:
+        out.update({"thinnest_gap_mm": gaps["thinnest_gap_mm"], "thinnest_gap_cells": gaps["thinnest_gap_cells"],
+                    "thinnest_gap_axis": gaps["thinnest_gap_axis"], "fewest_gap_cells": gaps["fewest_gap_cells"]})
     return out
 
 

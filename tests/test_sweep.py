@@ -336,3 +336,31 @@ def test_attitude_columns_are_the_end_to_end_metrics_of_the_case(tmp_path):
 
     text = "".join(p.extract_text() for p in PdfReader(out / "sweep.pdf").pages)
     assert "roll RMS error" in text
+
+
+def test_jobs_beyond_the_cases_run_on_as_many_workers_as_cases(tmp_path, capsys, monkeypatch):
+    """``--jobs 10000`` on a 2-case sweep is estimated and run on 2 workers, not refused for 10,000 workers'
+    memory (the run itself is replaced: what is checked is what the cost model counts and what it starts)."""
+    import imutherm.cli.sweep as sweep_cli
+
+    seen = {}
+
+    def fake_run_sweep(plan, out, *, jobs, **kw):
+        seen["jobs"] = jobs
+        raise KeyboardInterrupt   # stop here: the sweep's checks and estimate are done
+
+    monkeypatch.setattr(sweep_cli, "run_sweep", fake_run_sweep)
+    rc = main(["sweep", "--scheme", "grease", "--surrogate", "none", "--set", f"{POWER}=0.4,0.8", "--jobs", "10000",
+               "--out", str(tmp_path / "s"), *COARSE])
+    out = capsys.readouterr().out
+    assert seen["jobs"] == 2 and rc != 0
+    assert "2 local processes (--jobs 10000: 2 cases)" in out
+
+
+def test_usable_workers_and_the_study_cost_count_the_tasks():
+    from imutherm.studies.cost import check_study_cost, usable_workers
+    from imutherm.studies.end_to_end import StudyConfig
+
+    assert usable_workers(10000, 2) == 2 and usable_workers(1, 9) == 1 and usable_workers(3, 0) == 1
+    work = check_study_cost(StudyConfig(), 3, 1000, None)     # 9 cases: 8 IMU workers beside the thermal one
+    assert work["memory_bytes"] < 4 * 2**30

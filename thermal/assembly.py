@@ -82,12 +82,13 @@ class Pattern:
         self.indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(counts, out=self.indptr[1:])
         itype = np.int32 if n * 27 < 2 ** 31 - 1 else np.int64
-        rows = np.arange(n, dtype=np.int64)
-        cols = rows[:, None] + flat[None, :]
-        self.indices = cols[valid].astype(itype)
+        # column of each stored entry: row + offset, built in the index type (a 2-D int64 temporary was the
+        # largest array of an 8x refined mesh's assembly)
+        self.indices = (np.arange(n, dtype=itype)[:, None] + flat.astype(itype)[None, :])[valid]
         self.indptr = self.indptr.astype(itype)
         self.rows = np.repeat(np.arange(n, dtype=itype), counts)
-        self.diag_pos = (self.indptr[:-1] + np.cumsum(valid, axis=1)[:, _CENTRE] - 1).astype(np.int64)
+        # the centre's position: the row start plus the row's entries before it
+        self.diag_pos = self.indptr[:-1].astype(np.int64) + valid[:, :_CENTRE].sum(axis=1)
         self.nnz = int(self.indptr[-1])
 
     def data(self, stencil: np.ndarray) -> np.ndarray:
@@ -359,7 +360,8 @@ def pattern_of(node_shape: tuple) -> Pattern:
     return pattern
 
 
-def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool = True) -> Assembly:
+def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool = True,
+             cache_pattern: bool = True) -> Assembly:
     """Assemble stiffness, heat capacity, boundary matrices and loads of ``problem``.
 
     Parameters
@@ -369,6 +371,9 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
         Row-sum lumped heat capacity instead of the consistent one.
     mass : bool
         False: skip the heat capacity (a steady operator only; a third of the assembly time).
+    cache_pattern : bool
+        False: build the sparsity pattern for this assembly alone, not kept by :func:`pattern_of` (a one-off
+        large grid, e.g. a mesh-error estimate's refined one, whose pattern would otherwise stay in memory).
 
     Returns
     -------
@@ -376,7 +381,8 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
         Reusable across steady and transient solves of the same problem.
     """
     g = problem.grid
-    pattern = pattern_of(tuple(s + 1 for s in g.shape))
+    shape = tuple(s + 1 for s in g.shape)
+    pattern = pattern_of(shape) if cache_pattern else Pattern(shape)
     K_data = pattern.data(stiffness_stencil(problem))
     M_data = pattern.data(mass_stencil(problem, lumped=lumped_mass)) if mass else None
     F_q = volume_load(problem)

@@ -179,7 +179,8 @@ def run_ccx(problem: ThermalProblem, *, workdir=None, timeout: float = 600.0, th
     threads : int, OpenMP threads and equation-solver processes given to ccx
     info : dict, optional
         Filled with ``ccx_s`` [s], the wall time of the ccx process alone (no deck
-        writing or result parsing), and ``ccx_peak_MB`` [MB], the peak resident
+        writing or result parsing), ``ccx_cpu_s`` [s] its CPU time (user + sys, all its threads),
+        and ``ccx_peak_MB`` [MB], the peak resident
         memory of the largest child process of this process so far (ccx's own when
         it is the only one, as in ``benchmarks/bench_reference.py``).
     """
@@ -198,11 +199,14 @@ def run_ccx(problem: ThermalProblem, *, workdir=None, timeout: float = 600.0, th
         write_ccx_deck(problem, workdir / "job.inp")
         env = dict(os.environ, OMP_NUM_THREADS=str(threads), CCX_NPROC_EQUATION_SOLVER=str(threads))
         t0 = time.perf_counter()
+        ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         proc = subprocess.run([exe, "-i", "job"], cwd=workdir, capture_output=True, text=True,
                               timeout=timeout, env=env)
         if info is not None:
+            ru = resource.getrusage(resource.RUSAGE_CHILDREN)
             info["ccx_s"] = time.perf_counter() - t0
-            info["ccx_peak_MB"] = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+            info["ccx_cpu_s"] = (ru.ru_utime - ru0.ru_utime) + (ru.ru_stime - ru0.ru_stime)
+            info["ccx_peak_MB"] = ru.ru_maxrss / 1024
         log = proc.stdout + proc.stderr
         if proc.returncode != 0 or "*ERROR" in log:
             errs = [ln for ln in log.splitlines() if "ERROR" in ln][:5]

@@ -49,7 +49,7 @@ from __future__ import annotations
 import copy
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -449,6 +449,14 @@ class CavityExchange:
         out.X, out._absX = self.X * float(factor), self._absX * float(factor)
         return out
 
+    def refined(self, fine: TensorGrid, factor: int) -> "CavityExchange":
+        """The same exchange (patches, view factors, emissivities: the same X) on ``fine``, this law's grid with
+        every interval split into ``factor`` parts: a mesh-refinement study then sees the conduction's
+        discretisation alone, not a new ray sample (:func:`refined_patches`)."""
+        out = CavityExchange(refined_patches(self.patches, fine, factor), self.view, self.emissivity)
+        out.X, out._absX = self.X, self._absX   # a scaled law keeps its scale
+        return out
+
     @property
     def region(self):  # a law's region (the whole set of nodes)
         return None
@@ -488,6 +496,45 @@ class CavityExchange:
         T_m = 350 K."""
         Tk = float(T_m_C) + ZERO_C_K
         return self.nodes, self.Pn, 4.0 * SIGMA * Tk**3 * self.X
+
+
+def refined_patches(patches: Patches, fine: TensorGrid, factor: int) -> Patches:
+    """The same patches on ``fine``, the grid of ``patches`` with every interval split into ``factor`` parts
+    (:func:`imutherm.geometry.mesh.refine_grid`): each face cell's ``factor**2`` sub-faces belong to its patch,
+    so the patches, their areas and the view factors between them are unchanged, and only the averaging
+    ``P`` (and the per-face-cell arrays) are of the fine grid's nodes and faces."""
+    f = int(factor)
+    a, b = np.meshgrid(np.arange(f), np.arange(f), indexing="ij")
+    a, b = a.ravel(), b.ravel()
+    patch = np.repeat(patches.fc_patch, f * f)
+    axis = np.repeat(patches.fc_axis, f * f)
+    plane = np.repeat(patches.fc_plane, f * f) * f
+    u = (np.repeat(patches.fc_u, f * f) * f + np.tile(a, len(patches.fc_patch)))
+    v = (np.repeat(patches.fc_v, f * f) * f + np.tile(b, len(patches.fc_patch)))
+    lines = (fine.xs, fine.ys, fine.zs)
+    Nn = tuple(n + 1 for n in fine.shape)
+    area = np.empty(len(patch))
+    cols = np.empty((4, len(patch)), dtype=np.int64)
+    face_patch = []
+    for ax in range(3):
+        m = axis == ax
+        u_ax, v_ax = [d for d in range(3) if d != ax]
+        area[m] = np.diff(lines[u_ax])[u[m]] * np.diff(lines[v_ax])[v[m]]
+        for k, (da, db) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+            ijk = [None] * 3
+            ijk[ax], ijk[u_ax], ijk[v_ax] = plane[m], u[m] + da, v[m] + db
+            cols[k, m] = (ijk[0] * Nn[1] + ijk[1]) * Nn[2] + ijk[2]
+        shp = list(fine.shape)
+        shp[ax] += 1
+        fp = np.full(shp, -1, dtype=np.int64)
+        ind = [None] * 3
+        ind[ax], ind[u_ax], ind[v_ax] = plane[m], u[m], v[m]
+        fp[tuple(ind)] = patch[m]
+        face_patch.append(fp)
+    vals = np.tile(area / 4.0 / patches.area[patch], 4)
+    P = sp.csr_matrix((vals, (np.tile(patch, 4), cols.ravel())), shape=(patches.n, fine.n_nodes))
+    return replace(patches, P=P, face_patch=tuple(face_patch), fc_patch=patch, fc_axis=axis, fc_plane=plane,
+                   fc_u=u, fc_v=v)
 
 
 def cavity_exchange(grid: TensorGrid, air: np.ndarray, emissivity_by_part, *, patch_mm: float = DEFAULT_PATCH_MM,

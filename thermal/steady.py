@@ -144,7 +144,7 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
     if not (np.isfinite(tol) and tol > 0):
         raise InputError(f"tol must be > 0, got {tol!r}")
     t0 = time.perf_counter()
-    asm = assembly if assembly is not None else assemble(problem)
+    asm = assembly if assembly is not None else assemble(problem, mass=False)   # a steady solve needs no M
     assembly_s = time.perf_counter() - t0 if assembly is None else 0.0
     t1 = time.perf_counter()
     names, P = _probes(problem.grid, probes)

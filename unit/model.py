@@ -278,8 +278,13 @@ def _apply_interface(k: np.ndarray, grid: TensorGrid, itf: Interface, layer: boo
         raise InputError(f"interface {itf.part_a!r}/{itf.part_b!r}: the parts do not touch")
 
 
-def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | None = None) -> ThermalProblem:
+def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | None = None, *,
+                  exchange=None) -> ThermalProblem:
     """The thermal problem of one scheme of the unit on ``grid``, with the laws of ``options``.
+
+    ``exchange``: the ``s2s`` cavity law to use instead of :func:`cavity_exchange_law`'s (e.g. a coarse grid's
+    law on its refinement, :meth:`~imutherm.thermal.cavity_radiation.CavityExchange.refined`); unscaled (the
+    ``cavity_law_blend`` scale is applied here).
 
     Parameters
     ----------
@@ -337,7 +342,7 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
     blend = float(options.cavity_law_blend) if law == "s2s" else 0.0
     exchanges = ()
     if law == "s2s" and in_air:  # kept at w = 1 (exchanging nothing): a reduced model's knob changes its G
-        ex = cavity_exchange_law(geometry, grid, options)
+        ex = cavity_exchange_law(geometry, grid, options) if exchange is None else exchange
         exchanges = (ex.scaled(1.0 - blend) if blend else ex,)
     weight = 1.0 if law == "effective" else blend  # the effective law's share of the cavity radiation
     if weight > 0 and in_air:

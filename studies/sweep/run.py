@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from imutherm import InputError
+from imutherm.studies.cost import usable_workers
 from imutherm.studies.sweep.case import _pool_case, run_case
 from imutherm.studies.sweep.plan import SweepPlan, full_case
 from imutherm.studies.sweep.results import (RESULTS_CSV, SWEEP_JSON, _defaults, _design_mismatch, _json_text,
@@ -59,6 +60,7 @@ def _progress(total: int, initial: int, enabled: bool):
 
 
 def _run_local(pending, settings, jobs, record, lost):
+    jobs = usable_workers(jobs, len(pending))   # a worker more than the cases would only hold memory
     if jobs == 1:
         for case in pending:
             record(run_case(case, settings))

@@ -1,0 +1,198 @@
+"""The mesh's gaps, slivers and uniform refinement, and the discretisation-error estimate built on them."""
+
+import numpy as np
+import pytest
+
+from imutherm import InputError
+from imutherm.geometry import mesh as M
+from imutherm.geometry.build import MM, build_geometry
+from imutherm.geometry.mesh import build_mesh, mesh_info, prolongation, refine_grid
+
+
+def _gap_cells(grid):
+    """(run length [m], cells) of every run of fill between solids along every axis, from first principles."""
+    fill = grid.part_names.index("fill")
+    out = []
+    for axis, w in enumerate(grid.cell_sizes()):
+        cp = np.moveaxis(grid.cell_part, axis, -1).reshape(-1, len(w))
+        for row in cp:
+            is_fill = row == fill
+            k = 0
+            while k < len(row):
+                if is_fill[k]:
+                    j = k
+                    while j < len(row) and is_fill[j]:
+                        j += 1
+                    out.append((w[k:j].sum(), j - k))
+                    k = j
+                else:
+                    k += 1
+    return out
+
+
+@pytest.mark.parametrize("scheme", ["air", "grease"])
+@pytest.mark.parametrize("min_cells", [1, 2, 3])
+def test_every_gap_of_the_fill_gets_min_cells(scheme, min_cells):
+    g = build_geometry(None, scheme)
+    m = build_mesh(g, 2.0, min_cells)
+    runs = _gap_cells(m)
+    assert min(c for _, c in runs) >= min_cells
+    info = mesh_info(m)
+    assert info.fewest_gap_cells == min(c for _, c in runs)
+    assert info.thinnest_gap_mm == pytest.approx(min(r for r, _ in runs) / MM)
+    assert info.thinnest_gap_mm == pytest.approx(1.0)    # the main board's 1 mm clearance to the walls
+    assert info.thinnest_gap_cells >= min_cells and "1 mm" in info.gap_line()
+
+
+def test_the_refined_grid_has_the_stated_cells_across_every_gap():
+    """Every interval split in two: every gap (and part) then has twice the cells of the mesh it refines."""
+    m = build_mesh(build_geometry(None, "air"), 2.0, 2)
+    f = refine_grid(m, 2)
+    assert f.shape == tuple(2 * n for n in m.shape)
+    assert mesh_info(f).fewest_gap_cells >= 4
+    assert mesh_info(f).thinnest_gap_mm == pytest.approx(mesh_info(m).thinnest_gap_mm)
+    np.testing.assert_array_equal(f.cell_part[::2, ::2, ::2], m.cell_part)
+
+
+def test_a_thin_gap_is_resolved_without_refining_everything(write_layout):
+    """A 0.2 mm gap between the y-board and the wall gets --min-cells across it; the rest keeps its cells."""
+    def near_wall(d):
+        yb = next(b for b in d["boards"] if b["name"] == "yboard")
+        yb["min_mm"][1] = 48.0 - 2.5 - 1.6 - 0.2          # 0.2 mm from the +y wall
+    g = build_geometry(write_layout(near_wall), "air")
+    m = build_mesh(g, 2.0, 2)
+    info = mesh_info(m)
+    assert info.thinnest_gap_mm == pytest.approx(0.2) and info.thinnest_gap_axis == "y"
+    assert info.thinnest_gap_cells == 2
+    assert m.n_nodes < 1.1 * build_mesh(build_geometry(None, "air"), 2.0, 2).n_nodes
+
+
+def test_nearly_coincident_faces_share_a_line(write_layout):
+    """Faces a rounding error apart (CAD exports, many parts at nearly the same coordinates) make no sliver
+    cells: they share one grid line, and every part keeps its cells."""
+    def jitter(d):
+        for i, c in enumerate(d["components"]):
+            c["center_mm"] = [v + (i + 1) * 1e-5 for v in c["center_mm"]]   # 0.01-0.13 um off
+        for i, s in enumerate(d["parts"]):
+            s["min_mm"] = [v + 2e-4 * (i + 1) * (a < 2) for a, v in enumerate(s["min_mm"])]   # 0.2-0.8 um
+    g = build_geometry(write_layout(jitter), "air")
+    m = build_mesh(g)
+    assert min(np.min(w) for w in m.cell_sizes()) >= M.LINE_TOL_MM * MM * 0.999
+    ref = build_mesh(build_geometry(None, "air"))
+    assert m.n_nodes < 1.15 * ref.n_nodes     # a few intervals a fraction of a um longer than half their gap
+    info = mesh_info(m)
+    assert all(info.cells_across[p.name] >= 1 for p in g.parts)
+    vol = m.cell_volumes()
+    for i, p in enumerate(g.parts):
+        if p.kind in ("component", "die", "pad"):
+            painted = vol[m.cell_part == i].sum()
+            assert painted == pytest.approx(g.volumes[p.name], rel=1e-3), p.name
+
+
+def test_a_part_thinner_than_the_line_tolerance_is_refused(monkeypatch):
+    monkeypatch.setattr(M, "LINE_TOL_MM", 0.35)     # the 0.3 mm dies fall inside one line
+    with pytest.raises(InputError, match="get no cell"):
+        build_mesh(build_geometry(None, "air"))
+
+
+def test_prolongation_is_exact_for_trilinear_fields():
+    m = build_mesh(build_geometry(None, "air"), 6.0, 1)
+    f = refine_grid(m, 3)
+    P = prolongation(m, f)
+    c, fc = m.node_coordinates(), f.node_coordinates()
+    field = lambda x: 1.0 + 2.0 * x[:, 0] - 3.0 * x[:, 1] + 0.5 * x[:, 2] + 40.0 * x[:, 0] * x[:, 2]  # noqa: E731
+    np.testing.assert_allclose(P @ field(c), field(fc), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(P.sum(axis=1)).ravel(), 1.0)
+
+
+def test_the_refined_exchange_is_the_same_law():
+    """The s2s law on the refined grid: the same patches, areas and X, and a prolonged field gives the same patch
+    temperatures (the refined averaging of a trilinear prolongation is the coarse averaging)."""
+    from imutherm.unit.model import ModelOptions, cavity_exchange_law
+
+    g = build_geometry(None, "air")
+    m = build_mesh(g, 6.0, 1)
+    law = cavity_exchange_law(g, m, ModelOptions())
+    f = refine_grid(m, 2)
+    fine = law.refined(f, 2)
+    np.testing.assert_array_equal(fine.X, law.X)
+    np.testing.assert_allclose(fine.patches.area, law.patches.area)
+    np.testing.assert_allclose(np.asarray(fine.patches.P.sum(axis=1)).ravel(), 1.0)
+    T = 70.0 + np.random.default_rng(0).random(m.n_nodes)
+    np.testing.assert_allclose(fine.patches.P @ (prolongation(m, f) @ T), law.patches.P @ T, rtol=1e-12)
+
+
+@pytest.mark.slow
+def test_the_refined_solve_is_the_refined_problem_s_solution():
+    """The estimate's two-level refined solve lands on the refined problem's own steady solution (solve_steady,
+    AMG to 1e-10) within its stated ~1e-3 K (air, s2s exchange, natural convection and radiation)."""
+    from dataclasses import replace
+
+    from imutherm.studies.thermal_study import mesh_error, run_scheme
+    from imutherm.thermal.steady import solve_steady
+    from imutherm.unit.model import build_problem, cavity_exchange_law
+
+    res = run_scheme(None, "air", mesh_size_mm=6.0, min_cells=1)
+    est = mesh_error(res)
+    fine = refine_grid(res.grid, 2)
+    law = cavity_exchange_law(res.geometry, res.grid, res.options).refined(fine, 2)
+    pf = replace(build_problem(res.geometry, fine, res.options, exchange=law), boundary=res.steady.problem.boundary)
+    st = solve_steady(pf, probes={n: res.geometry.sites[n] for n in res.steady.probe_names})
+    np.testing.assert_allclose(est.fine_C[:-1], st.probe_C, atol=3e-3)
+    assert est.fine_C[-1] == pytest.approx(float(np.max(st.T_C)), abs=3e-3)
+    assert np.all(est.error_K[:-1] > -0.05)      # the rises converge from below (Q1 is too stiff)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scheme", ["air", "grease"])
+def test_rises_grow_monotonically_under_uniform_refinement(scheme):
+    """Reference unit, steady, linear boundary laws: every sensor site's rise grows from the base mesh to its
+    2x and 3x refinements, and the lowest observed order at the dies is at least the study's assumed one."""
+    from imutherm.imu.sensor_model import SITES
+    from imutherm.studies.mesh_convergence import refinement_study
+    from imutherm.thermal.refinement import MESH_ERROR_ORDER
+
+    st = refinement_study(None, scheme)
+    dies = [st.names.index(s) for s in SITES]
+    assert st.monotone[dies].all(), dict(zip(st.names, st.rise_K.T.round(3).tolist()))
+    assert np.all(np.diff(st.rise_K[:, dies], axis=0) > 0)
+    assert np.nanmin(st.order[dies]) >= MESH_ERROR_ORDER
+
+
+def test_richardson_and_the_observed_order():
+    from imutherm.thermal.refinement import observed_order, richardson
+
+    h = np.array([1.0, 1 / 2, 1 / 3])
+    v = 10.0 - 3.0 * h[:, None] ** np.array([1.0, 2.0])     # two columns: p = 1 and p = 2
+    np.testing.assert_allclose(observed_order(v, (1, 2, 3)), [1.0, 2.0], rtol=1e-6)
+    err, extra = richardson(v[0], v[1], 2, np.array([1.0, 2.0]))
+    np.testing.assert_allclose(extra, 10.0)
+    np.testing.assert_allclose(err, [3.0, 3.0])
+    assert np.isnan(observed_order([[0.0], [1.0], [0.5]], (1, 2, 3))[0])   # not monotone: no order
+
+
+def test_the_refined_solve_with_fixed_temperatures_and_nonlinear_laws():
+    """The two-level refined solve on a small problem with a fixed-temperature face and natural convection +
+    radiation: the same field as the refined problem's own steady solve."""
+    from imutherm.thermal import verification as V
+    from imutherm.thermal.problem import FixedTemperature, NaturalConvection, Radiation, ThermalProblem
+    from imutherm.thermal.refinement import refined_steady
+    from imutherm.thermal.steady import solve_steady
+
+    def problem(grid):
+        k = np.array([p[3] for p in V.BOARD_CAVITY_PARTS])[grid.cell_part].reshape(-1, 3)
+        die = grid.cell_part == grid.part_names.index("die")
+        q = np.where(die, 0.3 / grid.cell_volumes()[die].sum(), 0.0)
+        laws = {"zmin": FixedTemperature(70.0), "zmax": (NaturalConvection("up", 0.05), Radiation(0.8)),
+                "xmin": NaturalConvection("vertical", 0.02)}
+        return ThermalProblem(grid, k, 1.0, q.reshape(-1), 70.0, laws)
+
+    g = V._board_cavity_grid(1)
+    pts = {"die": (23.5e-3, 5e-3, 7.95e-3), "board": (40e-3, 5e-3, 7.6e-3)}
+    pc = problem(g)
+    st = solve_steady(pc, probes=pts)
+    f = refine_grid(g, 2)
+    est = refined_steady(problem(f), pc, st.T_C, prolongation(g, f), pts, st.probe_C, float(np.max(st.T_C)))
+    ref = solve_steady(problem(f), probes=pts)
+    np.testing.assert_allclose(est.fine_C[:-1], ref.probe_C, atol=2e-3)
+    assert est.error_K[0] > 0.1     # the die's rise is low on the base grid (cf. the verification case)

@@ -1,0 +1,233 @@
+"""The discretisation error of a steady answer, by uniform refinement (Richardson extrapolation).
+
+A Q1 field on a grid of spacing h converges as T(h) = T* - C h^p + ... at a point, with p = 2 where the field is
+smooth and less near the re-entrant corners of thin solids in air (a board edge, a package corner), where the
+field is singular. Solving again on the grid with every interval split in ``r`` parts
+(:func:`imutherm.geometry.mesh.refine_grid`) gives the coarse answer's error
+
+    E = T* - T(h) ~ (T(h/r) - T(h)) r^p / (r^p - 1),
+
+the extrapolated value T(h) + E and, from three grids, the observed order p (:func:`observed_order`).
+
+:data:`MESH_ERROR_ORDER` is the order the two-grid estimate of a study assumes: the lowest observed at the
+reference unit's sensor dies by the refinement study of ``imutherm verify`` (``refinement_reference_unit``:
+1x, 2x, 3x of a 6 mm / 1-cell mesh, linear laws; 2026-12-04: air 1.22-1.52, grease 1.02-1.21 at the dies,
+1.3-1.45 at the hot spot), rounded down to 1. An order this low is the mark of the singular corners; where the
+field converges faster the estimate errs on the large side (a smooth field at p = 2: 1.5x the error; the
+board-in-cavity case of the verification suite: 1.2-1.3x).
+
+:func:`refined_steady` solves the refined problem from the coarse field (prolonged, exact on the nested grid):
+one or two Newton steps, since the start is within the discretisation error of the answer, each by CG with a
+two-level preconditioner whose coarse level is the coarse grid itself (:func:`_two_level`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from imutherm import InputError
+
+#: the order of convergence [-] a two-grid estimate assumes (module docstring)
+MESH_ERROR_ORDER = 1.0
+#: refinement ratio [-] of the study's estimate: every interval split in two (8x the cells)
+REFINEMENT_RATIO = 2
+
+
+def richardson(coarse, fine, ratio: float = REFINEMENT_RATIO, order: float = MESH_ERROR_ORDER) -> tuple:
+    """(error of the coarse values [K], extrapolated values): ``E = (fine - coarse) r^p / (r^p - 1)``,
+    ``coarse + E``. ``coarse``, ``fine`` [°C or K], arrays of the same shape; ``ratio`` r > 1, ``order`` p > 0."""
+    if not (np.all(np.asarray(ratio) > 1) and np.all(np.asarray(order) > 0)):
+        raise InputError(f"richardson: need ratio > 1 and order > 0, got {ratio!r}, {order!r}")
+    c, f = np.asarray(coarse, float), np.asarray(fine, float)
+    g = ratio**order
+    err = (f - c) * g / (g - 1.0)
+    return err, c + err
+
+
+def observed_order(values, ratios) -> np.ndarray:
+    """Observed order p [-] of convergence from three grids with spacing h / ratios[k] (e.g. (1, 2, 3)):
+    the p with (v3 - v2) / (v2 - v1) = (r2^-p - r3^-p) / (r1^-p - r2^-p), per column of ``values`` (3, m);
+    NaN where the differences change sign (not monotone: no order) or p is outside (0.05, 8)."""
+    v = np.atleast_2d(np.asarray(values, float))
+    if v.shape[0] != 3 or len(ratios) != 3:
+        raise InputError("observed_order: needs values on three grids")
+    r1, r2, r3 = (float(r) for r in ratios)
+    out = np.full(v.shape[1], np.nan)
+    for j in range(v.shape[1]):
+        d1, d2 = v[1, j] - v[0, j], v[2, j] - v[1, j]
+        if d1 == 0 or d2 / d1 <= 0:
+            continue
+        q = d2 / d1
+
+        def f(p):
+            return (r2**-p - r3**-p) / (r1**-p - r2**-p) - q
+        try:
+            out[j] = brentq(f, 0.05, 8.0)
+        except ValueError:
+            pass
+    return out
+
+
+@dataclass(frozen=True)
+class RefinementEstimate:
+    """The discretisation error of a steady answer by one uniform refinement.
+
+    names : tuple of str, the sites (and ``hot spot``: the field's maximum); coarse_C, fine_C : (m,) [°C]
+    error_K : (m,) [K] estimated error of the coarse (the answer's) values, E = T* - T_coarse
+    extrapolated_C : (m,) [°C] coarse + error
+    ratio : int, order : float (assumed, :data:`MESH_ERROR_ORDER`)
+    coarse_nodes, fine_nodes : int; seconds : float [s] (wall) and cpu_s : float [s] of the refined solve
+    """
+
+    names: tuple
+    coarse_C: np.ndarray
+    fine_C: np.ndarray
+    error_K: np.ndarray
+    extrapolated_C: np.ndarray
+    ratio: int
+    order: float
+    coarse_nodes: int
+    fine_nodes: int
+    seconds: float
+    cpu_s: float
+
+    def max_error(self, names) -> tuple:
+        """(the error [K] of largest magnitude over ``names`` (those present), its site)."""
+        idx = [self.names.index(n) for n in names if n in self.names]
+        if not idx:
+            return float("nan"), None
+        k = max(idx, key=lambda i: abs(self.error_K[i]))
+        return float(self.error_K[k]), self.names[k]
+
+    def summary(self) -> dict:
+        """JSON-ready figures (the ``discretisation_error`` entry of ``summary.json`` / ``result.json``)."""
+        return {"method": f"Richardson: the steady solve again on the mesh with every interval split in "
+                          f"{self.ratio} ({self.fine_nodes:,} nodes), order p = {self.order:g} assumed "
+                          "(imutherm.thermal.refinement.MESH_ERROR_ORDER)",
+                "ratio": self.ratio, "order": self.order, "coarse_nodes": self.coarse_nodes,
+                "fine_nodes": self.fine_nodes, "timings_s": {"wall": self.seconds, "cpu": self.cpu_s},
+                "sites": {n: {"default_C": float(c), "refined_C": float(f), "error_K": float(e),
+                              "extrapolated_C": float(x)}
+                          for n, c, f, e, x in zip(self.names, self.coarse_C, self.fine_C, self.error_K,
+                                                   self.extrapolated_C)}}
+
+
+HOT_SPOT = "hot spot"
+#: relative residual of the refined solve's CG (per Newton step): the corrections it measures are 0.01-1 K
+#: against 10-40 K rises, so 1e-3 leaves them within ~1e-3 K (reference unit, air, linear laws: the same site
+#: differences to 0.001 K as a solve to 1e-10)
+REFINED_CG_RTOL = 1e-3
+#: the refined Newton stops when a step changes no node by more than this [K]: the first step carries the
+#: discretisation's correction (0.1-1 K at the reference unit's sites), the second the nonlinear laws' change
+#: over it (~1e-3 K), a third nothing the estimate can see
+REFINED_STEP_K = 5e-3
+
+
+def _two_level(A, prolong, coarse_pc):
+    """A symmetric two-level preconditioner of the refined matrix ``A`` (sparse): one Gauss-Seidel sweep
+    forward, the coarse grid's correction through ``prolong`` with ``coarse_pc`` (the coarse matrix's AMG
+    V-cycle), one sweep backward. The coarse space is the refined one's own (nested Q1 spaces), so no hierarchy
+    of the 8x larger matrix is built (its AMG setup took longer and ~2x the memory of the solve)."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+    from pyamg.relaxation.relaxation import gauss_seidel
+
+    A32 = sp.csr_matrix((A.data.astype(np.float32), A.indices, A.indptr), shape=A.shape)   # shares the pattern
+    R = prolong.T   # a CSC view: no copy
+
+    def apply(b):
+        b32 = np.asarray(b, np.float32).ravel()
+        x = np.zeros_like(b32)
+        gauss_seidel(A32, x, b32, iterations=1, sweep="forward")
+        xd = x.astype(float)
+        xd += prolong @ (coarse_pc @ (R @ (np.ravel(b) - A @ xd)))
+        x = xd.astype(np.float32)
+        gauss_seidel(A32, x, b32, iterations=1, sweep="backward")
+        return x.astype(float)
+
+    return spla.LinearOperator(A.shape, matvec=apply, dtype=float)
+
+
+def _newton_matrix(asm, D, T, base=None):
+    """The sparse Newton matrix at ``T`` [°C]: conduction and linear laws (``base``: their CSR data with the fixed
+    nodes eliminated, if made before), the nonlinear laws' diagonal slopes (each s2s exchange's too, its coupling
+    is applied beside it), fixed nodes eliminated."""
+    data = D.eliminate(asm.K_data + asm.H_data) if base is None else base
+    if asm.nonlinear:
+        data = data.copy()
+        _, J = asm.nonlinear_flux(T)
+        data[D.free_diag] += J[~D.mask]
+    return asm.pattern.csr(data)
+
+
+def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: dict, coarse_probe_C,
+                   coarse_max_C: float, *, ratio: int = REFINEMENT_RATIO, order: float = MESH_ERROR_ORDER,
+                   max_newton: int = 4) -> RefinementEstimate:
+    """The estimate of the coarse answer's error from the steady solve of ``fine_problem`` (``coarse_problem`` on
+    its refined grid), started from ``prolong @ coarse_T_C`` (exact on the nested grid: the Newton steps only
+    carry the discretisation's correction, so one or two do).
+
+    Each Newton step is solved by CG to :data:`REFINED_CG_RTOL`, preconditioned by :func:`_two_level` with the
+    coarse Newton matrix's AMG hierarchy; each s2s exchange enters with its coupling, as in the steady solve.
+    probes : dict name -> (x, y, z) [m]; coarse_probe_C : (m,) [°C] their coarse values; coarse_max_C : [°C] the
+    coarse field's maximum (the hot spot).
+    """
+    import scipy.sparse.linalg as spla
+
+    from imutherm import ConvergenceError
+    from imutherm.thermal.assembly import assemble
+    from imutherm.thermal.cavity_radiation import CavityExchange
+    from imutherm.thermal.linear import _Dirichlet, amg_preconditioner
+    from imutherm.thermal.probes import _probes
+    from imutherm.thermal.steady import _with_exchanges
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    Tc = np.asarray(coarse_T_C, float)
+    asm_c = assemble(coarse_problem, mass=False)
+    Dc = _Dirichlet(asm_c, asm_c.dirichlet_values(None)[0])
+    coarse_pc = amg_preconditioner(_newton_matrix(asm_c, Dc, Tc))
+    del asm_c
+    asm = assemble(fine_problem, mass=False, cache_pattern=False)
+    dnodes, dvals = asm.dirichlet_values(None)
+    D = _Dirichlet(asm, dnodes)
+    asm.K_data += asm.H_data           # in place: the refined matrices are the run's largest arrays
+    L = asm.pattern.csr(asm.K_data)
+    asm.H_data = np.zeros(0)
+    base = D.eliminate(L.data)
+    F = asm.F_q + asm.F_bc
+    exchanges = [bc.law for bc in asm.nonlinear if isinstance(bc.law, CavityExchange)]
+    T = prolong @ Tc
+    T[dnodes] = dvals
+    for _ in range(max_newton):
+        N = asm.nonlinear_flux(T)[0] if asm.nonlinear else 0.0
+        r = F - L @ T - N
+        r[dnodes] = 0.0
+        A = _newton_matrix(asm, D, T, base)
+        op = _with_exchanges(A, exchanges, T, D.mask) if exchanges else A
+        dT, info = spla.cg(op, r, rtol=REFINED_CG_RTOL, atol=0.0, M=_two_level(A, prolong, coarse_pc), maxiter=500)
+        if info != 0:
+            raise ConvergenceError(f"refined steady solve: CG did not reach rtol {REFINED_CG_RTOL:g} (info {info})")
+        T += dT
+        if not asm.nonlinear or np.abs(dT).max() <= REFINED_STEP_K:
+            break
+    names, Pm = _probes(fine_problem.grid, probes)
+    names = tuple(names) + (HOT_SPOT,)
+    coarse = np.append(np.asarray(coarse_probe_C, float), coarse_max_C)
+    fine = np.append(Pm @ T, float(np.max(T)))
+    err, extra = richardson(coarse, fine, ratio, order)
+    return RefinementEstimate(names, coarse, fine, err, extra, int(ratio), float(order), int(len(Tc)),
+                              int(fine_problem.grid.n_nodes), time.perf_counter() - t0, time.process_time() - c0)
+
+
+def fmt_error(est: RefinementEstimate, sites) -> str:
+    """One line: the largest estimated error at ``sites`` and at the hot spot [K]."""
+    e, at = est.max_error(sites)
+    h = float(est.error_K[est.names.index(HOT_SPOT)])
+    return (f"mesh (Richardson, {est.ratio}x refined, p {est.order:g}): sensor dies {e:+.2f} K at most ({at})"
+            if math.isfinite(e) else f"mesh (Richardson, {est.ratio}x refined, p {est.order:g})") + \
+        f", hot spot {h:+.2f} K"
