@@ -188,6 +188,21 @@ def test_parts_at_any_angle_on_both_sides_come_back_in_place(tmp_path, dialect):
         assert c.size_mm[2] == 1.75   # SOIC: JEDEC MS-012
 
 
+def test_an_overhang_is_noted_with_its_true_size_and_only_then(tmp_path, real_boards):
+    """A body crossing the board edge is clipped with a note giving by how much; a body inside the outline gets
+    no note (the 0.001 mm lattice's rounding once produced 'overhangs by -16.72 mm' on drone-fc's parts)."""
+    path = tmp_path / "edge.kicad_pcb"
+    parts = [part("U1", "Package_SO:SOIC-8_3.9x4.9mm", (139.0, 110.0, 0), fab=(-2.0, -1.0, 2.0, 1.0)),
+             part("U2", "Package_SO:SOIC-8_3.9x4.9mm", (120.0, 110.0, 0), fab=(-2.0, -1.0, 2.0, 1.0))]
+    path.write_text(kicad_board(parts))   # the outline ends at x = 140 mm: U1's body reaches 141 mm
+    result = import_board(read_board(path), ImportOptions(powers={"U1": (0.05, "test"), "U2": (0.05, "test")}))
+    over = [n for n in result.notes if "overhangs" in n]
+    assert over == ["U1: its body overhangs the board edge by 1.00 mm; the model keeps the part on the board"]
+    for name, options in (("openuav", _openuav_options()), ("drone-fc", _drone_options())):
+        notes = import_board(read_kicad(real_boards[name]), options).notes
+        assert not [n for n in notes if "overhangs" in n and "by -" in n], name
+
+
 def test_copper_layers_by_number_not_by_name(tmp_path):
     """KiCad 5 let a designer rename the copper layers: 'Top' / 'Bottom' are still layers 0 and 31."""
     path = tmp_path / "renamed.kicad_pcb"
