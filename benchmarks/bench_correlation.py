@@ -31,7 +31,8 @@ import numpy as np
 
 from imutherm.io import write_json
 from imutherm.measured import read_measured
-from imutherm.studies.correlation import FORM_RETUNE, _Forward, build_models, correlate, result_json
+from imutherm.studies.correlation import FORM_RETUNE, build_models, correlate, result_json
+from imutherm.studies.correlation.forward_model import _Forward
 from imutherm.studies.form_generator import generator_mesh_mm
 from imutherm.studies.hidden_effect import (FINDING_KINDS, MODEL_FORMS, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case,
                                            model_form_options)

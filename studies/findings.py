@@ -114,7 +114,10 @@ def findings(fwd, free, full: dict, folds, ratio: float, noise: float, test: dic
     """The :class:`Finding` s of ``free`` (the final model's physics: re-tune and named effects, fitted without
     the discrepancy term, its held-out figures pooled), largest gap share first (see the module docstring);
     ``test``: the held-out readings (run index -> bool (n, m))."""
-    from imutherm.studies.correlation import (EXPLAIN_MIN_NOISE, MARGIN_NONE, FORM_IN_DOUBT, _fit, _held, _pooled)
+    from imutherm.studies.correlation.fit import _fit
+    from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT
+    from imutherm.studies.correlation.holdout import _held, _pooled
+    from imutherm.studies.correlation.verdict import EXPLAIN_MIN_NOISE, MARGIN_NONE
     from imutherm.studies.written_model import heldout_rms
 
     out = []

@@ -12,8 +12,9 @@ import pytest
 
 from imutherm.cli import correlate as cli
 from imutherm.measured import MeasuredRun, read_measured, write_measured
-from imutherm.studies.correlation import (SPARSE_NOISE_K, Fit, _masks, build_models, correlate, heldout_worse_z,
-                                          noise_sigma, result_json, updated_model_toml, verdict)
+from imutherm.studies.correlation import (SPARSE_NOISE_K, Fit, build_models, correlate, heldout_worse_z, noise_sigma,
+                                          result_json, updated_model_toml, verdict)
+from imutherm.studies.correlation.holdout import _masks
 from imutherm.studies.hidden_effect import make_case
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/_toy_reduced.py
@@ -170,7 +171,8 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     run's power_scale, not the library's -1 W (which let the fit draw -1 W from the 0.04 W ADC on the paper's figures)."""
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
-    from imutherm.studies.correlation import _Forward, _knobs_for
+    from imutherm.studies.correlation.fit import _knobs_for
+    from imutherm.studies.correlation.forward_model import _Forward
     from imutherm.unit import knobs as K
     from imutherm.unit.effects import power_part
 
@@ -318,7 +320,7 @@ def test_the_same_measured_file_given_twice_is_refused(tmp_path, capsys):
 def test_effects_compatible_in_one_selection():
     """Two effects of one kind at two places may be chosen together; one effect not twice; two contacts that
     each share the board's conductivity with the reduced model's joint interpolation not together."""
-    from imutherm.studies.correlation import _compatible
+    from imutherm.studies.correlation.selection import _compatible
     assert _compatible(("power@reg_5v",), "power@reg_3v3")
     assert not _compatible(("power@reg_5v",), "power@reg_5v")
     assert _compatible(("contact@board",), "contact@bond")
@@ -460,7 +462,8 @@ def test_what_an_effect_must_gain_without_the_term_and_leave_with_it():
     emissivity re-tuned to 0.128 K held out, 2.5 sigmas, then named ``contact@board`` at 0.076 K: a gain of
     a form error's size). With the term: where the effects act, the term they leave within 2 noise sigmas or
     halved (a lid heat load named ``contact@bond`` left 0.153 K in grease, 2.96 sigmas, of 0.2 K)."""
-    from imutherm.studies.correlation import _plain_explains, explains_term
+    from imutherm.studies.correlation import explains_term
+    from imutherm.studies.correlation.verdict import _plain_explains
     noise = 0.052
     chosen = _fit("contact@board", -380.0, 0.076)
     sel = ([{"verdict": "effect"}, {"verdict": "none"}], [chosen])

@@ -13,8 +13,9 @@ import pytest
 
 from imutherm import InputError
 from imutherm.studies import form_error as FE
-from imutherm.studies.correlation import (_Forward, _masks, _test_union, build_discrepancy, correlate, result_json,
-                                          updated_model_toml)
+from imutherm.studies.correlation import build_discrepancy, correlate, result_json, updated_model_toml
+from imutherm.studies.correlation.forward_model import _Forward
+from imutherm.studies.correlation.holdout import _masks, _test_union
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/_toy_reduced.py
 
