@@ -44,6 +44,7 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec, load_layout
+from imutherm.unit.cavity_laws import cavity_law_of
 from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.steady import solve_steady
 
@@ -442,8 +443,7 @@ def longest_first(layout: LayoutSpec, schemes, options: ModelOptions) -> tuple:
     18.6, grease 17.7, potted 10.2 CPU-s); ties keep the given order."""
     def s2s(sch):
         fill = layout.schemes[sch].fill
-        return (options.cavity_radiation and options.cavity_law == "s2s"
-                and options.material(fill).name == "air")
+        return cavity_law_of(options).patches and options.material(fill).name == "air"
     return tuple(sorted(schemes, key=lambda sch: not s2s(sch)))
 
 
@@ -552,6 +552,8 @@ def config_dict(config: StudyConfig) -> dict:
 # --------------------------------------------------------------------------- summary and files
 #: the configuration the answer sentences quote: the paper's chosen compensation and filter, on the flight
 ANSWER_COMPENSATION, ANSWER_FILTER, ANSWER_PROFILE = "improved", "gated", "flight"
+#: the filter the answer's uncertainty also runs, beside :data:`ANSWER_FILTER` (the study's second filter of ours)
+ANSWER_SECOND_FILTER = "kf"
 
 
 def _board_for_site(geometry, site: str) -> str | None:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from imutherm.unit.cavity_laws import LAW_BLEND
 from imutherm.studies.correlation.forward_model import _Forward, _residuals, _series
 
 
@@ -40,7 +41,7 @@ class Discrepancy:
     moves the curve mid-rise and vanishes at power-on and on the plateau). It cannot follow anything
     faster than the model's own response (a chamber cycle, a step part way) and it is zero at power-on.
     Prior: each coefficient of a run of scheme g ~ N(0, p_g²), one scale **per cooling scheme**: the model's
-    form error is a property of the scheme's heat paths (the independent model of issue 22 ran 12-20 %
+    form error is a property of the scheme's heat paths (the independent finite-volume model ran 12-20 %
     warmer in air and grease, within a few % potted), so a scheme the model gets right keeps a tight term
     that an effect acting there must explain, whatever the form error of another scheme. Given the knobs,
     the coefficients are the posterior mean (a ridge fit, closed form per series), so the data update the
@@ -200,9 +201,9 @@ def form_band(fwd, values: dict, full: dict, effects=()) -> dict | None:
     change of the readings (with and without them, the rest as fitted) is set beside the band too: an effect
     that changes them by less than the law's form does could be the model's form instead. None where the
     reduced models do not carry the blend (the effective law: no s2s exchange to blend)."""
-    if not fwd.roms or not all("cavity_law_blend" in rom.knobs for rom in fwd.roms.values()):
+    if not fwd.roms or not all(LAW_BLEND in rom.knobs for rom in fwd.roms.values()):
         return None
-    lo, hi = {**values, "cavity_law_blend": 0.0}, {**values, "cavity_law_blend": 1.0}
+    lo, hi = {**values, LAW_BLEND: 0.0}, {**values, LAW_BLEND: 1.0}
     rest = {k: v for k, v in values.items() if k not in effects}
     rows, change = [], []
     for i, run in enumerate(fwd.runs):

@@ -85,8 +85,8 @@ def _knobs_for(name, fwd: _Forward) -> list:
     ``name``: one effect, 'none', or several ('a+b' or a tuple: one knob each, in that order)."""
     ks = [k for k, _ in knobs.RETUNE] + [knobs.effect_knob(n, fwd.options) for n in fwd.form]
     effects = _effects_of(name)
-    if "emissivity" in effects:
-        ks = [k for k in ks if k.name != "emissivity_ext"]
+    replaced = {effect_of(n).replaces for n in effects}  # an outer emissivity effect takes the re-tune's knob
+    ks = [k for k in ks if k.name not in replaced]
     ks = [k for k in ks if k.name not in effects]
     for n in effects:
         e = effect_of(n)
@@ -95,7 +95,7 @@ def _knobs_for(name, fwd: _Forward) -> list:
             ks.append(Knob(n, p.unit, p.lo, p.hi, log=p.log))
             continue
         floor = (knobs.power_floor_W(fwd.geometries.values(), n, [r.power_scale for r in fwd.runs])
-                 if e.name == "power" else None)
+                 if e.part_power else None)
         ks.append(knobs.effect_knob(n, fwd.options, min_power_W=floor))
     return ks
 

@@ -8,12 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from imutherm.unit import knobs
-from imutherm.unit.effects import apply_signal_effects, effect_of, setting
+from imutherm.unit.effects import ambient_rate_K_s, apply_signal_effects, effect_of, is_signal, setting
 from imutherm.unit.model import ModelOptions
-
-
-#: signal effects handled outside the reduced model
-SIGNAL = ("probe_lag", "ambient_drift")
 
 
 #: the form knobs: re-tuned, never named (:data:`imutherm.unit.knobs.FORM_RETUNE`), and each one's value at
@@ -33,7 +29,8 @@ _FORM_NOMINAL = {"cavity_emissivity": knobs.cavity_pair_nominal,
                  "cavity_law_blend": lambda geometry, options: float(options.cavity_law_blend)}
 
 
-#: the times at which the model curve is evaluated for a probe lag (plus the measured ones) [s]
+#: the times at which the model curve is evaluated for an effect on the reading, e.g. a probe lag (plus the
+#: measured ones) [s]
 _DENSE = np.concatenate([[0.0], np.geomspace(0.5, 2.0e4, 240)])
 
 
@@ -55,19 +52,19 @@ class _Forward:
         run = self.runs[i]
         rom = self.roms[(run.scheme, run.ambient_C)]
         t = run.times_s if times is None else np.asarray(times, float)
-        model_vals = {k: v for k, v in values.items() if k.split("@")[0] not in SIGNAL and k in rom.knobs}
+        # the signal effects act outside the reduced model: a moving ambient as its ramp, the rest on the reading
+        model_vals = {k: v for k, v in values.items() if not is_signal(k) and k in rom.knobs}
         model_vals["power_scale"] = values.get("power_scale", 1.0) * run.power_scale
-        effects = [setting(k, **{effect_of(k).params[0].name: v}) for k, v in values.items()
-                   if k.split("@")[0] in SIGNAL]
+        effects = [setting(k, **{effect_of(k).params[0].name: v}) for k, v in values.items() if is_signal(k)]
         cols = [rom.site_names.index(s) for s in run.sites]
-        drift = next((s.value("rate_K_per_h") / 3600 for s in effects if s.base == "ambient_drift"), 0.0)
-        lag = next((s.value("tau_s") for s in effects if s.base == "probe_lag"), None)
-        if lag is None:
+        drift = ambient_rate_K_s(effects)
+        reading = [s for s in effects if effect_of(s.name).ambient_rate is None]
+        if not reading:
             return rom.rise(model_vals, t, drift)[:, cols]
         fin = np.isfinite(t)
         dense = np.union1d(_DENSE[_DENSE <= (t[fin].max() if fin.any() else 0.0)], t[fin])
         y = rom.rise(model_vals, dense, drift)[:, cols]
-        y = apply_signal_effects(dense, y, [s for s in effects if s.base == "probe_lag"])
+        y = apply_signal_effects(dense, y, reading)
         out = np.empty((len(t), len(cols)))
         for j in range(len(cols)):
             out[fin, j] = np.interp(t[fin], dense, y[:, j])

@@ -16,10 +16,9 @@ from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
 from imutherm.measured import MeasuredRun
 from imutherm.unit import knobs
-from imutherm.unit.effects import effect_of, setting
+from imutherm.unit.effects import effect_of, is_signal, setting
 from imutherm.unit.model import ModelOptions
 from imutherm.thermal.reduced import build_reduced
-from imutherm.studies.correlation.forward_model import SIGNAL
 
 
 @dataclass(frozen=True)
@@ -218,7 +217,7 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
         raise InputError(f"correlate: the re-run's transient is 'reduced' or 'full', not {transient!r}")
     model_vals, signal = {}, []
     for k, v in values.items():
-        if k in SIGNAL:
+        if is_signal(k):
             signal.append(setting(k, **{effect_of(k).params[0].name: v}))
         elif k in knobs.RETUNE_SOURCES or knobs.applicable(k, geo):
             model_vals[k] = v

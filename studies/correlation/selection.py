@@ -9,6 +9,7 @@ from dataclasses import replace
 
 
 from imutherm.unit import knobs
+from imutherm.unit.effects import effect_of
 from imutherm.studies.correlation.discrepancy import DISCREPANCY_PRIOR, build_discrepancy
 from imutherm.studies.correlation.fit import Fit, _effects_of, _fit
 from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, _Forward
@@ -58,19 +59,14 @@ def _fit_heldout(fwd, name, full, folds, ratio: float, noise: float, disc=None, 
     return _pooled(fwd, name, folds, ratio, noise, None, start)
 
 
-#: the guessed CPU cost of a candidate's fits relative to the others, before any is measured (the first
-#: forward-selection step): a probe lag's rises are computed on a dense time grid and filtered, ~3x the CPU
-#: of any other candidate (measured: 3.0-3.8 s against 0.3-1.5 s per candidate, 2026-12-02)
-_COST_GUESS = {"probe_lag": 3.0}
-
-
 def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
     """:func:`_fit_candidate` of every ``a`` of ``args`` (their order kept), on ``jobs`` workers.
 
     A step of the forward selection waits for its slowest candidate, so the work is balanced: without the
     discrepancy term each candidate's fit on all data and its hold-out fit are two tasks (independent then),
     and the tasks are handed out longest first, by their CPU seconds of the step before (``costs``: last
-    effect -> seconds, updated here) or :data:`_COST_GUESS`. The same fits either way: the results equal
+    effect -> seconds, updated here) or the effect's guessed
+    :attr:`~imutherm.unit.effects.Effect.fit_cost` (before any is measured: the first step). The same fits either way: the results equal
     the serial ones."""
     costs = {} if costs is None else costs
     pool = _pool(jobs, len(args))
@@ -87,7 +83,7 @@ def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
             return costs[(fn.__name__, last)]
         if fn is _fit_candidate and ("_fit_full", last) in costs:  # the same candidate measured without the term
             return costs[("_fit_full", last)] + costs.get(("_fit_heldout", last), 0.0)
-        return _COST_GUESS.get(last.split("@")[0], 1.0)
+        return effect_of(last).fit_cost
 
     order = sorted(range(len(tasks)), key=lambda t: -cost(tasks[t]))  # stable: ties in the given order
     try:

@@ -14,7 +14,7 @@ from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS
 from imutherm.unit import knobs
-from imutherm.unit.effects import EFFECTS, effect_of
+from imutherm.unit.effects import EFFECTS, effect_of, signal_effect_names
 from imutherm.studies import form_error
 from imutherm.unit.model import ModelOptions
 from imutherm.studies.findings import findings as findings_of
@@ -22,7 +22,7 @@ from imutherm.studies.plausibility import check_plausible
 from imutherm.studies.written_model import choose as choose_written
 from imutherm.studies.correlation.discrepancy import _disc_curve, form_band
 from imutherm.studies.correlation.fit import Fit, _fit
-from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, FORM_RETUNE, SIGNAL, _Forward, _residuals
+from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, FORM_RETUNE, _Forward, _residuals
 from imutherm.studies.correlation.holdout import SPARSE_READINGS, _held, _heldout_nominal, _masks, _pooled, _test_union
 from imutherm.studies.correlation.models import Models, _map, build_models, check_inputs, refuse_duplicates, rerun_full
 from imutherm.studies.correlation.noise import localise, n_eff_ratio, noise_sigma
@@ -222,7 +222,7 @@ def _candidates(candidates, roms: dict, fwd: _Forward) -> list:
     the signal effects), each checked to be a library effect; the form knobs re-tuned are not candidates."""
     if candidates is None:
         candidates = [n for n in knobs.model_effect_names() if any(n in rom.knobs for rom in roms.values())]
-        candidates += [n for n in SIGNAL]
+        candidates += list(signal_effect_names())
     for name in candidates:
         effect_of(name)
     return [n for n in candidates if (EFFECTS[n.split("@")[0]].kind != "model"
