@@ -267,7 +267,7 @@ def summarise(rows, effects, form=()) -> dict:
                              "retuned": r["retune_values"].get(r["hidden"]), "verdict": r["verdict"],
                              "named_effects": r["named_effects"]} for r in form_rows],
         "median_correlate_s": float(np.median([r["correlate_s"] for r in rows])) if rows else None,
-        # issue 43's scores: strong effects and strong re-tune moves named first; null cases with no library
+        # the blind campaign's scores: strong effects and strong re-tune moves named first; null cases with no library
         # name; out-of-library cases abstained or discrepancy (above); the written model never worse than nominal
         "strong_named_first_incl_findings": (sum(r.get("named_first") == r["hidden"] for r in strong_all)
                                              / len(strong_all)) if strong_all else None,

@@ -449,7 +449,7 @@ def test_an_effect_is_judged_where_it_acts_under_another_schemes_gross_form_erro
     null = correlate(toy_runs(dict(_TOY_NUISANCE), np.random.default_rng(3), form), models=models,
                      candidates=_TOY_CANDIDATES, rerun=False, discrepancy=True)
     # no library effect; the air error looks to the re-tune like a weaker cavity radiation, which takes the cavity's
-    # emissivity to 0.35, far outside its source's 0.63-0.86: since issue 43 that move is named as a finding,
+    # emissivity to 0.35, far outside its source's 0.63-0.86: since the blind campaign that move is named as a finding,
     # flagged as contradicting its source (without it the verdict was 'discrepancy', as before)
     assert null.named_effects == () and null.verdict in ("discrepancy", "finding"), null.timings["reason"]
     assert all(f.parameter == "cavity_emissivity" and f.contradicts_source for f in null.findings)
@@ -726,7 +726,7 @@ def test_the_cavity_emissivity_is_re_tuned_not_named(tmp_path):
     cands = ("power@reg_5v", "power@processor", "contact@bond")
     runs = toy_runs({**_TOY_NUISANCE, "cavity_emissivity": 0.3}, np.random.default_rng(4))
     res = correlate(runs, models=models, candidates=cands, rerun=False)
-    # 0.3 lies far outside the finish's source range (0.63-0.86): since issue 43 the move is named as the finding
+    # 0.3 lies far outside the finish's source range (0.63-0.86): since the blind campaign the move is named as the finding
     # (tests/test_correlation_form.py), still no library effect
     assert res.named_effects == () and res.verdict == "finding", res.timings["reason"]
     assert [f.parameter for f in res.findings] == ["cavity_emissivity"]
