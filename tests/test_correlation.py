@@ -173,7 +173,7 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     from imutherm.geometry.layout import load_layout
     from imutherm.studies.correlation.fit import _knobs_for
     from imutherm.studies.correlation.forward_model import _Forward
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
     from imutherm.unit.effects import power_part
 
     lay = load_layout(None)
@@ -191,9 +191,9 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     # the worst case of every run at every re-tune keeps the part at or above zero
     assert adc_W * 0.85 * min(r.power_scale for r in runs) + knob.lo >= -1e-12
     # a part above 1 W keeps the library's -1 W; an unpowered target is floored at zero
-    assert K.effect_knob("power@adc", min_power_W=2.5).lo == -1.0
-    assert K.effect_knob("power@adc", min_power_W=0.0).lo == 0.0
-    assert K.effect_knob("power@adc").lo == -1.0  # the reduced model's knob: the load is exact for any value
+    assert knobs.effect_knob("power@adc", min_power_W=2.5).lo == -1.0
+    assert knobs.effect_knob("power@adc", min_power_W=0.0).lo == 0.0
+    assert knobs.effect_knob("power@adc").lo == -1.0  # the reduced model's knob: the load is exact for any value
 
 
 @pytest.fixture(scope="module")
@@ -543,14 +543,14 @@ def test_sparse_files_get_the_cavity_laws_form_as_a_prior_band():
 
     import _toy_reduced as toy
     from imutherm.studies.correlation import Models
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
 
     blend_pattern = {"air": -2.0 * np.linspace(1.0, 0.5, 6), "grease": -0.4 * np.linspace(1.0, 0.5, 6)}
 
     class WithBlend(toy.ToyReduced):
         def __init__(self, scheme):
             super().__init__(scheme)
-            self.knobs["cavity_law_blend"] = K.effect_knob("cavity_law_blend")
+            self.knobs["cavity_law_blend"] = knobs.effect_knob("cavity_law_blend")
 
         def gain_tau(self, values):
             g, tau = super().gain_tau(values)

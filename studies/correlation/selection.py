@@ -65,9 +65,8 @@ def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
     A step of the forward selection waits for its slowest candidate, so the work is balanced: without the
     discrepancy term each candidate's fit on all data and its hold-out fit are two tasks (independent then),
     and the tasks are handed out longest first, by their CPU seconds of the step before (``costs``: last
-    effect -> seconds, updated here) or the effect's guessed
-    :attr:`~imutherm.unit.effects.Effect.fit_cost` (before any is measured: the first step). The same fits either way: the results equal
-    the serial ones."""
+    effect -> seconds, updated here) or the effect's guessed :attr:`~imutherm.unit.effects.Effect.fit_cost`
+    (before any is measured: the first step). The same fits either way: the results equal the serial ones."""
     costs = {} if costs is None else costs
     pool = _pool(jobs, len(args))
     if pool is None:
