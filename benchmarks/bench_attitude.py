@@ -103,13 +103,13 @@ def main() -> None:
 
 def ablation(names, tuned, seeds=tuple(range(6))) -> None:
     """Flight, held-out seeds: whole-record RMS of each filter with no / each / all disturbances."""
-    from imutherm.imu import disturbances as D
+    from imutherm.imu import disturbances
     from imutherm.studies import filter_benchmark as fb
 
-    P = D.PRESETS["flight"]
-    cases = {"none": None, "vibration": D.Disturbances(vibration=P.vibration),
-             "turbulence": D.Disturbances(turbulence=P.turbulence), "wind shear + gusts": D.Disturbances(wind=P.wind),
-             "sync 5 ms": D.Disturbances(sync_s=P.sync_s), "jitter 0.2 ms": D.Disturbances(jitter_s=P.jitter_s),
+    P = disturbances.PRESETS["flight"]
+    cases = {"none": None, "vibration": disturbances.Disturbances(vibration=P.vibration),
+             "turbulence": disturbances.Disturbances(turbulence=P.turbulence), "wind shear + gusts": disturbances.Disturbances(wind=P.wind),
+             "sync 5 ms": disturbances.Disturbances(sync_s=P.sync_s), "jitter 0.2 ms": disturbances.Disturbances(jitter_s=P.jitter_s),
              "all": P}
     print(f"\n== ablation: flight, seeds {list(seeds)}, roll / pitch RMS [deg] mean over seeds (tuned settings)")
     print(f"{'disturbance':20s} " + " ".join(f"{n:>13s}" for n in names))

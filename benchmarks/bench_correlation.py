@@ -31,7 +31,8 @@ import numpy as np
 
 from imutherm.io import write_json
 from imutherm.measured import read_measured
-from imutherm.studies.correlation import FORM_RETUNE, _Forward, build_models, correlate, result_json
+from imutherm.studies.correlation import FORM_RETUNE, build_models, correlate, result_json
+from imutherm.studies.correlation.forward_model import _Forward
 from imutherm.studies.form_generator import generator_mesh_mm
 from imutherm.studies.hidden_effect import (FINDING_KINDS, MODEL_FORMS, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case,
                                            model_form_options)
@@ -266,7 +267,7 @@ def summarise(rows, effects, form=()) -> dict:
                              "retuned": r["retune_values"].get(r["hidden"]), "verdict": r["verdict"],
                              "named_effects": r["named_effects"]} for r in form_rows],
         "median_correlate_s": float(np.median([r["correlate_s"] for r in rows])) if rows else None,
-        # issue 43's scores: strong effects and strong re-tune moves named first; null cases with no library
+        # the blind campaign's scores: strong effects and strong re-tune moves named first; null cases with no library
         # name; out-of-library cases abstained or discrepancy (above); the written model never worse than nominal
         "strong_named_first_incl_findings": (sum(r.get("named_first") == r["hidden"] for r in strong_all)
                                              / len(strong_all)) if strong_all else None,

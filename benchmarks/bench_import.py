@@ -1,4 +1,4 @@
-"""Benchmark of real boards at real-board scale (issue 42): import, compare and a steady solve, against the
+"""Benchmark of real boards at real-board scale: import, compare and a steady solve, against the
 reference unit on the same machine, side by side.
 
 * ``imutherm import`` of the two shared boards (``examples/boards/``: openuav, KiCad 7, 80 footprints;

@@ -22,7 +22,8 @@ import time
 import numpy as np
 
 from imutherm.measured import read_measured
-from imutherm.studies.correlation import _Forward, build_models
+from imutherm.studies.correlation import build_models
+from imutherm.studies.correlation.forward_model import _Forward
 from imutherm.studies.hidden_effect import MODEL_FORMS, make_case, model_form_options
 
 EXPERIMENTS = (("air", 70.0), ("grease", 70.0))

@@ -12,7 +12,7 @@ and scored on them (a fitted figure); **cv**: each file scored by the setting tu
 (:mod:`imutherm.studies.real_benchmark`): inclination RMS per file (RepoIMU after 5 s, BROAD over its movement
 rows). Prints, per filter, the per-file RMS and the mean for the library defaults, dev and cv, the ratio to VQF
 (tuned by the same procedure: dev to dev, cv to cv) and the worst file's ratio, and the guard: files on which
-the dev setting is worse than the library defaults by more than their noise. The target (issue 44): gated, kf
+the dev setting is worse than the library defaults by more than their noise. The target: gated, kf
 and aekf cv mean <= 1.3x VQF's cv mean and no file worse than 2x VQF's. ``--write`` writes the dev settings and
 these figures to ``studies/real_settings.toml`` (the ``--platform handheld`` settings of ``imutherm attitude
 --imu-csv``).

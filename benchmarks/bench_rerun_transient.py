@@ -65,13 +65,13 @@ def main(argv=None) -> int:
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
     from imutherm.studies.forward import checked_rise, full_rise
     from imutherm.thermal.reduced_transient import CHECK_TOL_K
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
     from imutherm.unit.model import ModelOptions
 
     layout, ok = load_layout(None), True
     for scheme in args.schemes.split(","):
         geo = build_geometry(layout, scheme)
-        variant = K.variant(geo, ModelOptions(cavity_law="s2s"), {"contact@board": 300.0})
+        variant = knobs.variant(geo, ModelOptions(cavity_law="s2s"), {"contact@board": 300.0})
         grid = build_mesh(variant.geometry, args.mesh_size or DEFAULT_MAX_CELL_MM, args.min_cells or DEFAULT_MIN_CELLS)
         probes = {s: geo.sites[s] for s in SITES}
         (checked, info), w_c, c_c = _timed(lambda: checked_rise(variant, grid, probes, TIMES))

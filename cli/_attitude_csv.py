@@ -134,7 +134,9 @@ def run(args) -> int:
     elif al and not al.get("mounting") and al.get("applied"):
         print(f"note: {al['why']}; --align auto would apply it (below {al['fitted_angle_deg']:.0f}°: not a mounting "
               "error)")
-    if "fusion" in res.metrics:
+    from imutherm.imu.filters.registry import gyro_range_filters
+
+    if gyro_range_filters(res.metrics):
         _print_fusion_range(res.fusion)
     if first.get("reference_samples_dropped"):
         print(f"reference: {first['reference_samples_dropped']} samples without a value (empty / NaN) left out of "
@@ -217,7 +219,9 @@ def _run_reference(args) -> int:
           f"{1e3 * res['grid_step_s']:.1f} ms grid from the true times); rest window {res['init_s']:g} s; reference "
           f"rows missing {res['reference_rows_missing']}, scored {res['reference_rows_scored']} ({res['scored']}); "
           f"{rot}")
-    if "fusion" in res["filters"]:
+    from imutherm.imu.filters.registry import gyro_range_filters
+
+    if gyro_range_filters(res["filters"]):
         _print_fusion_range(res["fusion"])
     for name, m in res["filters"].items():
         print(f"{name:8s} inclination rms {m['inclination_rms_deg']:.3f} deg  max {m['inclination_max_deg']:.2f} deg"

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from imutherm import InputError
+from imutherm.unit.cavity_laws import cavity_law
 
 THERMAL = ("solve", "compare", "correlate", "sweep")  # the commands with the model options
 TIME_OPTIONS = ("--t-end", "--time-tol", "--dt", "--dt-max", "--theta")
@@ -76,7 +77,7 @@ IGNORED = (
             "drop it or add --attitude"),
     Ignored(THERMAL, ("--cavity-law", "--cavity-patch-mm"), lambda a: a.no_cavity_radiation,
             "with --no-cavity-radiation", "give one of them (--cavity-law none switches the cavity radiation off too)"),
-    Ignored(THERMAL, ("--cavity-patch-mm",), lambda a: a.cavity_law != "s2s", "without --cavity-law s2s",
+    Ignored(THERMAL, ("--cavity-patch-mm",), lambda a: not cavity_law(a.cavity_law).patches, "without --cavity-law s2s",
             "only the s2s cavity law has patches; drop it or add --cavity-law s2s"),
     Ignored(THERMAL, ("--h",), lambda a: a.exterior != "fixed", "without --exterior fixed",
             "--h is the fixed exterior coefficient; drop it or add --exterior fixed"),

@@ -97,8 +97,8 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
                    help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
     from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM
-    from imutherm.unit.model import CAVITY_LAWS
-    g.add_argument("--cavity-law", choices=CAVITY_LAWS, default="s2s",
+    from imutherm.unit.cavity_laws import CAVITY_LAWS  # the registry: a law registered before the parser is built
+    g.add_argument("--cavity-law", choices=tuple(CAVITY_LAWS), default="s2s",
                    help="radiation inside the cavity: s2s (default: surface-to-surface exchange, view factors and "
                         "radiosity), effective (an effective conductivity of the air: faster, but it runs the air "
                         "scheme ~7 K cool at tp1) or none")

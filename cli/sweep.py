@@ -34,7 +34,8 @@ from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument,
                                    run_inputs)
 from imutherm.studies.cost import usable_workers
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
-from imutherm.studies.sweep_surrogate import SURROGATES, VERIFY_DEFAULT, VERIFY_TOL_K, verify_words
+from imutherm.studies.sweep.keys import SURROGATES, VERIFY_DEFAULT, VERIFY_TOL_K
+from imutherm.studies.sweep.surrogate import verify_words
 
 
 def _duration(seconds: float) -> str:

@@ -11,7 +11,7 @@ def real_motion_figure(fig, rs) -> None:
     RMS [deg] over the files at its library defaults, at its dev setting (tuned on all files) and cross-validated
     (each file scored by the setting tuned on the others); (right) each file's cross-validated RMS as a ratio to
     VQF's (tuned by the same procedure), log scale, with the issue's 2x line."""
-    from imutherm.imu.filters.registry import color, linestyle
+    from imutherm.imu.filters.registry import color, linestyle, reference_filter
 
     e = rs.entries
     names = [n for n in e if "cv_mean" in e[n]]
@@ -30,10 +30,11 @@ def real_motion_figure(fig, rs) -> None:
     ax1.legend(fontsize=6, loc="upper right")
     ax1.tick_params(labelsize=7)
     ax2 = fig.add_subplot(1, 2, 2)
-    vq = np.array(e["vqf"]["cv_rms"]) if "vqf" in e else None
+    ref = reference_filter()  # the peer the others are set against
+    vq = np.array(e[ref]["cv_rms"]) if ref in e else None
     if vq is not None:
         for n in names:
-            if n == "vqf":
+            if n == ref:
                 continue
             ax2.plot(range(len(files)), np.array(e[n]["cv_rms"]) / vq, marker="o", ms=3, color=color(n),
                      linestyle=linestyle(n), label=n, linewidth=1)

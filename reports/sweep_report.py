@@ -65,7 +65,7 @@ def _ranking_page(pdf, result) -> None:
     if sens.get("note"):
         lines.append(f"note: {sens['note']}")
     if result.verification is not None:
-        from imutherm.studies.sweep_surrogate import verify_words
+        from imutherm.studies.sweep.surrogate import verify_words
 
         t = result.timings or {}
         lines.append(f"cases evaluated on the scheme's reduced model (built in {t.get('build_s', 0):.0f} s, "

@@ -55,7 +55,7 @@ class GateConfig:
     xi_a [m/s^2], xi_w [m/s^2], L [m], kp [1/s], ki [1/s^2], tau [s], hold_s [s],
     init_s [s] steady initial window used for leveling, the bias, the |f| reference and the R(·) widening,
     recover_s [s] the gate's recovery time (see :mod:`imutherm.imu.filters.gated`), tau_acc [s] the
-    inertial-frame low-pass of the accelerometer (VQF's tauAcc; 0: the seed's per-sample gate), kp_lp [1/s]
+    inertial-frame low-pass of the accelerometer (VQF's tauAcc; 0: Liu et al. 2012's per-sample gate), kp_lp [1/s]
     the gated filter's kp in that mode (``ungated`` keeps kp: it is the plain seed update).
     """
 
@@ -337,10 +337,11 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         raise InputError(f"--compensation: {compensation!r} is unknown; valid: {', '.join(COMPENSATIONS)}")
     if not (isinstance(seeds, (int, np.integer)) and seeds >= 1):
         raise InputError(f"--seeds: {seeds!r} is invalid; valid: an integer >= 1")
-    from imutherm.imu.filters.registry import filter_names
+    from imutherm.imu.filters.registry import REGISTRY, filter_names
 
     names = filter_names() if names is None else tuple(names)
     unknown = [n for n in names if n not in filter_names()]
+    needs_gnss = any(REGISTRY[n].needs_gnss for n in names if n in REGISTRY)
     if unknown:
         raise InputError(f"filters: {unknown} unknown; valid: {', '.join(filter_names())}")
     d = tuple(float(v) for v in (DEFAULT_LEVER_ARM[profile] if lever_arm is None else lever_arm))
@@ -372,7 +373,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         samp = compensate(raw, cal, compensation, out_of_range=out_of_range)
         if cal is not None and s == seed0:
             tdesc["extrapolated_fraction"] = float(out_of_range_mask(raw.temp_C, cal).mean())
-        fixes = simulate_gnss(traj, np.random.default_rng([s, 0x6E55]), gnss) if "aekf_gnss" in names else None
+        fixes = simulate_gnss(traj, np.random.default_rng([s, 0x6E55]), gnss) if needs_gnss else None
         est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names, gnss=fixes, fusion=fusion,
                               settings=tuned)
         for n, e in est.items():

@@ -4,7 +4,7 @@ The re-tune (:data:`imutherm.unit.knobs.RETUNE`, the cavity's emissivity of
 :data:`~imutherm.unit.knobs.FORM_RETUNE`) fits the model's uncertain parameters within their sources' ranges. A
 knob that lands far from its nominal value is not noise to carry quietly in ``retuned_parameters``: a mount
 conductance at 194 W/m² K where the layout assumes 500, or a cavity emissivity of 0.14 where an anodised
-housing gives 0.77, *is* what the correlation found (issue 43's blind cases, where such moves ended as
+housing gives 0.77, *is* what the correlation found (the blind campaign's cases, where such moves ended as
 ``discrepancy`` or under a wrong library name).
 
 :func:`findings` tests each knob of the final model by the evidence rules a library effect meets
@@ -32,10 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from imutherm.unit import knobs as K
+from imutherm.unit import knobs
 
 #: a finding must explain at least this share of the held-out gap between the nominal model and the final one
-#: (issue 43: "that move explains most of the gap")
+#: (the blind campaign's reading: "that move explains most of the gap")
 GAP_SHARE = 0.5
 #: source ranges of the form knobs, where the re-tune's range is wider than the source's: the cavity's pair
 #: emissivity is re-tuned over 0.02-0.9 because the inside finish is not stated, but the unit's stated finish
@@ -96,14 +96,14 @@ def source_range(name: str) -> tuple:
     (each is its source's), :data:`FORM_SOURCE_RANGES` for a form knob."""
     if name in FORM_SOURCE_RANGES:
         return FORM_SOURCE_RANGES[name]
-    k = next((k for k, _ in K.RETUNE if k.name == name), None)
+    k = next((k for k, _ in knobs.RETUNE if k.name == name), None)
     if k is None:
         return (math.nan, math.nan, "")
-    return (k.lo, k.hi, K.RETUNE_SOURCES[name])
+    return (k.lo, k.hi, knobs.RETUNE_SOURCES[name])
 
 
 def _unit(name: str) -> str:
-    k = next((k for k, _ in K.RETUNE if k.name == name), None)
+    k = next((k for k, _ in knobs.RETUNE if k.name == name), None)
     if k is not None:
         return k.unit
     from imutherm.unit.effects import effect_of
@@ -114,7 +114,10 @@ def findings(fwd, free, full: dict, folds, ratio: float, noise: float, test: dic
     """The :class:`Finding` s of ``free`` (the final model's physics: re-tune and named effects, fitted without
     the discrepancy term, its held-out figures pooled), largest gap share first (see the module docstring);
     ``test``: the held-out readings (run index -> bool (n, m))."""
-    from imutherm.studies.correlation import (EXPLAIN_MIN_NOISE, MARGIN_NONE, FORM_IN_DOUBT, _fit, _held, _pooled)
+    from imutherm.studies.correlation.fit import _fit
+    from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT
+    from imutherm.studies.correlation.holdout import _held, _pooled
+    from imutherm.studies.correlation.verdict import EXPLAIN_MIN_NOISE, MARGIN_NONE
     from imutherm.studies.written_model import heldout_rms
 
     out = []

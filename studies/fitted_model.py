@@ -25,7 +25,7 @@ from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec
 from imutherm.geometry.materials import with_properties
 from imutherm.textio import read_text
-from imutherm.unit.effects import EFFECTS, apply_model_effects, effect_of, setting, wall_emissivity_for_pair
+from imutherm.unit.effects import EFFECTS, apply_model_effects, effect_of, setting
 from imutherm.unit.knobs import FORM_IN_DOUBT, FORM_RETUNE, RETUNE, effect_knob
 from imutherm.unit.model import ModelOptions
 
@@ -140,11 +140,10 @@ def fitted_options(model: FittedModel, options: ModelOptions | None = None, layo
         opts = opts.with_(convection_scale=r["convection_scale"])
     if "emissivity_ext" in r:
         opts = opts.with_(emissivity=r["emissivity_ext"])
-    if "cavity_emissivity" in r:  # the form knob (knobs.FORM_RETUNE): as the effect sets it, under either law
-        opts = opts.with_(cavity_emissivity=r["cavity_emissivity"],
-                          cavity_wall_emissivity=wall_emissivity_for_pair(r["cavity_emissivity"]))
-    if "cavity_law_blend" in r:  # the form knob opened where the model's form was in doubt (knobs.FORM_IN_DOUBT)
-        opts = opts.with_(cavity_law_blend=r["cavity_law_blend"])
+    for name, v in r.items():  # the form knobs (knobs.FORM_RETUNE, FORM_IN_DOUBT): as each effect sets them
+        e = EFFECTS.get(name)
+        if e is not None and e.as_options is not None:
+            opts = e.as_options(opts, v)
     if "k_board_W_mK" in r:
         if layout is None:
             raise InputError("fitted_options: k_board_W_mK needs the layout (its boards' materials)")
@@ -153,11 +152,11 @@ def fitted_options(model: FittedModel, options: ModelOptions | None = None, layo
                      for m in mats)
         opts = opts.with_(materials=tuple(m for m in opts.materials if m.name not in mats) + over)
     for s in model.effects:
-        base = effect_of(s.name).name
-        if base in ("power", "fixture_leak"):
+        e = effect_of(s.name)
+        if e.carried != "options":
             continue  # the layout's powers / a boundary law of the run
-        if base == "contact" and s.target == "bond":  # acts where there are bond lines, whatever the scheme
-            opts = opts.with_(bond_contact_W_m2K=s.value("h_W_m2K"))
+        if s.target in e.target_options:  # e.g. contact@bond: acts where there are bond lines, whatever the scheme
+            opts = opts.with_(**{e.target_options[s.target]: s.value(e.params[0].name)})
             continue
         if geometry is None:
             raise InputError(f"fitted_options: effect {s.text()} needs the unit's geometry")
@@ -168,7 +167,8 @@ def fitted_options(model: FittedModel, options: ModelOptions | None = None, layo
 def fitted_layout(model: FittedModel, layout: LayoutSpec) -> LayoutSpec:
     """The layout with the fitted powers: every power x ``power_scale``, then each ``power@part`` extra [W]."""
     scale = model.retune.get("power_scale", 1.0)
-    extra = {s.target: s.value("extra_W") for s in model.effects if effect_of(s.name).name == "power"}
+    extra = {s.target: s.value(effect_of(s.name).params[0].name) for s in model.effects
+             if effect_of(s.name).carried == "layout"}
     names = {c.name for c in layout.components} | {p.name for p in layout.parts}
     for part in extra:
         if part not in names:
@@ -190,7 +190,7 @@ def fitted_layout(model: FittedModel, layout: LayoutSpec) -> LayoutSpec:
 
 def fitted_effects(model: FittedModel) -> tuple:
     """The effects a run on the fitted model switches on itself: the boundary-law ones (``fixture_leak``)."""
-    return tuple(s for s in model.effects if effect_of(s.name).name == "fixture_leak")
+    return tuple(s for s in model.effects if effect_of(s.name).carried == "run")
 
 
 def apply_fitted(model: FittedModel, layout: LayoutSpec, options: ModelOptions | None = None) -> tuple:
@@ -198,6 +198,6 @@ def apply_fitted(model: FittedModel, layout: LayoutSpec, options: ModelOptions |
     layout's default scheme's geometry), :func:`fitted_effects`."""
     from imutherm.geometry.build import build_geometry
 
-    geo = build_geometry(layout, None) if any(effect_of(s.name).name not in ("power", "fixture_leak")
+    geo = build_geometry(layout, None) if any(effect_of(s.name).carried == "options"
                                               for s in model.effects) else None
     return (fitted_layout(model, layout), fitted_options(model, options, layout, geo), fitted_effects(model))

@@ -2,7 +2,7 @@
 
 A correlation's discrepancy term (:class:`imutherm.studies.correlation.Discrepancy`) stands for the error the
 model makes by its form. Left a free amplitude, it takes whatever the re-tune leaves, a strong localised effect
-included (issue 43: a 5 V regulator at 0.54x, S/N 32, ended ``discrepancy``). What the model knows of its own
+included (the blind campaign: a 5 V regulator at 0.54x, S/N 32, ended ``discrepancy``). What the model knows of its own
 form bounds it instead:
 
 - **the grid** (:data:`GRID_FRACTION`): Richardson's estimate of the inversion mesh's error of the steady site
@@ -29,7 +29,7 @@ import numpy as np
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.mesh import build_mesh
 from imutherm.studies.forward import full_rise
-from imutherm.unit import knobs as K
+from imutherm.unit import knobs
 
 #: the finer mesh (and s2s patches) of the grid estimate: the inversion's cell size over this factor
 GRID_RATIO = 2.0
@@ -87,7 +87,7 @@ def discretisation_error(layout, scheme: str, amb: float, rom, mesh_size_mm: flo
     grid = build_mesh(geo, mesh_size_mm / GRID_RATIO, min_cells)
     probes = {s: geo.sites[s] for s in rom.site_names}
     opts = options.with_(cavity_patch_mm=options.cavity_patch_mm / GRID_RATIO)
-    fine = full_rise(K.variant(geo, opts, {}), grid, probes, [np.inf])[0]
+    fine = full_rise(knobs.variant(geo, opts, {}), grid, probes, [np.inf])[0]
     err = np.abs(np.asarray(rom.nominal_rise_K, float) - fine) * GRID_RATIO**GRID_ORDER / (GRID_RATIO**GRID_ORDER - 1.0)
     return {s: float(e) for s, e in zip(rom.site_names, err)}
 
@@ -121,7 +121,7 @@ def named_through_form(retune_heldout_K: float, chosen_heldout_K: float, band: f
     level a right model leaves, L = max(:data:`FORM_SIGMAS` x ``band``, ``noise_factor`` x noise) (the known
     form error at the held-out readings, :func:`band_K`, or the noise standard of ``none``), at least
     :data:`FAR_FACTOR` L, to within L. A residue that large is an effect's to explain; what is left within L is
-    the model's form (issue 43: a 5 V regulator at 0.54x, held out 2.14 K re-tuned, was judged on the term's
+    the model's form (the blind campaign: a 5 V regulator at 0.54x, held out 2.14 K re-tuned, was judged on the term's
     residue and named nothing)."""
     vals = (retune_heldout_K, chosen_heldout_K)
     if not all(math.isfinite(x) for x in vals):

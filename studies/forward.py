@@ -11,7 +11,7 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.thermal.assembly import assemble
-from imutherm.unit.effects import ModelVariant, apply_signal_effects, effect_problem
+from imutherm.unit.effects import ModelVariant, apply_signal_effects, effect_problem, moves_ambient
 from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.reduced import lag_field, linearised
 from imutherm.thermal.small_signal import periodic_ambient_response
@@ -91,7 +91,7 @@ def _rise(variant, grid, probes, times, signal, rtol, ambient_cycle, reduced: bo
     rf = np.column_stack([np.interp(fine, tr.times, tr.probe_C[:, j] - amb) for j in range(m)])
     if signal:
         lag = None
-        if any(s.base == "ambient_drift" for s in signal):
+        if moves_ambient(signal):
             A, _ = linearised(asm, st.T_C)
             lag = probe_matrix(grid, np.array(list(probes.values()))) @ lag_field(A, asm.M)
         rf = apply_signal_effects(fine, rf, list(signal), lag)

@@ -94,8 +94,11 @@ def real_motion_lines(names, path=None) -> list:
     except InputError:
         return []
     e = rs.entries
-    vq = e.get("vqf", {}).get("cv_mean")
-    cells = [f"{n} {e[n]['cv_mean']:.2f}" + (f" ({e[n]['cv_mean'] / vq:.2f}x vqf)" if vq and n != "vqf" else "")
+    from imutherm.imu.filters.registry import reference_filter
+
+    ref = reference_filter()  # the peer the others are set against
+    vq = e.get(ref, {}).get("cv_mean")
+    cells = [f"{n} {e[n]['cv_mean']:.2f}" + (f" ({e[n]['cv_mean'] / vq:.2f}x {ref})" if vq and n != ref else "")
              for n in names if n in e and "cv_mean" in e[n]]
     if not cells:
         return []

@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 #: settings of our low-pass modes fixed by the sensor, not tuned: the kf measures every sample in its low-pass mode
-#: (the low-pass replaces the seed's window mean), and the kf and aekf add the gyro scale-factor uncertainty of a
+#: (the low-pass replaces the KF paper's window mean), and the kf and aekf add the gyro scale-factor uncertainty of a
 #: consumer MEMS gyro to their process noise (±3 % sensitivity tolerance, e.g. InvenSense MPU-6000/6050 product
 #: specification, at 25 °C): fast motion makes the gyro-only prediction worse
 BASE = {"kf": {"n_window": 1, "sf_std": 0.03}, "aekf": {"sf_std": 0.03}}

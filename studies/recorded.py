@@ -37,20 +37,21 @@ PLATFORMS = {
 PLATFORM_PROFILE = {"handheld": "handheld", "vehicle": "vehicle", "aircraft": "flight"}
 
 
-def platform_mahony(platform: str) -> dict:
-    """MahonyParams fields (k_P [1/s], k_I [1/s²]) of the ``mahony`` peer on ``platform``: its tuned setting on
-    the platform's profile (:data:`PLATFORM_PROFILE`), never the ahrs defaults (1.0, 0.3), which are a trap on
-    real motion (9.5° mean and 46° on one held-out record; 3.44° on RepoIMU): the integral gain winds the bias
-    estimate up under sustained accelerations. Tuned on simulated records (the study's chain, seeds 100-101),
-    not on the data the recorded-log benchmarks score; the file names the grid, the scores and the command."""
+def platform_setting(platform: str, name: str) -> dict:
+    """The params fields of filter ``name`` (a :attr:`~imutherm.imu.filters.registry.FilterSpec.platform_tuned`
+    one) on ``platform``: its tuned setting on the platform's profile (:data:`PLATFORM_PROFILE`), never its
+    library defaults. The ``mahony`` peer's ahrs defaults (1.0, 0.3) are a trap on real motion (9.5° mean and 46°
+    on one held-out record; 3.44° on RepoIMU): the integral gain winds the bias estimate up under sustained
+    accelerations. Tuned on simulated records (the study's chain, seeds 100-101), not on the data the
+    recorded-log benchmarks score; the file names the grid, the scores and the command."""
     from imutherm.studies.filter_settings import load_settings
 
     prof = PLATFORM_PROFILE[platform]
-    tuned = load_settings().for_profile(prof, ("mahony",))
-    if "mahony" not in tuned:
-        raise InputError(f"filter settings: no [{prof}.mahony] entry for platform {platform!r}; valid: rerun "
+    tuned = load_settings().for_profile(prof, (name,))
+    if name not in tuned:
+        raise InputError(f"filter settings: no [{prof}.{name}] entry for platform {platform!r}; valid: rerun "
                          "benchmarks/tune_study_filters.py (its profiles include the platforms')")
-    return tuned["mahony"]
+    return tuned[name]
 
 
 def platform_settings(platform: str, names=None) -> dict:
@@ -58,9 +59,10 @@ def platform_settings(platform: str, names=None) -> dict:
     ``settings`` (fields of each filter's registry ``params_cls`` on top of its library defaults). handheld: the
     real-motion settings of every filter in :mod:`imutherm.studies.real_settings` (the one tuning procedure on the
     nine real development files, cross-validated by file; ours and the peers alike), and ``mahony``'s tuned
-    profile setting where that file has none; vehicle / aircraft: the library defaults (the seed filters) but
-    ``mahony``, at its profile's tuned setting (:func:`platform_mahony`). names None: every filter."""
-    from imutherm.imu.filters.registry import filter_names
+    profile setting where that file has none; vehicle / aircraft: the library defaults (the papers' filters) but
+    ``mahony``, at its profile's tuned setting (:func:`platform_setting`: every filter whose registry entry
+    says ``platform_tuned``). names None: every filter."""
+    from imutherm.imu.filters.registry import filter_names, platform_tuned_filters
 
     if platform not in PLATFORMS:
         raise InputError(f"--platform: {platform!r} is unknown; valid: {', '.join(PLATFORMS)}")
@@ -70,8 +72,9 @@ def platform_settings(platform: str, names=None) -> dict:
         from imutherm.studies.real_settings import load_real_settings
 
         out = load_real_settings().for_names(names)
-    if "mahony" in names and "mahony" not in out:
-        out["mahony"] = platform_mahony(platform)
+    for name in platform_tuned_filters():
+        if name in names and name not in out:
+            out[name] = platform_setting(platform, name)
     return out
 
 

@@ -21,7 +21,8 @@ from imutherm.thermal.metrics import ThermalMetrics, thermal_metrics
 from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.assembly import assemble
 from imutherm.site_table import ACCEL_SITES, GYRO_SITES
-from imutherm.unit.effects import EFFECTS, apply_model_effects, apply_signal_effects, effect_problem
+from imutherm.unit.effects import (EFFECTS, apply_model_effects, apply_signal_effects, effect_problem,
+                                    moves_ambient)
 from imutherm.thermal.reduced import lag_field, linearised
 from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.steady import solve_steady
@@ -157,8 +158,9 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     if transient_model not in TRANSIENT_MODELS:
         raise InputError(f"transient model must be one of {', '.join(TRANSIENT_MODELS)}, got {transient_model!r}")
     effects = tuple(effects)
-    if not transient and any(e.base == "ambient_drift" for e in effects):
-        raise InputError("effect ambient_drift needs a transient run (a drifting ambient has no steady state)")
+    if not transient and moves_ambient(effects):
+        moving = next(e.base for e in effects if moves_ambient((e,)))
+        raise InputError(f"effect {moving} needs a transient run (a drifting ambient has no steady state)")
     start = time.perf_counter()
     if transient:
         if time_scheme == "theta" and dt is None:
@@ -257,7 +259,7 @@ def mesh_error(res: SchemeResult, ratio: int = 2):
 def _with_signal_effects(tr, steady, asm, effects, sites: dict):
     """The transient with its site curves as read under the signal effects (probe lag, ambient drift)."""
     lag = None
-    if any(e.base == "ambient_drift" for e in effects):
+    if moves_ambient(effects):  # a moving ambient: the sites' lag behind a ramp of the surroundings
         A, _ = linearised(asm, steady.T_C)
         P = probe_matrix(tr.grid, np.array([sites[n] for n in tr.probe_names]))
         lag = P @ lag_field(A, asm.M)

@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from imutherm import InputError
+from imutherm.unit.cavity_laws import LAW_BLEND, cavity_law_of
 
 #: time grid of the reduced transient, x t_end [s]
 _T_GRID = np.concatenate([[0.0], np.geomspace(1e-4, 1.0, 600)])
@@ -69,7 +70,7 @@ def supply_input(geometry) -> tuple:
     :func:`imutherm.unit.knobs.supply_power_knob`, the one place the range and the loss slope come from).
     None, with the reason in ``note``, if the layout has no electrical design, states its supply exactly,
     or its supply's voltage moves no single linear regulator's loss."""
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
 
     lay = geometry.layout
     spec = lay.electrical
@@ -81,7 +82,7 @@ def supply_input(geometry) -> tuple:
         return None, (f"no supply-voltage input: layout {lay.name!r} states its supply exactly ({spec.supply_V:g} V, "
                       f"no supply_range_V)")
     try:
-        knob, source = K.supply_power_knob(geometry)
+        knob, source = knobs.supply_power_knob(geometry)
     except InputError as e:
         return None, f"no supply-voltage input: {e}"
     slope = (knob.hi - knob.lo) / (v_hi - v_lo)  # the regulator's input current [A] = its loss per volt [W/V]
@@ -100,14 +101,14 @@ def inputs(geometry, options=None) -> tuple:
     :data:`~imutherm.unit.knobs.RETUNE` and the supply voltage from the layout's electrical design,
     :func:`supply_input`), the cavity pair emissivity, under the s2s cavity law its form (``cavity_law_blend``,
     uniform 0..1 towards the effective law) and the grease bond lines' contact."""
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
     from imutherm.unit.model import GREASE_WETTED_JOINT_W_M2K, ModelOptions
 
     options = options or ModelOptions()
-    nominal = K.nominal_values(geometry, options)
+    nominal = knobs.nominal_values(geometry, options)
     sup, _ = supply_input(geometry)
     out = []
-    for k, src in K.uncertain_inputs(geometry):
+    for k, src in knobs.uncertain_inputs(geometry):
         if k.name in nominal:
             out.append(UncertainInput(k.name, k.unit, k.lo, k.hi, k.log, src, nominal[k.name]))
         elif sup is not None and k.name == sup.knob:
@@ -116,8 +117,8 @@ def inputs(geometry, options=None) -> tuple:
                               "pair emissivity of facing board / housing surfaces: boards 0.80-0.95 (solder "
                               "mask, assumed), anodised inner walls 0.75-0.90 (Incropera Table A.11, widened) "
                               "-> 1/(1/e1 + 1/e2 - 1) = 0.63-0.86 (model default 0.77)", options.cavity_emissivity))
-    if options.cavity_radiation and options.cavity_law == "s2s":
-        out.append(UncertainInput("cavity_law_blend", "-", 0.0, 1.0, False,
+    if cavity_law_of(options).blendable:
+        out.append(UncertainInput(LAW_BLEND, "-", 0.0, 1.0, False,
                                   "the cavity radiation law's form: weight w of the effective-conductivity law in a "
                                   "blend with the s2s exchange (0 s2s, the model's law; 1 effective). The two "
                                   "verified laws differ by 40 % of the air rise, an independent finite-volume model "
@@ -233,7 +234,7 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
     from imutherm.site_table import ACCEL_SITES, GYRO_SITES
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
     from imutherm.unit.model import ModelOptions
     from imutherm.thermal.reduced import Knob, build_reduced
 
@@ -242,25 +243,25 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     geo = build_geometry(layout, scheme)
     grid = build_mesh(geo, DEFAULT_MAX_CELL_MM if mesh_size_mm is None else mesh_size_mm,
                       DEFAULT_MIN_CELLS if min_cells is None else min_cells)
-    knobs, applicable = [], []
-    retune = {k.name: k for k, _ in K.RETUNE}
+    rom_knobs, applicable = [], []
+    retune = {k.name: k for k, _ in knobs.RETUNE}
     for i in ins:
         if i.knob is not None:  # the supply voltage: its regulator's extra loss [W] over the voltage range
-            knobs.append(Knob(i.knob, "W", (i.lo - i.nominal) * i.per_unit, (i.hi - i.nominal) * i.per_unit,
+            rom_knobs.append(Knob(i.knob, "W", (i.lo - i.nominal) * i.per_unit, (i.hi - i.nominal) * i.per_unit,
                               part=i.knob.split("@", 1)[1]))
         elif i.name in retune:
-            knobs.append(replace(retune[i.name], lo=i.lo, hi=i.hi))
-        elif K.applicable(i.name, geo, options):
-            knobs.append(replace(K.effect_knob(i.name, options), lo=i.lo, hi=i.hi, log=i.log))
+            rom_knobs.append(replace(retune[i.name], lo=i.lo, hi=i.hi))
+        elif knobs.applicable(i.name, geo, options):
+            rom_knobs.append(replace(knobs.effect_knob(i.name, options), lo=i.lo, hi=i.hi, log=i.log))
         else:
             continue
         applicable.append(i.name)
-    names = {k.name for k in knobs}
-    pairs = K.coupled_pairs(names)
+    names = {k.name for k in rom_knobs}
+    pairs = knobs.coupled_pairs(names)
     sites = tuple(s for s in GYRO_SITES + ACCEL_SITES if s in geo.sites)
     if progress:
-        progress(f"uncertainty: reduced model of {scheme} ({len(knobs)} knobs, {grid.n_nodes} unknowns)")
-    rom = build_reduced(lambda v: K.variant(geo, options, v), grid, knobs, {s: geo.sites[s] for s in sites},
+        progress(f"uncertainty: reduced model of {scheme} ({len(rom_knobs)} knobs, {grid.n_nodes} unknowns)")
+    rom = build_reduced(lambda v: knobs.variant(geo, options, v), grid, rom_knobs, {s: geo.sites[s] for s in sites},
                         pairs=pairs, load_directions=True)
     return SchemeModel(scheme, geo, grid, options, rom, tuple(ins), tuple(applicable), sites,
                        time.perf_counter() - t0)
@@ -290,7 +291,7 @@ def check_point(sm: SchemeModel, row, t_end: float, transient: bool) -> dict:
     """The reduced model against the full FEM at one drawn point: largest site error [K], t95 error [-]."""
     from imutherm.studies.forward import full_rise
     from imutherm.studies.thermal_study import STUDY_CG_RTOL
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
     from imutherm.thermal.metrics import T95_FRACTION, settle_time
 
     vals = knob_values(sm, row)
@@ -298,7 +299,7 @@ def check_point(sm: SchemeModel, row, t_end: float, transient: bool) -> dict:
     t = np.geomspace(1.0, t_end, 300) if transient else np.zeros(0)
     times = np.concatenate([[0.0], t, [np.inf]]) if transient else np.array([np.inf])
     t0 = time.perf_counter()
-    full = full_rise(K.variant(sm.geometry, sm.options, vals), sm.grid, probes, times, rtol=STUDY_CG_RTOL)
+    full = full_rise(knobs.variant(sm.geometry, sm.options, vals), sm.grid, probes, times, rtol=STUDY_CG_RTOL)
     red = sm.rom.rise(vals, times)
     out = {"inputs": {i.name: float(v) for i, v in zip(sm.inputs, row)},
            "site_error_K": float(np.max(np.abs(full[-1] - red[-1]))),
@@ -369,7 +370,7 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
     """
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import LayoutSpec, load_layout
-    from imutherm.studies import uncertainty_imu as UI
+    from imutherm.studies import uncertainty_imu
 
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
@@ -377,11 +378,11 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
         layout = load_layout(layout)
     if checks < 0:
         raise InputError(f"--uncertainty-checks must be an integer >= 0, got {checks}")
-    jobs = UI.check_jobs(jobs)
+    jobs = uncertainty_imu.check_jobs(jobs)
     geo0 = build_geometry(layout, schemes[0])
     ins = inputs(geo0, options)
     notes = [supply_input(geo0)[1]]
-    if not any(i.name == "cavity_law_blend" for i in ins):
+    if not any(i.name == LAW_BLEND for i in ins):
         from imutherm.unit.model import ModelOptions
         o = options or ModelOptions()
         notes.append(f"the cavity radiation law ({o.cavity_law if o.cavity_radiation else 'none'}) "
@@ -405,9 +406,10 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
             stats[f"{name}:{scheme}"] = statistics(ins, y, seed)
         if len(rows):
             v0 = knob_values(sm, x0)
-            nominal_chains[scheme] = UI.with_form_end(UI.nominal_chain(study.schemes[scheme]), sm, v0, say)
-            chains[scheme] = [UI.draw_chain(nominal_chains[scheme], sm.rom, knob_values(sm, X[r]), v0, t_end)
-                              for r in rows]
+            nominal_chains[scheme] = uncertainty_imu.with_form_end(
+                uncertainty_imu.nominal_chain(study.schemes[scheme]), sm, v0, say)
+            chains[scheme] = [uncertainty_imu.draw_chain(nominal_chains[scheme], sm.rom, knob_values(sm, X[r]), v0,
+                                                         t_end) for r in rows]
         ids = sorted(int(i) for i in rng.choice(len(X), size=min(checks, len(X)), replace=False))
         t2 = time.perf_counter()
         check[scheme] = []
@@ -415,7 +417,8 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
             say(f"uncertainty: {scheme} checked on the full FEM at draw {i}" + (" (with the transient)" if k == 0 else ""))
             c = {"draw": i, **check_point(sm, X[i], t_end, transient=(k == 0))}
             if len(rows):  # the IMU draws' oven self-heating map, against the full FEM at each chamber temperature
-                c.update(UI.oven_check(sm, knob_values(sm, x0), nominal_chains[scheme], knob_values(sm, X[i])))
+                c.update(uncertainty_imu.oven_check(sm, knob_values(sm, x0), nominal_chains[scheme],
+                                                    knob_values(sm, X[i])))
             check[scheme].append(c)
         timings[scheme]["check_s"] = time.perf_counter() - t2
     for a, b in _pairs(list(schemes)):
@@ -423,7 +426,7 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
             stats[f"diff_{name}:{a}-{b}"] = statistics(ins, per[a][name] - per[b][name], seed)
     imu = None
     if len(rows):
-        imu = _imu_section(UI, chains, study, list(schemes), rows, jobs, say)
+        imu = _imu_section(uncertainty_imu, chains, study, list(schemes), rows, jobs, say)
     flat = [c for cs in check.values() for c in cs]
     t95e = [c["t95_rel_error"] for c in flat if c.get("t95_rel_error") is not None]
     return {
@@ -452,14 +455,14 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
     }
 
 
-def _imu_section(UI, chains, study, schemes, rows, jobs, say) -> dict:
+def _imu_section(uncertainty_imu, chains, study, schemes, rows, jobs, say) -> dict:
     """The IMU draws' part of the result (JSON-ready)."""
     cfg = study.config
-    res = UI.run_imu_draws(chains, cfg, jobs=jobs, progress=say)
-    names = UI.output_names(cfg)
-    stats = UI.pair_stats(res["values"], schemes, names)
-    nominal = {f"{n}:{s}": v for s in schemes for n, v in UI.study_figures(study.schemes[s], cfg).items()}
-    comp, filters, prof = UI.answer_setting(cfg)
+    res = uncertainty_imu.run_imu_draws(chains, cfg, jobs=jobs, progress=say)
+    names = uncertainty_imu.output_names(cfg)
+    stats = uncertainty_imu.pair_stats(res["values"], schemes, names)
+    nominal = {f"{n}:{s}": v for s in schemes for n, v in uncertainty_imu.study_figures(study.schemes[s], cfg).items()}
+    comp, filters, prof = uncertainty_imu.answer_setting(cfg)
     n = len(rows)
     return {
         "method": (f"{n} of the design's draws (the first points of its base Sobol' sequence) through the full IMU "
@@ -469,12 +472,13 @@ def _imu_section(UI, chains, study, schemes, rows, jobs, say) -> dict:
                    f"{cfg.seed0}..{cfg.seed0 + cfg.seeds - 1} (grade {cfg.grade}) fixed in every draw and scheme, so "
                    f"the spread is the thermal model's uncertainty, not the sensor noise draw; each draw's figure "
                    f"is the mean over the seeds; "
-                   + ("5-95 % intervals" if n >= UI.MIN_DRAWS_FOR_QUANTILES else
-                      f"min .. max over the {n} draws (fewer than {UI.MIN_DRAWS_FOR_QUANTILES}: no 5-95 % quantiles)")),
+                   + ("5-95 % intervals" if n >= uncertainty_imu.MIN_DRAWS_FOR_QUANTILES else
+                      f"min .. max over the {n} draws (fewer than {uncertainty_imu.MIN_DRAWS_FOR_QUANTILES}: no "
+                      "5-95 % quantiles)")),
         "n": n, "rows": [int(r) for r in rows], "seeds": list(range(cfg.seed0, cfg.seed0 + cfg.seeds)),
         "grade": cfg.grade, "compensation": comp, "filters": list(filters), "profile": prof,
         "outputs": list(names), "stats": stats, "nominal": nominal,
         "values": {k: [None if not math.isfinite(x) else float(x) for x in v] for k, v in res["values"].items()},
-        "failed": res["failed"], "answer": UI.answer_words(stats, nominal, schemes, cfg),
+        "failed": res["failed"], "answer": uncertainty_imu.answer_words(stats, nominal, schemes, cfg),
         "cpu_s": res["cpu_s"], "wall_s": res["wall_s"],
     }

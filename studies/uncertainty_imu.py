@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from imutherm import InputError
+from imutherm.unit.cavity_laws import LAW_BLEND
 
 #: below this many draws the interval quoted is min .. max (5 / 95 % quantiles of a handful mean little)
 MIN_DRAWS_FOR_QUANTILES = 20
@@ -66,7 +67,7 @@ class Chain:
 #: law's form (radiation goes as T^3, so at -40 °C the two laws differ less than at 70 °C). Mapped with the
 #: 70 °C ratio like the others, the -40 °C self-heating was up to 3.7 K (26 %) under the full FEM (air, w 0.73,
 #: 6 mm mesh); its change is scaled per oven temperature by the full FEM's at the blend's far end instead
-FORM_KNOB = "cavity_law_blend"
+FORM_KNOB = LAW_BLEND
 
 
 def nominal_chain(scheme_study) -> Chain:
@@ -154,7 +155,7 @@ def _oven_full(sm, values: dict, nom: Chain) -> dict:
     from imutherm.imu.sensor_model import SITES
     from imutherm.studies.forward import full_rise
     from imutherm.studies.thermal_study import STUDY_CG_RTOL
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
 
     geo = sm.geometry
     probes = {s: geo.sites[s] for s in SITES}
@@ -163,20 +164,21 @@ def _oven_full(sm, values: dict, nom: Chain) -> dict:
         if Tc == nom.ambient_C:
             continue
         lay = replace(geo.layout, ambient_C=float(Tc), mounting=replace(geo.layout.mounting, temperature_C=float(Tc)))
-        out[k] = full_rise(K.variant(replace(geo, layout=lay), sm.options, values), sm.grid, probes, np.array([np.inf]),
-                           rtol=STUDY_CG_RTOL)[0]
+        out[k] = full_rise(knobs.variant(replace(geo, layout=lay), sm.options, values), sm.grid, probes,
+                           np.array([np.inf]), rtol=STUDY_CG_RTOL)[0]
     return out
 
 
 def answer_setting(config) -> tuple:
     """(compensation, filters, profile) of the study's answer: what the draws run (the answer's filter first,
     then ``kf`` if the study has it)."""
-    from imutherm.studies.end_to_end import ANSWER_COMPENSATION, ANSWER_FILTER, ANSWER_PROFILE
+    from imutherm.studies.end_to_end import ANSWER_COMPENSATION, ANSWER_FILTER, ANSWER_PROFILE, ANSWER_SECOND_FILTER
 
     comp = ANSWER_COMPENSATION if ANSWER_COMPENSATION in config.compensations else config.compensations[-1]
     filt = ANSWER_FILTER if ANSWER_FILTER in config.filters else config.filters[0]
     prof = ANSWER_PROFILE if ANSWER_PROFILE in config.profiles else config.profiles[0]
-    filters = (filt,) + (("kf",) if "kf" in config.filters and filt != "kf" else ())
+    second = ANSWER_SECOND_FILTER
+    filters = (filt,) + ((second,) if second in config.filters and filt != second else ())
     return comp, filters, prof
 
 

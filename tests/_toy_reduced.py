@@ -3,7 +3,7 @@ and time constant, so the correlation's selection logic can be tested in seconds
 
 import numpy as np
 
-from imutherm.unit import knobs as K
+from imutherm.unit import knobs
 
 SITES = ("tp1", "tp2", "tp3", "gyro_x", "gyro_y", "gyro_z")
 #: nominal steady rise [K] and time constant [s] of each site, per scheme
@@ -26,7 +26,7 @@ class ToyReduced:
     def __init__(self, scheme: str):
         self.scheme = scheme
         self.site_names = SITES
-        ks = [k for k, _ in K.RETUNE] + [K.effect_knob(n) for n in PATTERN]
+        ks = [k for k, _ in knobs.RETUNE] + [knobs.effect_knob(n) for n in PATTERN]
         self.knobs = {k.name: k for k in ks}
         self.nominal_rise_K = BASE[scheme][0].copy()
         self.basis_size, self.unknowns, self.build_s, self.solves = 0, 0, 0.0, 0

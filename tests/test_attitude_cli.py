@@ -142,7 +142,7 @@ def test_realistic_flight_is_of_the_papers_order_and_turbulence_shuts_the_gate()
     measured 2.3 / 2.5° (1σ): its whole-record RMS over seeds 0-2 lies between 0.3° and 6° in roll and
     between 1° and 6° in pitch (docs/benchmarks/attitude.md: 0.52 / 4.05° on seeds 0-5); light turbulence alone keeps the gate
     shut on most stable-flight samples (clean: open on all of them)."""
-    from imutherm.imu import disturbances as D
+    from imutherm.imu import disturbances
     from imutherm.studies import filter_benchmark as fb
 
     res = run_attitude_study("flight", seeds=3, names=("gated",), disturbances=True)
@@ -153,7 +153,7 @@ def test_realistic_flight_is_of_the_papers_order_and_turbulence_shuts_the_gate()
     from imutherm.imu import motion
 
     stable = motion.make_profile("flight", None, 100.0).stable
-    turb = {"flight": D.Disturbances(turbulence=D.PRESETS["flight"].turbulence)}
+    turb = {"flight": disturbances.Disturbances(turbulence=disturbances.PRESETS["flight"].turbulence)}
     for dist, lo, hi in ((False, 0.99, 1.0), (turb, 0.0, 0.5)):
         rec = fb.make_records([("flight", (0,))], disturbances=dist)[0]
         used = fb.run_one("gated", rec).accel_used[stable].mean()

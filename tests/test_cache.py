@@ -110,29 +110,31 @@ def test_an_unwritable_folder_runs_uncached(tmp_path, monkeypatch):
 def test_the_correlation_keeps_its_reduced_models(folder, monkeypatch):
     """build_models reads a model back instead of rebuilding it; any change of what it depends on rebuilds."""
     from imutherm.geometry.layout import load_layout
-    from imutherm.studies import correlation as C
+    from imutherm.studies.correlation import models as correlation_models
 
     calls = []
 
     def fake_build(variant_fn, grid, knobs, sites, pairs=()):
         calls.append((grid.n_nodes, tuple(k.name for k in knobs)))
         return _value(len(calls))
-    monkeypatch.setattr(C, "build_reduced", fake_build)
+    monkeypatch.setattr(correlation_models, "build_reduced", fake_build)
     lay = load_layout(None)
-    m1 = C.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1)
-    m2 = C.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1)
+    m1 = correlation_models.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1)
+    m2 = correlation_models.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1)
     r1, r2 = m1.roms[("air", 70.0)], m2.roms[("air", 70.0)]
     assert len(calls) == 1 and np.array_equal(r1.A, r2.A) and r1.x == r2.x
     # the same content at another path is the same model
-    C.build_models([("air", 70.0)], replace(lay, path="/elsewhere/unit.toml"), mesh_size_mm=6.0, min_cells=1)
+    correlation_models.build_models([("air", 70.0)], replace(lay, path="/elsewhere/unit.toml"), mesh_size_mm=6.0,
+                                    min_cells=1)
     assert len(calls) == 1
-    C.build_models([("air", 25.0)], lay, mesh_size_mm=6.0, min_cells=1)
-    C.build_models([("air", 70.0)], lay, mesh_size_mm=8.0, min_cells=1)
-    C.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1, options=ModelOptions(cavity_law="effective"))
-    C.build_models([("air", 70.0)], replace(lay, description=lay.description + " (rev B)"),
+    correlation_models.build_models([("air", 25.0)], lay, mesh_size_mm=6.0, min_cells=1)
+    correlation_models.build_models([("air", 70.0)], lay, mesh_size_mm=8.0, min_cells=1)
+    correlation_models.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1,
+                                    options=ModelOptions(cavity_law="effective"))
+    correlation_models.build_models([("air", 70.0)], replace(lay, description=lay.description + " (rev B)"),
                    mesh_size_mm=6.0, min_cells=1)
     assert len(calls) == 5
-    C.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1, use_cache=False)
+    correlation_models.build_models([("air", 70.0)], lay, mesh_size_mm=6.0, min_cells=1, use_cache=False)
     assert len(calls) == 6
 
 
@@ -140,19 +142,19 @@ def test_the_time_constant_precheck_is_kept(folder, monkeypatch):
     """correlate's pre-check (a knobless reduced model per scheme) is read back on the next run of the same
     unit, and a changed input (the ambient) computes it again."""
     from imutherm.geometry.layout import load_layout
-    from imutherm.studies import correlation as C
+    from imutherm.studies.correlation import models as correlation_models
 
     calls = []
-    real = C.build_reduced
+    real = correlation_models.build_reduced
 
     def counting(*a, **k):
         calls.append(1)
         return real(*a, **k)
-    monkeypatch.setattr(C, "build_reduced", counting)
+    monkeypatch.setattr(correlation_models, "build_reduced", counting)
     lay = load_layout(None)
-    first = C.model_t63_s(lay, "potted", 70.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
-    again = C.model_t63_s(lay, "potted", 70.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
+    first = correlation_models.model_t63_s(lay, "potted", 70.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
+    again = correlation_models.model_t63_s(lay, "potted", 70.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
     assert len(calls) == 1 and first == again and 10.0 < first["tp1"] < 1e4
-    C.model_t63_s(lay, "potted", 25.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
-    C.model_t63_s(lay, "potted", 70.0, ["tp1"], 14.0, 1, ModelOptions(), use_cache=False)
+    correlation_models.model_t63_s(lay, "potted", 25.0, ["tp1", "gyro_x"], 14.0, 1, ModelOptions())
+    correlation_models.model_t63_s(lay, "potted", 70.0, ["tp1"], 14.0, 1, ModelOptions(), use_cache=False)
     assert len(calls) == 3

@@ -12,8 +12,9 @@ import pytest
 
 from imutherm.cli import correlate as cli
 from imutherm.measured import MeasuredRun, read_measured, write_measured
-from imutherm.studies.correlation import (SPARSE_NOISE_K, Fit, _masks, build_models, correlate, heldout_worse_z,
-                                          noise_sigma, result_json, updated_model_toml, verdict)
+from imutherm.studies.correlation import (SPARSE_NOISE_K, Fit, build_models, correlate, heldout_worse_z, noise_sigma,
+                                          result_json, updated_model_toml, verdict)
+from imutherm.studies.correlation.holdout import _masks
 from imutherm.studies.hidden_effect import make_case
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/_toy_reduced.py
@@ -170,8 +171,9 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     run's power_scale, not the library's -1 W (which let the fit draw -1 W from the 0.04 W ADC on the paper's figures)."""
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
-    from imutherm.studies.correlation import _Forward, _knobs_for
-    from imutherm.unit import knobs as K
+    from imutherm.studies.correlation.fit import _knobs_for
+    from imutherm.studies.correlation.forward_model import _Forward
+    from imutherm.unit import knobs
     from imutherm.unit.effects import power_part
 
     lay = load_layout(None)
@@ -189,9 +191,9 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     # the worst case of every run at every re-tune keeps the part at or above zero
     assert adc_W * 0.85 * min(r.power_scale for r in runs) + knob.lo >= -1e-12
     # a part above 1 W keeps the library's -1 W; an unpowered target is floored at zero
-    assert K.effect_knob("power@adc", min_power_W=2.5).lo == -1.0
-    assert K.effect_knob("power@adc", min_power_W=0.0).lo == 0.0
-    assert K.effect_knob("power@adc").lo == -1.0  # the reduced model's knob: the load is exact for any value
+    assert knobs.effect_knob("power@adc", min_power_W=2.5).lo == -1.0
+    assert knobs.effect_knob("power@adc", min_power_W=0.0).lo == 0.0
+    assert knobs.effect_knob("power@adc").lo == -1.0  # the reduced model's knob: the load is exact for any value
 
 
 @pytest.fixture(scope="module")
@@ -318,7 +320,7 @@ def test_the_same_measured_file_given_twice_is_refused(tmp_path, capsys):
 def test_effects_compatible_in_one_selection():
     """Two effects of one kind at two places may be chosen together; one effect not twice; two contacts that
     each share the board's conductivity with the reduced model's joint interpolation not together."""
-    from imutherm.studies.correlation import _compatible
+    from imutherm.studies.correlation.selection import _compatible
     assert _compatible(("power@reg_5v",), "power@reg_3v3")
     assert not _compatible(("power@reg_5v",), "power@reg_5v")
     assert _compatible(("contact@board",), "contact@bond")
@@ -447,7 +449,7 @@ def test_an_effect_is_judged_where_it_acts_under_another_schemes_gross_form_erro
     null = correlate(toy_runs(dict(_TOY_NUISANCE), np.random.default_rng(3), form), models=models,
                      candidates=_TOY_CANDIDATES, rerun=False, discrepancy=True)
     # no library effect; the air error looks to the re-tune like a weaker cavity radiation, which takes the cavity's
-    # emissivity to 0.35, far outside its source's 0.63-0.86: since issue 43 that move is named as a finding,
+    # emissivity to 0.35, far outside its source's 0.63-0.86: since the blind campaign that move is named as a finding,
     # flagged as contradicting its source (without it the verdict was 'discrepancy', as before)
     assert null.named_effects == () and null.verdict in ("discrepancy", "finding"), null.timings["reason"]
     assert all(f.parameter == "cavity_emissivity" and f.contradicts_source for f in null.findings)
@@ -460,7 +462,8 @@ def test_what_an_effect_must_gain_without_the_term_and_leave_with_it():
     emissivity re-tuned to 0.128 K held out, 2.5 sigmas, then named ``contact@board`` at 0.076 K: a gain of
     a form error's size). With the term: where the effects act, the term they leave within 2 noise sigmas or
     halved (a lid heat load named ``contact@bond`` left 0.153 K in grease, 2.96 sigmas, of 0.2 K)."""
-    from imutherm.studies.correlation import _plain_explains, explains_term
+    from imutherm.studies.correlation import explains_term
+    from imutherm.studies.correlation.verdict import _plain_explains
     noise = 0.052
     chosen = _fit("contact@board", -380.0, 0.076)
     sel = ([{"verdict": "effect"}, {"verdict": "none"}], [chosen])
@@ -540,14 +543,14 @@ def test_sparse_files_get_the_cavity_laws_form_as_a_prior_band():
 
     import _toy_reduced as toy
     from imutherm.studies.correlation import Models
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
 
     blend_pattern = {"air": -2.0 * np.linspace(1.0, 0.5, 6), "grease": -0.4 * np.linspace(1.0, 0.5, 6)}
 
     class WithBlend(toy.ToyReduced):
         def __init__(self, scheme):
             super().__init__(scheme)
-            self.knobs["cavity_law_blend"] = K.effect_knob("cavity_law_blend")
+            self.knobs["cavity_law_blend"] = knobs.effect_knob("cavity_law_blend")
 
         def gain_tau(self, values):
             g, tau = super().gain_tau(values)
@@ -723,7 +726,7 @@ def test_the_cavity_emissivity_is_re_tuned_not_named(tmp_path):
     cands = ("power@reg_5v", "power@processor", "contact@bond")
     runs = toy_runs({**_TOY_NUISANCE, "cavity_emissivity": 0.3}, np.random.default_rng(4))
     res = correlate(runs, models=models, candidates=cands, rerun=False)
-    # 0.3 lies far outside the finish's source range (0.63-0.86): since issue 43 the move is named as the finding
+    # 0.3 lies far outside the finish's source range (0.63-0.86): since the blind campaign the move is named as the finding
     # (tests/test_correlation_form.py), still no library effect
     assert res.named_effects == () and res.verdict == "finding", res.timings["reason"]
     assert [f.parameter for f in res.findings] == ["cavity_emissivity"]

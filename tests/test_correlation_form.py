@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from imutherm import InputError
-from imutherm.studies import form_error as FE
-from imutherm.studies.correlation import (_Forward, _masks, _test_union, build_discrepancy, correlate, result_json,
-                                          updated_model_toml)
+from imutherm.studies import form_error
+from imutherm.studies.correlation import build_discrepancy, correlate, result_json, updated_model_toml
+from imutherm.studies.correlation.forward_model import _Forward
+from imutherm.studies.correlation.holdout import _masks, _test_union
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/_toy_reduced.py
 
@@ -33,9 +34,9 @@ def test_the_known_form_scale_and_the_terms_cap():
     """The scale is the grid's and the reduced model's stated errors in quadrature (1.4 % of the rise), the cap
     twice that; the term's type-II search stops at the cap."""
     from _toy_reduced import toy_models, toy_runs
-    fs = FE.form_scale(["air", "grease"])
-    assert fs.of("air") == pytest.approx(np.hypot(FE.GRID_FRACTION, FE.REDUCED_FRACTION))
-    assert fs.cap("grease") == pytest.approx(FE.FORM_SIGMAS * fs.of("grease"))
+    fs = form_error.form_scale(["air", "grease"])
+    assert fs.of("air") == pytest.approx(np.hypot(form_error.GRID_FRACTION, form_error.REDUCED_FRACTION))
+    assert fs.cap("grease") == pytest.approx(form_error.FORM_SIGMAS * fs.of("grease"))
     m = toy_models()
     runs = toy_runs({**NUISANCE, "power@reg_5v": 0.5}, np.random.default_rng(1), _form(0.10))
     fwd = _Forward(tuple(runs), m.roms, m.geometries)
@@ -52,13 +53,13 @@ def test_the_known_form_scale_and_the_terms_cap():
 
 
 def test_named_through_the_form_error():
-    """The rule's arithmetic with issue 43's 5 V regulator case: re-tuned 2.14 K held out, the regulator leaving
+    """The rule's arithmetic with the blind campaign's 5 V regulator case: re-tuned 2.14 K held out, the regulator leaving
     the form error's level; a re-tune already near the level, or an effect leaving more, is not named this way."""
     band, noise = 0.15, 0.05  # level max(2 x 0.15, 2 x 0.05) = 0.30 K
-    assert FE.named_through_form(2.14, 0.29, band, noise, 2.0)
-    assert not FE.named_through_form(2.14, 0.45, band, noise, 2.0)  # leaves more than the form's level
-    assert not FE.named_through_form(0.80, 0.10, band, noise, 2.0)  # the re-tune was not far beyond it (< 3 x)
-    assert not FE.named_through_form(float("nan"), 0.10, band, noise, 2.0)
+    assert form_error.named_through_form(2.14, 0.29, band, noise, 2.0)
+    assert not form_error.named_through_form(2.14, 0.45, band, noise, 2.0)  # leaves more than the form's level
+    assert not form_error.named_through_form(0.80, 0.10, band, noise, 2.0)  # the re-tune was not far beyond it (< 3 x)
+    assert not form_error.named_through_form(float("nan"), 0.10, band, noise, 2.0)
 
 
 def test_a_strong_effect_under_a_form_error_is_named_alone():
@@ -183,7 +184,7 @@ def test_contacts_as_thin_solid_layers():
 def test_layered_path_a_strong_effect_is_named_first_and_a_null_gets_no_library_name(tmp_path):
     """The campaign's hardest path at test size: data with every contact a thin solid layer, on a grid 1.5x
     coarser than the inversion's 6 mm, ±10 % nuisance on every conductivity, contact and emissivity, noise and
-    probe offsets. The 5 V regulator at -0.4 W of its 0.90 W (0.55x, issue 43's case) is named first, within 1.5x, and the
+    probe offsets. The 5 V regulator at -0.4 W of its 0.90 W (0.55x, the blind campaign's case) is named first, within 1.5x, and the
     held-out error falls to at most 0.3 of the nominal model's; the null case of the same generator gets no
     library name and its written model is no worse than the nominal one."""
     from imutherm.measured import read_measured

@@ -1,4 +1,4 @@
-"""The board import (issue 42): KiCad and IDF boards into layouts, checked on two real boards and on boards the
+"""The board import: KiCad and IDF boards into layouts, checked on two real boards and on boards the
 tests write (every rotation, both sides, four KiCad dialects), and every kind of bad input refused in one line.
 
 Real boards: ``examples/boards/`` (catphish/openuav, KiCad 7, 4 layers, 80 footprints; MarkSherstan/Drone

@@ -144,7 +144,7 @@ def test_cavity_emissivity_under_s2s_sets_the_housing_inner_emissivity():
     """Under the s2s cavity law the effect changes the emissivity the radiosity exchange sees: the housing's and
     lid's inner faces get the wall emissivity whose pair emissivity with the boards' 0.9 is the parameter (bare
     Al 0.05 -> 0.05, anodised pair 0.77 -> 0.84); the other surfaces keep theirs, and the exchange weakens."""
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
     from imutherm.unit.effects import wall_emissivity_for_pair
     from imutherm.unit.model import cavity_exchange_law
     assert wall_emissivity_for_pair(0.77) == pytest.approx(0.842, abs=1e-3)
@@ -162,21 +162,21 @@ def test_cavity_emissivity_under_s2s_sets_the_housing_inner_emissivity():
     np.testing.assert_allclose(nom.emissivity[walls], 0.84)
     np.testing.assert_array_equal(bare.emissivity[~walls], nom.emissivity[~walls])
     assert np.abs(np.diag(bare.X)).sum() < 0.6 * np.abs(np.diag(nom.X)).sum()
-    assert K.effect_knob("cavity_emissivity", opts).nodes == K.S2S_EMISSIVITY_NODES
-    assert K.effect_knob("cavity_emissivity", ModelOptions(cavity_law="effective")).nodes == 2  # linear in eps
-    assert K.effect_knob("cavity_emissivity", ModelOptions()).nodes == K.S2S_EMISSIVITY_NODES  # s2s: the default
+    assert knobs.effect_knob("cavity_emissivity", opts).nodes == knobs.S2S_EMISSIVITY_NODES
+    assert knobs.effect_knob("cavity_emissivity", ModelOptions(cavity_law="effective")).nodes == 2  # linear in eps
+    assert knobs.effect_knob("cavity_emissivity", ModelOptions()).nodes == knobs.S2S_EMISSIVITY_NODES  # s2s: the default
 
 
 def test_the_cavity_emissivity_knob_is_nominal_at_the_models_own_emissivities():
     """The form knob's nominal value (correlation.FORM_RETUNE): under s2s the pair emissivity of a 0.9 board and
     the anodised housing's 0.84 inner wall, 1 / (1/0.9 + 1/0.84 - 1) = 0.7683 (Incropera eq. 13.24), whose
     wall emissivity is 0.84 again; under the effective law the option itself; a wall option wins."""
-    from imutherm.unit import knobs as K
+    from imutherm.unit import knobs
     from imutherm.unit.effects import wall_emissivity_for_pair
     g = build_geometry(None, "air")
-    pair = K.cavity_pair_nominal(g, ModelOptions(cavity_law="s2s"))
+    pair = knobs.cavity_pair_nominal(g, ModelOptions(cavity_law="s2s"))
     assert pair == pytest.approx(1 / (1 / 0.9 + 1 / 0.84 - 1), rel=1e-12)
     assert wall_emissivity_for_pair(pair) == pytest.approx(0.84, rel=1e-12)
-    assert K.cavity_pair_nominal(g, ModelOptions(cavity_law="effective", cavity_emissivity=0.5)) == 0.5
-    assert K.cavity_pair_nominal(g, ModelOptions(cavity_law="s2s", cavity_wall_emissivity=0.05)) == pytest.approx(
+    assert knobs.cavity_pair_nominal(g, ModelOptions(cavity_law="effective", cavity_emissivity=0.5)) == 0.5
+    assert knobs.cavity_pair_nominal(g, ModelOptions(cavity_law="s2s", cavity_wall_emissivity=0.05)) == pytest.approx(
         1 / (1 / 0.9 + 1 / 0.05 - 1), rel=1e-12)

@@ -16,7 +16,7 @@ from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
 from imutherm.studies.fitted_model import apply_fitted, fitted_options, load_fitted_model
 from imutherm.studies.thermal_study import run_scheme
-from imutherm.unit import knobs as K
+from imutherm.unit import knobs
 from imutherm.unit.effects import effect_problem
 from imutherm.unit.model import ModelOptions
 from imutherm.thermal.solve import solve_steady
@@ -50,7 +50,7 @@ def _variant_rises(scheme, values, options, mesh_mm=8.0):
     """Steady site rises [K] of the correlation's corrected model (knobs.variant), the reference unit."""
     geo = build_geometry(None, scheme)
     grid = build_mesh(geo, mesh_mm, 1)
-    v = K.variant(geo, options, values)
+    v = knobs.variant(geo, options, values)
     st = solve_steady(effect_problem(v, grid), probes=dict(v.geometry.sites))
     return dict(zip(st.probe_names, np.asarray(st.probe_C) - geo.layout.ambient_C))
 

@@ -134,7 +134,7 @@ def test_fusion_gyro_range_is_declared_not_the_datas_peak():
     triggers its over-range re-initialisation; with the sensor's range (450 °/s) or none declared (the default:
     recovery off) it does not, and its error is smaller. The data's peak (here 450 °/s, the next common full
     scale) is no longer used: a record peaking just below a full scale got that scale and the recovery on every
-    peak (issue 24: 124 °/s -> 125 °/s, 1610 samples of over-range recovery)."""
+    peak (a recorded log: 124 °/s -> 125 °/s, 1610 samples of over-range recovery)."""
     tr, gyro, accel = _record(peak_rate_dps=400.0)
     assert _peak_rule(gyro) == 450.0
     for rng_dps, expect in ((300.0, True), (450.0, False), (None, False), (0.0, False)):
@@ -151,7 +151,7 @@ def test_fusion_gyro_range_is_declared_not_the_datas_peak():
     assert np.array_equal(dflt.gravity, run_fusion(gyro, accel, DT, FusionParams(gyroscope_range=450.0)).gravity)
     err_300 = _deg_err(run_fusion(gyro, accel, DT, FusionParams(gyroscope_range=300.0)), tr, swing)
     assert _deg_err(dflt, tr, swing) < err_300, (_deg_err(dflt, tr, swing), err_300)  # 7.5° vs 11.1° (seed 0)
-    # a record peaking at 123.5 °/s (as issue 24's at 124 °/s): the old rule's 125 °/s range would have triggered the recovery
+    # a record peaking at 123.5 °/s (as the recorded log's at 124 °/s): the old rule's 125 °/s range would have triggered the recovery
     tr2, gyro2, accel2 = _record(peak_rate_dps=122.0, duration=110.0)
     assert _peak_rule(gyro2) == 125.0 and looks_saturated(gyro2) is None
     ahrs = make_ahrs(DT, FusionParams(gyroscope_range=125.0, use_bias=False))

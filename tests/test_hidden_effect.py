@@ -15,7 +15,7 @@ from imutherm.measured import read_measured
 from imutherm.thermal.small_signal import periodic_ambient_field, tangent_operator
 from imutherm.studies.hidden_effect import (CHAMBER_AMPLITUDE_K, CHAMBER_CYCLING, CHAMBER_PERIOD_S,
                                             POWER_MODE_CHAIN_V, POWER_MODE_STEP, make_case)
-from imutherm.unit import knobs as K
+from imutherm.unit import knobs
 from imutherm.thermal.assembly import assemble
 from imutherm.unit.effects import effect_problem
 from imutherm.unit.model import ModelOptions
@@ -28,16 +28,16 @@ from imutherm.thermal.solve import amg_preconditioner, solve_steady
 def test_nominal_values_read_from_layout_and_materials(layout):
     lay = load_layout(layout)
     geo = build_geometry(lay, "air")
-    nom = K.nominal_values(geo)
+    nom = knobs.nominal_values(geo)
     # the numbers the layout file and the materials library state (both units: 500 W/m^2 K mount,
     # anodised aluminium 0.84, 4-layer FR-4 in-plane 17.7 W/m K)
     assert nom["mount_h_W_m2K"] == lay.mounting.contact_conductance_W_m2K == 500.0
     assert nom["emissivity_ext"] == get_material(geo.part("housing").material).emissivity == 0.84
     assert nom["k_board_W_mK"] == get_material("pcb_fr4_4layer").k_in_plane == 17.7
     assert nom["power_scale"] == nom["convection_scale"] == 1.0
-    assert set(nom) == {k.name for k, _ in K.RETUNE}  # one nominal value per re-tune knob
+    assert set(nom) == {k.name for k, _ in knobs.RETUNE}  # one nominal value per re-tune knob
     # every nominal value lies inside its re-tune range
-    for k, _ in K.RETUNE:
+    for k, _ in knobs.RETUNE:
         assert k.lo <= nom[k.name] <= k.hi
 
 
@@ -47,13 +47,13 @@ def test_nominal_values_follow_a_changed_layout_and_options(layout):
     bare = replace(lay, mounting=replace(lay.mounting, contact_conductance_W_m2K=1200.0),
                    housing=replace(lay.housing, material="aluminium_6061"))
     geo = build_geometry(bare, "air")
-    nom = K.nominal_values(geo)
+    nom = knobs.nominal_values(geo)
     assert nom["mount_h_W_m2K"] == 1200.0
     assert nom["emissivity_ext"] == get_material("aluminium_6061").emissivity == 0.09  # bare sheet
     # model options override the layout, as the model itself takes them
     pcb = with_properties(get_material("pcb_fr4_4layer"), "test", k_in_plane=30.0)
     opts = ModelOptions(emissivity=0.5, mounting_conductance_W_m2K=800.0, materials=(pcb,))
-    nom = K.nominal_values(geo, opts)
+    nom = knobs.nominal_values(geo, opts)
     assert (nom["mount_h_W_m2K"], nom["emissivity_ext"], nom["k_board_W_mK"]) == (800.0, 0.5, 30.0)
 
 
@@ -66,7 +66,7 @@ def test_periodic_ambient_field_matches_time_stepping():
     the unit follows a very slow cycle in full (|g| -> 1)."""
     geo = build_geometry(load_layout(None), "air")
     grid = build_mesh(geo, 8.0, 1)
-    variant = K.variant(geo, ModelOptions(cavity_law="effective"), {})  # the operator has no s2s exchange
+    variant = knobs.variant(geo, ModelOptions(cavity_law="effective"), {})  # the operator has no s2s exchange
     pb = effect_problem(variant, grid)
     asm = assemble(pb)
     st = solve_steady(pb, assembly=asm)

@@ -640,14 +640,15 @@ def test_study_cost_counts_the_imu_work():
 def no_expensive(no_work, monkeypatch):
     """Besides :func:`no_work`: the s2s view factors, the sweep's cases, correlate's reduced models and its
     time-constant pre-check fail the test if they start (the refusal must come before them)."""
-    import imutherm.studies.correlation as corr
+    import imutherm.studies.correlation.models as corr_models
+    import imutherm.studies.correlation.workflow as corr_workflow
     import imutherm.studies.sweep.run as sw
     import imutherm.thermal.cavity_radiation as cr
 
     monkeypatch.setattr(cr, "view_factors", _fail)
     monkeypatch.setattr(sw, "run_case", _fail)
-    monkeypatch.setattr(corr, "build_models", _fail)
-    monkeypatch.setattr(corr, "model_t63_s", _fail)
+    monkeypatch.setattr(corr_workflow, "build_models", _fail)
+    monkeypatch.setattr(corr_models, "model_t63_s", _fail)
 
 
 TEMPS = "time_s,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n"
@@ -747,7 +748,7 @@ def test_refused_before_the_work(case, out, tmp_path, capsys, no_expensive):
 def test_correlate_short_file_refused_before_the_build(out, tmp_path, capsys, no_expensive, monkeypatch):
     """A file ending before its sites' t63 is refused by the pre-check (a knobless reduced model, here
     replaced by its answer) before the reduced models are built (build_models fails the test)."""
-    import imutherm.studies.correlation as corr
+    import imutherm.studies.correlation.models as corr
 
     seen = []
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from imutherm import InputError
-from imutherm.geometry import mesh as M
+from imutherm.geometry import mesh
 from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.mesh import build_mesh, mesh_info, prolongation, refine_grid
 
@@ -77,7 +77,7 @@ def test_nearly_coincident_faces_share_a_line(write_layout):
             s["min_mm"] = [v + 2e-4 * (i + 1) * (a < 2) for a, v in enumerate(s["min_mm"])]   # 0.2-0.8 um
     g = build_geometry(write_layout(jitter), "air")
     m = build_mesh(g)
-    assert min(np.min(w) for w in m.cell_sizes()) >= M.LINE_TOL_MM * MM * 0.999
+    assert min(np.min(w) for w in m.cell_sizes()) >= mesh.LINE_TOL_MM * MM * 0.999
     ref = build_mesh(build_geometry(None, "air"))
     assert m.n_nodes < 1.15 * ref.n_nodes     # a few intervals a fraction of a um longer than half their gap
     info = mesh_info(m)
@@ -90,7 +90,7 @@ def test_nearly_coincident_faces_share_a_line(write_layout):
 
 
 def test_a_part_thinner_than_the_line_tolerance_is_refused(monkeypatch):
-    monkeypatch.setattr(M, "LINE_TOL_MM", 0.35)     # the 0.3 mm dies fall inside one line
+    monkeypatch.setattr(mesh, "LINE_TOL_MM", 0.35)     # the 0.3 mm dies fall inside one line
     with pytest.raises(InputError, match="get no cell"):
         build_mesh(build_geometry(None, "air"))
 
@@ -174,20 +174,20 @@ def test_richardson_and_the_observed_order():
 def test_the_refined_solve_with_fixed_temperatures_and_nonlinear_laws():
     """The two-level refined solve on a small problem with a fixed-temperature face and natural convection +
     radiation: the same field as the refined problem's own steady solve."""
-    from imutherm.thermal import verification as V
+    from imutherm.thermal import verification
     from imutherm.thermal.problem import FixedTemperature, NaturalConvection, Radiation, ThermalProblem
     from imutherm.thermal.refinement import refined_steady
     from imutherm.thermal.steady import solve_steady
 
     def problem(grid):
-        k = np.array([p[3] for p in V.BOARD_CAVITY_PARTS])[grid.cell_part].reshape(-1, 3)
+        k = np.array([p[3] for p in verification.BOARD_CAVITY_PARTS])[grid.cell_part].reshape(-1, 3)
         die = grid.cell_part == grid.part_names.index("die")
         q = np.where(die, 0.3 / grid.cell_volumes()[die].sum(), 0.0)
         laws = {"zmin": FixedTemperature(70.0), "zmax": (NaturalConvection("up", 0.05), Radiation(0.8)),
                 "xmin": NaturalConvection("vertical", 0.02)}
         return ThermalProblem(grid, k, 1.0, q.reshape(-1), 70.0, laws)
 
-    g = V._board_cavity_grid(1)
+    g = verification._board_cavity_grid(1)
     pts = {"die": (23.5e-3, 5e-3, 7.95e-3), "board": (40e-3, 5e-3, 7.6e-3)}
     pc = problem(g)
     st = solve_steady(pc, probes=pts)

@@ -130,5 +130,5 @@ def test_benchmark_turn_radius_matches_the_platform_defaults():
     assert DEFAULT_LEVER_ARM["vehicle"] == PLATFORMS["vehicle"][0]
     # the simulated hand motion has a known 8 cm lever arm; a real hand-held log's rotation centre is unknown (it
     # moves between wrist, elbow and shoulder), and a wrong lever-arm correction is worse than none: the
-    # recorded-log platform assumes none (issue 44)
+    # recorded-log platform assumes none
     assert DEFAULT_LEVER_ARM["handheld"] == (0.08, 0.0, 0.0) and PLATFORMS["handheld"][0] == (0.0, 0.0, 0.0)

@@ -1,4 +1,4 @@
-"""Real logs that just work, alignment only on evidence, filters on real motion (issue 44): hostile logs refused in
+"""Real logs that just work, alignment only on evidence, filters on real motion: hostile logs refused in
 one line, the sample-and-hold BROAD trial read as the reference reader reads it, a known mounting (90° yaw; x/y
 swapped with z flipped) detected and restored, an aligned log kept at the identity, the low-pass modes stable at
 any time constant, the bias learned at rest, the gyro sample conventions, and the cross-validation by file."""

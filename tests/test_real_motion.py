@@ -45,7 +45,7 @@ def test_gated_inertial_lowpass_known_answer():
     """Swing + yaw + 2 m/s² oscillating linear acceleration (tilt 0 known): the low-pass mode averages the
     acceleration out (RMS tilt error < 0.5°, tolerance: the 1 s Butterworth (cut-off √2 rad/s) leaves
     (√2 / 5.03)² = 8 % of the 0.8 Hz term, 0.16 m/s² or 0.9° of apparent tilt, which the kp = 1/s correction
-    loop attenuates by another ~5x); the seed's instantaneous update with the gate always open tilts by ~5x
+    loop attenuates by another ~5x); Liu et al. 2012's instantaneous update with the gate always open tilts by ~5x
     more."""
     t, q, gyro, f = _motion()
     th = default_thresholds(gyro, f, DT, xi_a=3.7e-4, xi_w=0.1, d=(0.08, 0, 0), L=0.5, tau=0.1, init_s=1.5,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from imutherm.studies.thermal_study import run_scheme
-from imutherm.thermal import reduced_transient as RT
+from imutherm.thermal import reduced_transient
 from imutherm.unit.model import ModelOptions
 
 COARSE = dict(mesh_size_mm=6.0, min_cells=1)
@@ -41,7 +41,7 @@ def test_reduced_first_minutes_match_the_full_fem_effective_law(short_effective)
     assert full.transient.scheme == "trbdf2" and full.transient_check is None
     err = _curve_error(red.transient, full.transient)
     assert err.max() <= 0.05, err
-    assert chk.max_site_error_K <= RT.CHECK_TOL_K
+    assert chk.max_site_error_K <= reduced_transient.CHECK_TOL_K
     # a tenth of the full model's linear solves
     assert chk.full_solves < full.transient.linear_solves / 2
 
@@ -63,7 +63,7 @@ def test_a_failed_check_returns_nothing():
     res = run_scheme(None, "air", options=ModelOptions(cavity_law="effective"), **COARSE)
     from imutherm.thermal.assembly import assemble
     pb = res.steady.problem
-    tr, chk = RT.reduced_power_on(pb, assemble(pb), res.steady, dict(res.geometry.sites), 120.0, tol_K=1e-9,
+    tr, chk = reduced_transient.reduced_power_on(pb, assemble(pb), res.steady, dict(res.geometry.sites), 120.0, tol_K=1e-9,
                                   max_rounds=0)
     assert tr is None and not chk.accepted and "estimated site error" in chk.reason
     assert chk.max_site_error_K > 1e-9 and chk.rounds == 1
@@ -84,19 +84,19 @@ def test_a_heat_flux_law_is_accounted_on_its_face_nodes():
     asm = assemble(pb)
     sites = dict(res.geometry.sites)
     st = solve_steady(pb, probes=sites, assembly=asm)
-    tr, chk = RT.reduced_power_on(pb, asm, st, sites, 120.0)
+    tr, chk = reduced_transient.reduced_power_on(pb, asm, st, sites, 120.0)
     assert chk.accepted and tr is not None, chk.reason
     assert asm.flux_in_W > 0 and tr.energy_balance_rel_error < 1e-3
 
 
 def test_run_scheme_falls_back_to_the_full_fem(monkeypatch):
     calls = []
-    real = RT.reduced_power_on
+    real = reduced_transient.reduced_power_on
 
     def failing(*a, **kw):
         calls.append(1)
         return real(*a, **dict(kw, tol_K=1e-9, max_rounds=0))
-    monkeypatch.setattr(RT, "reduced_power_on", failing)
+    monkeypatch.setattr(reduced_transient, "reduced_power_on", failing)
     res = run_scheme(None, "air", options=ModelOptions(cavity_law="effective"), transient=True, t_end=30.0,
                      transient_model="reduced", **COARSE)
     assert calls and res.transient.scheme == "trbdf2" and not res.transient_check.accepted
@@ -116,18 +116,18 @@ def test_unknown_transient_model_is_refused():
 
 def test_compare_full_flag(monkeypatch, tmp_path):
     """``imutherm compare --thermal-only``: reduced transients by default, ``--full`` the full FEM."""
-    from imutherm.cli import compare as C
+    from imutherm.cli import compare
     seen = []
 
     def fake(layout, schemes, **kw):
         seen.append(kw.get("transient_model"))
         raise SystemExit(0)
-    monkeypatch.setattr(C, "compare_schemes", fake)
+    monkeypatch.setattr(compare, "compare_schemes", fake)
     for extra, want in (([], "reduced"), (["--full"], "full")):
         with pytest.raises(SystemExit):
-            C.main(["--thermal-only", "--schemes", "air", "--mesh-size", "6", "--out", str(tmp_path / want)] + extra)
+            compare.main(["--thermal-only", "--schemes", "air", "--mesh-size", "6", "--out", str(tmp_path / want)] + extra)
         assert seen[-1] == want
-    assert C.main(["--steady-only", "--full", "--out", str(tmp_path / "s")]) == 2
+    assert compare.main(["--steady-only", "--full", "--out", str(tmp_path / "s")]) == 2
 
 
 @pytest.mark.slow

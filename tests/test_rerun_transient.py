@@ -15,11 +15,11 @@ from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
 from imutherm.studies.forward import checked_rise, full_rise
-from imutherm.thermal import reduced_transient as RT
+from imutherm.thermal import reduced_transient
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.steady import solve_steady
 from imutherm.thermal.transient import solve_transient
-from imutherm.unit import knobs as K
+from imutherm.unit import knobs
 from imutherm.unit.effects import effect_problem
 from imutherm.unit.model import ModelOptions
 
@@ -31,7 +31,7 @@ TIMES = np.append(np.linspace(0.0, 1500.0, 40), np.inf)
 def corrected():
     """(variant, grid, probes) of a corrected air-scheme model on the coarse mesh."""
     geo = build_geometry(load_layout(None), "air")
-    variant = K.variant(geo, ModelOptions(), {"contact@board": 300.0, "power_scale": 1.05})
+    variant = knobs.variant(geo, ModelOptions(), {"contact@board": 300.0, "power_scale": 1.05})
     grid = build_mesh(variant.geometry, 6.0, 1)
     probes = {s: geo.sites[s] for s in ("tp1", "tp2", "tp3", "gyro_x", "gyro_y", "gyro_z")}
     return variant, grid, probes
@@ -59,9 +59,9 @@ def test_checked_rerun_matches_a_tight_full_transient(corrected, tight):
     variant, grid, probes = corrected
     rises, info = checked_rise(variant, grid, probes, TIMES)
     assert info["transient"] == "reduced" and info["reason"] == "", info
-    assert info["estimated_error_K"] <= RT.CHECK_TOL_K and info["full_solves"] > 0 and info["basis"] > 0
+    assert info["estimated_error_K"] <= reduced_transient.CHECK_TOL_K and info["full_solves"] > 0 and info["basis"] > 0
     err = np.abs(rises - tight)
-    assert err.max() <= RT.CHECK_TOL_K, err.max()
+    assert err.max() <= reduced_transient.CHECK_TOL_K, err.max()
     assert np.allclose(rises[-1], tight[-1], atol=1e-9)          # the same full steady solve
     assert np.allclose(rises[0], 0.0, atol=1e-9)                 # power-on from the ambient
     assert tight.max() > 5.0                                     # a transient worth checking: several K of rise
@@ -73,7 +73,7 @@ def test_rerun_falls_back_to_the_full_transient_when_its_check_fails(corrected, 
     """A check tolerance no reduced basis meets: the re-run is the full adaptive one, to the last digit."""
     variant, grid, probes = corrected
     times = np.array([0.0, 60.0, 120.0, 240.0, np.inf])   # a short power-on keeps the two full runs quick
-    monkeypatch.setattr(RT, "CHECK_TOL_K", 1e-9)
+    monkeypatch.setattr(reduced_transient, "CHECK_TOL_K", 1e-9)
     rises, info = checked_rise(variant, grid, probes, times)
     assert info["transient"] == "full" and "estimated site error" in info["reason"], info
     assert np.array_equal(rises, full_rise(variant, grid, probes, times))

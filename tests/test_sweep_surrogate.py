@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from imutherm.cli import main
-from imutherm.studies import sweep_surrogate as SS
+from imutherm.studies.sweep import surrogate
 from imutherm.studies.sweep import plan_sweep, sensitivity
 
 POWER = "components.reg_5v.power_W"
@@ -90,12 +90,12 @@ def test_verification_summary_and_words():
                "t95_rel_error": None},
               {"case": 7, "status": "ok", "site_error_K": 0.3, "max_rise_error_K": 0.05, "full_max_rise_K": 12.0,
                "t95_rel_error": None}]
-    v = SS.verification_summary(checks, 0.1, 0.01, False)
+    v = surrogate.verification_summary(checks, 0.1, 0.01, False)
     assert not v["passed"] and v["max_site_error_K"] == 0.3 and "0.3 K > 0.1 K" in v["problems"][0]
-    assert "FAIL" in SS.verify_words(v)
-    v2 = SS.verification_summary(checks[:1], 0.1, 0.01, False)
-    assert v2["passed"] and "PASS" in SS.verify_words(v2)
-    assert SS.pick_cases(100, 5, 1) == SS.pick_cases(100, 5, 1) and len(set(SS.pick_cases(100, 5, 1))) == 5
+    assert "FAIL" in surrogate.verify_words(v)
+    v2 = surrogate.verification_summary(checks[:1], 0.1, 0.01, False)
+    assert v2["passed"] and "PASS" in surrogate.verify_words(v2)
+    assert surrogate.pick_cases(100, 5, 1) == surrogate.pick_cases(100, 5, 1) and len(set(surrogate.pick_cases(100, 5, 1))) == 5
 
 
 # ---------------------------------------------------------------- against the full FEM (one build each)
@@ -124,12 +124,12 @@ def test_reduced_sweep_matches_the_full_fem(tmp_path, capsys, law):
 
 @pytest.mark.slow
 def test_sabotaged_surrogate_fails_its_check_and_exits_3(tmp_path, capsys, monkeypatch):
-    honest = SS.evaluate
+    honest = surrogate.evaluate
 
     def off_by_half_a_kelvin(*a, **k):
         out = honest(*a, **k)
         return {n: (v + 0.5 if n.endswith("_K") else v) for n, v in out.items()}
-    monkeypatch.setattr(SS, "evaluate", off_by_half_a_kelvin)
+    monkeypatch.setattr(surrogate, "evaluate", off_by_half_a_kelvin)
     out = tmp_path / "bad"
     rc = main(["sweep", "--scheme", "grease", "--set", f"{POWER}=0.4,1.2", "--verify", "1", "--out", str(out),
                *CLI_COARSE])
@@ -165,16 +165,16 @@ def test_the_largest_rise_is_the_maximum_over_the_powered_nodes():
     from imutherm.studies.thermal_study import run_scheme
 
     p = plan_sweep(None, "grease", [f"{POWER}=0.203,1.421"], method="grid", surrogate="reduced", **COARSE)
-    sur = SS.build_surrogate(p)
+    sur = surrogate.build_surrogate(p)
     assert sur.rom.P_max is not None and sur.rom.P_max.shape[1] == sur.rom.basis_size
     for i in range(len(p.cases)):
         case = full_case(p, i)
         res = run_scheme(case.layout, "grease", options=case.options, transient=False, **COARSE)
         T = np.asarray(res.steady.T_C)
-        assert int(np.argmax(T)) in set(SS._powered_nodes(res.steady.grid, res.geometry).tolist())
-        A, _, b = sur.rom.operators(SS.knob_values(sur.knobs, p.X[i], sur.base_power))
+        assert int(np.argmax(T)) in set(surrogate._powered_nodes(res.steady.grid, res.geometry).tolist())
+        A, _, b = sur.rom.operators(surrogate.knob_values(sur.knobs, p.X[i], sur.base_power))
         x = np.linalg.solve(A, b)
-        reduced = SS.evaluate(sur, p.X[i])["max_rise_K"]
+        reduced = surrogate.evaluate(sur, p.X[i])["max_rise_K"]
         assert reduced == pytest.approx(sur.rom.max_rise(x)) and reduced >= float(np.max(sur.rom.P @ x))
         full = run_case(case, p.settings)["max_rise_K"]
         assert abs(reduced - full) < 0.05, (p.X[i], reduced, full)   # 0.022 / 0.033 K on this mesh

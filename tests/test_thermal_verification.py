@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from imutherm.cli import verify as verify_cli
-from imutherm.thermal import verification as V
+from imutherm.thermal import verification
+from imutherm.thermal.problem import SIGMA
+from imutherm.thermal.verification import board_cavity, record, steady, transient
 
 #: case -> tolerance the suite must state (a change of tolerance is a visible change of this file)
 TOLERANCES = {
@@ -29,12 +31,12 @@ TOLERANCES = {
 
 
 def test_every_case_has_a_test():
-    assert set(TOLERANCES) == set(V.CASES)
+    assert set(TOLERANCES) == set(verification.CASES)
 
 
 @pytest.mark.parametrize("name", list(TOLERANCES))
 def test_case(name):
-    rec = V.run_case(name)
+    rec = verification.run_case(name)
     assert rec.tolerance == TOLERANCES[name]
     assert rec.note and rec.quantity
     assert rec.passed, f"{name}: error {rec.error:.3g} > tolerance {rec.tolerance:.3g}: {rec.note}"
@@ -42,13 +44,13 @@ def test_case(name):
 
 def test_nafems_references():
     """The published targets themselves, besides the exact values the cases compare with."""
-    assert V.nafems_t3_series(0.08, 32.0) == pytest.approx(36.60, abs=0.005)
-    assert V.case_radiation_1d().computed == pytest.approx(927.0, abs=0.5)
+    assert verification.nafems_t3_series(0.08, 32.0) == pytest.approx(36.60, abs=0.005)
+    assert verification.case_radiation_1d().computed == pytest.approx(927.0, abs=0.5)
 
 
 def test_backward_euler_is_first_order():
     """θ = 1 must show order ≈ 1 (CN would give 2): computed is the finest-pair order, both pairs in the note."""
-    rec = V.case_lumped_backward_euler()
+    rec = verification.case_lumped_backward_euler()
     assert 0.9 <= rec.computed <= 1.1
     assert "orders" in rec.note and "ORDER CHECK FAILED" not in rec.note
     assert rec.passed
@@ -56,20 +58,20 @@ def test_backward_euler_is_first_order():
 
 def test_backward_euler_order_check_can_fail(monkeypatch):
     """A first-order error that does not halve with dt (order ~0) fails even if it is below the tolerance."""
-    real = V.solve_transient
+    real = transient.solve_transient
 
     def stuck(pr, t_end, dt, **kw):
         return real(pr, t_end, t_end / 240, **kw)     # t_end = 3τ: always dt = τ/80, whatever is asked
 
-    monkeypatch.setattr(V, "solve_transient", stuck)
-    rec = V.case_lumped_backward_euler(divisions=(20, 40, 80))
+    monkeypatch.setattr(transient, "solve_transient", stuck)
+    rec = verification.case_lumped_backward_euler(divisions=(20, 40, 80))
     assert rec.error <= rec.tolerance
     assert not rec.passed and "ORDER CHECK FAILED" in rec.note
 
 
 def test_trbdf2_is_second_order():
     """TR-BDF2 must show order ≈ 2 against the semi-discrete exact solution (both pairs in [1.9, 2.1])."""
-    rec = V.case_lumped_trbdf2()
+    rec = verification.case_lumped_trbdf2()
     assert 1.9 <= rec.computed <= 2.1
     assert "orders" in rec.note and "ORDER CHECK FAILED" not in rec.note
     assert rec.passed
@@ -77,31 +79,31 @@ def test_trbdf2_is_second_order():
 
 def test_trbdf2_order_check_can_fail(monkeypatch):
     """Backward Euler in place of TR-BDF2 (order 1) fails the order check."""
-    real = V.solve_transient
+    real = transient.solve_transient
 
     def first_order(pr, t_end, dt, **kw):
         kw.pop("scheme", None)
         return real(pr, t_end, dt, scheme="theta", theta=1.0, **kw)
 
-    monkeypatch.setattr(V, "solve_transient", first_order)
-    rec = V.case_lumped_trbdf2()
+    monkeypatch.setattr(transient, "solve_transient", first_order)
+    rec = verification.case_lumped_trbdf2()
     assert not rec.passed and "ORDER CHECK FAILED" in rec.note
 
 
 def test_semi_discrete_exact_is_the_closed_form_to_lumped_model_accuracy():
-    pr, tau, rise_inf, Tinf, centre, Bi = V._lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = verification._lumped_block()
     t = np.linspace(0, 3 * tau, 7)
-    sd = V._semi_discrete_exact(pr, [centre])(t)[:, 0]
+    sd = verification._semi_discrete_exact(pr, [centre])(t)[:, 0]
     assert np.abs(sd - Tinf - rise_inf * (1 - np.exp(-t / tau))).max() < 10 * Bi * rise_inf
 
 
 def test_natural_convection_reference():
     """The exact end temperature satisfies the scalar balance with Holman's C = 1.32 (heated face up) and ε = 0.85."""
     k, L, T0, Ta = 0.5, 0.01, 80.0, 20.0
-    rec = V.case_natural_convection_1d()
+    rec = verification.case_natural_convection_1d()
     Ts = rec.exact
     dT = Ts - Ta
-    q = 1.32 * (dT / 0.05) ** 0.25 * dT + 0.85 * V.SIGMA * ((Ts + 273.15) ** 4 - (Ta + 273.15) ** 4)
+    q = 1.32 * (dT / 0.05) ** 0.25 * dT + 0.85 * SIGMA * ((Ts + 273.15) ** 4 - (Ta + 273.15) ** 4)
     assert k * (T0 - Ts) / L == pytest.approx(q, rel=1e-10)
     assert 20.0 < rec.computed < 80.0
 
@@ -110,8 +112,8 @@ def test_failing_case_is_recorded_not_raised(monkeypatch):
     def boom():
         raise RuntimeError("solver exploded")
 
-    monkeypatch.setitem(V.CASES, "slab_generation", boom)
-    rec = V.run_case("slab_generation")
+    monkeypatch.setitem(verification.CASES, "slab_generation", boom)
+    rec = verification.run_case("slab_generation")
     assert not rec.passed and "solver exploded" in rec.note
 
 
@@ -129,9 +131,9 @@ def test_cli_verify_writes_json_and_exits_zero(tmp_path, capsys):
 
 def test_cli_verify_exits_nonzero_on_failure(tmp_path, monkeypatch, capsys):
     def bad():
-        return V._record("slab_generation", "x", 1.0, 2.0, 1.0, 0.1, "forced failure", 0.0)
+        return verification._record("slab_generation", "x", 1.0, 2.0, 1.0, 0.1, "forced failure", 0.0)
 
-    monkeypatch.setitem(V.CASES, "slab_generation", bad)
+    monkeypatch.setitem(verification.CASES, "slab_generation", bad)
     rc = verify_cli.main(["--out", str(tmp_path / "v"), "--case", "slab_generation"])
     assert rc == 1
     assert "FAIL" in capsys.readouterr().out
@@ -167,12 +169,12 @@ _NOTATION = (r"Q1", r"\bL2\b", r"TR-BDF2", r"\b[123]-D\b", r"\^\(?[0-9/]+\)?", r
 
 
 def _note_literals():
-    """(case function, literal text) of every note written in verification.py: the parts of the note
+    """(case function, literal text) of every note written in the verification package: the parts of the note
     arguments that are not formatted from a value at run time."""
     import ast
     import inspect
 
-    tree = ast.parse(inspect.getsource(V))
+    tree = ast.parse("\n".join(inspect.getsource(m) for m in (verification, record, steady, transient, board_cavity)))
     out = []
     for fn in ast.walk(tree):
         if not isinstance(fn, ast.FunctionDef):
@@ -203,7 +205,7 @@ def test_no_note_types_in_a_figure():
     import re
 
     lits = _note_literals()
-    assert {f for f, _ in lits} >= {f.__name__ for f in V.CASES.values()} | {"run_case"}
+    assert {f for f, _ in lits} >= {f.__name__ for f in verification.CASES.values()} | {"run_case"}
     bad = []
     for fn, text in lits:
         stripped = text

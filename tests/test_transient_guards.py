@@ -124,14 +124,14 @@ def test_exploding_power_profile_stops_where_it_explodes():
 def test_adaptive_run_stops_at_the_step_cap(monkeypatch):
     """A power switching every 0.1 s under a 1e-6 K tolerance keeps the step small: with the cap set to
     40 steps the run stops there, naming the count, instead of taking ~1e4 steps to reach t_end."""
-    from imutherm.thermal import transient as S
+    from imutherm.thermal import transient
 
-    monkeypatch.setattr(S, "MAX_STEPS", 40)
+    monkeypatch.setattr(transient, "MAX_STEPS", 40)
     with pytest.raises(ConvergenceError, match=r"reached the limit of 40 .*t_end = 1000 s"):
-        S.solve_transient(_cube(1e6), 1000.0, scheme="trbdf2", tol_K=1e-6,
+        transient.solve_transient(_cube(1e6), 1000.0, scheme="trbdf2", tol_K=1e-6,
                           power_profile=lambda t: float(int(t / 0.1) % 2))
-    monkeypatch.setattr(S, "MAX_STEPS", 10_000)   # the same run with room: the guard is not in its way
-    r = S.solve_transient(_cube(1e6), 10.0, scheme="trbdf2", tol_K=1e-3)
+    monkeypatch.setattr(transient, "MAX_STEPS", 10_000)   # the same run with room: the guard is not in its way
+    r = transient.solve_transient(_cube(1e6), 10.0, scheme="trbdf2", tol_K=1e-3)
     assert r.times[-1] == pytest.approx(10.0) and r.steps < 10_000
 
 

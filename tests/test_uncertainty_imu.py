@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from imutherm.imu.sensor_model import SITES
-from imutherm.studies import uncertainty_imu as UI
+from imutherm.studies import uncertainty_imu
 from imutherm.studies.end_to_end import StudyConfig, imu_case, reduce_cases
 
 #: the study's IMU side, lean but with two profiles, three compensations and three filters (the draws cut it)
@@ -47,7 +47,7 @@ def _nominal(rom, ambient=70.0):
     steady = ambient + rom.rise({}, [np.inf])[0, idx]
     chamber = np.array([-40.0, ambient])
     rise = np.array([0.93 * (steady - ambient), steady - ambient])  # the cold oven: a little less self-heating
-    return UI.Chain(t, T, steady, chamber, rise, ambient)
+    return uncertainty_imu.Chain(t, T, steady, chamber, rise, ambient)
 
 
 V0 = {"power_scale": 1.0, "power@reg_5v": 0.0, "mount_h_W_m2K": 500.0}
@@ -56,7 +56,7 @@ V0 = {"power_scale": 1.0, "power@reg_5v": 0.0, "mount_h_W_m2K": 500.0}
 def test_a_draw_at_the_nominal_inputs_is_the_nominal_study_exactly():
     rom = ToyRom()
     nom = _nominal(rom)
-    ch = UI.draw_chain(nom, rom, dict(V0), V0, 2400.0)
+    ch = uncertainty_imu.draw_chain(nom, rom, dict(V0), V0, 2400.0)
     m = nom.t_s.size
     assert np.array_equal(ch.t_s[:m], nom.t_s) and np.array_equal(ch.T_C[:m], nom.T_C)
     assert np.array_equal(ch.steady_C, nom.steady_C) and np.array_equal(ch.rise_K, nom.rise_K)
@@ -65,12 +65,12 @@ def test_a_draw_at_the_nominal_inputs_is_the_nominal_study_exactly():
     seeds = range(CONFIG.seed0, CONFIG.seed0 + CONFIG.seeds)
     study = reduce_cases([imu_case(CONFIG.grade, s, nom.t_s, nom.T_C, nom.steady_C, nom.chamber_C, nom.rise_K, CONFIG)
                           for s in seeds])
-    figures = UI.study_figures(SimpleNamespace(imu=study), CONFIG)
-    res = UI.run_imu_draws({"air": [ch, ch]}, CONFIG)
+    figures = uncertainty_imu.study_figures(SimpleNamespace(imu=study), CONFIG)
+    res = uncertainty_imu.run_imu_draws({"air": [ch, ch]}, CONFIG)
     assert not res["failed"]
-    for name in UI.output_names(CONFIG):
+    for name in uncertainty_imu.output_names(CONFIG):
         assert res["values"][f"{name}:air"].tolist() == [figures[name]["mean"]] * 2, name   # bit for bit
-    assert set(UI.output_names(CONFIG)) >= {"warmup_gated_roll_rms_deg", "steady_kf_pitch_rms_deg",
+    assert set(uncertainty_imu.output_names(CONFIG)) >= {"warmup_gated_roll_rms_deg", "steady_kf_pitch_rms_deg",
                                             "gyro_rms_dps", "accel_rms_mg"}
 
 
@@ -78,7 +78,7 @@ def test_a_draw_moves_the_study_s_curves_by_the_reduced_model_s_change():
     rom = ToyRom()
     nom = _nominal(rom)
     v = {"power_scale": 1.1, "power@reg_5v": 0.5, "mount_h_W_m2K": 300.0}
-    ch = UI.draw_chain(nom, rom, v, V0, 2400.0)
+    ch = uncertainty_imu.draw_chain(nom, rom, v, V0, 2400.0)
     idx = [ToyRom.site_names.index(s) for s in SITES]
     d = rom.rise(v, ch.t_s)[:, idx] - rom.rise(V0, ch.t_s)[:, idx]
     base = np.column_stack([np.interp(ch.t_s, nom.t_s, nom.T_C[:, j]) for j in range(6)])
@@ -101,41 +101,41 @@ def test_the_cavity_law_s_change_is_scaled_to_the_cold_oven_by_the_full_fem_s_fa
     end[0] = 0.9 * nom.rise_K[0]
     nom_f = replace(nom, form_end_rise_K=end)
     v0 = dict(V0, cavity_law_blend=0.0)
-    at = {w: UI.draw_chain(nom_f, rom, dict(v0, cavity_law_blend=w), v0, 2400.0).rise_K for w in (0.0, 0.5, 1.0)}
+    at = {w: uncertainty_imu.draw_chain(nom_f, rom, dict(v0, cavity_law_blend=w), v0, 2400.0).rise_K for w in (0.0, 0.5, 1.0)}
     assert np.array_equal(at[0.0], nom.rise_K)
     np.testing.assert_allclose(at[1.0][0], end[0], rtol=1e-12)
     np.testing.assert_allclose(at[0.5][0], 0.95 * nom.rise_K[0], rtol=1e-12)   # (1 + (0.85 - 1) (0.1 / 0.3))
     np.testing.assert_allclose(at[1.0][1], 0.7 * nom.rise_K[1], rtol=1e-12)    # the ambient: the steady rise
-    plain = UI.draw_chain(nom, rom, dict(v0, cavity_law_blend=1.0), v0, 2400.0).rise_K
+    plain = uncertainty_imu.draw_chain(nom, rom, dict(v0, cavity_law_blend=1.0), v0, 2400.0).rise_K
     np.testing.assert_allclose(plain[0], 0.7 * nom.rise_K[0], rtol=1e-12)      # without the far end: 70 °C's ratio
-    hot = UI.draw_chain(nom_f, rom, dict(v0, cavity_law_blend=1.0, power_scale=1.2), v0, 2400.0).rise_K
+    hot = uncertainty_imu.draw_chain(nom_f, rom, dict(v0, cavity_law_blend=1.0, power_scale=1.2), v0, 2400.0).rise_K
     np.testing.assert_allclose(hot[0], 1.2 * end[0], rtol=1e-12)
 
 
 def test_the_difference_between_schemes_is_taken_draw_by_draw():
     vals = {"a:air": np.array([1.0, 2.0, 3.0, 4.0]), "a:grease": np.array([0.5, 1.9, 2.0, 3.8])}
-    st = UI.pair_stats(vals, ["air", "grease"], ["a"])
+    st = uncertainty_imu.pair_stats(vals, ["air", "grease"], ["a"])
     d = st["diff_a:air-grease"]
     assert d["n"] == 4 and d["interval"] == "min-max"
     assert (d["min"], d["q50"], d["max"]) == pytest.approx((0.1, 0.35, 1.0))
     # not the difference of the schemes' own ranges (min..max of a - b, not min(a) - max(b))
     assert d["lo"] > st["a:air"]["min"] - st["a:grease"]["max"]
-    many = UI.draw_stats(np.arange(40.0))
+    many = uncertainty_imu.draw_stats(np.arange(40.0))
     assert many["interval"] == "5-95 %" and many["lo"] == pytest.approx(np.quantile(np.arange(40.0), 0.05))
 
 
 def test_answer_words_on_the_attitude_error():
     nominal = {"warmup_gated_roll_rms_deg:air": {"mean": 0.5, "std": 0.02},
                "warmup_gated_roll_rms_deg:grease": {"mean": 0.45, "std": 0.02}}
-    st = {"diff_warmup_gated_roll_rms_deg:air-grease": UI.draw_stats([0.01, 0.03, 0.05]),
-          "diff_warmup_gated_pitch_rms_deg:air-grease": UI.draw_stats([-0.01, 0.02, 0.04])}
-    roll, pitch = UI.answer_words(st, nominal, ["air", "grease"], CONFIG)
+    st = {"diff_warmup_gated_roll_rms_deg:air-grease": uncertainty_imu.draw_stats([0.01, 0.03, 0.05]),
+          "diff_warmup_gated_pitch_rms_deg:air-grease": uncertainty_imu.draw_stats([-0.01, 0.02, 0.04])}
+    roll, pitch = uncertainty_imu.answer_words(st, nominal, ["air", "grease"], CONFIG)
     assert "grease's attitude error is lower than air's" in roll and "larger than the model's uncertainty" in roll
     assert "min-max over 3 draws" in roll and "difference +0.050 deg, its seed spread +/-0.028 deg" in roll
     assert "not larger than the sensors' seed-to-seed spread" in roll       # 0.01 deg of the interval < 0.028 deg
     assert "within the model's uncertainty" in pitch
-    st["diff_warmup_gated_roll_rms_deg:air-grease"] = UI.draw_stats([-0.3, -0.2, -0.1])
-    roll, _ = UI.answer_words(st, nominal, ["air", "grease"], CONFIG)
+    st["diff_warmup_gated_roll_rms_deg:air-grease"] = uncertainty_imu.draw_stats([-0.3, -0.2, -0.1])
+    roll, _ = uncertainty_imu.answer_words(st, nominal, ["air", "grease"], CONFIG)
     assert "air's attitude error is lower than grease's" in roll and "seed-to-seed" not in roll
 
 
@@ -148,10 +148,10 @@ def test_imu_section_json_keys():
     cfg = replace(CONFIG, seeds=1)
     for name, rom in (("air", rom_a), ("grease", rom_g)):
         nom = _nominal(rom)
-        chains[name] = [UI.draw_chain(nom, rom, v, V0, 2400.0) for v in draws]
+        chains[name] = [uncertainty_imu.draw_chain(nom, rom, v, V0, 2400.0) for v in draws]
         case = imu_case(cfg.grade, 0, nom.t_s, nom.T_C, nom.steady_C, nom.chamber_C, nom.rise_K, cfg)
         schemes[name] = SimpleNamespace(imu=reduce_cases([case]))
-    sec = _imu_section(UI, chains, SimpleNamespace(config=cfg, schemes=schemes), ["air", "grease"],
+    sec = _imu_section(uncertainty_imu, chains, SimpleNamespace(config=cfg, schemes=schemes), ["air", "grease"],
                        np.array([0, 11]), 1, None)
     assert {"method", "n", "rows", "seeds", "grade", "compensation", "filters", "profile", "outputs", "stats",
             "nominal", "values", "failed", "answer", "cpu_s", "wall_s"} <= set(sec)
@@ -185,24 +185,24 @@ def test_nominal_draws_through_the_real_chain_reproduce_the_study():
     """On the FEM (6 mm mesh, the model's default cavity law): the study of the air scheme, its reduced model, a
     draw pinned at the nominal inputs through the IMU chain gives the study's attitude and residual figures
     exactly (measured 13 min wall for two schemes on the shared machine; one scheme here)."""
-    from imutherm.studies import uncertainty as U
+    from imutherm.studies import uncertainty
     from imutherm.studies.end_to_end import run_study
 
     cfg = StudyConfig(seeds=1, profiles=("flight",), compensations=("improved",), filters=("gated",))
     study = run_study(None, ("air",), config=cfg, jobs=1, mesh_size_mm=6, min_cells=1)
     from imutherm.geometry.build import build_geometry
 
-    ins = U.inputs(build_geometry(None, "air"))
-    x0 = U.nominal_row(ins)
+    ins = uncertainty.inputs(build_geometry(None, "air"))
+    x0 = uncertainty.nominal_row(ins)
     chains = {}
     for s in ("air",):
-        sm = U.build_scheme_model(None, s, ins, mesh_size_mm=6, min_cells=1)
-        v0 = U.knob_values(sm, x0)
-        chains[s] = [UI.draw_chain(UI.nominal_chain(study.schemes[s]), sm.rom, dict(v0), v0, 2400.0)]
-    res = UI.run_imu_draws(chains, cfg)
+        sm = uncertainty.build_scheme_model(None, s, ins, mesh_size_mm=6, min_cells=1)
+        v0 = uncertainty.knob_values(sm, x0)
+        chains[s] = [uncertainty_imu.draw_chain(uncertainty_imu.nominal_chain(study.schemes[s]), sm.rom, dict(v0), v0, 2400.0)]
+    res = uncertainty_imu.run_imu_draws(chains, cfg)
     for s in ("air",):
-        fig = UI.study_figures(study.schemes[s], cfg)
-        for name in UI.output_names(cfg):
+        fig = uncertainty_imu.study_figures(study.schemes[s], cfg)
+        for name in uncertainty_imu.output_names(cfg):
             assert res["values"][f"{name}:{s}"][0] == fig[name]["mean"], (s, name)
 
 

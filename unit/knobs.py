@@ -16,6 +16,7 @@ from imutherm.geometry.build import Geometry
 from imutherm.geometry.materials import with_properties
 from imutherm.unit.effects import (CONTACT_NODES, EFFECTS, S2S_EMISSIVITY_NODES, ModelVariant,  # noqa: F401
                                    apply_model_effects, candidate_names, effect_of, power_part, setting)
+from imutherm.unit.cavity_laws import cavity_law
 from imutherm.unit.model import ModelOptions
 from imutherm.thermal.reduced import Knob
 
@@ -135,7 +136,7 @@ def cavity_pair_nominal(geometry: Geometry, options: ModelOptions | None = None)
     0.84 anodised -> 0.766), the inverse of :func:`~imutherm.unit.effects.wall_emissivity_for_pair`."""
     from imutherm.unit.effects import PAIR_PARTNER_EMISSIVITY
     options = options or ModelOptions()
-    if options.cavity_law != "s2s":
+    if not cavity_law(options.cavity_law).patches:  # the effective law reads the pair emissivity itself
         return float(options.cavity_emissivity)
     wall = options.cavity_wall_emissivity
     if wall is None:

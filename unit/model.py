@@ -20,6 +20,7 @@ from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 from imutherm.geometry.layout import AXES
 from imutherm.geometry.materials import Material, get_material
 from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM, DEFAULT_RAYS
+from imutherm.unit.cavity_laws import CAVITY_LAWS as LAWS, cavity_law, cavity_law_of
 from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Contact, Convection, NaturalConvection, Radiation,
                                       ThermalProblem, natural_convection_h)
 
@@ -31,8 +32,9 @@ AL_AL_AIR_JOINT_W_M2K = 1.0 / 2.75e-4
 #: bond line (the grease wets the surface like the oil; its bulk is the bond part itself).
 GREASE_WETTED_JOINT_W_M2K = 1.0 / 0.525e-4
 
-#: radiation laws inside the cavity (``ModelOptions.cavity_law``)
-CAVITY_LAWS = ("effective", "s2s", "none")
+#: radiation laws inside the cavity (``ModelOptions.cavity_law``): their names, registered in
+#: :mod:`imutherm.unit.cavity_laws` with what each can do
+CAVITY_LAWS = tuple(LAWS)
 
 _FACE_ORIENTATION = {"xmin": "vertical", "xmax": "vertical", "ymin": "vertical", "ymax": "vertical",
                      "zmin": "down", "zmax": "up"}
@@ -138,15 +140,16 @@ class ModelOptions:
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v > 0):
                 raise InputError(f"model option {name!r} must be a finite number > 0 or None (off), got {v!r}")
-        if self.cavity_law not in CAVITY_LAWS:
+        if self.cavity_law not in LAWS:
             raise InputError(f"model option 'cavity_law': unknown value {self.cavity_law!r}; "
-                             f"valid: {', '.join(CAVITY_LAWS)}")
+                             f"valid: {', '.join(LAWS)}")
         if not (isinstance(self.cavity_law_blend, (int, float, np.floating)) and 0.0 <= self.cavity_law_blend <= 1.0):
             raise InputError(f"model option 'cavity_law_blend' must be a number in [0, 1] (0: s2s, 1: effective), "
                              f"got {self.cavity_law_blend!r}")
-        if self.cavity_law_blend and self.cavity_law != "s2s":
+        if self.cavity_law_blend and not cavity_law(self.cavity_law).blendable:
+            blendable = " or ".join(repr(n) for n, law in LAWS.items() if law.blendable)
             raise InputError(f"model option 'cavity_law_blend' = {self.cavity_law_blend:g} blends the effective law "
-                             f"into the s2s law; it needs cavity_law 's2s', not {self.cavity_law!r}")
+                             f"into the s2s law; it needs cavity_law {blendable}, not {self.cavity_law!r}")
         if not (np.isfinite(self.cavity_patch_mm) and self.cavity_patch_mm > 0):
             raise InputError(f"model option 'cavity_patch_mm' must be a finite number > 0 [mm], "
                              f"got {self.cavity_patch_mm!r}")
@@ -337,14 +340,14 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
     k = k_part[cp]  # (nx, ny, nz, 3)
 
     fill = grid.part_names.index("fill")
-    law = options.cavity_law if options.cavity_radiation else "none"
+    law = cavity_law_of(options)
     in_air = options.material(parts[fill].material).name == "air"
-    blend = float(options.cavity_law_blend) if law == "s2s" else 0.0
+    blend = float(options.cavity_law_blend) if law.blendable else 0.0
     exchanges = ()
-    if law == "s2s" and in_air:  # kept at w = 1 (exchanging nothing): a reduced model's knob changes its G
+    if law.patches and in_air:  # kept at w = 1 (exchanging nothing): a reduced model's knob changes its G
         ex = cavity_exchange_law(geometry, grid, options) if exchange is None else exchange
         exchanges = (ex.scaled(1.0 - blend) if blend else ex,)
-    weight = 1.0 if law == "effective" else blend  # the effective law's share of the cavity radiation
+    weight = law.conductivity_share + blend  # the effective law's share of the cavity radiation
     if weight > 0 and in_air:
         air = cp == fill
         mean_T = ambient + 10.0  # linearisation point [degC]: hot parts run ~0-30 K above ambient
@@ -391,7 +394,7 @@ def s2s_patches(geometry: Geometry, options: ModelOptions, mesh_size_mm: float, 
     from imutherm.geometry.mesh import build_mesh
     from imutherm.thermal.cavity_radiation import find_patches
 
-    if not options.cavity_radiation or options.cavity_law != "s2s":
+    if not cavity_law_of(options).patches:
         return 0
     fill = next((p for p in geometry.parts if p.name == "fill"), None)
     if fill is None or options.material(fill.material).name != "air":

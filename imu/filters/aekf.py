@@ -89,11 +89,12 @@ P0 yaw (5°)²); initial bias the rest-window mean rate.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
 
+from imutherm.imu.filters.registry import FilterSpec, Tuned, register
 from imutherm import InputError
 from imutherm.imu.filters.noise_als import NoiseEstimate, als_noise, stationary_segments
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, initial_bias,
@@ -587,3 +588,26 @@ def run_aekf(gyro, accel, dt: float, params: AEKFParams = AEKFParams(), *, gnss=
     if return_trace:
         return est, AEKFTrace(t_idx=t_idx, R=R, q_gyro=q, yaw=yaw, bias=bias, als=als)
     return est
+
+
+# --------------------------------------------------------------------------- the registry's entries
+
+def _run_aekf_spec(x, p):
+    return run_aekf(x.gyro, x.accel, x.dt, replace(p or AEKFParams(), gyro_sample=x.gyro_sample), init_s=x.init_s,
+                    lever_arm=x.lever_arm, steps=x.steps)
+
+
+def _run_aekf_gnss_spec(x, p):
+    return run_aekf(x.gyro, x.accel_raw, x.dt, replace(p or AEKFParams(), gyro_sample=x.gyro_sample), gnss=x.gnss,
+                    init_s=x.init_s, steps=x.steps)
+
+
+register(FilterSpec("aekf", _run_aekf_spec, AEKFParams, "ours",
+                    "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple", in_study=True,
+                    varying_dt=True, linestyle=(0, (3, 1)), rank=50,
+                    tuning=(Tuned("tau_acc", 1.0, 1.0, (0.1, 100.0), "tau_acc [s]; 0 = the block mean", off=(0.0,)),
+                            Tuned("memory_s", 1.0, 31.6, (0.1, 1000.0), "memory_s [s] the fading memory of the "
+                                                                        "adaptation laws"))))
+register(FilterSpec("aekf_gnss", _run_aekf_gnss_spec, AEKFParams, "ours",
+                    "Wang et al.'s adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True, varying_dt=True,
+                    rank=60))

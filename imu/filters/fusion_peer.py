@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import imufusion
 import numpy as np
 
+from imutherm.imu.filters.registry import FilterSpec, Tuned, register
 from imutherm.imu.attitude_math import G0, gravity_dir_body
 
 _FLU = np.array([1.0, -1.0, -1.0])  # FRD <-> FLU axis flip
@@ -193,3 +194,13 @@ def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams(), *,
         ignored.append(st().accelerometer_ignored)
     return estimate_from_gravity("fusion", _down_frd(np.array(q).reshape(-1, 4)), ~np.array(ignored, bool),
                                  time.perf_counter() - t0)
+
+
+# --------------------------------------------------------------------------- the registry's entry
+
+register(FilterSpec("fusion", lambda x, p: run_fusion(x.gyro, x.accel, x.dt, p or x.fusion, steps=x.steps),
+                    FusionParams, "peer", "x-io Fusion (imufusion) README recommended settings", "tab:red",
+                    base=lambda x: x.fusion, in_study=True, varying_dt=True, linestyle="-.", rank=40, gyro_range=True,
+                    tuning=(Tuned("gain", 3.16e-3, 1.0, (1e-4, 10.0), "gain [-] of x-io Fusion"),
+                            Tuned("rejection_timeout", 3.16, 1000.0, (0.1, 1e4), "acceleration-rejection timeout "
+                                                                                 "[s]"))))

@@ -14,12 +14,12 @@ the lever arm d = [dx, dy, dz] from the CG and the turn radius L::
     σω̇ = sqrt(3) · δω̇_y        (strict case dx >> dy, dz)
 
 and each threshold is widened by R(·), the standard deviation of the same
-gate signal measured in steady (static) conditions. The seed writes the last
+gate signal measured in steady (static) conditions. Liu et al. 2012 write the last
 one as ``sqrt(3 δω̇_y)``; we use ``sqrt(3) · δω̇_y``, the dimensionally
 consistent reading (PAPER.md's), which has units of angular acceleration.
 
 Gate signals (:func:`gate_signals`) are computed from the samples after a
-first-order low-pass of time constant ``tau`` [s] (the seed's sensor noise
+first-order low-pass of time constant ``tau`` [s] (the sensor noise of Liu et al. 2012's unit
 would otherwise keep ``|ω|`` and the differentiated ``|ω̇|`` above any useful
 threshold); ``ω̇`` is the backward difference of the low-passed rate.
 
@@ -30,7 +30,7 @@ magnitude the accelerometer itself reads at rest, ``g_ref`` (a real part reads
 9.89-9.91 m/s² at rest, 0.1 m/s² above nominal g, which exceeds a 0.08 m/s²
 threshold). The widening R(·) is the level the gate signal at rest does not
 exceed, ``mean + k std`` over the rest window (:func:`gate_noise_level`, k = 4),
-measured at the record's own sample rate: the std alone (the seed's reading)
+measured at the record's own sample rate: the std alone (Liu et al. 2012's reading)
 lies *below* the mean of a positive signal such as ``|LP(ω)|``, so a gate
 widened by it alone can stay shut at rest.
 """

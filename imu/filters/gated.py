@@ -50,6 +50,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numba import njit
 
+from imutherm.imu.filters.registry import FilterSpec, Tuned, register
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, estimate_from_gravity,
@@ -71,7 +72,7 @@ class GatedParams:
     g : float [m/s^2]       |f| reference of the ||f| - g| gate (the accelerometer's reading at rest)
     recover_s : float [s]   recovery: open after |f| and ω̇ conditions held this long even if the
                             rate condition fails (inf: never)
-    tau_acc : float [s]     0 (default): the seed's per-sample on/off gate as published; > 0: the
+    tau_acc : float [s]     0 (default): Liu et al. 2012's per-sample on/off gate as published; > 0: the
                             accelerometer and the rate are low-passed in the estimate's frame
                             (:mod:`imutherm.imu.filters.inertial_lp`) before the gate and the correction,
                             the rate gate tests the low-passed (sustained) rate, on/off, and the |f| and ω̇
@@ -105,7 +106,7 @@ class GatedParams:
                                  "(tau, g > 0)")
         if not (math.isfinite(self.tau_acc) and self.tau_acc >= 0):
             raise InputError(f"GatedParams: tau_acc={self.tau_acc!r} is invalid; valid: a time constant >= 0 [s] "
-                             "(0: the seed's per-sample gate)")
+                             "(0: Liu et al. 2012's per-sample gate)")
         if not (self.recover_s > 0):
             raise InputError(f"GatedParams: recover_s={self.recover_s!r} is invalid; valid: a number > 0 [s] "
                              "(inf: no recovery)")
@@ -428,10 +429,10 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0):
     ω̄ = (ω_{k-1} + ω_k)/2 - b (``trap``: point samples) or ω_k - b (interval samples); the strapdown frame q_I
     (the gyro alone, bias-corrected, never corrected by the accelerometer: VQF's almost-inertial frame, so the
     low-pass stays outside the correction loop and any tau_acc is stable); f_I = C(q_I) f and ω_I = C(q_I) (ω - b)
-    low-passed there (:mod:`imutherm.imu.filters.inertial_lp`, coefficients c); the gate signals of the seed on
+    low-passed there (:mod:`imutherm.imu.filters.inertial_lp`, coefficients c); the gate signals of Liu et al. 2012 on
     the low-passed vectors, e_a = ||f̄_I| - g|, e_w = |ω̄_I|, e_ẇ = |Δω̄_I| / dt; gain weight
     w = min(1, (σa / e_a)²) min(1, (σω̇ / e_ẇ)²), and w = 0 while e_w > σω (a sustained turn: the apparent vertical
-    is not the vertical); the PI correction of the seed toward m = -C(q_I)ᵀ f̄_I / |f̄_I| with kp w and ki w (the
+    is not the vertical); the PI correction of Liu et al. 2012 toward m = -C(q_I)ᵀ f̄_I / |f̄_I| with kp w and ki w (the
     bias in motion); at rest (``rest``: :func:`~imutherm.imu.filters.inertial_lp.rest_step`) the bias follows the
     low-passed gyro with REST_BIAS_TAU (the bias at rest). dts (N,) [s] the step ending at each sample; dt0 [s] the
     design step of the rest detector. Returns (gravity (N,3), used (N,) = w >= 0.5, w (N,)).
@@ -498,7 +499,7 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0):
         if e_a > sa:
             q_w *= (sa / e_a) ** 2
         if e_w > sw:
-            q_w = 0.0  # a sustained turn: the seed's on/off rate gate on the low-passed rate
+            q_w = 0.0  # a sustained turn: Liu et al. 2012's on/off rate gate on the low-passed rate
         if e_wd > swd:
             q_w *= (swd / e_wd) ** 2
         wt[k] = q_w
@@ -581,3 +582,33 @@ def run_lp_core(gyro, accel, dt, params: "GatedParams", S, steps=None):
                     float(params.kp), float(params.ki), float(params.g), float(sa), float(sw), float(swd),
                     butter2_coeffs(params.tau_acc, dt), S, params.gyro_sample == "point", bool(params.rest_bias),
                     float(dt))
+
+
+# --------------------------------------------------------------------------- the registry's entries
+
+def _gyro_sample(p, x):  # the record's gyro sample convention into our filters' params
+    return replace(p, gyro_sample=x.gyro_sample)
+
+
+def _run_gated_spec(x, p):
+    return run_gated(x.gyro, x.accel, x.dt, _gyro_sample(p or x.gated, x), init_s=x.init_s, steps=x.steps)
+
+
+def _run_ungated_spec(x, p):
+    return run_ungated(x.gyro, x.accel, x.dt, _gyro_sample(p or x.ungated or x.gated, x), init_s=x.init_s,
+                       steps=x.steps)
+
+
+register(FilterSpec("gated", _run_gated_spec, GatedParams, "ours",
+                    "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue", base=lambda x: x.gated,
+                    in_study=True, in_sweep=True, varying_dt=True, rank=10,
+                    tuning=(Tuned("tau_acc", 1.0, 31.6, (0.1, 1000.0), "tau_acc [s]; 0 = Liu et al. 2012's per-sample "
+                                  "gate", off=(0.0,)),
+                            Tuned("kp", 0.0316, 1.0, (1e-3, 10.0), "kp [1/s] the correction gain (kp_lp in the "
+                                                                   "low-pass mode)"))))
+register(FilterSpec("ungated", _run_ungated_spec, GatedParams, "ours",
+                    "Liu et al. 2012 update with the gate always open (baseline)", "tab:gray",
+                    base=lambda x: x.ungated or x.gated, in_study=True, varying_dt=True, linestyle=":", rank=30,
+                    tuning=(Tuned("kp", 1e-3, 1.0, (1e-4, 10.0), "kp [1/s], ki [1/s^2] = kp^2 / 30 along Liu et al. "
+                                                                 "2012's ratio (0.3, 0.003), the gate always open",
+                                  derived={"ki": lambda kp: kp * kp / 30.0}),)))

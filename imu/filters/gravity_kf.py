@@ -12,7 +12,7 @@ renormalised to 1.
 Gates (the horizontal-attitude KF paper §4): gate 1, the maximum of ``||f| - g|`` over a window of n
 samples below ``a``: the measurement period becomes nT and f̄ is the window
 mean; gate 2, the innovation norm ``|r_m - r|`` below ``innov_max``. Our
-addition (not in the seed): if gate 1 has passed for a total of
+addition (not in the KF paper): if gate 1 has passed for a total of
 ``reject_timeout_s`` [s] of windows since gate 2 last accepted, the filter
 **re-levels**: ``r ← r_m`` (the window's accelerometer direction) and
 ``p ← p0`` (recovery from a diverged state; accepting a single measurement
@@ -29,7 +29,7 @@ Propagation uses the trapezoidal rate ``(ω_{k-1} + ω_k)/2 - b`` and the exact
 rotation (Rodrigues). The horizontal-attitude KF paper notes that the plain KF (its eq. 32) ignores
 the equivalent gyro drift and that one must either inflate the system noise
 or augment the state with it; ``kb > 0`` does the latter in the form of the
-seed's nonlinear observer (eq. 14): at each accepted measurement
+KF paper's nonlinear observer (eq. 14): at each accepted measurement
 ``b ← b - kb (r_m × r) nT``. ``kb = 0`` is the plain eq. 32 filter.
 """
 
@@ -42,6 +42,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numba import njit
 
+from imutherm.imu.filters.registry import FilterSpec, Tuned, register
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, estimate_from_gravity,
@@ -63,7 +64,7 @@ class KFParams:
     reject_timeout_s : float [s]  re-level after this much gate-1-passing time of gate-2 rejections (inf: never)
     kb : float [1/s^2]        gyro-bias gain of the augmented state (0: plain eq. 32 KF)
     g : float [m/s^2]         |f| reference (the accelerometer's reading at rest)
-    tau_acc : float [s]       0 (default): the seed's window mean and gate 1 as published; > 0: the
+    tau_acc : float [s]       0 (default): the KF paper's window mean and gate 1 as published; > 0: the
                               measurement is the specific force low-passed in a strapdown frame
                               (:func:`_kf_lp_core`, :mod:`imutherm.imu.filters.inertial_lp`) and gate 1 inflates R
                               by (max e_a / a)² instead of rejecting, and gate 2 is widened to 3 σ of the
@@ -345,8 +346,8 @@ def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, 
 
     The frame q_I is the gyro-only strapdown attitude (bias-corrected with the filter's estimate, never
     corrected by the accelerometer, as VQF's inertial frame, so the low-pass is outside the feedback loop).
-    Each sample: r propagated as in the seed; f_I = C(q_I) f low-passed (coefficients c); e_a = ||f̄_I| - g|.
-    Every ``nw`` samples the measurement r_m = -C(q_I)ᵀ f̄_I / |f̄_I| updates r through the seed's gate 2 and
+    Each sample: r propagated as in the KF paper; f_I = C(q_I) f low-passed (coefficients c); e_a = ||f̄_I| - g|.
+    Every ``nw`` samples the measurement r_m = -C(q_I)ᵀ f̄_I / |f̄_I| updates r through the KF paper's gate 2 and
     re-level, with gate 1 as a variance inflation instead of a rejection: R / w, w = min(1, (a / max e_a)²)
     over the window (and the bias gain kb w), gate 2 at max(innov_max, 3 sqrt(p + R / w)); process noise
     q + sf2 |ω|² over each step dts[k] [s] (dt [s]: the design step of the window and the low-pass c). The rate
@@ -426,7 +427,7 @@ def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, 
             sy = c01 * lf[0] + c11 * lf[1] + c21 * lf[2]
             sz = c02 * lf[0] + c12 * lf[1] + c22 * lf[2]
             Re = R / wgt
-            gate2 = max(imax, 3.0 * math.sqrt(p + Re))  # the seed's gate 2, widened to 3 sigma of the innovation
+            gate2 = max(imax, 3.0 * math.sqrt(p + Re))  # the KF paper's gate 2, widened to 3 sigma of the innovation
             rx, ry, rz, p, b, S[28], u = _measure_compiled(rx, ry, rz, p, (bx, by, bz), sx, sy, sz, Re, gate2,
                                                            S[28], period, timeout, kb * wgt, p0)
             bx, by, bz = b[0], b[1], b[2]
@@ -463,3 +464,20 @@ def run_kf_lp_core(gyro, accel, dt, params: "KFParams", S, steps=None):
                        float(params.q), float(params.R), float(params.innov_max), float(params.reject_timeout_s),
                        float(params.kb), float(params.p0), butter2_coeffs(params.tau_acc, dt), S,
                        float(params.sf_std ** 2), params.gyro_sample == "point", bool(params.rest_bias))
+
+
+# --------------------------------------------------------------------------- the registry's entry
+
+def _run_kf_spec(x, p):  # the design KFParams plus the rest window's |f| reference and gate level
+    p = replace(p or x.kf, gyro_sample=x.gyro_sample)
+    return run_kf(x.gyro, x.accel, x.dt, kf_params_from_rest(x.gyro, x.accel, x.dt, x.init_s, p), init_s=x.init_s,
+                  steps=x.steps)
+
+
+register(FilterSpec("kf", _run_kf_spec, KFParams, "ours",
+                    "the horizontal-attitude KF paper's gravity-direction KF; KFParams", "tab:green",
+                    base=lambda x: x.kf, in_study=True, in_sweep=True, varying_dt=True, linestyle="--", rank=20,
+                    tuning=(Tuned("tau_acc", 1.0, 3.16, (0.1, 1000.0), "tau_acc [s]; 0 = the KF paper's window mean "
+                                                                       "and gate 1", off=(0.0,)),
+                            Tuned("q", 1e-7, 3.16e-4, (1e-10, 0.1), "q [rad^2/s] the process noise of the gravity "
+                                                                    "direction"))))

@@ -15,8 +15,7 @@ module lists filters by name.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -62,7 +61,7 @@ class Tuned:
 
     field : the parameter tuned; lo, hi : the span tried first (rounded out to the ladder,
     :data:`TUNING_STEPS_PER_DECADE`), extended a step at a time while the best lies on its edge, up to
-    ``bounds`` (the physically sensible range); off : values tried besides the ladder (e.g. 0: a seed's own mode);
+    ``bounds`` (the physically sensible range); off : values tried besides the ladder (e.g. 0: the source paper's own mode);
     derived : {field: function of this one} moved along with it (a gain pair kept at a published ratio);
     why : what the axis spans, in words.
     """
@@ -119,7 +118,15 @@ class FilterSpec:
     (False: it takes one sample period, ``dt``, the median step);
     real_tuned : tuned on the real development files (:mod:`imutherm.studies.real_tuning`, :func:`real_filters`)
     for the recorded-log settings; False where the procedure's guard (no file worse than the library defaults)
-    would keep defaults that are themselves a trap on real motion.
+    would keep defaults that are themselves a trap on real motion;
+    rank : its place in the registry, the tables and the plots (lower first; ties in registration order);
+    reference : the peer each filter's real-motion figures are set against (the ratio column of the tables);
+    platform_tuned : its defaults are a trap on real motion, so each recorded-log platform runs its tuned setting
+    (:func:`imutherm.studies.recorded.platform_setting`);
+    gyro_range : it takes the sensor's declared gyro full scale (``--gyro-range``: its over-range recovery), and
+    the attitude commands say what it ran with.
+
+    Each filter's spec is registered at the bottom of its own module (as meshio registers each format).
     """
 
     name: str
@@ -136,6 +143,10 @@ class FilterSpec:
     varying_dt: bool = False
     linestyle: object = "-"
     real_tuned: bool = True
+    rank: int = 100
+    reference: bool = False
+    platform_tuned: bool = False
+    gyro_range: bool = False
 
     def params(self, inputs: "FilterInputs"):
         """The params object the filter runs with by default on ``inputs`` (None: it takes none)."""
@@ -148,10 +159,13 @@ REGISTRY: dict[str, FilterSpec] = {}
 
 
 def register(spec: FilterSpec) -> FilterSpec:
-    """Add (or replace) a filter; returns it."""
+    """Add (or replace) a filter, in the registry's order by :attr:`FilterSpec.rank`; returns it."""
     if not spec.name.isidentifier():
         raise InputError(f"filter name {spec.name!r} is invalid; valid: letters, digits, underscores")
     REGISTRY[spec.name] = spec
+    ordered = sorted(REGISTRY.values(), key=lambda s: s.rank)  # stable: ties keep their registration order
+    REGISTRY.clear()
+    REGISTRY.update((s.name, s) for s in ordered)
     return spec
 
 
@@ -214,99 +228,16 @@ def parse_filters(text: str | None, *, gnss: bool = True) -> tuple:
     return names
 
 
-def _register_builtin() -> None:
-    from imutherm.imu.filters.aekf import AEKFParams, run_aekf
-    from imutherm.imu.filters.fusion_peer import FusionParams, run_fusion
-    from imutherm.imu.filters.gated import GatedParams, run_gated, run_ungated
-    from imutherm.imu.filters.gravity_kf import KFParams, kf_params_from_rest, run_kf
-    from imutherm.imu.filters.peers import (EKFParams, MadgwickParams, MahonyParams, VQFParams, run_ekf,
-                                            run_madgwick, run_mahony, run_vqf)
-
-    def gs(p, x):  # the record's gyro sample convention into our filters' params
-        return replace(p, gyro_sample=x.gyro_sample)
-
-    def gated(x, p):
-        return run_gated(x.gyro, x.accel, x.dt, gs(p or x.gated, x), init_s=x.init_s, steps=x.steps)
-
-    def kf(x, p):  # the design KFParams plus the rest window's |f| reference and gate level
-        return run_kf(x.gyro, x.accel, x.dt, kf_params_from_rest(x.gyro, x.accel, x.dt, x.init_s, gs(p or x.kf, x)),
-                      init_s=x.init_s, steps=x.steps)
-
-    def ungated(x, p):
-        return run_ungated(x.gyro, x.accel, x.dt, gs(p or x.ungated or x.gated, x), init_s=x.init_s, steps=x.steps)
-
-    def aekf(x, p):
-        return run_aekf(x.gyro, x.accel, x.dt, gs(p or AEKFParams(), x), init_s=x.init_s, lever_arm=x.lever_arm,
-                        steps=x.steps)
-
-    def aekf_gnss(x, p):
-        return run_aekf(x.gyro, x.accel_raw, x.dt, gs(p or AEKFParams(), x), gnss=x.gnss, init_s=x.init_s,
-                        steps=x.steps)
-
-    specs = [
-        FilterSpec("gated", gated, GatedParams, "ours", "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig",
-                   "tab:blue", base=lambda x: x.gated, in_study=True, in_sweep=True, varying_dt=True,
-                   tuning=(Tuned("tau_acc", 1.0, 31.6, (0.1, 1000.0), "tau_acc [s]; 0 = the seed's per-sample gate",
-                                 off=(0.0,)),
-                           Tuned("kp", 0.0316, 1.0, (1e-3, 10.0), "kp [1/s] the correction gain (kp_lp in the "
-                                                                  "low-pass mode)"))),
-        FilterSpec("kf", kf, KFParams, "ours", "the horizontal-attitude KF paper's gravity-direction KF; KFParams",
-                   "tab:green", base=lambda x: x.kf, in_study=True, in_sweep=True, varying_dt=True, linestyle="--",
-                   tuning=(Tuned("tau_acc", 1.0, 3.16, (0.1, 1000.0), "tau_acc [s]; 0 = the seed's window mean and "
-                                                                      "gate 1", off=(0.0,)),
-                           Tuned("q", 1e-7, 3.16e-4, (1e-10, 0.1), "q [rad^2/s] the process noise of the gravity "
-                                                                   "direction"))),
-        FilterSpec("ungated", ungated, GatedParams, "ours",
-                   "Liu et al. 2012 update with the gate always open (baseline)", "tab:gray",
-                   base=lambda x: x.ungated or x.gated, in_study=True, varying_dt=True, linestyle=":",
-                   tuning=(Tuned("kp", 1e-3, 1.0, (1e-4, 10.0), "kp [1/s], ki [1/s^2] = kp^2 / 30 along the seed's "
-                                                                "ratio (0.3, 0.003), the gate always open",
-                                 derived={"ki": lambda kp: kp * kp / 30.0}),)),
-        FilterSpec("fusion", lambda x, p: run_fusion(x.gyro, x.accel, x.dt, p or x.fusion, steps=x.steps),
-                   FusionParams, "peer", "x-io Fusion (imufusion) README recommended settings", "tab:red",
-                   base=lambda x: x.fusion, in_study=True, varying_dt=True, linestyle="-.",
-                   tuning=(Tuned("gain", 3.16e-3, 1.0, (1e-4, 10.0), "gain [-] of x-io Fusion"),
-                           Tuned("rejection_timeout", 3.16, 1000.0, (0.1, 1e4), "acceleration-rejection timeout "
-                                                                                "[s]"))),
-        FilterSpec("aekf", aekf, AEKFParams, "ours",
-                   "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple", in_study=True,
-                   varying_dt=True, linestyle=(0, (3, 1)),
-                   tuning=(Tuned("tau_acc", 1.0, 1.0, (0.1, 100.0), "tau_acc [s]; 0 = the block mean", off=(0.0,)),
-                           Tuned("memory_s", 1.0, 31.6, (0.1, 1000.0), "memory_s [s] the fading memory of the "
-                                                                       "adaptation laws"))),
-        FilterSpec("aekf_gnss", aekf_gnss, AEKFParams, "ours",
-                   "Wang et al.'s adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True, varying_dt=True),
-        FilterSpec("vqf", lambda x, p: run_vqf(x.gyro, x.accel, x.dt, p or VQFParams(), init_s=x.init_s), VQFParams,
-                   "peer", "VQF, Laidig & Seel, Information Fusion 91, 2023 (vqf package defaults)", "black",
-                   in_study=True, linestyle=(0, (5, 1, 1, 1, 1, 1)),
-                   tuning=(Tuned("tauAcc", 1.0, 1000.0, (0.1, 1e5), "tauAcc [s], VQF's accelerometer low-pass time "
-                                                                    "constant (its main tuning parameter)"),
-                           Tuned("biasSigmaMotion", 0.0316, 1.0, (1e-3, 2.0),
-                                 "biasSigmaMotion [deg/s], the converged uncertainty of VQF's motion bias update "
-                                 "(package default 0.1), bounded at VQF's biasClip 2 deg/s, the largest bias it "
-                                 "admits; inf = the update off (motionBiasEstEnabled false), its limit",
-                                 off=(math.inf,)))),
-        FilterSpec("madgwick", lambda x, p: run_madgwick(x.gyro, x.accel, x.dt, p or MadgwickParams(),
-                                                         init_s=x.init_s, steps=x.steps), MadgwickParams, "peer",
-                   "ahrs Madgwick defaults", "tab:orange", varying_dt=True,
-                   tuning=(Tuned("gain", 3.16e-4, 0.1, (1e-5, 10.0), "gain [rad/s] (published default 0.033)"),)),
-        FilterSpec("mahony", lambda x, p: run_mahony(x.gyro, x.accel, x.dt, p or MahonyParams(), init_s=x.init_s,
-                                                     steps=x.steps), MahonyParams, "peer",
-                   "ahrs Mahony defaults (k_P 1.0, k_I 0.3), a trap on real motion: every motion profile and "
-                   "recorded-log platform runs its tuned setting (studies.recorded.platform_mahony); not tuned on "
-                   "the real files, where the guard against its defaults keeps them (24 deg on BROAD trial 16)",
-                   "tab:pink", varying_dt=True, real_tuned=False,
-                   tuning=(Tuned("k_P", 3.16e-3, 1.0, (1e-4, 10.0), "k_P [1/s], k_I [1/s^2] = 0.3 k_P^2 (published "
-                                                                   "default (1, 0.3))",
-                                 derived={"k_I": lambda k: 0.3 * k * k}),)),
-        FilterSpec("ekf", lambda x, p: run_ekf(x.gyro, x.accel, x.dt, p or EKFParams(), init_s=x.init_s,
-                                               steps=x.steps), EKFParams,
-                   "peer", "ahrs EKF defaults", "tab:olive", varying_dt=True,
-                   tuning=(Tuned("var_acc", 0.316, 3.16e4, (1e-3, 1e7), "var_acc [-] of the unit gravity vector "
-                                                                       "(published default 0.25)"),)),
-    ]
-    for s in specs:
-        register(s)
+def reference_filter() -> str | None:
+    """The filter each filter's real-motion figures are set against (:attr:`FilterSpec.reference`), or None."""
+    return next((n for n, s in REGISTRY.items() if s.reference), None)
 
 
-_register_builtin()
+def platform_tuned_filters() -> tuple:
+    """The filters each recorded-log platform runs at its tuned setting (:attr:`FilterSpec.platform_tuned`)."""
+    return tuple(n for n, s in REGISTRY.items() if s.platform_tuned)
+
+
+def gyro_range_filters(names) -> tuple:
+    """Those of ``names`` that take the sensor's declared gyro range (:attr:`FilterSpec.gyro_range`)."""
+    return tuple(n for n in names if n in REGISTRY and REGISTRY[n].gyro_range)

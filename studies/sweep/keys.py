@@ -168,3 +168,56 @@ def _split_set(item: str) -> tuple:
     if not key:
         raise InputError(f"--set {item!r}: missing KEY before '='")
     return key, text
+
+
+# ------------------------------------------------------------------ the keys a reduced model carries
+
+#: the sweep's ``--surrogate`` choices: ``reduced`` cases on the scheme's reduced model
+#: (:mod:`imutherm.studies.sweep.surrogate`), ``none`` the full FEM, ``auto`` the reduced model where every key is a knob
+SURROGATES = ("auto", "reduced", "none")
+#: default number of cases re-run on the full FEM
+VERIFY_DEFAULT = 5
+#: largest site / hot-spot error [K] a verified case may show (the sweep's accuracy target: checked cases within 0.1 K)
+VERIFY_TOL_K = 0.1
+#: options keys the reduced model carries, with their kind
+_OPTION_KEYS = {"options.mounting_conductance_W_m2K": "linear", "options.emissivity": "linear",
+                "options.convection_scale": "linear", "options.h_fixed_W_m2K": "linear",
+                "options.bond_contact_W_m2K": "contact", "options.standoff_contact_W_m2K": "contact",
+                "options.cavity_emissivity": "cavity", "options.cavity_surface_emissivity": "cavity",
+                "options.cavity_wall_emissivity": "cavity"}
+_LAYOUT_KEYS = {"mounting.contact_conductance_W_m2K": "linear"}
+_MATERIAL_KIND = {"k": "k", "k_in_plane": "k", "k_through": "k", "emissivity": "cavity"}
+
+def key_kind(key: str) -> str | None:
+    """``power``, ``linear``, ``contact``, ``k``, ``cavity``: how the reduced model carries ``key``; None if it
+    cannot (the key moves the mesh, the ambient, a fixture temperature or the heat capacity)."""
+    parts = key.split(".")
+    if len(parts) == 3 and parts[0] in ("components", "parts") and parts[2] == "power_W":
+        return "power"
+    if key in _OPTION_KEYS:
+        return _OPTION_KEYS[key]
+    if key in _LAYOUT_KEYS:
+        return _LAYOUT_KEYS[key]
+    if len(parts) == 3 and parts[0] == "materials":
+        return _MATERIAL_KIND.get(parts[2])
+    return None
+
+
+def surrogate_keys(factors, geometry) -> tuple:
+    """(ok, reason): whether every factor is a knob of the reduced model of ``geometry``'s scheme."""
+    from imutherm.unit.effects import power_part
+
+    for f in factors:
+        kind = key_kind(f.key)
+        if kind is None:
+            return False, (f"{f.key} is not a knob of the reduced model (it moves the mesh, the ambient, a "
+                           "fixture temperature or the heat capacity); knobs are powers, conductivities, "
+                           "contact and mounting conductances, convection factor and emissivities")
+        if kind == "power":
+            try:
+                power_part(geometry, f.key.split(".")[1])
+            except InputError:
+                return False, f"{f.key}: the part has no power in the layout, so no die load to scale"
+        if kind in ("contact", "k") and f.bounds[0] <= 0:
+            return False, f"{f.key}: a conductance range must be > 0 for the reduced model, got {f.bounds[0]:g}"
+    return True, ""

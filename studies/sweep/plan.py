@@ -286,7 +286,7 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     fitted : FittedModel or None, the correlated model (:mod:`imutherm.studies.fitted_model`): its powers
         act on every case's layout (after the case's own values); its other values must already be in
         ``options`` (``imutherm.cli._options.run_inputs``)
-    surrogate : ``reduced`` (cases on the scheme's reduced model, :mod:`imutherm.studies.sweep_surrogate`:
+    surrogate : ``reduced`` (cases on the scheme's reduced model, :mod:`imutherm.studies.sweep.surrogate`:
         every key must be one of its knobs), ``none`` (every case on the full FEM) or ``auto`` (reduced when
         every key is a knob and no attitude columns are asked for, else none)
     verify : int, cases re-run on the full FEM to prove a reduced-model sweep (default 5)
@@ -297,12 +297,12 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     """
     if method not in METHODS:
         raise InputError(f"--method: unknown {method!r}; valid: {', '.join(METHODS)}")
-    from imutherm.studies import sweep_surrogate as SS
+    from imutherm.studies.sweep.keys import SURROGATES, VERIFY_DEFAULT, VERIFY_TOL_K, surrogate_keys
 
-    if surrogate not in SS.SURROGATES:
-        raise InputError(f"--surrogate: unknown {surrogate!r}; valid: {', '.join(SS.SURROGATES)}")
-    verify = SS.VERIFY_DEFAULT if verify is None else verify
-    verify_tol_K = SS.VERIFY_TOL_K if verify_tol_K is None else verify_tol_K
+    if surrogate not in SURROGATES:
+        raise InputError(f"--surrogate: unknown {surrogate!r}; valid: {', '.join(SURROGATES)}")
+    verify = VERIFY_DEFAULT if verify is None else verify
+    verify_tol_K = VERIFY_TOL_K if verify_tol_K is None else verify_tol_K
     if not (isinstance(verify, int) and verify >= 0):
         raise InputError(f"--verify must be an integer >= 0 (cases re-run on the full FEM), got {verify!r}")
     if not (isinstance(verify_tol_K, (int, float)) and math.isfinite(verify_tol_K) and verify_tol_K > 0):
@@ -368,7 +368,7 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
                              "yet; use --surrogate none")
         surrogate = "none"
     if surrogate != "none":
-        fits, why = SS.surrogate_keys(factors, build_geometry(base_layout, scheme))
+        fits, why = surrogate_keys(factors, build_geometry(base_layout, scheme))
         if surrogate == "reduced" and attitude:
             raise InputError("--surrogate reduced gives thermal outputs only; --attitude needs --surrogate none")
         if surrogate == "reduced" and not fits:

@@ -47,7 +47,7 @@ class SweepResult:
     lost: tuple
     sensitivity: dict
     wall_s: float
-    #: the reduced-model sweep's check against the full FEM (:func:`~imutherm.studies.sweep_surrogate.verification_summary`)
+    #: the reduced-model sweep's check against the full FEM (:func:`~imutherm.studies.sweep.surrogate.verification_summary`)
     verification: dict | None = None
     #: timings of the reduced-model sweep [s]: build, evaluation, verification
     timings: dict | None = None
@@ -217,18 +217,18 @@ def _run_reduced(plan, out, csv_path, json_path, jobs, dask_address, client, pro
 
     The rows are written at once (a run of thousands of cases takes seconds; a resume recomputes them all).
     """
-    from imutherm.studies import sweep_surrogate as SS
+    from imutherm.studies.sweep import surrogate
 
     say = (lambda m: print(m, flush=True)) if progress else (lambda m: None)
     s = plan.settings
-    sur = SS.build_surrogate(plan, progress=say)
+    sur = surrogate.build_surrogate(plan, progress=say)
     t1 = time.perf_counter()
-    rows = SS.evaluate_all(sur, plan.X, s.transient, s.t_end)
+    rows = surrogate.evaluate_all(sur, plan.X, s.transient, s.t_end)
     t_eval = time.perf_counter() - t1
     say(f"reduced model: {len(rows)} cases in {t_eval:.1f} s (basis {sur.rom.basis_size}, built in {sur.build_s:.0f} s)")
     rows = [dict(zip(plan.columns, _defaults(plan, r))) for r in rows]
     _write_text(csv_path, ",".join(plan.columns) + "\n" + "".join(_row_line(plan, r) for r in rows))
-    ids = SS.pick_cases(len(plan.cases), plan.design["verify"], plan.design["seed"])
+    ids = surrogate.pick_cases(len(plan.cases), plan.design["verify"], plan.design["seed"])
     full_rows, lost = [], []
     t2 = time.perf_counter()
     if ids:
@@ -248,9 +248,9 @@ def _run_reduced(plan, out, csv_path, json_path, jobs, dask_address, client, pro
             bar.close()
     t_verify = time.perf_counter() - t2
     by_id = {r["case"]: r for r in rows}
-    checks = [SS.compare_rows(by_id[f["case"]], f, s.sites) for f in sorted(full_rows, key=lambda r: r["case"])]
+    checks = [surrogate.compare_rows(by_id[f["case"]], f, s.sites) for f in sorted(full_rows, key=lambda r: r["case"])]
     checks += [{"case": i, "status": "failed", "message": "worker lost"} for i in lost]
-    ver = SS.verification_summary(checks, plan.design["verify_tol_K"], SS.VERIFY_T95_REL, s.transient)
+    ver = surrogate.verification_summary(checks, plan.design["verify_tol_K"], surrogate.VERIFY_T95_REL, s.transient)
     sens = sensitivity(plan, rows)
     failed = sum(r["status"] == "failed" for r in rows)
     wall = time.perf_counter() - start

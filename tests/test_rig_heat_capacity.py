@@ -1,10 +1,10 @@
-"""The fixture-capacity estimate (studies/fixture.py) against the analytic lumped solutions."""
+"""The fixture-capacity estimate (studies/rig_heat_capacity.py) against the analytic lumped solutions."""
 
 import numpy as np
 import pytest
 
 from imutherm import InputError
-from imutherm.studies.fixture import fixture_response, fixture_theta, t95
+from imutherm.studies.rig_heat_capacity import fixture_response, fixture_theta, t95
 
 
 def test_step_response_is_the_first_order_exponential():

@@ -7,7 +7,7 @@ parametric family of one operator: the reduced model of the scheme carries each 
 one r x r solve (r ~ 100) instead of a nonlinear FEM solve of ~2e5 unknowns. Keys that move the
 mesh, the ambient or a fixture temperature (the reduced model is linearised about the ambient),
 or the heat capacity (the reduced mass matrix is fixed) are not knobs: such a sweep runs on the
-full FEM (:func:`surrogate_keys` says why).
+full FEM (:func:`~imutherm.studies.sweep.keys.surrogate_keys` says why).
 
 What the reduced model gives per case: the steady rise of every site, the largest rise (over the
 sites and the hottest node of each powered part in the nominal field: the field's maximum lies
@@ -31,12 +31,8 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.thermal.reduced import Knob, SparsePlusLowRank, build_reduced, linearised, sparse_part
+from imutherm.studies.sweep.keys import key_kind
 
-SURROGATES = ("auto", "reduced", "none")
-#: default number of cases re-run on the full FEM
-VERIFY_DEFAULT = 5
-#: largest site / hot-spot error [K] a verified case may show (the sweep's accuracy target: checked cases within 0.1 K)
-VERIFY_TOL_K = 0.1
 #: largest relative t95 error of a verified case with the transient (the study's t95 target, 1 %)
 VERIFY_T95_REL = 0.01
 #: relative size of a non-additive part of two knobs' operator changes that makes them a coupled pair
@@ -46,52 +42,9 @@ ADDITIVE_RTOL = 1e-8
 #: material conductivities (linear in the cells, in series at contacts), cavity emissivities (the
 #: radiosity exchange is nearly linear, see knobs.S2S_EMISSIVITY_NODES)
 NODES_LINEAR, NODES_CONTACT, NODES_K, NODES_CAVITY = 3, 6, 5, 4
-#: options keys the reduced model carries, with their kind
-_OPTION_KEYS = {"options.mounting_conductance_W_m2K": "linear", "options.emissivity": "linear",
-                "options.convection_scale": "linear", "options.h_fixed_W_m2K": "linear",
-                "options.bond_contact_W_m2K": "contact", "options.standoff_contact_W_m2K": "contact",
-                "options.cavity_emissivity": "cavity", "options.cavity_surface_emissivity": "cavity",
-                "options.cavity_wall_emissivity": "cavity"}
-_LAYOUT_KEYS = {"mounting.contact_conductance_W_m2K": "linear"}
-_MATERIAL_KIND = {"k": "k", "k_in_plane": "k", "k_through": "k", "emissivity": "cavity"}
 #: time grid of the reduced transient [s] (times t_end x this): dense enough that t95's log interpolation
 #: between points is exact to < 1e-4 of t95 for the unit's time constants
 _T_GRID = np.concatenate([[0.0], np.geomspace(1e-4, 1.0, 600)])
-
-
-def key_kind(key: str) -> str | None:
-    """``power``, ``linear``, ``contact``, ``k``, ``cavity``: how the reduced model carries ``key``; None if it
-    cannot (the key moves the mesh, the ambient, a fixture temperature or the heat capacity)."""
-    parts = key.split(".")
-    if len(parts) == 3 and parts[0] in ("components", "parts") and parts[2] == "power_W":
-        return "power"
-    if key in _OPTION_KEYS:
-        return _OPTION_KEYS[key]
-    if key in _LAYOUT_KEYS:
-        return _LAYOUT_KEYS[key]
-    if len(parts) == 3 and parts[0] == "materials":
-        return _MATERIAL_KIND.get(parts[2])
-    return None
-
-
-def surrogate_keys(factors, geometry) -> tuple:
-    """(ok, reason): whether every factor is a knob of the reduced model of ``geometry``'s scheme."""
-    from imutherm.unit.effects import power_part
-
-    for f in factors:
-        kind = key_kind(f.key)
-        if kind is None:
-            return False, (f"{f.key} is not a knob of the reduced model (it moves the mesh, the ambient, a "
-                           "fixture temperature or the heat capacity); knobs are powers, conductivities, "
-                           "contact and mounting conductances, convection factor and emissivities")
-        if kind == "power":
-            try:
-                power_part(geometry, f.key.split(".")[1])
-            except InputError:
-                return False, f"{f.key}: the part has no power in the layout, so no die load to scale"
-        if kind in ("contact", "k") and f.bounds[0] <= 0:
-            return False, f"{f.key}: a conductance range must be > 0 for the reduced model, got {f.bounds[0]:g}"
-    return True, ""
 
 
 def knob_of(factor, geometry) -> Knob:

@@ -1,4 +1,4 @@
-"""A test fixture of finite heat capacity under the unit: what it does to the power-on curve (an estimate).
+"""A test rig's heat capacity under the unit (a fixture plate): what it does to the power-on curve (an estimate).
 
 The unit model bolts the base to a fixture *held at* ``mounting.temperature_C``. A real test fixture (an
 adapter plate on an oven shelf, a bench plate) has a heat capacity C_f [J/K] and loses heat to the chamber

@@ -1,0 +1,144 @@
+"""The end-to-end study of every scheme (:func:`run_study`): thermal cases in worker processes, each scheme's
+IMU cases queued as soon as its thermal result is in.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.geometry.layout import LayoutSpec, load_layout
+from imutherm.unit.model import ModelOptions
+from imutherm.studies.end_to_end.config import SchemeStudy, StudyConfig, StudyResult
+from imutherm.studies.end_to_end.imu import bare_calibration, imu_case, reduce_cases
+from imutherm.studies.end_to_end.thermal import _one_blas_thread, longest_first, site_curves, thermal_case
+
+
+def _imu_jobs(pool, config: StudyConfig, seeds, bare, args):
+    if pool is None:
+        return [imu_case(config.grade, s, *args, config, bare[s]) for s in seeds]
+    return [pool.submit(imu_case, config.grade, s, *args, config, bare[s]) for s in seeds]
+
+
+def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: StudyConfig = StudyConfig(),
+              options: ModelOptions | None = None, jobs: int | None = None, progress: bool = False,
+              **thermal_kwargs) -> StudyResult:
+    """The end-to-end study of every scheme (module docstring).
+
+    Parameters
+    ----------
+    layout : LayoutSpec, path, built-in name or None (the reference unit)
+    schemes : scheme names of the layout
+    config : StudyConfig (IMU side)
+    options : ModelOptions (thermal laws; default :class:`ModelOptions`)
+    jobs : int, worker processes (default: min(2, CPUs)); 1 runs everything in this process. With
+        ``jobs`` > 1 the schemes' thermal solves run side by side in the workers, the longest first
+        (:func:`longest_first`), and each scheme's IMU cases (one per seed) are queued as soon as its thermal
+        result is in, whichever finishes first.
+    progress : bool, print one line per stage
+    **thermal_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme` (mesh_size_mm, min_cells,
+        transient time settings); the transient is always run. ``estimate_mesh_error=True``: each scheme's
+        steady answer also gets its discretisation error (:func:`~imutherm.studies.thermal_study.mesh_error`,
+        one refined solve at a time over the workers)
+    """
+    from imutherm.studies.thermal_study import result_summary
+
+    start = time.perf_counter()
+    layout, schemes, options, jobs, seeds = _study_inputs(layout, schemes, options, jobs, config)
+    thermal_kwargs.pop("transient", None)
+    pool = _study_pool(jobs)
+    try:
+        pending, thermal = _thermal_then_imu(pool, jobs, layout, schemes, options, config, seeds, progress,
+                                             thermal_kwargs)
+        out = {}
+        for sch in schemes:
+            cases = [c if isinstance(c, dict) else c.result() for c in pending[sch]]
+            res, chamber, rise, oven = thermal[sch]
+            out[sch] = SchemeStudy(scheme=sch, thermal=res, summary=result_summary(res), chamber_C=chamber,
+                                   rise_K=rise, imu=reduce_cases(cases), series=cases[0]["series"],
+                                   oven_solves=tuple(oven))
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+    return StudyResult(layout=layout, config=config, options=options, schemes=out,
+                       wall_s=time.perf_counter() - start)
+
+
+def _study_inputs(layout, schemes, options, jobs, config: StudyConfig) -> tuple:
+    """(layout, schemes, options, workers, seeds) of a study, checked (unknown schemes, ``jobs`` < 1 refused);
+    the workers no more than the tasks that can run at once."""
+    from imutherm.studies.cost import usable_workers
+
+    layout = layout if isinstance(layout, LayoutSpec) else load_layout(layout)
+    schemes = tuple(schemes)
+    unknown = [s for s in schemes if s not in layout.schemes]
+    if unknown or not schemes:
+        raise InputError(f"{layout.path}: unknown scheme(s) {unknown or '(none given)'}; "
+                         f"valid: {', '.join(layout.schemes)}")
+    options = options or ModelOptions()
+    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
+    if jobs < 1:
+        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    seeds = tuple(range(config.seed0, config.seed0 + config.seeds))
+    jobs = usable_workers(jobs, len(schemes) * len(seeds))   # the most tasks that can run at once
+    return layout, schemes, options, jobs, seeds
+
+
+def _study_pool(jobs: int):
+    """The study's worker processes (one BLAS thread each, a shared lock for the refined solves), or None."""
+    if jobs <= 1:
+        return None
+    import multiprocessing
+
+    # fork (where there is one) before any solve starts: user scripts need no __main__ guard
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    ctx = multiprocessing.get_context(method)
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_one_blas_thread,
+                               initargs=(ctx.Lock(),))
+
+
+def _thermal_then_imu(pool, jobs: int, layout, schemes, options, config: StudyConfig, seeds, progress: bool,
+                      thermal_kwargs: dict) -> tuple:
+    """(scheme -> its IMU cases (results, or futures on ``pool``), scheme -> (SchemeResult, chamber, rise, oven
+    solves)): each scheme's thermal case, in order of completion, its IMU cases queued as soon as it is in."""
+    from imutherm.imu.sensor_model import SITES
+
+    need_bare = "bare" in config.calibrations
+    if pool is None:
+        thermal_futs = None
+        bare = {s: bare_calibration(config.grade, s) if need_bare else None for s in seeds}
+    else:
+        if progress:
+            print(f"thermal (steady, power-on transient, oven self-heating) of {', '.join(schemes)} "
+                  f"in {jobs} processes ...", flush=True)
+        thermal_futs = {pool.submit(thermal_case, layout, sch, options, config.chamber_C, **thermal_kwargs): sch
+                        for sch in longest_first(layout, schemes, options)}
+        bare_futs = {s: pool.submit(bare_calibration, config.grade, s) if need_bare else None for s in seeds}
+        bare = None
+    pending, thermal = {}, {}
+    # in order of completion: each scheme's IMU cases are queued as soon as its thermal result is in
+    for item in (schemes if pool is None else as_completed(thermal_futs)):
+        if thermal_futs is None:
+            sch = item
+            if progress:
+                print(f"scheme {sch}: thermal (steady, power-on transient, oven self-heating) ...", flush=True)
+            res, chamber, rise, oven = thermal_case(layout, sch, options, config.chamber_C, progress=progress,
+                                                    **thermal_kwargs)
+        else:
+            sch = thermal_futs[item]
+            res, chamber, rise, oven = item.result()
+            if bare is None:
+                bare = {s: f.result() if f is not None else None for s, f in bare_futs.items()}
+        t, T = site_curves(res)
+        idx = [res.steady.probe_names.index(s) for s in SITES]
+        steady_T = np.asarray(res.steady.probe_C)[idx]
+        if progress:
+            print(f"scheme {sch}: thermal done ({res.wall_s:.0f} s); IMU and attitude, {len(seeds)} seeds ...",
+                  flush=True)
+        pending[sch] = _imu_jobs(pool, config, seeds, bare, (t, T, steady_T, chamber, rise))
+        thermal[sch] = (res, chamber, rise, oven)
+    return pending, thermal
