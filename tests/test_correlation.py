@@ -597,21 +597,37 @@ def test_sparse_files_get_the_cavity_laws_form_as_a_prior_band():
 @pytest.mark.slow
 def test_forward_selection_names_two_hidden_effects_and_stops_at_two(tmp_path, models_effective):
     """0.35 W more at the 5 V regulator and a poor bond line (h = 120 W/m^2 K: grease scheme only) hidden
-    together, generated on a finer mesh with ±10 % nuisance and noise: both named, and nothing after them."""
+    together, generated on a finer mesh with ±10 % nuisance and noise: the bond line named first, the regulator
+    second or, where the data cannot tell it from a neighbour, ranked first of a tie the words name; nothing
+    wrong named.
+
+    Why a tie is allowed: with the fill's gaps resolved (the mesh of 2026-12-05) the second step ranks
+    power@reg_5v (0.29 W fitted, the re-tune's power scale at 1.01) 4.0 in AICc ahead of power@reg_1v8 (-0.10 W,
+    the power scale at its 1.15 bound), both predicting the held-out readings to 0.067 / 0.066 K: under the
+    ΔAICc 6 runner-up margin, which the selection does not lower for one case (before that mesh: named)."""
     case = make_case(tmp_path / "case", "power@reg_5v", np.random.default_rng(5), mesh_size_mm=GEN_MM, min_cells=1,
                      value=0.35, samples=30, also={"contact@bond": 120.0}, options=models_effective.options)
     res = correlate([read_measured(f) for f in case.files], models=models_effective, rerun=False)
     assert res.verdict == "effect", (res.verdict, res.timings["reason"])
-    assert set(res.named_effects) == {"power@reg_5v", "contact@bond"}, res.timings["reason"]
-    assert len(res.steps) == 3 and res.steps[2]["verdict"] != "effect"  # a third step was tried and named nothing
+    assert res.named_effects[0] == "contact@bond", res.timings["reason"]
+    assert set(res.named_effects) <= {"power@reg_5v", "contact@bond"}, res.timings["reason"]  # nothing not hidden
     j = json.loads(json.dumps(result_json(res)))
     assert [e["name"] for e in j["named_effects"]] == list(res.named_effects)
     assert j["named_effect"] == res.named_effects[0]
     assert all(e["heldout_gain_K"] > 0 for e in j["named_effects"])
-    lo, hi = j["named_effects"][[e["name"] for e in j["named_effects"]].index("power@reg_5v")]["parameters"][
-        "power@reg_5v"]["ci95"]
-    assert lo <= 0.35 * 1.3 and hi >= 0.35 * 0.7
     assert j["heldout_rms_after_K"] <= 0.3 * j["heldout_rms_before_K"]
+    if "power@reg_5v" in res.named_effects:
+        assert len(res.steps) == 3 and res.steps[2]["verdict"] != "effect"  # a third step was tried, named nothing
+        lo, hi = j["named_effects"][[e["name"] for e in j["named_effects"]].index("power@reg_5v")]["parameters"][
+            "power@reg_5v"]["ci95"]
+        assert lo <= 0.35 * 1.3 and hi >= 0.35 * 0.7
+    else:   # the second step's tie: the hidden regulator first, its fitted power within 30 %, named in the words
+        second = res.steps[1]
+        assert second["verdict"] == "ambiguous", second["reason"]
+        best = second["ranking"][0]
+        assert best.name == "contact@bond+power@reg_5v", [f.name for f in second["ranking"][:3]]
+        assert 0.35 * 0.7 <= best.values["power@reg_5v"] <= 0.35 * 1.3
+        assert "contact@bond+power@reg_5v" in res.timings["reason"]
 
 
 @pytest.mark.slow

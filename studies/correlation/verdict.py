@@ -139,8 +139,9 @@ def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) ->
         why = "; ".join(f"{f.name} fits better (ΔAICc {best.aicc - f.aicc:.1f}) but was refused: "
                         + _refusal(f, none, gap, noise_K) for f in refused)
         amb = tuple(f.name for f in sorted(refused + [best] + close, key=_rank_key))
+        tied = ", ".join([best.name] + [f"{f.name} (+{f.aicc - best.aicc:.1f})" for f in sorted(close, key=_rank_key)])
         return "ambiguous", None, amb, "; ".join(x for x in (why, f"{len(close) + 1} candidate(s) within ΔAICc "
-                                                               f"{MARGIN_RUNNER_UP:g}" if close else "") if x)
+                                                               f"{MARGIN_RUNNER_UP:g}: {tied}" if close else "") if x)
     return "effect", best.name, (), (f"{best.name}: ΔAICc {none.aicc - best.aicc:.1f} over none, "
                                      f"{(ranking[1].aicc - best.aicc) if len(ranking) > 1 else math.inf:.1f} over "
                                      f"the runner-up; explains {explained_K(none, best):.2f} K RMS")
