@@ -26,7 +26,9 @@ from dataclasses import dataclass, field, replace
 
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Rect
-from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, body_local, decide, merged_heat, off_axis
+from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, decide, merged_heat, off_axis
+from imutherm.ecad.part_bodies import (DIE_FRACTION, MIN_VIAS, SNAP_MM, check_placement, clip, die_and_pad,
+                                      overlaps, quantised, round_centre, round_mm, round_size, snap_soft_parts)
 from imutherm.ecad.toml_writer import NOTE, Inline, Note, dumps
 from imutherm.geometry.board_material import DEFAULT_COVERAGE, board_material
 from imutherm.geometry.layout import parse_layout
@@ -40,29 +42,14 @@ except ModuleNotFoundError:  # pragma: no cover
 
 #: what ``--site REF=KIND`` accepts: the sensor sites it gives (a probe is a plain temperature output)
 SITE_KINDS = {"imu": SITES, "gyro": GYRO_SITES, "accel": ACCEL_SITES, **{s: (s,) for s in SITES}, "probe": ()}
-#: the die of a powered or sensing package: its footprint this fraction of the body's, as the reference unit's
-#: assumed dies (0.3-0.45 of the body: LQFP-100 6/14, SOT-223 2.5/6.5, LCC 2/5); thickness and base as there
-DIE_FRACTION = 0.4
-DIE_THICKNESS_MM = 0.3
-DIE_BASE_MM = 0.2
-#: an exposed pad: the largest copper pad inside a package of 3+ pads covering at least this body fraction
-EP_MIN_FRACTION = 0.15
-#: vias inside an exposed pad (board vias and the footprint's own through-holes) that make a via field
-MIN_VIAS = 2
 #: power [W] above which a part is a dissipator the grease scheme bonds to the base: 10 % of the board's
 #: total, and at least this (the reference unit's grease scheme moves its 0.24-0.9 W chips, not its 0.04 W ADC)
 GREASE_MIN_W = 0.05
 #: bond gap limit of the grease scheme [mm], as the reference unit's (the paper's "millimetre-order gap")
 MAX_BOND_GAP_MM = 2.0
-#: lengths in the layout to this precision [mm] (10 um: far below any cell; keeps the file readable)
-DIGITS = 3
 #: least power [W] of a chip that gets a die of its own (sites and regulators always do): below it the power is
 #: spread through the package; a 10 mW die 100 K/W above its board is 1 K warmer, less than the mesh resolves
 DIE_MIN_W = 0.01
-#: a part without a die has its in-plane edges moved to a neighbour's line this close [mm] (half the default
-#: largest cell), else to this lattice [mm] (see _snap_soft_parts; ``imutherm import --exact`` keeps every edge)
-SNAP_MM = 1.0
-SNAP_LATTICE_MM = 0.5
 
 
 @dataclass(frozen=True)
@@ -135,32 +122,6 @@ def component_name(ref: str, prefix: str = "") -> str:
     return prefix + (re.sub(r"[^A-Za-z0-9_-]", "_", ref) or "part")
 
 
-def _r(v: float) -> float:
-    return round(float(v), DIGITS)
-
-
-def _rs(v: float) -> float:
-    """A body's in-plane size [mm] to 0.0001 mm (a snapped edge may sit on a die's edge, a 0.0005 mm multiple)."""
-    return round(float(v), DIGITS + 1)
-
-
-def _rc(v: float) -> float:
-    """A centre [mm] to 0.0001 mm: the midpoint of two edges on the 0.001 mm lattice, exactly."""
-    return round(float(v), DIGITS + 2)
-
-
-def _lattice(v: float, step: float) -> float:
-    """``v`` on the lattice of ``step`` [mm] (a decimal with no more digits than ``step`` has)."""
-    return round(round(float(v) / step) * step, 6)
-
-
-def _quantised(body: Rect) -> Rect:
-    """A body's edges on the 0.001 mm lattice: every written size is then exact, every centre a multiple of
-    0.0005 mm, and the edges the mesh sees from them coincide to the last bit with the snapping's (no sliver
-    cells of a rounding's width)."""
-    return Rect(*(_lattice(v, 10.0**-DIGITS) for v in (body.x0, body.y0, body.x1, body.y1)))
-
-
 def _check_refs(board: BoardDesign, opts: ImportOptions) -> None:
     refs = {fp.ref for fp in board.footprints}
     for what, given in (("--site", opts.sites), ("--power/--powers", opts.powers), ("--height/--heights", opts.heights),
@@ -219,57 +180,6 @@ def _unknown_heights(board: BoardDesign, missing: list) -> InputError:
                       f"'reference,height_mm')")
 
 
-def _exposed_pad(d: Decision):
-    """(pad (u, v) size [mm] in board orientation, pad rect in board coordinates) of an exposed pad, or None."""
-    fp = d.footprint
-    if len(fp.copper_pads) < 3:
-        return None
-    body = body_local(fp, d.package)
-    inside = [p for p in fp.copper_pads if p.rect.x0 >= body.x0 - 0.05 and p.rect.x1 <= body.x1 + 0.05
-              and p.rect.y0 >= body.y0 - 0.05 and p.rect.y1 <= body.y1 + 0.05]
-    if not inside:
-        return None
-    pad = max(inside, key=lambda p: p.rect.area)
-    if pad.rect.area < EP_MIN_FRACTION * body.area:
-        return None
-    w, h = (pad.rect.width, pad.rect.height) if round(fp.rotation_deg / 90.0) % 2 == 0 else (pad.rect.height, pad.rect.width)
-    cx, cy = fp.to_board(*pad.rect.centre)
-    return (w, h), Rect(cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2)
-
-
-def _vias_under(board: BoardDesign, d: Decision, pad_rect: Rect) -> int:
-    n = sum(pad_rect.x0 <= v.x <= pad_rect.x1 and pad_rect.y0 <= v.y <= pad_rect.y1 for v in board.vias)
-    fp = d.footprint
-    for p in fp.pads:
-        if p.kind == "thru_hole":
-            x, y = fp.to_board(*p.rect.centre)
-            n += pad_rect.x0 <= x <= pad_rect.x1 and pad_rect.y0 <= y <= pad_rect.y1
-    return n
-
-
-def _clip(body: Rect, board: BoardDesign) -> Rect:
-    w, h = _r(board.width_mm), _r(board.height_mm)   # the board as written
-    return Rect(max(body.x0, 0.0), max(body.y0, 0.0), min(body.x1, w), min(body.y1, h))
-
-
-def _overlaps(a: Rect, b: Rect, tol: float = 1e-3) -> bool:
-    return min(a.x1, b.x1) - max(a.x0, b.x0) > tol and min(a.y1, b.y1) - max(a.y0, b.y0) > tol
-
-
-def _die_and_pad(board: BoardDesign, d: Decision, body: Rect) -> tuple:
-    """((die u, v, thickness), die base, (pad u, v) or None, vias under the pad) [mm] of a part with a die."""
-    h = d.height_mm
-    even = lambda v: _lattice(v, 2 * 10.0**-DIGITS)  # noqa: E731 - centred boxes: half sizes on the 0.001 lattice
-    dt, db = _r(min(DIE_THICKNESS_MM, 0.35 * h)), _r(min(DIE_BASE_MM, 0.25 * h))
-    du, dv = even(DIE_FRACTION * body.width), even(DIE_FRACTION * body.height)
-    ep = _exposed_pad(d)
-    if ep is None:
-        return (du, dv, dt), db, None, 0
-    (pu, pv), pad_rect = ep
-    pu, pv = even(min(pu, body.width)), even(min(pv, body.height))
-    return (min(du, pu), min(dv, pv), dt), db, (pu, pv), _vias_under(board, d, pad_rect)
-
-
 def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body: Rect, die: bool,
                power_from_rails: bool, snapped: str = "") -> dict:
     """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it)."""
@@ -279,8 +189,8 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
                     f"{fp.side}; {d.reason}\nheight {h:g} mm: {d.height_source}"
                     + (f"\n{snapped}" if snapped else "")),
              "name": name, "board": board_name, "side": fp.side,
-             "center_mm": [_rc(body.centre[0]), _rc(body.centre[1])],
-             "size_mm": Note([_rs(body.width), _rs(body.height), _r(h)],
+             "center_mm": [round_centre(body.centre[0]), round_centre(body.centre[1])],
+             "size_mm": Note([round_size(body.width), round_size(body.height), round_mm(h)],
                              "body from the " + ("fab outline" if fp.fab is not None else "courtyard / pads")
                              + (" and pads" if d.package is not None and d.package.body == "fab+pads" else "")
                              + (f"; rotated {fp.rotation_deg:g} deg: the same area, aligned to the nearest axis"
@@ -288,69 +198,18 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
              "material": d.package.material if d.package is not None else "mould_compound",
              "footprint": fp.library}
     if die:
-        (du, dv, dt), db, pad, vias = _die_and_pad(board, d, body)
+        (du, dv, dt), db, pad, vias = die_and_pad(board, d, body)
         if pad is not None:
             entry["exposed_pad"] = Note(True, f"largest pad {pad[0]:.3g} x {pad[1]:.3g} mm under the body")
-            entry["pad_mm"] = [_r(pad[0]), _r(pad[1])]
+            entry["pad_mm"] = [round_mm(pad[0]), round_mm(pad[1])]
             if vias >= MIN_VIAS:
                 entry["vias"] = Note(True, f"{vias} vias inside the exposed pad")
-        entry["die_mm"] = Note([_r(du), _r(dv), _r(dt)], f"assumed: {DIE_FRACTION:g} of the body, as the reference "
+        entry["die_mm"] = Note([round_mm(du), round_mm(dv), round_mm(dt)], f"assumed: {DIE_FRACTION:g} of the body, as the reference "
                                                           f"unit's dies")
-        entry["die_base_mm"] = _r(db)
+        entry["die_base_mm"] = round_mm(db)
     if not power_from_rails:
         entry["power_W"] = Note(float(d.power_W), d.power_source or "unpowered")
     return entry
-
-
-def _snap_soft_parts(board: BoardDesign, modelled: list, bodies: dict, hard: set, anchors_extra, exact: bool) -> tuple:
-    """Bodies of the parts without a die, their in-plane edges moved to the nearest line of the hard parts
-    (those with a die), the board, the standoffs or an already snapped edge within :data:`SNAP_MM`, else to the
-    :data:`SNAP_LATTICE_MM` lattice: they then add few grid lines (a tensor mesh carries every part's faces
-    across the unit). A part whose snapped body would overlap a neighbour, or lose more than half its width,
-    keeps its exact body. Returns (bodies, {ref: note})."""
-    if exact:
-        return bodies, {}
-    anchors = [{0.0, board.width_mm}, {0.0, board.height_mm}]
-    for d in modelled:
-        ref = d.footprint.ref
-        if ref not in hard:
-            continue
-        b = bodies[ref]
-        anchors[0] |= {b.x0, b.x1}
-        anchors[1] |= {b.y0, b.y1}
-        (du, dv, _), _, pad, _ = _die_and_pad(board, d, b)
-        cx, cy = b.centre
-        anchors[0] |= {cx - du / 2, cx + du / 2} | ({cx - pad[0] / 2, cx + pad[0] / 2} if pad else set())
-        anchors[1] |= {cy - dv / 2, cy + dv / 2} | ({cy - pad[1] / 2, cy + pad[1] / 2} if pad else set())
-    for r in anchors_extra:
-        anchors[0] |= {r.x0, r.x1}
-        anchors[1] |= {r.y0, r.y1}
-
-    anchors = [{round(a, 6) for a in axis} for axis in anchors]
-
-    def snap(v, axis):
-        near = min(anchors[axis], key=lambda a: abs(a - v))
-        return near if abs(near - v) <= SNAP_MM else round(v / SNAP_LATTICE_MM) * SNAP_LATTICE_MM
-
-    out, notes = dict(bodies), {}
-    soft = sorted((d for d in modelled if d.footprint.ref not in hard), key=lambda d: -bodies[d.footprint.ref].area)
-    for d in soft:
-        ref, b = d.footprint.ref, bodies[d.footprint.ref]
-        s = _clip(Rect(snap(b.x0, 0), snap(b.y0, 1), snap(b.x1, 0), snap(b.y1, 1)), board)
-        if s.width < 0.5 * b.width or s.height < 0.5 * b.height or s.width <= 0 or s.height <= 0:
-            continue
-        if any(o is not d and o.footprint.side == d.footprint.side and _overlaps(s, out[o.footprint.ref])
-               for o in modelled) or (d.footprint.side == "bottom" and any(_overlaps(s, r) for r in anchors_extra)):
-            continue
-        if s != b:
-            out[ref] = s
-            anchors[0] |= {s.x0, s.x1}
-            anchors[1] |= {s.y0, s.y1}
-            move = max(abs(s.x0 - b.x0), abs(s.x1 - b.x1), abs(s.y0 - b.y0), abs(s.y1 - b.y1))
-            notes[ref] = (f"in-plane edges snapped by up to {move:.2f} mm to its neighbours' lines (a part without "
-                          f"a die: its exact outline would only add mesh lines); exact body {b.x0:.3f}..{b.x1:.3f} x "
-                          f"{b.y0:.3f}..{b.y1:.3f} mm")
-    return out, notes
 
 
 def _has_die(d: Decision, site_refs: set, regulators: set) -> bool:
@@ -392,8 +251,8 @@ def _grease_parts(decisions: list, opts: ImportOptions, standoffs: list, notes: 
                          f"to the back (bond it by hand if it faces the base)")
             continue
         clash = [o.footprint.ref for o in decisions if o.fate in ("modelled", "merged") and o.footprint.side == "bottom"
-                 and _overlaps(o.body, d.body)] + [f"the standoff under {ref}" for ref, r in standoffs
-                                                  if _overlaps(r, d.body)]
+                 and overlaps(o.body, d.body)] + [f"the standoff under {ref}" for ref, r in standoffs
+                                                  if overlaps(r, d.body)]
         if clash:
             notes.append(f"grease scheme: {d.footprint.ref} stays on top: its back-side footprint holds "
                          f"{', '.join(clash[:4])}")
@@ -413,8 +272,8 @@ def _standoff_rects(board: BoardDesign, decisions: list, notes: list) -> list:
         d_hole = min((min(p.rect.width, p.rect.height) for p in fp.pads), default=3.0)
         outer = 2.0 * d_hole if fp.courtyard is None else min(2.0 * d_hole, fp.courtyard.width)
         for size in (outer * math.sqrt(math.pi) / 2.0, d_hole * math.sqrt(math.pi) / 2.0):
-            r = _quantised(_clip(Rect(fp.x - size / 2, fp.y - size / 2, fp.x + size / 2, fp.y + size / 2), board))
-            clash = [d.footprint.ref for d in back if _overlaps(r, d.body)]
+            r = quantised(clip(Rect(fp.x - size / 2, fp.y - size / 2, fp.x + size / 2, fp.y + size / 2), board))
+            clash = [d.footprint.ref for d in back if overlaps(r, d.body)]
             if not clash:
                 boxes.append((fp.ref, r))
                 break
@@ -426,7 +285,7 @@ def _standoff_rects(board: BoardDesign, decisions: list, notes: list) -> list:
         for i, (x, y) in enumerate(((inset, inset), (w - inset - s, inset), (inset, h - inset - s),
                                     (w - inset - s, h - inset - s))):
             r = Rect(x, y, x + s, y + s)
-            if not any(_overlaps(r, d.body) for d in back):
+            if not any(overlaps(r, d.body) for d in back):
                 boxes.append((f"corner{i + 1}", r))
     if not boxes:
         raise InputError(f"{board.source}: no place for a standoff under the board (its mounting holes and corners are "
@@ -440,8 +299,8 @@ def _standoffs(rects: list, x0: float, y0: float, z0: float, height: float, mate
     for i, (ref, r) in enumerate(rects):
         parts.append({NOTE: f"standoff under {ref}" + (" (mounting hole)" if not ref.startswith("corner") else
                                                         " (no mounting hole on the board: a corner, assumed)"),
-                      "name": f"standoff_{i + 1}", "min_mm": [_r(x0 + r.x0), _r(y0 + r.y0), _r(z0)],
-                      "size_mm": [_r(r.width), _r(r.height), _r(height)], "material": material})
+                      "name": f"standoff_{i + 1}", "min_mm": [round_mm(x0 + r.x0), round_mm(y0 + r.y0), round_mm(z0)],
+                      "size_mm": [round_mm(r.width), round_mm(r.height), round_mm(height)], "material": material})
     return parts
 
 
@@ -520,35 +379,6 @@ def _names(decisions: list, prefix: str, notes: list) -> dict:
     return names
 
 
-def _check_placement(board: BoardDesign, modelled: list, notes: list) -> dict:
-    """Bodies on the board: centre inside the outline's rectangle, overhangs clipped, no two overlapping."""
-    bodies = {}
-    for d in modelled:
-        fp, b = d.footprint, d.body
-        cx, cy = b.centre
-        if not (0.0 <= cx <= board.width_mm and 0.0 <= cy <= board.height_mm):
-            raise InputError(f"{board.source}: footprint {fp.ref} ({fp.library}) at ({cx:.2f}, {cy:.2f}) mm lies outside "
-                             f"the board outline (0..{board.width_mm:.2f} x 0..{board.height_mm:.2f} mm)")
-        clipped = _quantised(_clip(b, board))
-        over = max(-b.x0, -b.y0, b.x1 - board.width_mm, b.y1 - board.height_mm)
-        if over > 10.0**-DIGITS:  # more than the lattice's rounding: the body really crosses the edge
-            notes.append(f"{fp.ref}: its body overhangs the board edge by {over:.2f} mm; the model keeps the part "
-                         f"on the board")
-        bodies[fp.ref] = clipped
-    refs = list(bodies)
-    for i, a in enumerate(refs):
-        for b in refs[i + 1:]:
-            da = next(d for d in modelled if d.footprint.ref == a)
-            db = next(d for d in modelled if d.footprint.ref == b)
-            if da.footprint.side == db.footprint.side and _overlaps(bodies[a], bodies[b]):
-                ra, rb = bodies[a], bodies[b]
-                raise InputError(f"{board.source}: parts {a} and {b} overlap on the {da.footprint.side} side "
-                                 f"({a}: {ra.x0:.2f}..{ra.x1:.2f} x {ra.y0:.2f}..{ra.y1:.2f} mm; {b}: {rb.x0:.2f}.."
-                                 f"{rb.x1:.2f} x {rb.y0:.2f}..{rb.y1:.2f} mm); correct their fab outlines or "
-                                 f"placement in KiCad")
-    return bodies
-
-
 def _board_material_entry(board: BoardDesign, decisions: list, board_name: str) -> tuple:
     merged = [d for d in decisions if d.fate == "merged"]
     mass = sum(merged_heat(d)[0] for d in merged)
@@ -571,7 +401,7 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
     for mat in (hs.material, hs.standoff_material):
         get_material(mat)
     modelled = [d for d in decisions if d.fate == "modelled"]
-    bodies = _check_placement(board, modelled, notes)
+    bodies = check_placement(board, modelled, notes)
     site_refs = set(opts.sites)
     standoff_rects = _standoff_rects(board, decisions, notes)
     moved = _grease_parts(decisions, opts, standoff_rects, notes)
@@ -598,7 +428,7 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
 
     standoffs = _standoffs(standoff_rects, x0, y0, hs.base_mm, standoff, hs.standoff_material)
     hard = {d.footprint.ref for d in modelled if _has_die(d, site_refs, regulators)}
-    bodies, snapped = _snap_soft_parts(board, modelled, bodies, hard, [r for _, r in standoff_rects], opts.exact)
+    bodies, snapped = snap_soft_parts(board, modelled, bodies, hard, [r for _, r in standoff_rects], opts.exact)
     components = []
     for d in modelled:
         ref = d.footprint.ref
@@ -617,16 +447,16 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
                                                         "unit's 70 degC unless given)")},
         "housing": {NOTE: "the reference unit's housing (layouts/imu_reference.toml) around the board: "
                           f"{c:g} mm clearance to the walls and above the tallest part",
-                    "outer_mm": [_r(v) for v in outer], "wall_mm": hs.wall_mm, "base_mm": hs.base_mm,
+                    "outer_mm": [round_mm(v) for v in outer], "wall_mm": hs.wall_mm, "base_mm": hs.base_mm,
                     "lid_mm": hs.lid_mm, "material": hs.material},
         "mounting": _mounting(hs),
         "materials": {mat_name: mat_table},
         "boards": [{NOTE: f"{board.format} board {board.source}: {board.width_mm:.3f} x {board.height_mm:.3f} mm "
                           f"(the outline's bounding rectangle), {t:g} mm, {board.copper_layers} copper layers",
-                    "name": opts.board_name, "normal": "z", "min_mm": [_r(x0), _r(y0), _r(z0)],
-                    "size_mm": [_r(board.width_mm), _r(board.height_mm), _r(t)], "material": mat_name,
+                    "name": opts.board_name, "normal": "z", "min_mm": [round_mm(x0), round_mm(y0), round_mm(z0)],
+                    "size_mm": [round_mm(board.width_mm), round_mm(board.height_mm), round_mm(t)], "material": mat_name,
                     "source": f"{board.source} ({board.format})",
-                    "outline_mm": [[[_r(x), _r(y)] for x, y in line] for line in board.outline],
+                    "outline_mm": [[[round_mm(x), round_mm(y)] for x, y in line] for line in board.outline],
                     "merged_parts": _merged_entries(decisions)}],
         "parts": standoffs,
         "components": components,
@@ -663,9 +493,9 @@ def _merged_entries(decisions: list) -> list:
         if d.fate == "merged":
             b = d.body
             out.append(Inline({"name": d.footprint.ref, "side": d.footprint.side,
-                               "center_mm": [_r(b.centre[0]), _r(b.centre[1])],
-                               "size_mm": [_r(max(b.width, 1e-3)), _r(max(b.height, 1e-3)),
-                                           _r(d.height_mm or MERGED_UNKNOWN_HEIGHT_MM)],
+                               "center_mm": [round_mm(b.centre[0]), round_mm(b.centre[1])],
+                               "size_mm": [round_mm(max(b.width, 1e-3)), round_mm(max(b.height, 1e-3)),
+                                           round_mm(d.height_mm or MERGED_UNKNOWN_HEIGHT_MM)],
                                "footprint": d.footprint.library}))
     return out
 
@@ -755,15 +585,15 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
     notes = [f"{path}: board {board_name!r} replaced; the file is regenerated from its data, so its comments are "
              f"not carried over"]
     names = _names(decisions, opts.prefix, notes)
-    bodies = _check_placement(board, modelled, notes)
+    bodies = check_placement(board, modelled, notes)
     normal = target.get("normal", "z")
     axis = "xyz".index(normal)
     a0, a1 = (a for a in range(3) if a != axis)
     size = [0.0, 0.0, 0.0]
     size[a0], size[a1], size[axis] = board.width_mm, board.height_mm, board.thickness_mm
     mat_name, mat_table = _board_material_entry(board, decisions, board_name)
-    target.update(size_mm=[_r(v) for v in size], material=mat_name, source=f"{board.source} ({board.format})",
-                  outline_mm=[[[_r(x), _r(y)] for x, y in line] for line in board.outline],
+    target.update(size_mm=[round_mm(v) for v in size], material=mat_name, source=f"{board.source} ({board.format})",
+                  outline_mm=[[[round_mm(x), round_mm(y)] for x, y in line] for line in board.outline],
                   merged_parts=_merged_entries(decisions))
     data.setdefault("materials", {})[mat_name] = mat_table
     old = {c.get("name") for c in data.get("components", []) if isinstance(c, dict) and c.get("board") == board_name}
@@ -786,7 +616,7 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
                 rail["loads_A"] = Inline({k: v for k, v in rail["loads_A"].items() if k not in old})
     regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
     hard = {d.footprint.ref for d in modelled if _has_die(d, set(opts.sites), regulators)}
-    bodies, snapped = _snap_soft_parts(board, modelled, bodies, hard, (), opts.exact)
+    bodies, snapped = snap_soft_parts(board, modelled, bodies, hard, (), opts.exact)
     for d in modelled:
         ref = d.footprint.ref
         data["components"].append(_component(board, d, names[ref], board_name, bodies[ref], ref in hard,

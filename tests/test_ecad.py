@@ -430,7 +430,7 @@ def test_import_command_bad_input_one_line_and_nothing_written(real_boards, tmp_
 
 def test_snapping_moves_only_dieless_parts_and_saves_mesh_lines(real_boards):
     """Parts without a die move by at most SNAP_MM, the others not at all, and the mesh has fewer lines."""
-    from imutherm.ecad.to_layout import SNAP_MM
+    from imutherm.ecad.part_bodies import SNAP_MM
     from imutherm.geometry.mesh import grid_shape
 
     board = read_kicad(real_boards["drone-fc"])
