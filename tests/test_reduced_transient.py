@@ -147,3 +147,21 @@ def test_reduced_power_on_to_settled_matches_the_full_fem(law):
     steady = np.asarray(red.steady.probe_C)
     assert np.abs(end - steady).max() <= 0.005 * np.abs(steady - red.steady.problem.ambient_C).max()
     assert err.max() <= 2 * chk.max_site_error_K + 0.02   # the full run's own time error is ~0.01-0.02 K
+
+
+def test_the_shifted_operator_is_a_plus_s_m():
+    """A + s M formed once on the shared pattern (s2s: sparse plus the exchange's low-rank term) is the same
+    operator as its terms applied one by one, for the shifts of the basis and of the check."""
+    from imutherm.thermal.assembly import assemble
+    from imutherm.thermal.reduced import SparsePlusLowRank, linearised
+
+    run = run_scheme(None, "air", **COARSE)
+    asm = assemble(run.steady.problem)
+    A, _ = linearised(asm, np.asarray(run.steady.T_C))
+    assert isinstance(A, SparsePlusLowRank)
+    x = np.random.default_rng(3).standard_normal(asm.n)
+    for s in (1.0 / 0.1, 1.0 / 50.0, 1e-3):
+        op = reduced_transient._Shifted(A, asm.M, s)
+        assert op.sparse is not None
+        ref = A @ x + s * (asm.M @ x)
+        assert np.abs(op @ x - ref).max() <= 1e-12 * np.abs(ref).max()

@@ -120,3 +120,32 @@ def test_all_matrices_share_one_pattern(hetero):
     K, M, H = asm.K, asm.M, asm.H
     assert np.array_equal(K.indptr, M.indptr) and np.array_equal(K.indices, H.indices)
     assert K.has_sorted_indices
+
+
+def test_merged_linear_laws_are_k_plus_h(hetero):
+    """``merge_linear`` (the refined mesh-error solve's assembly) gives K + H in one array, the rest unchanged; the
+    rows of the pattern, built at first use, are each entry's row."""
+    pr, asm = hetero
+    merged = assemble(pr, mass=False, cache_pattern=False, merge_linear=True)
+    assert merged.H_data.size == 0 and merged.M_data is None
+    assert np.allclose(merged.K_data, asm.K_data + asm.H_data, rtol=1e-13, atol=0.0)
+    assert np.array_equal(merged.F_q, asm.F_q) and np.array_equal(merged.F_bc, asm.F_bc)
+    assert [bc.face for bc in merged.nonlinear] == [bc.face for bc in asm.nonlinear]
+    coo = asm.K.tocoo()
+    assert np.array_equal(merged.pattern.rows, coo.row)
+
+
+def test_data_made_plane_by_plane_is_the_stencil_s(hetero):
+    """The CSR data made one stencil plane at a time (no (27, Nx, Ny, Nz) array) is the full stencil's, bit for bit,
+    and each entry's position is its (row, offset)."""
+    from imutherm.thermal.assembly import mass_stencil, stiffness_stencil
+
+    pr, asm = hetero
+    assert np.array_equal(asm.K_data, asm.pattern.data(stiffness_stencil(pr)))
+    assert np.array_equal(asm.M_data, asm.pattern.data(mass_stencil(pr)))
+    pat = asm.pattern
+    rows = np.arange(pat.n)
+    for o in (0, 4, 13, 26):
+        has = pat.valid[:, o]
+        pos = pat.positions(rows[has], o)
+        assert np.array_equal(pat.rows[pos], rows[has]) and np.all(np.diff(pos) > 0)

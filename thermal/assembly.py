@@ -86,35 +86,73 @@ class Pattern:
         # largest array of an 8x refined mesh's assembly)
         self.indices = (np.arange(n, dtype=itype)[:, None] + flat.astype(itype)[None, :])[valid]
         self.indptr = self.indptr.astype(itype)
-        self.rows = np.repeat(np.arange(n, dtype=itype), counts)
         # the centre's position: the row start plus the row's entries before it
         self.diag_pos = self.indptr[:-1].astype(np.int64) + valid[:, :_CENTRE].sum(axis=1)
         self.nnz = int(self.indptr[-1])
 
+    @functools.cached_property
+    def rows(self) -> np.ndarray:
+        """The row of each stored entry (built at first use: only a fixed-temperature elimination and the
+        reduced model's sparse part need it; on an 8x refined mesh it is 165 MB)."""
+        rows = np.repeat(np.arange(self.n, dtype=self.indices.dtype), np.diff(self.indptr))
+        rows.setflags(write=False)
+        return rows
+
     def data(self, stencil: np.ndarray) -> np.ndarray:
         """CSR data array from a stencil array of shape (27, Nx, Ny, Nz)."""
         return stencil.reshape(27, self.n).T[self.valid]
+
+    def data_of_planes(self, planes) -> np.ndarray:
+        """CSR data array from the stencil's 27 nodal planes, each (Nx, Ny, Nz) or None (zero), in offset order
+        (one plane at a time: no (27, Nx, Ny, Nz) array)."""
+        data = np.zeros(self.nnz)
+        start = self.indptr[:-1].astype(np.int64)   # each row's next entry: its entries are in offset order
+        for o, plane in enumerate(planes):
+            v = self.valid[:, o]
+            if plane is not None:
+                data[start[v]] = plane.reshape(-1)[v]
+            start += v
+        return data
+
+    def positions(self, rows: np.ndarray, o: int) -> np.ndarray:
+        """Positions in the data array of the entries (row, offset ``o``) of ``rows`` (each must have it)."""
+        return self.indptr[rows].astype(np.int64) + self.valid[rows, :o].sum(axis=1)
 
     def csr(self, data: np.ndarray) -> sp.csr_matrix:
         """A CSR matrix with this pattern and the given data (no copy of the pattern)."""
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-def _volume_stencil(grid: TensorGrid, coefs: list, refs: list) -> np.ndarray:
-    """Accumulate sum_r coefs[r] (cell arrays) * refs[r] (8x8) into a nodal stencil."""
+def _volume_planes(grid: TensorGrid, coefs: list, refs: list):
+    """The nodal planes of sum_r coefs[r] (cell arrays) * refs[r] (8x8), one per stencil offset in offset order
+    (None where zero), made one at a time."""
     nx, ny, nz = grid.shape
-    S = np.zeros((27, nx + 1, ny + 1, nz + 1))
+    pairs = [[] for _ in range(27)]   # the local node pairs of each offset, in (l1, l2) order
     for l1, (a1, b1, c1) in enumerate(_LOCAL3):
-        dst = (slice(a1, a1 + nx), slice(b1, b1 + ny), slice(c1, c1 + nz))
         for l2, (a2, b2, c2) in enumerate(_LOCAL3):
-            o = _offset_index(a2 - a1, b2 - b1, c2 - c1)
+            pairs[_offset_index(a2 - a1, b2 - b1, c2 - c1)].append((l1, l2, (a1, b1, c1)))
+    for o in range(27):
+        plane = None
+        for l1, l2, (a1, b1, c1) in pairs[o]:
             terms = [(c, r[l1, l2]) for c, r in zip(coefs, refs) if r[l1, l2] != 0.0]
             if not terms:
                 continue
             val = terms[0][0] * terms[0][1]
             for c, r in terms[1:]:
                 val += c * r
-            S[o][dst] += val
+            if plane is None:
+                plane = np.zeros((nx + 1, ny + 1, nz + 1))
+            plane[a1:a1 + nx, b1:b1 + ny, c1:c1 + nz] += val
+        yield plane
+
+
+def _volume_stencil(grid: TensorGrid, coefs: list, refs: list) -> np.ndarray:
+    """Accumulate sum_r coefs[r] (cell arrays) * refs[r] (8x8) into a nodal stencil (27, Nx, Ny, Nz)."""
+    nx, ny, nz = grid.shape
+    S = np.zeros((27, nx + 1, ny + 1, nz + 1))
+    for o, plane in enumerate(_volume_planes(grid, coefs, refs)):
+        if plane is not None:
+            S[o] = plane
     return S
 
 
@@ -123,15 +161,19 @@ def _cell_sizes3(grid):
     return hx[:, None, None], hy[None, :, None], hz[None, None, :]
 
 
-def stiffness_stencil(problem: ThermalProblem) -> np.ndarray:
-    """Conduction stiffness as a stencil array (27, Nx, Ny, Nz) [W/K]."""
+def _stiffness_terms(problem: ThermalProblem) -> tuple:
     g = problem.grid
     hx, hy, hz = _cell_sizes3(g)
     k = problem.k.reshape(g.shape + (3,))
     cx = k[..., 0] * (hy * hz / hx)
     cy = k[..., 1] * (hx * hz / hy)
     cz = k[..., 2] * (hx * hy / hz)
-    return _volume_stencil(g, [cx, cy, cz], [KX_REF, KY_REF, KZ_REF])
+    return [cx, cy, cz], [KX_REF, KY_REF, KZ_REF]
+
+
+def stiffness_stencil(problem: ThermalProblem) -> np.ndarray:
+    """Conduction stiffness as a stencil array (27, Nx, Ny, Nz) [W/K]."""
+    return _volume_stencil(problem.grid, *_stiffness_terms(problem))
 
 
 def mass_stencil(problem: ThermalProblem, lumped: bool = False) -> np.ndarray:
@@ -222,21 +264,18 @@ def faces(grid: TensorGrid) -> dict:
     return out
 
 
-def _face_stencil_add(S: np.ndarray, face: Face, coef: np.ndarray) -> None:
-    """Add the consistent face mass of a face-cell coefficient (nu, nv) [W/m^2 K] into S."""
+def _face_data_add(pattern: Pattern, data: np.ndarray, face: Face, coef: np.ndarray) -> None:
+    """Add the consistent face mass of a face-cell coefficient (nu, nv) [W/m^2 K] into the CSR ``data`` of
+    ``pattern`` (no nodal stencil array: the face's own entries only)."""
     nu, nv = face.area.shape
     c = coef * face.area
-    d = face.axis
     u, v = face.other
     for l1, (a1, b1) in enumerate(_LOCAL2):
+        rows = face.nodes[a1:a1 + nu, b1:b1 + nv].reshape(-1)
         for l2, (a2, b2) in enumerate(_LOCAL2):
             off = [0, 0, 0]
             off[u], off[v] = a2 - a1, b2 - b1
-            o = _offset_index(*off)
-            idx = list(face.plane_index)
-            idx[u] = slice(a1, a1 + nu)
-            idx[v] = slice(b1, b1 + nv)
-            S[o][tuple(idx)] += FACE_M_REF[l1, l2] * c
+            data[pattern.positions(rows, _offset_index(*off))] += (FACE_M_REF[l1, l2] * c).reshape(-1)
 
 
 @dataclass
@@ -355,13 +394,13 @@ def pattern_of(node_shape: tuple) -> Pattern:
     """The (shared, read-only) :class:`Pattern` of a node grid: built once per shape (a correlation's reduced
     model assembles ~80 variants of one grid; building the pattern was a tenth of that)."""
     pattern = Pattern(tuple(node_shape))
-    for a in (pattern.valid, pattern.indices, pattern.indptr, pattern.rows, pattern.diag_pos):
+    for a in (pattern.valid, pattern.indices, pattern.indptr, pattern.diag_pos):   # (rows: read-only when built)
         a.setflags(write=False)   # shared by every assembly of the grid: an in-place change would leak
     return pattern
 
 
 def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool = True,
-             cache_pattern: bool = True) -> Assembly:
+             cache_pattern: bool = True, merge_linear: bool = False) -> Assembly:
     """Assemble stiffness, heat capacity, boundary matrices and loads of ``problem``.
 
     Parameters
@@ -374,6 +413,10 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
     cache_pattern : bool
         False: build the sparsity pattern for this assembly alone, not kept by :func:`pattern_of` (a one-off
         large grid, e.g. a mesh-error estimate's refined one, whose pattern would otherwise stay in memory).
+    merge_linear : bool
+        True: the linear laws' matrix is added into ``K_data`` (which then holds K + H) and ``H_data`` is empty:
+        a steady operator of a one-off large grid, assembled without the two nodal-stencil-sized arrays of H
+        (on the reference unit's 2x refined mesh, 1.5e6 nodes: 2 x 325 MB less at the peak).
 
     Returns
     -------
@@ -383,10 +426,13 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
     g = problem.grid
     shape = tuple(s + 1 for s in g.shape)
     pattern = pattern_of(shape) if cache_pattern else Pattern(shape)
-    K_data = pattern.data(stiffness_stencil(problem))
-    M_data = pattern.data(mass_stencil(problem, lumped=lumped_mass)) if mass else None
+    K_data = pattern.data_of_planes(_volume_planes(g, *_stiffness_terms(problem)))
+    H_data = K_data if merge_linear else np.zeros(pattern.nnz)   # merged: the linear laws added into K's data
+    M_data = None
+    if mass:
+        M_data = pattern.data(mass_stencil(problem, lumped=True)) if lumped_mass else pattern.data_of_planes(
+            _volume_planes(g, [problem.rho_c.reshape(g.shape) * g.cell_volumes()], [M_REF]))
     F_q = volume_load(problem)
-    Hs = None
     F_bc = np.zeros(g.n_nodes)
     linear, nonlinear, fluxes, dirichlet = [], [], [], []
     fcs = faces(g)
@@ -400,9 +446,7 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
             elif isinstance(law, LINEAR_LAWS):
                 h = law.coefficient
                 coef = np.where(mask, h, 0.0)
-                if Hs is None:
-                    Hs = np.zeros((27,) + pattern.node_shape)
-                _face_stencil_add(Hs, face, coef)
+                _face_data_add(pattern, H_data, face, coef)
                 T_ref = problem.law_T_C(law)
                 w = face.nodal_weights(coef)
                 F_bc[face.nodes.reshape(-1)] += (w * T_ref).reshape(-1)
@@ -425,7 +469,8 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
                          "surfaces): the steady state is undefined")
     for ex in problem.exchanges:  # interior surface exchange: a nonlinear law of its own nodes (net heat 0)
         nonlinear.append(NodalBC(EXCHANGE_FACE, ex, problem.ambient_C, np.asarray(ex.nodes), np.asarray(ex.weights)))
-    H_data = pattern.data(Hs) if Hs is not None else np.zeros(pattern.nnz)
+    if merge_linear:   # K + H in one array
+        H_data = np.zeros(0)
     return Assembly(problem=problem, pattern=pattern, K_data=K_data, H_data=H_data, M_data=M_data,
                     F_q=F_q, F_bc=F_bc, linear=linear, nonlinear=nonlinear, fluxes=fluxes,
                     dirichlet=dirichlet, lumped_mass=lumped_mass)

@@ -103,7 +103,11 @@ class SparsePlusLowRank(spla.LinearOperator):
 
     def _matvec(self, x):
         x = np.ravel(x)
-        return self.sparse @ x + self.PT @ (self.G @ (self.P @ x))
+        return self.sparse @ x + self.low_rank(x)
+
+    def low_rank(self, x):
+        """The low-rank term's product P^T G P x."""
+        return self.PT @ (self.G @ (self.P @ x))
 
     def _matmat(self, X):
         return self.sparse @ X + self.PT @ (self.G @ (self.P @ X))

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.integrate import solve_ivp
 
@@ -154,15 +155,26 @@ class _Solver:
 
 
 class _Shifted(spla.LinearOperator):
-    """A + s M, never formed (A may be sparse plus low rank)."""
+    """A + s M (A may be sparse plus low rank): its sparse part sparse(A) + s M formed once where both share one
+    pattern (the assembly's: one sparse product an iteration instead of two), else applied term by term."""
 
     def __init__(self, A, M, s):
         super().__init__(float, A.shape)
         self.A, self.M, self.s = A, M, s
+        S = sparse_part(A)
+        self.sparse = None
+        if sp.isspmatrix_csr(S) and sp.isspmatrix_csr(M) and S.nnz == M.nnz and np.array_equal(S.indptr, M.indptr) \
+                and np.array_equal(S.indices, M.indices):
+            self.sparse = sp.csr_matrix((S.data + s * M.data, S.indices, S.indptr), shape=S.shape)
 
     def _matvec(self, x):
         x = np.ravel(x)
-        return self.A @ x + self.s * (self.M @ x)
+        if self.sparse is None:
+            return self.A @ x + self.s * (self.M @ x)
+        out = self.sparse @ x
+        if self.A is not sparse_part(self.A):
+            out += self.A.low_rank(x)
+        return out
 
 
 def _m_orthonormal(cols, M) -> np.ndarray:

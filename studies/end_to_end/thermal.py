@@ -100,6 +100,7 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     """
     import contextlib
 
+    from imutherm.budget import release_freed_memory
     from imutherm.studies.thermal_study import mesh_error, run_scheme
 
     estimate = thermal_kwargs.pop("estimate_mesh_error", False)
@@ -108,8 +109,10 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
                                        solves=solves)
     if estimate:
+        release_freed_memory()   # the solves' freed arrays, before the refined solve's (the study's peak)
         with _REFINED_LOCK if _REFINED_LOCK is not None else contextlib.nullcontext():
             res = replace(res, mesh_error=mesh_error(res))
+    release_freed_memory()
     return res, chamber, rise, solves
 
 
