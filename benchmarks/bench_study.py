@@ -4,9 +4,9 @@ Runs the command as a user does (a subprocess: thermal + oven self-heating + cal
 attitude, three schemes, default seeds) and reports its wall time and the peak resident memory of the
 whole process tree (the command and its worker processes, summed, sampled every 0.2 s from /proc), the
 stage times from ``summary.json``, the CPU seconds of the command and its workers (the load-independent
-cost), and PASS/FAIL against the targets (<= 20 s, the anchor set with the reduced transients (40 s before them), with checked reduced
-transients and each scheme's mesh-error estimate; peak memory <= 2 GB). Run it on an otherwise
-idle machine: the figures are the machine's.
+cost), and PASS/FAIL against the targets (<= 20 s, the anchor set with the reduced transients (40 s before
+them), with checked reduced transients and each scheme's mesh-error estimate; peak memory <= 2 GB). Run it on
+an otherwise idle machine: the figures are the machine's.
 
     python benchmarks/bench_study.py                # default settings of `imutherm compare`
     python benchmarks/bench_study.py -- --seeds 6   # extra arguments for imutherm compare
