@@ -127,3 +127,25 @@ def test_each_cavity_law_does_what_its_entry_says(tmp_path):
         else:
             with pytest.raises(InputError, match="cavity_law_blend"):
                 ModelOptions(cavity_law=name, cavity_law_blend=0.5)
+
+
+def test_the_cavity_law_help_is_read_from_the_registry(monkeypatch):
+    """``--cavity-law``'s choices and help come from the registry when the parser is built: a law registered
+    beside its code is offered with its words, and the default is the one ``ModelOptions`` applies."""
+    import argparse
+
+    from imutherm.cli._options import add_model_arguments
+    from imutherm.unit import cavity_laws
+    from imutherm.unit.model import ModelOptions
+
+    monkeypatch.setattr(cavity_laws, "CAVITY_LAWS", dict(cavity_laws.CAVITY_LAWS))
+    cavity_laws.register_cavity_law("test_law", "a law registered by this test (no physics)")
+    parser = argparse.ArgumentParser()
+    add_model_arguments(parser)
+    action = next(a for a in parser._actions if "--cavity-law" in a.option_strings)
+    assert action.choices == tuple(cavity_laws.CAVITY_LAWS) and "test_law" in action.choices
+    assert action.default == ModelOptions().cavity_law == cavity_laws.DEFAULT_CAVITY_LAW
+    for name, law in cavity_laws.CAVITY_LAWS.items():
+        marked = f"{name} (default): " if name == action.default else f"{name}: "
+        assert f"{marked}{law.words}" in action.help, name
+    assert action.help.count("(default)") == 1
