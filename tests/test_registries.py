@@ -15,7 +15,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ("imutherm", "geometry", "ecad", "imu", "layouts", "thermal", "unit", "studies", "reports", "cli")
 #: the modules that register effects, cavity laws and filters: each may name its own entries
-REGISTRIES = {"unit/effects.py", "unit/cavity_laws.py", "imu/filters/registry.py", "imu/filters/gated.py",
+REGISTRIES = {"unit/effects/model_effects.py", "unit/effects/signal_effects.py",
+              "unit/cavity_laws.py", "imu/filters/registry.py", "imu/filters/gated.py",
               "imu/filters/gravity_kf.py", "imu/filters/fusion_peer.py", "imu/filters/aekf.py",
               "imu/filters/peers.py"}
 #: (module, literal) pairs where the literal is another thing that happens to share a registered name
