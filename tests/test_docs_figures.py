@@ -1,15 +1,20 @@
-"""The answer of ``imutherm compare`` has one source: ``docs/benchmarks/tables/compare_answer.txt``, written by
-``python benchmarks/bench_study.py --write`` from what the command printed. The docs pages include it (so they
-cannot show another table), the README's copy (a GitHub page cannot include a file) must be the same, and the
-figures the getting-started page reads out of it must be in it.
+"""Each measured figure has one source, a table file under ``docs/benchmarks/tables/`` that its benchmark writes.
+
+The answer of ``imutherm compare``: ``compare_answer.txt``, and the run's timing: ``study.txt``, both written by
+``python benchmarks/bench_study.py --write``. The docs pages include them (so they cannot show another table),
+the README's copies (a GitHub page cannot include a file) must be the same, and the figures the getting-started
+page reads out of the answer must be in it.
 
 (The gallery's stated figures are held to what the examples print in tests/test_gallery.py.)"""
 
+import importlib.util
 import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-ANSWER = ROOT / "docs" / "benchmarks" / "tables" / "compare_answer.txt"
+TABLES = ROOT / "docs" / "benchmarks" / "tables"
+ANSWER = TABLES / "compare_answer.txt"
+TIMING = TABLES / "study.txt"
 TABLE_HEAD = "scheme   max rise [K]"
 DECIMAL = re.compile(r"(?<![\w.])\d+\.\d+(?![\w.])")
 
@@ -42,6 +47,9 @@ def test_the_readme_shows_the_recorded_answer():
     assert readme[start:first_sentence] == lines[:n]
     end = next(i for i in range(first_sentence, len(readme)) if readme[i].startswith("..."))
     assert " ".join(" ".join(readme[first_sentence:end]).split()) in " ".join(" ".join(lines[n:]).split())
+    # after the '...', the numerical-error lines, as recorded
+    wrote = next(i for i in range(end, len(readme)) if readme[i].startswith("wrote "))
+    assert readme[end + 1:wrote] == [line for line in lines if line.startswith("numerical error")]
 
 
 def test_the_docs_include_the_answer_and_hold_no_copy():
@@ -58,3 +66,77 @@ def test_the_docs_include_the_answer_and_hold_no_copy():
     figures = DECIMAL.findall(says)
     assert len(figures) >= 8
     assert [f for f in figures if f not in text] == []
+
+
+def timing(path: Path = TIMING) -> dict:
+    """The figures of a timing table written by ``bench_study.py --write``: {figure: measured} and the header's
+    command, commit and date."""
+    text = path.read_text(encoding="utf-8")
+    rows = dict(re.findall(r"^\| ([^|]+?) \| ([^|]+?) \|", text, re.M))
+    head = " ".join(line for line in text.splitlines() if line.startswith("#"))
+    when = re.search(r"(?:on|measured on) (\d{4}-\d\d-\d\d) at commit ([0-9a-f]{7,})", head)
+    return {"rows": rows, "head": head, "date": when and when.group(1), "commit": when and when.group(2)}
+
+
+def _figure(rows: dict, name: str, unit: str) -> float:
+    return float(re.fullmatch(rf"([\d.]+) {unit}", rows[name]).group(1))
+
+
+def test_the_readme_states_the_recorded_timing():
+    """The README's timing of the main job (wall, CPU-seconds, peak, the date) is the one in study.txt, rounded."""
+    rec = timing()
+    assert "python benchmarks/bench_study.py --write" in rec["head"] and rec["commit"], rec["head"]
+    rows = rec["rows"]
+    wall = _figure(rows, "wall, end to end", "s")
+    cpu = _figure(rows, "CPU, all processes (user+sys)", "s")
+    peak = _figure(rows, "peak memory, the command and its workers", "MB")
+    readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    said = re.search(r"\((\d+) s wall and (\d+) CPU-seconds on this machine's \d cores, ([\d.]+) GB peak, measured "
+                     r"(\d{4}-\d\d-\d\d) by `benchmarks/bench_study.py`", readme)
+    assert said, "the README's timing sentence is not where the test looks"
+    assert said.groups() == (f"{wall:.0f}", f"{cpu:.0f}", f"{peak / 1000:.1f}", rec["date"]), said.groups()
+    # the printout's closing line carries the same run's seconds
+    assert re.search(rf"^wrote OUT/report.pdf .*\({wall:.0f} s\)$", (ROOT / "README.md").read_text(encoding="utf-8"),
+                     re.M)
+    doc = (ROOT / "docs" / "benchmarks" / "study.md").read_text(encoding="utf-8")
+    assert "{literalinclude} tables/study.txt" in doc
+
+
+def _bench_study():
+    spec = importlib.util.spec_from_file_location("bench_study", ROOT / "benchmarks" / "bench_study.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_bench_study_writes_what_the_docs_tests_read(tmp_path, monkeypatch):
+    """``--write``'s writers on a made-up run: the timing table reads back with the figures it was given (so the
+    README check above reads what the benchmark writes), and the answer file keeps the printout from the table's
+    header to the last sentence."""
+    bench = _bench_study()
+    monkeypatch.setattr(bench, "_commit", lambda: "abcdef1")
+
+    def scheme(nodes, rise, err):
+        return {"max_rise_K": rise, "numerical_error": {"mesh": {"sensor_die_max_K": err}},
+                "thermal": {"mesh": {"nodes": nodes}, "timings_s": {"steady_solve": 3.04, "transient_solve": 12.96},
+                            "transient_check": {"accepted": True, "max_site_error_K": 0.0123},
+                            "discretisation_error": {"timings_s": {"wall": 9.99}}}}
+    summary = {"wall_s": 61.27, "schemes": {"air": scheme(1000, 36.364, 0.2191), "potted": scheme(1200, 15.8, 0.04)}}
+    path = tmp_path / "study.txt"
+    bench.write_timing(summary, 70.44, 123.46, 1999.6, "0.3 before, 0.9 after", path=path)
+    rec = timing(path)
+    assert rec["commit"] == "abcdef1" and re.fullmatch(r"\d{4}-\d\d-\d\d", rec["date"])
+    rows = rec["rows"]
+    assert (_figure(rows, "wall, end to end", "s"), _figure(rows, "CPU, all processes (user+sys)", "s"),
+            _figure(rows, "peak memory, the command and its workers", "MB")) == (70.4, 123.5, 2000)
+    assert rows["nodes (air / potted)"] == "1,000 / 1,200"
+    assert rows["max rise"] == "36.36 / 15.80 K" and rows["of which the study"] == "61.3 s"
+    assert rows["mesh-error estimate, largest at a sensor die"] == "0.219 / 0.040 K"
+    assert "<= 20 s: FAIL" in path.read_text() and "<= 2048 MB: PASS" in path.read_text()
+
+    printed = "\n".join(["progress 1", "scheme   max rise [K]  ...", "air   36.36", "air: hot spot +36.4 K.",
+                         "numerical error, air: ...", "wrote OUT/report.pdf (70 s)"])
+    bench.write_answer(printed, tmp_path / "answer.txt")
+    lines = (tmp_path / "answer.txt").read_text().splitlines()
+    assert [line for line in lines if not line.startswith("#")] == printed.splitlines()[1:-1]
+    assert any("bench_study.py --write" in line and "commit abcdef1" in line for line in lines)
