@@ -16,8 +16,10 @@ an otherwise idle machine: the figures are the machine's.
 
 ``--write`` records, each with the date and the commit, (1) the answer the command printed (its table, the
 real-motion lines and the sentences) in ``docs/benchmarks/tables/compare_answer.txt`` and (2) this run's timing
-table (wall, CPU-seconds, peak memory, the stages per scheme) in ``docs/benchmarks/tables/study.txt``: the one
-copy of each, which the documentation includes and ``tests/test_docs_figures.py`` holds the README's copies to.
+table (wall, CPU-seconds, peak memory, the stages per scheme) in ``docs/benchmarks/tables/study.txt`` and (3)
+the sensor dies' self-heating in the calibration oven in ``docs/benchmarks/tables/oven_self_heating.txt``: the
+one copy of each, which the documentation includes and ``tests/test_docs_figures.py`` holds the README's copies
+to.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ TARGET_MB = 2048.0
 TABLES = Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "tables"
 ANSWER = TABLES / "compare_answer.txt"
 TIMING = TABLES / "study.txt"
+OVEN = TABLES / "oven_self_heating.txt"
 
 
 def _tree_rss_mb(pid: int) -> float:
@@ -143,6 +146,40 @@ def write_timing(summary: dict, wall_s: float, cpu_s: float, peak_mb: float, loa
     _write(path, head + [f"# {line}" for line in note] + [""] + timing_table(summary, wall_s, cpu_s, peak_mb))
 
 
+def oven_table(summary: dict) -> list:
+    """Each scheme's self-heating in the calibration oven (``summary.json``'s ``self_heating_in_oven_K``): every
+    sensor die's rise over the chamber at each chamber temperature, and how the cold solves ran."""
+    out = []
+    for name, sch in summary["schemes"].items():
+        heat = sch["self_heating_in_oven_K"]
+        chambers = heat["chamber_C"]
+        sites = [k for k in heat if k != "chamber_C"]
+        out += [f"{name}: rise of each sensor die over the chamber [K]",
+                "| chamber | " + " | ".join(sites) + " |", "|---" * (len(sites) + 1) + "|"]
+        out += [f"| {c:g} °C | " + " | ".join(f"{heat[s][i]:.2f}" for s in sites) + " |"
+                for i, c in enumerate(chambers)]
+        for chamber, solve in sch.get("self_heating_solves", {}).items():
+            chk = solve.get("check") or {}
+            out.append(f"the {chamber} °C solve: {solve['model']} model" + (
+                f", {chk['rounds']} round(s), {chk['full_solves']} full CG solve(s) "
+                f"({chk['cg_iterations']} iterations), "
+                f"estimated error {chk['max_site_error_K']:.4f} K at a sensor die (tolerance {chk['tol_K']:g} K)"
+                if chk else ""))
+        out.append("")
+    return out[:-1]
+
+
+def write_oven(summary: dict, path: Path = OVEN, commit: str | None = None, note: tuple = ()) -> None:
+    """Record the oven self-heating of the run with the date and the commit."""
+    head = ["# imutherm compare at its defaults: the self-heating of each scheme's sensor dies in the calibration",
+            "# oven (the unit bolted to the oven table at the chamber temperature; interpolated linearly between the",
+            "# chambers), from the run's summary.json. The one copy of these figures: docs/reference/study.md",
+            f"# includes this file. Written by `python benchmarks/bench_study.py --write` on "
+            f"{datetime.date.today().isoformat()} at commit {commit or _commit()};",
+            "# do not edit, rerun the command."]
+    _write(path, head + [f"# {line}" for line in note] + [""] + oven_table(summary))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("extra", nargs="*", help="arguments passed to imutherm compare (after --)")
@@ -173,7 +210,8 @@ def main(argv=None) -> int:
     if args.write:
         write_answer(text)
         write_timing(s, wall, cpu, peak, load)
-        print(f"wrote {ANSWER} and {TIMING}")
+        write_oven(s)
+        print(f"wrote {ANSWER}, {TIMING} and {OVEN}")
     print(f"{'scheme':<8} {'nodes':>8} {'steady [s]':>10} {'transient [s]':>13} {'steps':>6} {'max rise [K]':>12} "
           f"{'model':>8} {'check [K]':>9} {'mesh err, dies [K]':>18} {'refined [s]':>11}")
     for name, sch in s["schemes"].items():

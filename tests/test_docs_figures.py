@@ -15,6 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 TABLES = ROOT / "docs" / "benchmarks" / "tables"
 ANSWER = TABLES / "compare_answer.txt"
 TIMING = TABLES / "study.txt"
+OVEN = TABLES / "oven_self_heating.txt"
 TABLE_HEAD = "scheme   max rise [K]"
 DECIMAL = re.compile(r"(?<![\w.])\d+\.\d+(?![\w.])")
 
@@ -100,6 +101,21 @@ def test_the_readme_states_the_recorded_timing():
                      re.M)
     doc = (ROOT / "docs" / "benchmarks" / "study.md").read_text(encoding="utf-8")
     assert "{literalinclude} tables/study.txt" in doc
+    doc = (ROOT / "docs" / "getting-started.md").read_text(encoding="utf-8")
+    assert "{literalinclude} benchmarks/tables/study.txt" in doc
+
+
+def test_the_oven_self_heating_has_one_source():
+    """The study's reference page includes the recorded oven self-heating and copies none of its rows."""
+    text = OVEN.read_text(encoding="utf-8")
+    assert re.search(r"python benchmarks/bench_study.py --write` on \d{4}-\d\d-\d\d at commit [0-9a-f]{7}", text)
+    doc = (ROOT / "docs" / "reference" / "study.md").read_text(encoding="utf-8")
+    assert "{literalinclude} ../benchmarks/tables/oven_self_heating.txt" in doc
+    rows = [line for line in text.splitlines() if line.startswith("| -40")]
+    assert len(rows) == 3 and all(line not in doc for line in rows)
+    for row in rows:   # no cell's figure typed into the page beside the table
+        for cell in DECIMAL.findall(row):
+            assert f"{cell} K" not in doc, cell
 
 
 def _bench_study():
@@ -118,6 +134,9 @@ def test_bench_study_writes_what_the_docs_tests_read(tmp_path, monkeypatch):
 
     def scheme(nodes, rise, err):
         return {"max_rise_K": rise, "numerical_error": {"mesh": {"sensor_die_max_K": err}},
+                "self_heating_in_oven_K": {"chamber_C": [-40.0, 70.0], "gyro_x": [rise / 2, rise / 3]},
+                "self_heating_solves": {"-40": {"model": "reduced", "check": {
+                    "rounds": 2, "full_solves": 2, "cg_iterations": 28, "max_site_error_K": 0.0015, "tol_K": 0.01}}},
                 "thermal": {"mesh": {"nodes": nodes}, "timings_s": {"steady_solve": 3.04, "transient_solve": 12.96},
                             "transient_check": {"accepted": True, "max_site_error_K": 0.0123},
                             "discretisation_error": {"timings_s": {"wall": 9.99}}}}
@@ -133,6 +152,11 @@ def test_bench_study_writes_what_the_docs_tests_read(tmp_path, monkeypatch):
     assert rows["max rise"] == "36.36 / 15.80 K" and rows["of which the study"] == "61.3 s"
     assert rows["mesh-error estimate, largest at a sensor die"] == "0.219 / 0.040 K"
     assert "<= 20 s: FAIL" in path.read_text() and "<= 2048 MB: PASS" in path.read_text()
+
+    bench.write_oven(summary, tmp_path / "oven.txt")
+    oven = (tmp_path / "oven.txt").read_text()
+    assert "bench_study.py --write` on" in oven and "at commit abcdef1" in oven
+    assert "| -40 °C | 18.18 |" in oven and "| 70 °C | 5.27 |" in oven and oven.count("reduced model, 2 round") == 2
 
     printed = "\n".join(["progress 1", "scheme   max rise [K]  ...", "air   36.36", "air: hot spot +36.4 K.",
                          "numerical error, air: ...", "wrote OUT/report.pdf (70 s)"])
