@@ -145,4 +145,7 @@ def speed(names, duration: float = 3600.0) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, "attitude", "the attitude filters, fairly"))

@@ -164,3 +164,84 @@ def test_bench_study_writes_what_the_docs_tests_read(tmp_path, monkeypatch):
     lines = (tmp_path / "answer.txt").read_text().splitlines()
     assert [line for line in lines if not line.startswith("#")] == printed.splitlines()[1:-1]
     assert any("bench_study.py --write" in line and "commit abcdef1" in line for line in lines)
+
+
+def test_the_benchmark_pages_include_their_tables_and_copy_no_row():
+    """Each benchmark page shows its recorded tables by including them: no row of an included table (the same
+    row, or a row with the same three or more figures) is typed into the page beside it."""
+    for page in sorted((ROOT / "docs" / "benchmarks").glob("*.md")):
+        text = page.read_text(encoding="utf-8")
+        page_rows = [line.strip() for line in text.splitlines() if line.startswith("|")]
+        for inc in re.findall(r"\{literalinclude\} (tables/\S+\.txt)", text):
+            table = (page.parent / inc).read_text(encoding="utf-8")
+            for row in (line.strip() for line in table.splitlines() if line.startswith("|")):
+                figures = DECIMAL.findall(row)
+                if not figures:
+                    continue
+                assert not any(r == row or (len(figures) >= 3 and DECIMAL.findall(r) == figures) for r in page_rows), \
+                    f"{page.name} copies a row of {inc}: {row}"
+
+
+def test_a_benchmark_records_what_it_printed(tmp_path, monkeypatch):
+    """``benchmarks/_record.py``: with ``--write`` the script runs without the flag and what it printed becomes
+    the table, after a header with the command, the date and the commit; without it nothing is written."""
+    import sys
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import _record
+    monkeypatch.setattr(_record, "_commit", lambda: "abcdef1")
+    monkeypatch.setattr(sys, "argv", ["bench_x.py"])
+    seen = []
+
+    def main():
+        seen.append(list(sys.argv[1:]))
+        print("| case | time |\n|---|---|\n| a | 1.25 s |  ")
+        return 1   # a FAIL of the script's targets: still its figures
+
+    assert _record.run(main, "x", "a made-up benchmark", argv=["--fast"], tables=tmp_path) == 1
+    assert not (tmp_path / "x.txt").exists()
+    assert _record.run(main, lambda args: "x_" + args[0].strip("-"), "a made-up benchmark",
+                       argv=["--fast", "--write"], tables=tmp_path) == 1
+    assert seen == [["--fast"], ["--fast"]]
+    lines = (tmp_path / "x_fast.txt").read_text().splitlines()
+    assert lines[0] == "# a made-up benchmark" and lines[1] == "# command: python benchmarks/bench_x.py --fast"
+    assert re.match(r"# Written by `python benchmarks/bench_x.py --fast --write` on \d{4}-\d\d-\d\d at commit abcdef1;",
+                    lines[2])
+    body = [line for line in lines if not line.startswith("#")]
+    assert body == ["", "| case | time |", "|---|---|", "| a | 1.25 s |"]
+
+
+def _real_motion_rows() -> dict:
+    """``tables/real_motion.txt`` (``bench_real_motion.py --write``): filter -> {run: [figures]}, each run's
+    per-file figures, mean and (dev, cv) the mean and worst file over VQF's."""
+    out, name = {}, None
+    for line in (TABLES / "real_motion.txt").read_text(encoding="utf-8").splitlines():
+        m = re.match(r"^([a-z_]+)?\s+(defaults|dev|cv)\s+([\d.\s]+)$", line)
+        if m:
+            name = m.group(1) or name
+            out.setdefault(name, {})[m.group(2)] = [float(v) for v in m.group(3).split()]
+    return out
+
+
+def test_the_readme_real_motion_table_is_the_recorded_one():
+    """The README's real-motion table (defaults, dev and cross-validated means, x VQF, worst file x VQF) is
+    what ``bench_real_motion.py --write`` recorded, to the digits the README shows."""
+    rec = _real_motion_rows()
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| ((?:`\w+`(?: / )?)+)[^|]* \| ([^|]+) \| ([^|]+) \| ([^|]+) \| ([^|]+) \| ([^|]+) \|$",
+                      readme, re.M)
+    checked = 0
+    for names, *cells in rows:
+        if "library defaults" in cells[0]:
+            continue
+        filters = re.findall(r"`(\w+)`", names)
+        columns = [c.split(" / ") for c in cells]
+        for k, filt in enumerate(filters):
+            want = [rec[filt]["defaults"][9], rec[filt]["dev"][9], rec[filt]["cv"][9], rec[filt]["cv"][10],
+                    rec[filt]["cv"][11]]
+            for said, value in zip((col[k].strip() for col in columns), want):
+                digits = len(said.split(".")[1]) if "." in said else 0
+                assert float(said) == round(value, digits), (filt, said, value)
+            checked += 1
+    assert checked == 8, checked   # aekf, kf, gated, vqf, ungated, madgwick, ekf, fusion
+    recorded = re.search(r"--write +\((\d{4}-\d\d-\d\d) at", (TABLES / "real_motion.txt").read_text()).group(1)
+    assert f"Measured {recorded} by `python benchmarks/bench_real_motion.py --write`" in " ".join(readme.split())
