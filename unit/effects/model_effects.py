@@ -131,7 +131,8 @@ def _cavity_law_blend(variant: ModelVariant, s: EffectSetting) -> ModelVariant:
     o = variant.options
     if not cavity_law_of(o).blendable:
         raise InputError("effect cavity_law_blend: blends the effective law into the s2s cavity law; the model "
-                         f"uses cavity_law {o.cavity_law!r}" + ("" if o.cavity_radiation else " with no cavity radiation"))
+                         f"uses cavity_law {o.cavity_law!r}"
+                         + ("" if o.cavity_radiation else " with no cavity radiation"))
     return replace(variant, options=o.with_(cavity_law_blend=s.value("w")))
 
 
