@@ -211,8 +211,7 @@ def reduce_cases(cases: list) -> dict:
             "residuals": _reduce_tree([c["residuals"] for c in cases]),
             "extrapolated_fraction": _reduce_tree([c["extrapolated"] for c in cases]),
             "range_C": {cal: {"low": _reduce_tree([c["range_C"][cal][0] for c in cases]),
-                              "high": _reduce_tree([c["range_C"][cal][1] for c in cases])}
-                        for cal in cases[0]["range_C"]},
+                              "high": _reduce_tree([c["range_C"][cal][1] for c in cases])} for cal in cases[0]["range_C"]},
             "max_reported_C": _reduce_tree([c["max_reported_C"] for c in cases])}
 
 

@@ -106,8 +106,7 @@ def paper_comparison(schemes: dict, config: StudyConfig) -> list:
         p = pf.get(name, {})
         if "simulated_max_rise_K" in p:
             d = s["max_rise_K"] - p["simulated_max_rise_K"]
-            rows.append({"quantity": f"{name}: max rise over ambient [K]",
-                         "paper": f"{p['simulated_max_rise_K']:g} (FEM)",
+            rows.append({"quantity": f"{name}: max rise over ambient [K]", "paper": f"{p['simulated_max_rise_K']:g} (FEM)",
                          "model": f"{s['max_rise_K']:.1f} ({s['hottest_part']})",
                          "difference": f"{d:+.1f} K. Our hot spot is a die: {s['hottest_part']} carries "
                                        f"{s['hottest_part_power_W']:.2f} W in a small package, whose die-to-board "
