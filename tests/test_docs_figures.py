@@ -245,3 +245,15 @@ def test_the_readme_real_motion_table_is_the_recorded_one():
     assert checked == 8, checked   # aekf, kf, gated, vqf, ungated, madgwick, ekf, fusion
     recorded = re.search(r"--write +\((\d{4}-\d\d-\d\d) at", (TABLES / "real_motion.txt").read_text()).group(1)
     assert f"Measured {recorded} by `python benchmarks/bench_real_motion.py --write`" in " ".join(readme.split())
+
+
+def test_the_readme_correlate_times_are_the_recorded_ones():
+    """The README's `correlate` row (cold and warm wall times, a range as the host's speed drifts) is the range
+    ``tables/correlation_speed.txt`` states, rounded to seconds."""
+    text = " ".join((TABLES / "correlation_speed.txt").read_text(encoding="utf-8").split())
+    rec = re.search(r"\(([\d.]+) s fast, [\d.]+-([\d.]+) s slow\); the warm run ([\d.]+)-([\d.]+) s", text)
+    readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    said = re.search(r"three files at the default mesh: (\d+)-(\d+) s as this host's speed drifts, (\d+)-(\d+) s on "
+                     r"the next run", readme)
+    assert rec and said
+    assert said.groups() == tuple(f"{float(v):.0f}" for v in rec.groups())
