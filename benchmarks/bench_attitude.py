@@ -108,8 +108,10 @@ def ablation(names, tuned, seeds=tuple(range(6))) -> None:
 
     P = disturbances.PRESETS["flight"]
     cases = {"none": None, "vibration": disturbances.Disturbances(vibration=P.vibration),
-             "turbulence": disturbances.Disturbances(turbulence=P.turbulence), "wind shear + gusts": disturbances.Disturbances(wind=P.wind),
-             "sync 5 ms": disturbances.Disturbances(sync_s=P.sync_s), "jitter 0.2 ms": disturbances.Disturbances(jitter_s=P.jitter_s),
+             "turbulence": disturbances.Disturbances(turbulence=P.turbulence),
+             "wind shear + gusts": disturbances.Disturbances(wind=P.wind),
+             "sync 5 ms": disturbances.Disturbances(sync_s=P.sync_s),
+             "jitter 0.2 ms": disturbances.Disturbances(jitter_s=P.jitter_s),
              "all": P}
     print(f"\n== ablation: flight, seeds {list(seeds)}, roll / pitch RMS [deg] mean over seeds (tuned settings)")
     print(f"{'disturbance':20s} " + " ".join(f"{n:>13s}" for n in names))
@@ -143,4 +145,7 @@ def speed(names, duration: float = 3600.0) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, "attitude", "the attitude filters, fairly"))

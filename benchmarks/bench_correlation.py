@@ -285,4 +285,6 @@ def summarise(rows, effects, form=()) -> dict:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, lambda args: "correlation_model_form" if "--model-form" in args else "correlation",
+                         "the blind correlation campaign"))

@@ -83,4 +83,5 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, "correlation_speed", "imutherm correlate, three files"))

@@ -58,4 +58,5 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, "refusals", "time to refuse bad input"))

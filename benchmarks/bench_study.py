@@ -4,19 +4,22 @@ Runs the command as a user does (a subprocess: thermal + oven self-heating + cal
 attitude, three schemes, default seeds) and reports its wall time and the peak resident memory of the
 whole process tree (the command and its worker processes, summed, sampled every 0.2 s from /proc), the
 stage times from ``summary.json``, the CPU seconds of the command and its workers (the load-independent
-cost), and PASS/FAIL against the targets (<= 20 s, the anchor set with the reduced transients (40 s before them), with checked reduced
-transients and each scheme's mesh-error estimate; peak memory <= 2 GB). Run it on an otherwise
-idle machine: the figures are the machine's.
+cost), and PASS/FAIL against the targets (<= 20 s, the anchor set with the reduced transients (40 s before
+them), with checked reduced transients and each scheme's mesh-error estimate; peak memory <= 2 GB). Run it on
+an otherwise idle machine: the figures are the machine's.
 
     python benchmarks/bench_study.py                # default settings of `imutherm compare`
     python benchmarks/bench_study.py -- --seeds 6   # extra arguments for imutherm compare
     python benchmarks/bench_study.py -- --full      # the transients on the full adaptive FEM (as before)
     python benchmarks/bench_study.py -- --no-mesh-error   # without the mesh-error estimates
-    python benchmarks/bench_study.py --write        # and record the printed answer (defaults only)
+    python benchmarks/bench_study.py --write        # and record the answer and the timing (defaults only)
 
-``--write`` records the answer the command printed (its table, the real-motion lines and the sentences) in
-``docs/benchmarks/tables/compare_answer.txt``, with the date and the commit: the one copy of that table, which
-the documentation includes and ``tests/test_docs_figures.py`` holds the README's copy to.
+``--write`` records, each with the date and the commit, (1) the answer the command printed (its table, the
+real-motion lines and the sentences) in ``docs/benchmarks/tables/compare_answer.txt`` and (2) this run's timing
+table (wall, CPU-seconds, peak memory, the stages per scheme) in ``docs/benchmarks/tables/study.txt`` and (3)
+the sensor dies' self-heating in the calibration oven in ``docs/benchmarks/tables/oven_self_heating.txt``: the
+one copy of each, which the documentation includes and ``tests/test_docs_figures.py`` holds the README's copies
+to.
 """
 
 from __future__ import annotations
@@ -34,7 +37,10 @@ from pathlib import Path
 
 TARGET_S = 20.0
 TARGET_MB = 2048.0
-ANSWER = Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "tables" / "compare_answer.txt"
+TABLES = Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "tables"
+ANSWER = TABLES / "compare_answer.txt"
+TIMING = TABLES / "study.txt"
+OVEN = TABLES / "oven_self_heating.txt"
 
 
 def _tree_rss_mb(pid: int) -> float:
@@ -62,19 +68,116 @@ def answer_lines(stdout: str) -> list:
     return lines[start:end]
 
 
+def _commit() -> str:
+    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                          cwd=Path(__file__).resolve().parent).stdout.strip()
+
+
+def _write(path: Path, lines: list) -> None:
+    """Write ``lines`` to ``path`` whole or not at all."""
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    tmp.replace(path)
+
+
 def write_answer(stdout: str, path: Path = ANSWER) -> None:
     """Record the printed answer of the default ``imutherm compare`` with the date and the commit."""
-    rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                         cwd=Path(__file__).resolve().parent).stdout.strip()
+    rev = _commit()
     head = ["# imutherm compare at its defaults: the answer it prints (reference unit, default mesh, s2s cavity law,",
             "# 3 seeds, the power-on transients on reduced models checked against the full FEM); progress lines, the",
             "# cavity law's notes and the closing 'wrote ...' line left out. The one copy of this answer: the docs",
             "# include this file and tests/test_docs_figures.py holds the README's copy to it.",
             f"# Written by `python benchmarks/bench_study.py --write` on {datetime.date.today().isoformat()} at commit "
             f"{rev}; do not edit, rerun the command."]
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text("\n".join(head + answer_lines(stdout)) + "\n", encoding="utf-8")
-    tmp.replace(path)
+    _write(path, head + answer_lines(stdout))
+
+
+def _per_scheme(summary: dict, value, fmt: str, unit: str = "") -> str:
+    """``value(scheme summary)`` of each scheme, formatted and joined by ' / ' (nan where it is missing)."""
+    out = []
+    for sch in summary["schemes"].values():
+        v = value(sch)
+        out.append(format(float("nan") if v is None else v, fmt))
+    return " / ".join(out) + unit
+
+
+def _thermal(sch: dict, key: str) -> dict:
+    return sch["thermal"].get(key) or {}
+
+
+def timing_table(summary: dict, wall_s: float, cpu_s: float, peak_mb: float) -> list:
+    """The run's timing as a Markdown table: end to end against the targets, then the stages per scheme (from
+    ``summary.json``)."""
+    names = " / ".join(summary["schemes"])
+    checks = [_thermal(s, "transient_check") for s in summary["schemes"].values()]
+    rows = [("wall, end to end", f"{wall_s:.1f} s", f"<= {TARGET_S:.0f} s: {'PASS' if wall_s <= TARGET_S else 'FAIL'}"),
+            ("of which the study", f"{summary['wall_s']:.1f} s", ""),
+            ("CPU, all processes (user+sys)", f"{cpu_s:.1f} s", ""),
+            ("peak memory, the command and its workers", f"{peak_mb:.0f} MB",
+             f"<= {TARGET_MB:.0f} MB: {'PASS' if peak_mb <= TARGET_MB else 'FAIL'}"),
+            (f"nodes ({names})", _per_scheme(summary, lambda s: s["thermal"]["mesh"]["nodes"], ",d"), ""),
+            ("steady solve per scheme",
+             _per_scheme(summary, lambda s: _thermal(s, "timings_s")["steady_solve"], ".1f", " s"), ""),
+            ("power-on transient per scheme (reduced model + its check)",
+             _per_scheme(summary, lambda s: _thermal(s, "timings_s").get("transient_solve"), ".1f", " s"), ""),
+            ("reduced transient's check against the full model",
+             _per_scheme(summary, lambda s: _thermal(s, "transient_check").get("max_site_error_K"), ".3f", " K"),
+             "accepted: " + " / ".join("yes" if c.get("accepted") else "no" for c in checks)),
+            ("mesh-error estimate, largest at a sensor die",
+             _per_scheme(summary, lambda s: s.get("numerical_error", {}).get("mesh", {}).get("sensor_die_max_K"),
+                         ".3f", " K"), ""),
+            ("mesh-error estimate's refined solve",
+             _per_scheme(summary, lambda s: _thermal(s, "discretisation_error").get("timings_s", {}).get("wall"),
+                         ".1f", " s"), ""),
+            ("max rise", _per_scheme(summary, lambda s: s["max_rise_K"], ".2f", " K"), "")]
+    return ["| figure | measured | target |", "|---|---|---|"] + [f"| {a} | {b} | {c} |" for a, b, c in rows]
+
+
+def write_timing(summary: dict, wall_s: float, cpu_s: float, peak_mb: float, load: str, path: Path = TIMING,
+                 note: tuple = (), commit: str | None = None) -> None:
+    """Record this run's timing table with the date, the commit (default: the checkout's), the machine's CPUs and
+    its load; ``note``: extra header lines."""
+    head = ["# imutherm compare end to end at its defaults (reference unit, default mesh, s2s cavity law, 3 seeds,",
+            "# reduced transients with their check, each scheme's mesh-error estimate): one run's timing. The one copy",
+            "# of these figures: docs/benchmarks/study.md includes this file and tests/test_docs_figures.py holds the",
+            "# README's copy to it. Time-based figures are the machine's: re-run the command to measure yours.",
+            f"# Written by `python benchmarks/bench_study.py --write` on {datetime.date.today().isoformat()} at commit "
+            f"{commit or _commit()};", f"# {os.cpu_count()} CPUs, load average {load}; do not edit, rerun the command."]
+    _write(path, head + [f"# {line}" for line in note] + [""] + timing_table(summary, wall_s, cpu_s, peak_mb))
+
+
+def oven_table(summary: dict) -> list:
+    """Each scheme's self-heating in the calibration oven (``summary.json``'s ``self_heating_in_oven_K``): every
+    sensor die's rise over the chamber at each chamber temperature, and how the cold solves ran."""
+    out = []
+    for name, sch in summary["schemes"].items():
+        heat = sch["self_heating_in_oven_K"]
+        chambers = heat["chamber_C"]
+        sites = [k for k in heat if k != "chamber_C"]
+        out += [f"{name}: rise of each sensor die over the chamber [K]",
+                "| chamber | " + " | ".join(sites) + " |", "|---" * (len(sites) + 1) + "|"]
+        out += [f"| {c:g} °C | " + " | ".join(f"{heat[s][i]:.2f}" for s in sites) + " |"
+                for i, c in enumerate(chambers)]
+        for chamber, solve in sch.get("self_heating_solves", {}).items():
+            chk = solve.get("check") or {}
+            out.append(f"the {chamber} °C solve: {solve['model']} model" + (
+                f", {chk['rounds']} round(s), {chk['full_solves']} full CG solve(s) "
+                f"({chk['cg_iterations']} iterations), "
+                f"estimated error {chk['max_site_error_K']:.4f} K at a sensor die (tolerance {chk['tol_K']:g} K)"
+                if chk else ""))
+        out.append("")
+    return out[:-1]
+
+
+def write_oven(summary: dict, path: Path = OVEN, commit: str | None = None, note: tuple = ()) -> None:
+    """Record the oven self-heating of the run with the date and the commit."""
+    head = ["# imutherm compare at its defaults: the self-heating of each scheme's sensor dies in the calibration",
+            "# oven (the unit bolted to the oven table at the chamber temperature; interpolated linearly between the",
+            "# chambers), from the run's summary.json. The one copy of these figures: docs/reference/study.md",
+            f"# includes this file. Written by `python benchmarks/bench_study.py --write` on "
+            f"{datetime.date.today().isoformat()} at commit {commit or _commit()};",
+            "# do not edit, rerun the command."]
+    _write(path, head + [f"# {line}" for line in note] + [""] + oven_table(summary))
 
 
 def main(argv=None) -> int:
@@ -102,10 +205,13 @@ def main(argv=None) -> int:
     if proc.returncode != 0:
         print(f"imutherm compare failed with status {proc.returncode}")
         return 1
+    s = json.loads((out / "summary.json").read_text())
+    load = f"{load0:.1f} before, {os.getloadavg()[0]:.1f} after"
     if args.write:
         write_answer(text)
-        print(f"wrote {ANSWER}")
-    s = json.loads((out / "summary.json").read_text())
+        write_timing(s, wall, cpu, peak, load)
+        write_oven(s)
+        print(f"wrote {ANSWER}, {TIMING} and {OVEN}")
     print(f"{'scheme':<8} {'nodes':>8} {'steady [s]':>10} {'transient [s]':>13} {'steps':>6} {'max rise [K]':>12} "
           f"{'model':>8} {'check [K]':>9} {'mesh err, dies [K]':>18} {'refined [s]':>11}")
     for name, sch in s["schemes"].items():
@@ -118,7 +224,7 @@ def main(argv=None) -> int:
               f"{th.get('discretisation_error', {}).get('timings_s', {}).get('wall', float('nan')):11.1f}")
     print(f"\nimutherm compare end to end: {wall:.1f} s wall (study {s['wall_s']:.1f} s), peak memory {peak:.0f} MB "
           f"(process tree), {len(s['seeds'])} seeds, {os.cpu_count()} CPUs; CPU {cpu:.1f} s (user+sys, all "
-          f"processes); load average {load0:.1f} before, {os.getloadavg()[0]:.1f} after")
+          f"processes); load average {load}")
     ok_t, ok_m = wall <= TARGET_S, peak <= TARGET_MB
     print(f"  wall <= {TARGET_S:.0f} s: {'PASS' if ok_t else 'FAIL'}")
     print(f"  peak <= {TARGET_MB:.0f} MB: {'PASS' if ok_m else 'FAIL'}")

@@ -84,4 +84,6 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, "sweep_sobol",
+                         "imutherm sweep --method sobol on the reduced model (6 inputs of the grease scheme)"))

@@ -97,13 +97,18 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
                    help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
     from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM
-    from imutherm.unit.cavity_laws import CAVITY_LAWS  # the registry: a law registered before the parser is built
-    g.add_argument("--cavity-law", choices=tuple(CAVITY_LAWS), default="s2s",
-                   help="radiation inside the cavity: s2s (default: surface-to-surface exchange, view factors and "
-                        "radiosity), effective (an effective conductivity of the air: faster, but it runs the air "
-                        "scheme ~7 K cool at tp1) or none")
+    from imutherm.unit.cavity_laws import CAVITY_LAWS, DEFAULT_CAVITY_LAW  # registered before the parser is built
+    g.add_argument("--cavity-law", choices=tuple(CAVITY_LAWS), default=DEFAULT_CAVITY_LAW,
+                   help=cavity_law_help(CAVITY_LAWS, DEFAULT_CAVITY_LAW))
     g.add_argument("--cavity-patch-mm", type=float, default=DEFAULT_PATCH_MM, metavar="MM",
                    help=f"patch edge of --cavity-law s2s [mm] (default {DEFAULT_PATCH_MM:g})")
+
+
+def cavity_law_help(laws: dict, default: str) -> str:
+    """The ``--cavity-law`` help: every registered law (:mod:`imutherm.unit.cavity_laws`) with its words, in the
+    registry's order, the default marked."""
+    return "radiation inside the cavity; " + "; ".join(
+        f"{name}{' (default)' if name == default else ''}: {law.words}" for name, law in laws.items())
 
 
 def model_options(args):

@@ -3,9 +3,9 @@
 The corrected model a correlation writes is its physics alone (re-tuned values and named effects): the
 discrepancy term is a statistical term of the fit, not a model input. A fit that leans on the term can leave
 physics that predicts the data *worse* than the nominal model once the term is taken away (the blind
-campaign's two null cases, 0.59 against 0.41 K and 0.76 against 0.32 K, the board conductivity at its bound). :func:`choose` takes,
-of the corrected model's physics, the same effects re-fitted without the term, and the nominal model, the first
-that predicts the held-out readings no worse than the nominal model, and says so.
+campaign's two null cases, 0.59 against 0.41 K and 0.76 against 0.32 K, the board conductivity at its bound).
+:func:`choose` takes, of the corrected model's physics, the same effects re-fitted without the term, and the
+nominal model, the first that predicts the held-out readings no worse than the nominal model, and says so.
 """
 
 from __future__ import annotations

@@ -742,8 +742,8 @@ def test_the_cavity_emissivity_is_re_tuned_not_named(tmp_path):
     cands = ("power@reg_5v", "power@processor", "contact@bond")
     runs = toy_runs({**_TOY_NUISANCE, "cavity_emissivity": 0.3}, np.random.default_rng(4))
     res = correlate(runs, models=models, candidates=cands, rerun=False)
-    # 0.3 lies far outside the finish's source range (0.63-0.86): since the blind campaign the move is named as the finding
-    # (tests/test_correlation_form.py), still no library effect
+    # 0.3 lies far outside the finish's source range (0.63-0.86): since the blind campaign the move is named as the
+    # finding (tests/test_correlation_form.py), still no library effect
     assert res.named_effects == () and res.verdict == "finding", res.timings["reason"]
     assert [f.parameter for f in res.findings] == ["cavity_emissivity"]
     assert res.retune.values["cavity_emissivity"] == pytest.approx(0.3, abs=0.05)

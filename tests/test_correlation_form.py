@@ -53,8 +53,9 @@ def test_the_known_form_scale_and_the_terms_cap():
 
 
 def test_named_through_the_form_error():
-    """The rule's arithmetic with the blind campaign's 5 V regulator case: re-tuned 2.14 K held out, the regulator leaving
-    the form error's level; a re-tune already near the level, or an effect leaving more, is not named this way."""
+    """The rule's arithmetic with the blind campaign's 5 V regulator case: re-tuned 2.14 K held out, the regulator
+    leaving the form error's level; a re-tune already near the level, or an effect leaving more, is not named this
+    way."""
     band, noise = 0.15, 0.05  # level max(2 x 0.15, 2 x 0.05) = 0.30 K
     assert form_error.named_through_form(2.14, 0.29, band, noise, 2.0)
     assert not form_error.named_through_form(2.14, 0.45, band, noise, 2.0)  # leaves more than the form's level
@@ -184,9 +185,9 @@ def test_contacts_as_thin_solid_layers():
 def test_layered_path_a_strong_effect_is_named_first_and_a_null_gets_no_library_name(tmp_path):
     """The campaign's hardest path at test size: data with every contact a thin solid layer, on a grid 1.5x
     coarser than the inversion's 6 mm, ±10 % nuisance on every conductivity, contact and emissivity, noise and
-    probe offsets. The 5 V regulator at -0.4 W of its 0.90 W (0.55x, the blind campaign's case) is named first, within 1.5x, and the
-    held-out error falls to at most 0.3 of the nominal model's; the null case of the same generator gets no
-    library name and its written model is no worse than the nominal one."""
+    probe offsets. The 5 V regulator at -0.4 W of its 0.90 W (0.55x, the blind campaign's case) is named first,
+    within 1.5x, and the held-out error falls to at most 0.3 of the nominal model's; the null case of the same
+    generator gets no library name and its written model is no worse than the nominal one."""
     from imutherm.measured import read_measured
     from imutherm.studies.correlation import build_models
     from imutherm.studies.form_generator import generator_mesh_mm

@@ -1,15 +1,21 @@
-"""The answer of ``imutherm compare`` has one source: ``docs/benchmarks/tables/compare_answer.txt``, written by
-``python benchmarks/bench_study.py --write`` from what the command printed. The docs pages include it (so they
-cannot show another table), the README's copy (a GitHub page cannot include a file) must be the same, and the
-figures the getting-started page reads out of it must be in it.
+"""Each measured figure has one source, a table file under ``docs/benchmarks/tables/`` that its benchmark writes.
+
+The answer of ``imutherm compare``: ``compare_answer.txt``, and the run's timing: ``study.txt``, both written by
+``python benchmarks/bench_study.py --write``. The docs pages include them (so they cannot show another table),
+the README's copies (a GitHub page cannot include a file) must be the same, and the figures the getting-started
+page reads out of the answer must be in it.
 
 (The gallery's stated figures are held to what the examples print in tests/test_gallery.py.)"""
 
+import importlib.util
 import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-ANSWER = ROOT / "docs" / "benchmarks" / "tables" / "compare_answer.txt"
+TABLES = ROOT / "docs" / "benchmarks" / "tables"
+ANSWER = TABLES / "compare_answer.txt"
+TIMING = TABLES / "study.txt"
+OVEN = TABLES / "oven_self_heating.txt"
 TABLE_HEAD = "scheme   max rise [K]"
 DECIMAL = re.compile(r"(?<![\w.])\d+\.\d+(?![\w.])")
 
@@ -42,6 +48,9 @@ def test_the_readme_shows_the_recorded_answer():
     assert readme[start:first_sentence] == lines[:n]
     end = next(i for i in range(first_sentence, len(readme)) if readme[i].startswith("..."))
     assert " ".join(" ".join(readme[first_sentence:end]).split()) in " ".join(" ".join(lines[n:]).split())
+    # after the '...', the numerical-error lines, as recorded
+    wrote = next(i for i in range(end, len(readme)) if readme[i].startswith("wrote "))
+    assert readme[end + 1:wrote] == [line for line in lines if line.startswith("numerical error")]
 
 
 def test_the_docs_include_the_answer_and_hold_no_copy():
@@ -58,3 +67,193 @@ def test_the_docs_include_the_answer_and_hold_no_copy():
     figures = DECIMAL.findall(says)
     assert len(figures) >= 8
     assert [f for f in figures if f not in text] == []
+
+
+def timing(path: Path = TIMING) -> dict:
+    """The figures of a timing table written by ``bench_study.py --write``: {figure: measured} and the header's
+    command, commit and date."""
+    text = path.read_text(encoding="utf-8")
+    rows = dict(re.findall(r"^\| ([^|]+?) \| ([^|]+?) \|", text, re.M))
+    head = " ".join(line for line in text.splitlines() if line.startswith("#"))
+    when = re.search(r"(?:on|measured on) (\d{4}-\d\d-\d\d) at commit ([0-9a-f]{7,})", head)
+    return {"rows": rows, "head": head, "date": when and when.group(1), "commit": when and when.group(2)}
+
+
+def _figure(rows: dict, name: str, unit: str) -> float:
+    return float(re.fullmatch(rf"([\d.]+) {unit}", rows[name]).group(1))
+
+
+def test_the_readme_states_the_recorded_timing():
+    """The README's timing of the main job (wall, CPU-seconds, peak, the date) is the one in study.txt, rounded."""
+    rec = timing()
+    assert "python benchmarks/bench_study.py --write" in rec["head"] and rec["commit"], rec["head"]
+    rows = rec["rows"]
+    wall = _figure(rows, "wall, end to end", "s")
+    cpu = _figure(rows, "CPU, all processes (user+sys)", "s")
+    peak = _figure(rows, "peak memory, the command and its workers", "MB")
+    readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    said = re.search(r"\((\d+) s wall and (\d+) CPU-seconds on this machine's \d cores, ([\d.]+) GB peak, measured "
+                     r"(\d{4}-\d\d-\d\d) by `benchmarks/bench_study.py`", readme)
+    assert said, "the README's timing sentence is not where the test looks"
+    assert said.groups() == (f"{wall:.0f}", f"{cpu:.0f}", f"{peak / 1000:.1f}", rec["date"]), said.groups()
+    # the printout's closing line carries the same run's seconds
+    assert re.search(rf"^wrote OUT/report.pdf .*\({wall:.0f} s\)$", (ROOT / "README.md").read_text(encoding="utf-8"),
+                     re.M)
+    doc = (ROOT / "docs" / "benchmarks" / "study.md").read_text(encoding="utf-8")
+    assert "{literalinclude} tables/study.txt" in doc
+    doc = (ROOT / "docs" / "getting-started.md").read_text(encoding="utf-8")
+    assert "{literalinclude} benchmarks/tables/study.txt" in doc
+
+
+def test_the_oven_self_heating_has_one_source():
+    """The study's reference page includes the recorded oven self-heating and copies none of its rows."""
+    text = OVEN.read_text(encoding="utf-8")
+    assert re.search(r"python benchmarks/bench_study.py --write` on \d{4}-\d\d-\d\d at commit [0-9a-f]{7}", text)
+    doc = (ROOT / "docs" / "reference" / "study.md").read_text(encoding="utf-8")
+    assert "{literalinclude} ../benchmarks/tables/oven_self_heating.txt" in doc
+    rows = [line for line in text.splitlines() if line.startswith("| -40")]
+    assert len(rows) == 3 and all(line not in doc for line in rows)
+    for row in rows:   # no cell's figure typed into the page beside the table
+        for cell in DECIMAL.findall(row):
+            assert f"{cell} K" not in doc, cell
+
+
+def _bench_study():
+    spec = importlib.util.spec_from_file_location("bench_study", ROOT / "benchmarks" / "bench_study.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_bench_study_writes_what_the_docs_tests_read(tmp_path, monkeypatch):
+    """``--write``'s writers on a made-up run: the timing table reads back with the figures it was given (so the
+    README check above reads what the benchmark writes), and the answer file keeps the printout from the table's
+    header to the last sentence."""
+    bench = _bench_study()
+    monkeypatch.setattr(bench, "_commit", lambda: "abcdef1")
+
+    def scheme(nodes, rise, err):
+        return {"max_rise_K": rise, "numerical_error": {"mesh": {"sensor_die_max_K": err}},
+                "self_heating_in_oven_K": {"chamber_C": [-40.0, 70.0], "gyro_x": [rise / 2, rise / 3]},
+                "self_heating_solves": {"-40": {"model": "reduced", "check": {
+                    "rounds": 2, "full_solves": 2, "cg_iterations": 28, "max_site_error_K": 0.0015, "tol_K": 0.01}}},
+                "thermal": {"mesh": {"nodes": nodes}, "timings_s": {"steady_solve": 3.04, "transient_solve": 12.96},
+                            "transient_check": {"accepted": True, "max_site_error_K": 0.0123},
+                            "discretisation_error": {"timings_s": {"wall": 9.99}}}}
+    summary = {"wall_s": 61.27, "schemes": {"air": scheme(1000, 36.364, 0.2191), "potted": scheme(1200, 15.8, 0.04)}}
+    path = tmp_path / "study.txt"
+    bench.write_timing(summary, 70.44, 123.46, 1999.6, "0.3 before, 0.9 after", path=path)
+    rec = timing(path)
+    assert rec["commit"] == "abcdef1" and re.fullmatch(r"\d{4}-\d\d-\d\d", rec["date"])
+    rows = rec["rows"]
+    assert (_figure(rows, "wall, end to end", "s"), _figure(rows, "CPU, all processes (user+sys)", "s"),
+            _figure(rows, "peak memory, the command and its workers", "MB")) == (70.4, 123.5, 2000)
+    assert rows["nodes (air / potted)"] == "1,000 / 1,200"
+    assert rows["max rise"] == "36.36 / 15.80 K" and rows["of which the study"] == "61.3 s"
+    assert rows["mesh-error estimate, largest at a sensor die"] == "0.219 / 0.040 K"
+    assert "<= 20 s: FAIL" in path.read_text() and "<= 2048 MB: PASS" in path.read_text()
+
+    bench.write_oven(summary, tmp_path / "oven.txt")
+    oven = (tmp_path / "oven.txt").read_text()
+    assert "bench_study.py --write` on" in oven and "at commit abcdef1" in oven
+    assert "| -40 °C | 18.18 |" in oven and "| 70 °C | 5.27 |" in oven and oven.count("reduced model, 2 round") == 2
+
+    printed = "\n".join(["progress 1", "scheme   max rise [K]  ...", "air   36.36", "air: hot spot +36.4 K.",
+                         "numerical error, air: ...", "wrote OUT/report.pdf (70 s)"])
+    bench.write_answer(printed, tmp_path / "answer.txt")
+    lines = (tmp_path / "answer.txt").read_text().splitlines()
+    assert [line for line in lines if not line.startswith("#")] == printed.splitlines()[1:-1]
+    assert any("bench_study.py --write" in line and "commit abcdef1" in line for line in lines)
+
+
+def test_the_benchmark_pages_include_their_tables_and_copy_no_row():
+    """Each benchmark page shows its recorded tables by including them: no row of an included table (the same
+    row, or a row with the same three or more figures) is typed into the page beside it."""
+    for page in sorted((ROOT / "docs" / "benchmarks").glob("*.md")):
+        text = page.read_text(encoding="utf-8")
+        page_rows = [line.strip() for line in text.splitlines() if line.startswith("|")]
+        for inc in re.findall(r"\{literalinclude\} (tables/\S+\.txt)", text):
+            table = (page.parent / inc).read_text(encoding="utf-8")
+            for row in (line.strip() for line in table.splitlines() if line.startswith("|")):
+                figures = DECIMAL.findall(row)
+                if not figures:
+                    continue
+                assert not any(r == row or (len(figures) >= 3 and DECIMAL.findall(r) == figures) for r in page_rows), \
+                    f"{page.name} copies a row of {inc}: {row}"
+
+
+def test_a_benchmark_records_what_it_printed(tmp_path, monkeypatch):
+    """``benchmarks/_record.py``: with ``--write`` the script runs without the flag and what it printed becomes
+    the table, after a header with the command, the date and the commit; without it nothing is written."""
+    import sys
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    import _record
+    monkeypatch.setattr(_record, "_commit", lambda: "abcdef1")
+    monkeypatch.setattr(sys, "argv", ["bench_x.py"])
+    seen = []
+
+    def main():
+        seen.append(list(sys.argv[1:]))
+        print("| case | time |\n|---|---|\n| a | 1.25 s |  ")
+        return 1   # a FAIL of the script's targets: still its figures
+
+    assert _record.run(main, "x", "a made-up benchmark", argv=["--fast"], tables=tmp_path) == 1
+    assert not (tmp_path / "x.txt").exists()
+    assert _record.run(main, lambda args: "x_" + args[0].strip("-"), "a made-up benchmark",
+                       argv=["--fast", "--write"], tables=tmp_path) == 1
+    assert seen == [["--fast"], ["--fast"]]
+    lines = (tmp_path / "x_fast.txt").read_text().splitlines()
+    assert lines[0] == "# a made-up benchmark" and lines[1] == "# command: python benchmarks/bench_x.py --fast"
+    assert re.match(r"# Written by `python benchmarks/bench_x.py --fast --write` on \d{4}-\d\d-\d\d at commit abcdef1;",
+                    lines[2])
+    body = [line for line in lines if not line.startswith("#")]
+    assert body == ["", "| case | time |", "|---|---|", "| a | 1.25 s |"]
+
+
+def _real_motion_rows() -> dict:
+    """``tables/real_motion.txt`` (``bench_real_motion.py --write``): filter -> {run: [figures]}, each run's
+    per-file figures, mean and (dev, cv) the mean and worst file over VQF's."""
+    out, name = {}, None
+    for line in (TABLES / "real_motion.txt").read_text(encoding="utf-8").splitlines():
+        m = re.match(r"^([a-z_]+)?\s+(defaults|dev|cv)\s+([\d.\s]+)$", line)
+        if m:
+            name = m.group(1) or name
+            out.setdefault(name, {})[m.group(2)] = [float(v) for v in m.group(3).split()]
+    return out
+
+
+def test_the_readme_real_motion_table_is_the_recorded_one():
+    """The README's real-motion table (defaults, dev and cross-validated means, x VQF, worst file x VQF) is
+    what ``bench_real_motion.py --write`` recorded, to the digits the README shows."""
+    rec = _real_motion_rows()
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| ((?:`\w+`(?: / )?)+)[^|]* \| ([^|]+) \| ([^|]+) \| ([^|]+) \| ([^|]+) \| ([^|]+) \|$",
+                      readme, re.M)
+    checked = 0
+    for names, *cells in rows:
+        if "library defaults" in cells[0]:
+            continue
+        filters = re.findall(r"`(\w+)`", names)
+        columns = [c.split(" / ") for c in cells]
+        for k, filt in enumerate(filters):
+            want = [rec[filt]["defaults"][9], rec[filt]["dev"][9], rec[filt]["cv"][9], rec[filt]["cv"][10],
+                    rec[filt]["cv"][11]]
+            for said, value in zip((col[k].strip() for col in columns), want):
+                digits = len(said.split(".")[1]) if "." in said else 0
+                assert float(said) == round(value, digits), (filt, said, value)
+            checked += 1
+    assert checked == 8, checked   # aekf, kf, gated, vqf, ungated, madgwick, ekf, fusion
+    recorded = re.search(r"--write +\((\d{4}-\d\d-\d\d) at", (TABLES / "real_motion.txt").read_text()).group(1)
+    assert f"Measured {recorded} by `python benchmarks/bench_real_motion.py --write`" in " ".join(readme.split())
+
+
+def test_the_readme_correlate_times_are_the_recorded_ones():
+    """The README's `correlate` row (cold and warm wall times, a range as the host's speed drifts) is the range
+    ``tables/correlation_speed.txt`` states, rounded to seconds."""
+    text = " ".join((TABLES / "correlation_speed.txt").read_text(encoding="utf-8").split())
+    rec = re.search(r"\(([\d.]+) s fast, [\d.]+-([\d.]+) s slow\); the warm run ([\d.]+)-([\d.]+) s", text)
+    readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    said = re.search(r"three files at the default mesh: (\d+)-(\d+) s as this host's speed drifts, (\d+)-(\d+) s on "
+                     r"the next run", readme)
+    assert rec and said
+    assert said.groups() == tuple(f"{float(v):.0f}" for v in rec.groups())

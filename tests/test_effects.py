@@ -164,7 +164,8 @@ def test_cavity_emissivity_under_s2s_sets_the_housing_inner_emissivity():
     assert np.abs(np.diag(bare.X)).sum() < 0.6 * np.abs(np.diag(nom.X)).sum()
     assert knobs.effect_knob("cavity_emissivity", opts).nodes == knobs.S2S_EMISSIVITY_NODES
     assert knobs.effect_knob("cavity_emissivity", ModelOptions(cavity_law="effective")).nodes == 2  # linear in eps
-    assert knobs.effect_knob("cavity_emissivity", ModelOptions()).nodes == knobs.S2S_EMISSIVITY_NODES  # s2s: the default
+    # s2s: the default
+    assert knobs.effect_knob("cavity_emissivity", ModelOptions()).nodes == knobs.S2S_EMISSIVITY_NODES
 
 
 def test_the_cavity_emissivity_knob_is_nominal_at_the_models_own_emissivities():

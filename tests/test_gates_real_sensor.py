@@ -151,7 +151,8 @@ def test_fusion_gyro_range_is_declared_not_the_datas_peak():
     assert np.array_equal(dflt.gravity, run_fusion(gyro, accel, DT, FusionParams(gyroscope_range=450.0)).gravity)
     err_300 = _deg_err(run_fusion(gyro, accel, DT, FusionParams(gyroscope_range=300.0)), tr, swing)
     assert _deg_err(dflt, tr, swing) < err_300, (_deg_err(dflt, tr, swing), err_300)  # 7.5° vs 11.1° (seed 0)
-    # a record peaking at 123.5 °/s (as the recorded log's at 124 °/s): the old rule's 125 °/s range would have triggered the recovery
+    # a record peaking at 123.5 °/s (as the recorded log's at 124 °/s): the old rule's 125 °/s range would have
+    # triggered the recovery
     tr2, gyro2, accel2 = _record(peak_rate_dps=122.0, duration=110.0)
     assert _peak_rule(gyro2) == 125.0 and looks_saturated(gyro2) is None
     ahrs = make_ahrs(DT, FusionParams(gyroscope_range=125.0, use_bias=False))

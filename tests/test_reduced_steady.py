@@ -73,7 +73,8 @@ def test_self_heating_table_reduced_and_its_fall_back(monkeypatch):
     assert np.array_equal(rise[1], rise_f[1])   # 70 C is the layout's ambient: the steady solve itself
     assert [s["model"] for s in solves] == ["reduced"] and solves[0]["check"]["accepted"]
     real = reduced_steady.reduced_steady
-    monkeypatch.setattr(reduced_steady, "reduced_steady", lambda *a, **kw: real(*a, **dict(kw, tol_K=1e-12, max_rounds=0)))
+    monkeypatch.setattr(reduced_steady, "reduced_steady",
+                        lambda *a, **kw: real(*a, **dict(kw, tol_K=1e-12, max_rounds=0)))
     solves = []
     _, rise_b = end_to_end.self_heating_table(res, (-40.0, 70.0), model="reduced", solves=solves)
     assert solves[0]["model"] == "full" and not solves[0]["check"]["accepted"]

@@ -63,8 +63,8 @@ def test_a_failed_check_returns_nothing():
     res = run_scheme(None, "air", options=ModelOptions(cavity_law="effective"), **COARSE)
     from imutherm.thermal.assembly import assemble
     pb = res.steady.problem
-    tr, chk = reduced_transient.reduced_power_on(pb, assemble(pb), res.steady, dict(res.geometry.sites), 120.0, tol_K=1e-9,
-                                  max_rounds=0)
+    tr, chk = reduced_transient.reduced_power_on(pb, assemble(pb), res.steady, dict(res.geometry.sites), 120.0,
+                                                 tol_K=1e-9, max_rounds=0)
     assert tr is None and not chk.accepted and "estimated site error" in chk.reason
     assert chk.max_site_error_K > 1e-9 and chk.rounds == 1
 
@@ -125,7 +125,8 @@ def test_compare_full_flag(monkeypatch, tmp_path):
     monkeypatch.setattr(compare, "compare_schemes", fake)
     for extra, want in (([], "reduced"), (["--full"], "full")):
         with pytest.raises(SystemExit):
-            compare.main(["--thermal-only", "--schemes", "air", "--mesh-size", "6", "--out", str(tmp_path / want)] + extra)
+            compare.main(["--thermal-only", "--schemes", "air", "--mesh-size", "6", "--out", str(tmp_path / want)]
+                         + extra)
         assert seen[-1] == want
     assert compare.main(["--steady-only", "--full", "--out", str(tmp_path / "s")]) == 2
 

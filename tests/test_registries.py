@@ -15,7 +15,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ("imutherm", "geometry", "ecad", "imu", "layouts", "thermal", "unit", "studies", "reports", "cli")
 #: the modules that register effects, cavity laws and filters: each may name its own entries
-REGISTRIES = {"unit/effects.py", "unit/cavity_laws.py", "imu/filters/registry.py", "imu/filters/gated.py",
+REGISTRIES = {"unit/effects/model_effects.py", "unit/effects/signal_effects.py",
+              "unit/cavity_laws.py", "imu/filters/registry.py", "imu/filters/gated.py",
               "imu/filters/gravity_kf.py", "imu/filters/fusion_peer.py", "imu/filters/aekf.py",
               "imu/filters/peers.py"}
 #: (module, literal) pairs where the literal is another thing that happens to share a registered name
@@ -127,3 +128,25 @@ def test_each_cavity_law_does_what_its_entry_says(tmp_path):
         else:
             with pytest.raises(InputError, match="cavity_law_blend"):
                 ModelOptions(cavity_law=name, cavity_law_blend=0.5)
+
+
+def test_the_cavity_law_help_is_read_from_the_registry(monkeypatch):
+    """``--cavity-law``'s choices and help come from the registry when the parser is built: a law registered
+    beside its code is offered with its words, and the default is the one ``ModelOptions`` applies."""
+    import argparse
+
+    from imutherm.cli._options import add_model_arguments
+    from imutherm.unit import cavity_laws
+    from imutherm.unit.model import ModelOptions
+
+    monkeypatch.setattr(cavity_laws, "CAVITY_LAWS", dict(cavity_laws.CAVITY_LAWS))
+    cavity_laws.register_cavity_law("test_law", "a law registered by this test (no physics)")
+    parser = argparse.ArgumentParser()
+    add_model_arguments(parser)
+    action = next(a for a in parser._actions if "--cavity-law" in a.option_strings)
+    assert action.choices == tuple(cavity_laws.CAVITY_LAWS) and "test_law" in action.choices
+    assert action.default == ModelOptions().cavity_law == cavity_laws.DEFAULT_CAVITY_LAW
+    for name, law in cavity_laws.CAVITY_LAWS.items():
+        marked = f"{name} (default): " if name == action.default else f"{name}: "
+        assert f"{marked}{law.words}" in action.help, name
+    assert action.help.count("(default)") == 1

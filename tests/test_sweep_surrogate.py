@@ -95,7 +95,8 @@ def test_verification_summary_and_words():
     assert "FAIL" in surrogate.verify_words(v)
     v2 = surrogate.verification_summary(checks[:1], 0.1, 0.01, False)
     assert v2["passed"] and "PASS" in surrogate.verify_words(v2)
-    assert surrogate.pick_cases(100, 5, 1) == surrogate.pick_cases(100, 5, 1) and len(set(surrogate.pick_cases(100, 5, 1))) == 5
+    picked = surrogate.pick_cases(100, 5, 1)
+    assert picked == surrogate.pick_cases(100, 5, 1) and len(set(picked)) == 5
 
 
 # ---------------------------------------------------------------- against the full FEM (one build each)

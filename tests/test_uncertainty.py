@@ -98,7 +98,8 @@ def test_supply_input_and_its_regulator_loss_from_the_reference_toml_by_hand():
     for v in (6.2, 9.0, 12.0):                                                        # (V - 5 V) I_load + V I_q
         extra = uncertainty.knob_values(sm, [v])["power@reg_5v"]
         assert p9 + extra == pytest.approx((v - 5.0) * 0.2131 + v * 0.005, rel=1e-12)  # 0.287 .. 1.555 W
-    assert not hasattr(uncertainty, "ASSUMED_SUPPLY_V") and not hasattr(uncertainty, "SUPPLY_RANGE_V")   # one place: the layout
+    # one place: the layout
+    assert not hasattr(uncertainty, "ASSUMED_SUPPLY_V") and not hasattr(uncertainty, "SUPPLY_RANGE_V")
 
 
 def test_a_layout_with_another_supply_range_changes_the_input(write_layout):

@@ -101,7 +101,8 @@ def test_the_cavity_law_s_change_is_scaled_to_the_cold_oven_by_the_full_fem_s_fa
     end[0] = 0.9 * nom.rise_K[0]
     nom_f = replace(nom, form_end_rise_K=end)
     v0 = dict(V0, cavity_law_blend=0.0)
-    at = {w: uncertainty_imu.draw_chain(nom_f, rom, dict(v0, cavity_law_blend=w), v0, 2400.0).rise_K for w in (0.0, 0.5, 1.0)}
+    at = {w: uncertainty_imu.draw_chain(nom_f, rom, dict(v0, cavity_law_blend=w), v0, 2400.0).rise_K
+          for w in (0.0, 0.5, 1.0)}
     assert np.array_equal(at[0.0], nom.rise_K)
     np.testing.assert_allclose(at[1.0][0], end[0], rtol=1e-12)
     np.testing.assert_allclose(at[0.5][0], 0.95 * nom.rise_K[0], rtol=1e-12)   # (1 + (0.85 - 1) (0.1 / 0.3))
@@ -198,7 +199,8 @@ def test_nominal_draws_through_the_real_chain_reproduce_the_study():
     for s in ("air",):
         sm = uncertainty.build_scheme_model(None, s, ins, mesh_size_mm=6, min_cells=1)
         v0 = uncertainty.knob_values(sm, x0)
-        chains[s] = [uncertainty_imu.draw_chain(uncertainty_imu.nominal_chain(study.schemes[s]), sm.rom, dict(v0), v0, 2400.0)]
+        chains[s] = [uncertainty_imu.draw_chain(uncertainty_imu.nominal_chain(study.schemes[s]), sm.rom, dict(v0), v0,
+                                                2400.0)]
     res = uncertainty_imu.run_imu_draws(chains, cfg)
     for s in ("air",):
         fig = uncertainty_imu.study_figures(study.schemes[s], cfg)

@@ -66,8 +66,12 @@ NO_CAVITY_RADIATION = "none"
 #: (:mod:`imutherm.unit.effects`; the model option ``cavity_law_blend``)
 LAW_BLEND = "cavity_law_blend"
 
+#: the law a model applies unless told otherwise (``ModelOptions.cavity_law``, the CLI's ``--cavity-law``)
+DEFAULT_CAVITY_LAW = "s2s"
+
 register_cavity_law("effective", "the air's effective radiative conductivity between facing walls (Rosseland-style "
-                    "diffusion, one linearisation temperature)", conductivity_share=1.0, form_partner="s2s")
+                    "diffusion, one linearisation temperature), faster than s2s but it runs the air scheme ~7 K "
+                    "cool at tp1 (docs/benchmarks/cavity_radiation)", conductivity_share=1.0, form_partner="s2s")
 register_cavity_law("s2s", "surface-to-surface exchange between patches of the cavity's faces (view factors, "
                     "a radiosity solve)", patches=True, calculix=False, blendable=True, form_partner="effective")
 register_cavity_law(NO_CAVITY_RADIATION, "no radiation inside the cavity")

@@ -20,7 +20,7 @@ from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 from imutherm.geometry.layout import AXES
 from imutherm.geometry.materials import Material, get_material
 from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM, DEFAULT_RAYS
-from imutherm.unit.cavity_laws import CAVITY_LAWS as LAWS, cavity_law, cavity_law_of
+from imutherm.unit.cavity_laws import CAVITY_LAWS as LAWS, DEFAULT_CAVITY_LAW, cavity_law, cavity_law_of
 from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Contact, Convection, NaturalConvection, Radiation,
                                       ThermalProblem, natural_convection_h)
 
@@ -112,7 +112,7 @@ class ModelOptions:
     cavity_emissivity: float = 0.77
     # s2s: the effective law is optimistic (reference unit, air, tp1: 16.9 K effective, 24.1 K s2s, paper
     # measured > 20 K; the effective conductivity carries heat along thin slots as well as across them)
-    cavity_law: str = "s2s"
+    cavity_law: str = DEFAULT_CAVITY_LAW
     cavity_law_blend: float = 0.0
     cavity_surface_emissivity: float | None = None
     cavity_wall_emissivity: float | None = None

@@ -61,7 +61,8 @@ class Tuned:
 
     field : the parameter tuned; lo, hi : the span tried first (rounded out to the ladder,
     :data:`TUNING_STEPS_PER_DECADE`), extended a step at a time while the best lies on its edge, up to
-    ``bounds`` (the physically sensible range); off : values tried besides the ladder (e.g. 0: the source paper's own mode);
+    ``bounds`` (the physically sensible range); off : values tried besides the ladder (e.g. 0: the source
+    paper's own mode);
     derived : {field: function of this one} moved along with it (a gain pair kept at a published ratio);
     why : what the axis spans, in words.
     """

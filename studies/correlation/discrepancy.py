@@ -215,7 +215,8 @@ def form_band(fwd, values: dict, full: dict, effects=()) -> dict | None:
                 if full[i][k, j]:
                     rows.append({"file": run.path, "scheme": run.scheme, "site": site, "time_s": float(t),
                                  "steady": not math.isfinite(t),
-                                 "residual_K": float(y[k, j] - run.rise_K[k, j]), "form_span_K": float(b[k, j] - a[k, j])})
+                                 "residual_K": float(y[k, j] - run.rise_K[k, j]),
+                                 "form_span_K": float(b[k, j] - a[k, j])})
     if not rows:
         return None
     res = np.array([r["residual_K"] for r in rows])
@@ -233,8 +234,9 @@ def form_band(fwd, values: dict, full: dict, effects=()) -> dict | None:
     effect_rms = float(np.sqrt(np.mean(np.concatenate(change) ** 2))) if change else None
     if effect_rms is not None:
         words += (f"; the named effect{'s' if len(effects) > 1 else ''} change{'' if len(effects) > 1 else 's'} them "
-                  f"by {effect_rms:.2g} K RMS, " + ("more than the law's form does" if effect_rms > span_rms else
-                                                    "no more than the law's form does: it may be the model's form instead")
+                  f"by {effect_rms:.2g} K RMS, "
+                  + ("more than the law's form does" if effect_rms > span_rms else
+                     "no more than the law's form does: it may be the model's form instead")
                   + f" ({span_rms:.2g} K RMS)")
     return {"kind": "prior band: the cavity law's form (cavity_law_blend 0 -> 1)", "residual_rms_K": res_rms,
             "form_span_rms_K": span_rms, "within": within, "effects": list(effects), "effect_change_rms_K": effect_rms,

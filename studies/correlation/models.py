@@ -265,7 +265,8 @@ def _content_key(run: MeasuredRun) -> tuple:
     order = np.argsort(run.sites)
     vals = np.round(run.values_C[:, order], 9)
     return (run.scheme, round(run.ambient_C, 9), round(run.power_scale, 9), round(run.t_power_on_s, 9),
-            tuple(np.asarray(run.sites)[order]), np.round(run.times_s, 9).tobytes(), np.nan_to_num(vals, nan=-1e300).tobytes())
+            tuple(np.asarray(run.sites)[order]), np.round(run.times_s, 9).tobytes(),
+            np.nan_to_num(vals, nan=-1e300).tobytes())
 
 
 def refuse_duplicates(runs) -> None:

@@ -139,8 +139,8 @@ def localise(fwd: _Forward, values: dict) -> tuple:
     fp = {}
     if len(rows) >= 3:
         R = np.array(rows)
-        for col, name in ((1, "rise (power map, dT)"), (2, "T^4 - T_amb^4 (radiation)"), (3, "dT/dt (heat capacity, lag)"),
-                          (4, "height above the mount face")):
+        for col, name in ((1, "rise (power map, dT)"), (2, "T^4 - T_amb^4 (radiation)"),
+                          (3, "dT/dt (heat capacity, lag)"), (4, "height above the mount face")):
             a, b = R[:, 0], R[:, col]
             fp[name] = float(np.corrcoef(a, b)[0, 1]) if a.std() > 0 and b.std() > 0 else None
     return out, fp

@@ -199,8 +199,8 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
         lines.append("# imutherm solve " + " ".join(f"--effect {n}:{effect_of(n).params[0].name}="
                                                      f"{values[n]:.6g}" for n in effects))
     if res.discrepancy is not None:  # a statistical term of the fit, not a model input: recorded, not applied
-        lines += ["", f"# discrepancy term (prior scale {res.discrepancy['prior_fraction']:.3g} of each site's rise, estimated "
-                      f"from the data; "
+        lines += ["", f"# discrepancy term (prior scale {res.discrepancy['prior_fraction']:.3g} of each site's rise, "
+                      f"estimated from the data; "
                       f"{'supported' if res.discrepancy['supported'] else 'not supported'} by the data, "
                       f"RMS {res.discrepancy['rms_K']:.3g} K): {res.discrepancy['words']}"]
     return "\n".join(lines) + "\n"

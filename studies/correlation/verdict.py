@@ -254,7 +254,8 @@ def effect_words(name: str | None, values: dict) -> str:
 
 
 def _rank_key(f: Fit):
-    return (f.aicc if math.isfinite(f.aicc) else math.inf, f.heldout_rms_K if math.isfinite(f.heldout_rms_K) else math.inf)
+    return (f.aicc if math.isfinite(f.aicc) else math.inf,
+            f.heldout_rms_K if math.isfinite(f.heldout_rms_K) else math.inf)
 
 
 def discrepancy_summary(fwd, disc: Discrepancy, plain: Fit, with_term: Fit, after: Fit, full: dict, noise: float,

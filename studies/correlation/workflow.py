@@ -100,7 +100,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         the term; False: never. The term is not fitted on sparse files (:func:`form_band` instead).
     max_effects : forward selection names at most this many library effects (1: one effect, as before)
     form_retune : re-tune the form knobs (:data:`FORM_RETUNE`: the cavity's emissivity) beside the others
-        instead of offering them as candidate effects (default); False: offered as candidates (``--cavity-emissivity-as-effect``)
+        instead of offering them as candidate effects (default); False: offered as candidates
+        (``--cavity-emissivity-as-effect``)
     candidates : names to consider (default: every effect applicable to at least one run's scheme)
     rerun : re-run the corrected model on the full FEM (:func:`rerun_full`) for the after figures
     rerun_transient : 'reduced' (default): the re-run's transients on the study's checked reduced model (the

@@ -173,7 +173,8 @@ def _split_set(item: str) -> tuple:
 # ------------------------------------------------------------------ the keys a reduced model carries
 
 #: the sweep's ``--surrogate`` choices: ``reduced`` cases on the scheme's reduced model
-#: (:mod:`imutherm.studies.sweep.surrogate`), ``none`` the full FEM, ``auto`` the reduced model where every key is a knob
+#: (:mod:`imutherm.studies.sweep.surrogate`), ``none`` the full FEM, ``auto`` the reduced model where every key
+#: is a knob
 SURROGATES = ("auto", "reduced", "none")
 #: default number of cases re-run on the full FEM
 VERIFY_DEFAULT = 5

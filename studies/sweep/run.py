@@ -47,7 +47,8 @@ class SweepResult:
     lost: tuple
     sensitivity: dict
     wall_s: float
-    #: the reduced-model sweep's check against the full FEM (:func:`~imutherm.studies.sweep.surrogate.verification_summary`)
+    #: the reduced-model sweep's check against the full FEM
+    #: (:func:`~imutherm.studies.sweep.surrogate.verification_summary`)
     verification: dict | None = None
     #: timings of the reduced-model sweep [s]: build, evaluation, verification
     timings: dict | None = None
