@@ -135,12 +135,17 @@ def test_merged_linear_laws_are_k_plus_h(hetero):
     assert np.array_equal(merged.pattern.rows, coo.row)
 
 
-def test_data_made_plane_by_plane_is_the_stencil_s(hetero):
-    """The CSR data made one stencil plane at a time (no (27, Nx, Ny, Nz) array) is the full stencil's, bit for bit,
-    and each entry's position is its (row, offset)."""
+@pytest.mark.parametrize("block_bytes", [None, 27 * 8 * 20])
+def test_data_made_slab_by_slab_is_the_stencil_s(hetero, monkeypatch, block_bytes):
+    """The CSR data made in slabs of node planes (no (27, Nx, Ny, Nz) array; here also one plane of nodes a slab)
+    is the whole stencil's, bit for bit, and each entry's position is its (row, offset)."""
+    from imutherm.thermal import assembly
     from imutherm.thermal.assembly import mass_stencil, stiffness_stencil
 
     pr, asm = hetero
+    if block_bytes is not None:
+        monkeypatch.setattr(assembly, "STENCIL_BLOCK_BYTES", block_bytes)
+        asm = assemble(pr)
     assert np.array_equal(asm.K_data, asm.pattern.data(stiffness_stencil(pr)))
     assert np.array_equal(asm.M_data, asm.pattern.data(mass_stencil(pr)))
     pat = asm.pattern
@@ -149,3 +154,15 @@ def test_data_made_plane_by_plane_is_the_stencil_s(hetero):
         has = pat.valid[:, o]
         pos = pat.positions(rows[has], o)
         assert np.array_equal(pat.rows[pos], rows[has]) and np.all(np.diff(pos) > 0)
+
+
+def test_the_pattern_made_in_row_blocks_is_the_whole_one(monkeypatch):
+    """The column indices made a block of rows at a time are those of every row at once (sorted, row + offset)."""
+    from imutherm.thermal import assembly
+
+    whole = assembly.Pattern((5, 4, 3))
+    monkeypatch.setattr(assembly, "_ROW_BLOCK", 7)
+    blocks = assembly.Pattern((5, 4, 3))
+    assert np.array_equal(whole.indices, blocks.indices) and np.array_equal(whole.indptr, blocks.indptr)
+    A = sp.csr_matrix((np.ones(blocks.nnz), blocks.indices, blocks.indptr), shape=(blocks.n, blocks.n))
+    assert A.has_sorted_indices and (A - A.T).nnz == 0 and A.diagonal().all()

@@ -56,6 +56,10 @@ def _offset_index(da: int, db: int, dc: int) -> int:
     return (da + 1) * 9 + (db + 1) * 3 + (dc + 1)
 
 
+#: rows of the pattern's index array made at once
+_ROW_BLOCK = 1 << 18
+
+
 class Pattern:
     """The 27-point sparsity pattern of a structured node grid (CSR, sorted columns)."""
 
@@ -82,9 +86,14 @@ class Pattern:
         self.indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(counts, out=self.indptr[1:])
         itype = np.int32 if n * 27 < 2 ** 31 - 1 else np.int64
-        # column of each stored entry: row + offset, built in the index type (a 2-D int64 temporary was the
-        # largest array of an 8x refined mesh's assembly)
-        self.indices = (np.arange(n, dtype=itype)[:, None] + flat.astype(itype)[None, :])[valid]
+        # column of each stored entry: row + offset, in the index type and in blocks of rows (a 2-D temporary of
+        # every row was the largest array of an 8x refined mesh's assembly)
+        self.indices = np.empty(int(self.indptr[-1]), dtype=itype)
+        flat = flat.astype(itype)
+        for r0 in range(0, n, _ROW_BLOCK):
+            r1 = min(r0 + _ROW_BLOCK, n)
+            self.indices[self.indptr[r0]:self.indptr[r1]] = \
+                (np.arange(r0, r1, dtype=itype)[:, None] + flat[None, :])[valid[r0:r1]]
         self.indptr = self.indptr.astype(itype)
         # the centre's position: the row start plus the row's entries before it
         self.diag_pos = self.indptr[:-1].astype(np.int64) + valid[:, :_CENTRE].sum(axis=1)
@@ -102,18 +111,6 @@ class Pattern:
         """CSR data array from a stencil array of shape (27, Nx, Ny, Nz)."""
         return stencil.reshape(27, self.n).T[self.valid]
 
-    def data_of_planes(self, planes) -> np.ndarray:
-        """CSR data array from the stencil's 27 nodal planes, each (Nx, Ny, Nz) or None (zero), in offset order
-        (one plane at a time: no (27, Nx, Ny, Nz) array)."""
-        data = np.zeros(self.nnz)
-        start = self.indptr[:-1].astype(np.int64)   # each row's next entry: its entries are in offset order
-        for o, plane in enumerate(planes):
-            v = self.valid[:, o]
-            if plane is not None:
-                data[start[v]] = plane.reshape(-1)[v]
-            start += v
-        return data
-
     def positions(self, rows: np.ndarray, o: int) -> np.ndarray:
         """Positions in the data array of the entries (row, offset ``o``) of ``rows`` (each must have it)."""
         return self.indptr[rows].astype(np.int64) + self.valid[rows, :o].sum(axis=1)
@@ -123,37 +120,49 @@ class Pattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
 
-def _volume_planes(grid: TensorGrid, coefs: list, refs: list):
-    """The nodal planes of sum_r coefs[r] (cell arrays) * refs[r] (8x8), one per stencil offset in offset order
-    (None where zero), made one at a time."""
-    nx, ny, nz = grid.shape
-    pairs = [[] for _ in range(27)]   # the local node pairs of each offset, in (l1, l2) order
+def _volume_stencil(grid: TensorGrid, coefs: list, refs: list) -> np.ndarray:
+    """Accumulate sum_r coefs[r] (cell arrays) * refs[r] (8x8) into a nodal stencil (27, Nx, Ny, Nz)."""
+    return _cells_stencil(grid.shape, coefs, refs)
+
+
+def _cells_stencil(shape: tuple, coefs: list, refs: list) -> np.ndarray:
+    """The nodal stencil (27, nx + 1, ny + 1, nz + 1) of cell arrays ``coefs`` of ``shape`` (nx, ny, nz)."""
+    nx, ny, nz = shape
+    S = np.zeros((27, nx + 1, ny + 1, nz + 1))
     for l1, (a1, b1, c1) in enumerate(_LOCAL3):
+        dst = (slice(a1, a1 + nx), slice(b1, b1 + ny), slice(c1, c1 + nz))
         for l2, (a2, b2, c2) in enumerate(_LOCAL3):
-            pairs[_offset_index(a2 - a1, b2 - b1, c2 - c1)].append((l1, l2, (a1, b1, c1)))
-    for o in range(27):
-        plane = None
-        for l1, l2, (a1, b1, c1) in pairs[o]:
+            o = _offset_index(a2 - a1, b2 - b1, c2 - c1)
             terms = [(c, r[l1, l2]) for c, r in zip(coefs, refs) if r[l1, l2] != 0.0]
             if not terms:
                 continue
             val = terms[0][0] * terms[0][1]
             for c, r in terms[1:]:
                 val += c * r
-            if plane is None:
-                plane = np.zeros((nx + 1, ny + 1, nz + 1))
-            plane[a1:a1 + nx, b1:b1 + ny, c1:c1 + nz] += val
-        yield plane
-
-
-def _volume_stencil(grid: TensorGrid, coefs: list, refs: list) -> np.ndarray:
-    """Accumulate sum_r coefs[r] (cell arrays) * refs[r] (8x8) into a nodal stencil (27, Nx, Ny, Nz)."""
-    nx, ny, nz = grid.shape
-    S = np.zeros((27, nx + 1, ny + 1, nz + 1))
-    for o, plane in enumerate(_volume_planes(grid, coefs, refs)):
-        if plane is not None:
-            S[o] = plane
+            S[o][dst] += val
     return S
+
+
+#: largest stencil block [bytes] :func:`_volume_data` makes at once
+STENCIL_BLOCK_BYTES = 32 * 2**20
+
+
+def _volume_data(pattern: Pattern, grid: TensorGrid, coefs: list, refs: list) -> np.ndarray:
+    """The CSR data of ``pattern`` for the volume stencil sum_r coefs[r] * refs[r], made in slabs of node planes
+    along x (each from its cells: the same sums in the same order as the whole stencil, bit for bit), so no
+    (27, Nx, Ny, Nz) array exists: on the reference unit's 2x refined mesh 325 MB, with its copy into the data."""
+    nx, ny, nz = grid.shape
+    per = (ny + 1) * (nz + 1)   # nodes per plane
+    slabs = max(1, -(-27 * 8 * pattern.n // STENCIL_BLOCK_BYTES))
+    bounds = np.unique(np.linspace(0, nx + 1, slabs + 1).astype(int))
+    coefs = [np.broadcast_to(c, grid.shape) for c in coefs]
+    data = np.empty(pattern.nnz)
+    for i0, i1 in zip(bounds[:-1], bounds[1:]):
+        c0, c1 = max(i0 - 1, 0), min(i1, nx)   # the cells touching node planes i0 .. i1 - 1
+        S = _cells_stencil((c1 - c0, ny, nz), [c[c0:c1] for c in coefs], refs)[:, i0 - c0:i1 - c0]
+        r0, r1 = i0 * per, i1 * per
+        data[pattern.indptr[r0]:pattern.indptr[r1]] = S.reshape(27, -1).T[pattern.valid[r0:r1]]
+    return data
 
 
 def _cell_sizes3(grid):
@@ -426,12 +435,12 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
     g = problem.grid
     shape = tuple(s + 1 for s in g.shape)
     pattern = pattern_of(shape) if cache_pattern else Pattern(shape)
-    K_data = pattern.data_of_planes(_volume_planes(g, *_stiffness_terms(problem)))
+    K_data = _volume_data(pattern, g, *_stiffness_terms(problem))
     H_data = K_data if merge_linear else np.zeros(pattern.nnz)   # merged: the linear laws added into K's data
     M_data = None
     if mass:
-        M_data = pattern.data(mass_stencil(problem, lumped=True)) if lumped_mass else pattern.data_of_planes(
-            _volume_planes(g, [problem.rho_c.reshape(g.shape) * g.cell_volumes()], [M_REF]))
+        M_data = pattern.data(mass_stencil(problem, lumped=True)) if lumped_mass else _volume_data(
+            pattern, g, [problem.rho_c.reshape(g.shape) * g.cell_volumes()], [M_REF])
     F_q = volume_load(problem)
     F_bc = np.zeros(g.n_nodes)
     linear, nonlinear, fluxes, dirichlet = [], [], [], []
