@@ -4,17 +4,20 @@
 
 Runs ``imutherm solve --scheme grease --transient --t-end 1200 --out DIR`` (reference unit, default mesh and
 model options, the full FEM with its default error-controlled TR-BDF2 steps) in a fresh process and prints
-the command and what it printed (its output folder shown as ``out/grease``). With ``--write`` that is
+the command and what it printed (its output folder shown as ``out/grease``; the progress bar's redrawn
+lines left out). With ``--write`` that is
 ``docs/benchmarks/tables/solve_example.txt``, which the commands page includes: the example is what the code
 prints today, not a copy.
 """
 
+import re
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 ARGS = ["solve", "--scheme", "grease", "--transient", "--t-end", "1200"]
+BAR = re.compile(r"^\w+: +\d+%\|")   # tqdm's progress bar
 CODE = "import sys; from imutherm.cli import main; sys.exit(main(sys.argv[1:]))"
 
 
@@ -24,7 +27,8 @@ def main() -> int:
         p = subprocess.run([sys.executable, "-c", CODE] + ARGS + ["--out", str(out)], capture_output=True,
                            text=True)
         print("$ imutherm " + " ".join(ARGS + ["--out", "out/grease"]))
-        print((p.stderr + p.stdout).replace(str(out), "out/grease").rstrip())
+        lines = re.split(r"[\r\n]+", (p.stderr + p.stdout).replace(str(out), "out/grease"))
+        print("\n".join(line for line in lines if line.strip() and not BAR.match(line)))
     return p.returncode
 
 
