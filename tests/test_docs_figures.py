@@ -257,3 +257,183 @@ def test_the_readme_correlate_times_are_the_recorded_ones():
                      r"the next run", readme)
     assert rec and said
     assert said.groups() == tuple(f"{float(v):.0f}" for v in rec.groups())
+
+
+# ------------------------------------------------------------------ the reference pages
+REFERENCE = ROOT / "docs" / "reference"
+DATED = re.compile(r"dated record")
+#: a paragraph, or an item of a list (a dated record is marked paragraph by paragraph, item by item)
+PARAGRAPH = re.compile(r"\n\s*\n|\n(?=\s*(?:[-*]|\d+\.) )")
+
+
+def current_text(page: Path) -> str:
+    """What a page states as today's: its running text without the code and include blocks, without the
+    paragraphs marked as a dated record and the table that follows such a paragraph."""
+    text = re.sub(r"^```.*?^```", "", page.read_text(encoding="utf-8"), flags=re.S | re.M)
+    return " ".join(" ".join(para for para, record in _units(text) if not record).split())
+
+
+def _units(text: str):
+    """(paragraph or list item, whether it belongs to a dated record): a paragraph that says "dated record", and
+    the table or the list items that follow it directly."""
+    after_record = False
+    for para in PARAGRAPH.split(text):
+        lead = para.lstrip()
+        if DATED.search(para):
+            after_record = True
+        elif not (after_record and (lead.startswith("|") or re.match(r"(?:[-*]|\d+\.) ", lead))):
+            after_record = False
+        yield para, after_record
+
+
+def _body(path: Path) -> list:
+    return [line for line in path.read_text(encoding="utf-8").splitlines() if line.strip() and not line.startswith("#")]
+
+
+def _written_by(path: Path, script: str) -> None:
+    assert re.search(rf"Written by `python benchmarks/{script}[^`]* --write` on \d{{4}}-\d\d-\d\d at commit [0-9a-f]{{7}}",
+                     path.read_text(encoding="utf-8")), f"{path.name} is not as {script} --write writes it"
+
+
+def test_every_dated_record_says_when_and_at_which_commit():
+    """A figure no script re-measures today stays on a reference or benchmark page only as a dated record: the
+    paragraph says so, with the date and the commit of the run (a commit this repository has, where its history
+    is at hand)."""
+    import subprocess
+    full_history = subprocess.run(["git", "rev-parse", "--is-shallow-repository"], cwd=ROOT, capture_output=True,
+                                  text=True).stdout.strip() == "false"
+    records = 0
+    for page in sorted(REFERENCE.glob("*.md")) + sorted((ROOT / "docs" / "benchmarks").glob("*.md")):
+        for para in PARAGRAPH.split(page.read_text(encoding="utf-8")):
+            if not DATED.search(para):
+                continue
+            records += 1
+            flat = " ".join(para.split())
+            assert re.search(r"\d{4}-\d\d-\d\d", flat), f"{page.name}: a dated record without its date: {flat[:120]}"
+            commits = re.findall(r"commits? ([0-9a-f]{7,40})\b", flat)
+            assert commits, f"{page.name}: a dated record without its commit: {flat[:120]}"
+            for commit in commits if full_history else ():
+                found = subprocess.run(["git", "cat-file", "-e", f"{commit}^{{commit}}"], cwd=ROOT,
+                                       capture_output=True)
+                assert found.returncode == 0, f"{page.name}: no commit {commit}"
+    assert records >= 10, records
+
+
+def test_the_mesh_page_shows_the_recorded_mesh_error():
+    """The mesh page's current figures of the discretisation error and its cost are the recorded compare's
+    (included from compare_answer.txt and study.txt), not typed in."""
+    doc = (REFERENCE / "mesh.md").read_text(encoding="utf-8")
+    assert ":start-at: numerical error, air" in doc and "tables/compare_answer.txt" in doc
+    assert "{literalinclude} ../benchmarks/tables/study.txt" in doc
+    rows = {k: v for k, v in timing()["rows"].items() if k.startswith("mesh-error estimate")}
+    assert len(rows) == 2 and all(f"| {k}" in TIMING.read_text(encoding="utf-8") for k in rows)
+    now = current_text(REFERENCE / "mesh.md")
+    lines = [line for line in answer() if line.startswith("numerical error")]
+    figures = {f for line in lines for f in re.findall(r"[+]\d+\.\d+ K", line)}
+    figures |= {f"{float(v):.2f} K" for row in rows.values() for v in DECIMAL.findall(row)}
+    assert len(figures) >= 4 and [f for f in figures if f in now] == []
+
+
+def test_the_study_page_types_no_recorded_figure():
+    """The study page shows the recorded answer's real-motion and numerical-error lines by including them, and
+    its running text restates none of their figures nor the reduced transient's recorded check."""
+    doc = (REFERENCE / "study.md").read_text(encoding="utf-8")
+    assert ":start-at: the same filters on real motion" in doc
+    now = current_text(REFERENCE / "study.md")
+    real = next(i for i, line in enumerate(answer()) if line.startswith("the same filters on real motion"))
+    figures = set(DECIMAL.findall(" ".join(answer()[real + 1:real + 3])))
+    figures |= {f for line in answer() if line.startswith("numerical error") for f in re.findall(r"\d+\.\d+ K", line)}
+    figures |= {f"{v} K" for v in DECIMAL.findall(timing()["rows"]["reduced transient's check against the full model"])}
+    assert len(figures) >= 8 and [f for f in figures if f in now] == []
+
+
+def test_the_study_page_tuning_table_is_the_settings_file():
+    """The flight's tuned vs default scores on the study page are those studies/filter_settings.toml records."""
+    import tomllib
+    settings = tomllib.loads((ROOT / "studies" / "filter_settings.toml").read_text(encoding="utf-8"))
+    doc = (REFERENCE / "study.md").read_text(encoding="utf-8")
+    table = doc[doc.index("Flight, tuned vs defaults [deg]"):]
+    rows = re.findall(r"^\| (\w+) \| [^|]+ \| ([\d.]+) \| ([\d.]+) \|$", table[:table.index("\n\n", 200)], re.M)
+    assert len(rows) == 9, rows
+    for filt, tuned, default in rows:
+        rec = settings["flight"][filt]
+        assert (float(tuned), float(default)) == (round(rec["score"], 2), round(rec["default_score"], 2)), filt
+    assert f"{settings['meta']['cpu_s']:.0f} CPU-s" not in current_text(REFERENCE / "study.md")
+
+
+def test_the_layouts_page_includes_the_recorded_rises():
+    """Both units' steady rises: bench_layouts.py --write's table, included; the page's text restates none."""
+    table = TABLES / "layouts.txt"
+    _written_by(table, "bench_layouts.py")
+    rows = [line for line in _body(table) if re.match(r"^\| imu_", line)]
+    assert [tuple(r.split("|")[1:3]) for r in rows] == [(f" {u} ", f" {s} ") for u in ("imu_reference", "imu_cardguide")
+                                                       for s in ("air", "grease", "potted")]
+    doc = (REFERENCE / "layouts.md").read_text(encoding="utf-8")
+    assert "{literalinclude} ../benchmarks/tables/layouts.txt" in doc
+    now = current_text(REFERENCE / "layouts.md")
+    figures = {f for row in rows for cell in row.split("|")[5:9] for f in DECIMAL.findall(cell)}
+    said = {f for f in figures for shown in (f, f"{float(f):.1f} K")   # a conductivity in W/m K is not a rise
+            if re.search(rf"(?<![\w.]){re.escape(shown)}(?![\w.]| W)", now)}
+    assert len(figures) >= 30 and said == set(), said
+
+
+def test_the_commands_page_shows_the_recorded_solve():
+    """The `solve` example is the printout bench_solve_example.py --write recorded, included; none typed in."""
+    path = TABLES / "solve_example.txt"
+    _written_by(path, "bench_solve_example.py")
+    body = _body(path)
+    assert body[0].startswith("$ imutherm solve") and any("max rise" in line for line in body)
+    assert not any("%|" in line for line in body)   # no progress bar
+    doc = (REFERENCE / "commands.md").read_text(encoding="utf-8")
+    assert "{literalinclude} ../benchmarks/tables/solve_example.txt" in doc
+    assert [line for line in body[1:] if line.strip() in doc] == []
+
+
+def test_the_robustness_page_types_no_recorded_time():
+    """The refusal times and the IMU side's measured costs are in their tables, which the page links."""
+    now = current_text(REFERENCE / "robustness.md")
+    assert "../benchmarks/refusals" in now and "../benchmarks/study_imu" in now
+    times = set(re.findall(r"\d+\.\d+ s", " ".join(_body(TABLES / "refusals.txt"))))
+    imu = set(re.findall(r"\d+(?:\.\d+)? (?:s|us|kB)", " ".join(_body(TABLES / "study_imu.txt"))))
+    imu = {f.replace(" us", " µs") for f in imu if not f.startswith(("10 ", "3 ", "2 "))}   # not the cost constants
+    assert len(times) >= 5 and len(imu) >= 4
+    assert [f for f in times | imu if f in now] == []
+
+
+def test_the_refusal_benchmark_refuses_every_case():
+    """bench_refusals.py's recorded run: every case but the imports exited 2 (refused), none ran."""
+    lines = [line for line in _body(TABLES / "refusals.txt") if re.search(r"exit \d|NOT REFUSED", line)]
+    assert len(lines) >= 12 and "NOT REFUSED" not in " ".join(lines)
+    assert all(" exit 2 " in line for line in lines if not line.startswith("imports only"))
+    src = (ROOT / "benchmarks" / "bench_refusals.py").read_text(encoding="utf-8")
+    assert '"--jobs", "1000", "--out"' not in src   # runs the study since the workers are capped at the cases
+
+
+def _recorded_on(table: Path) -> str:
+    """The date of a table's run (the first date of its header)."""
+    head = " ".join(line for line in table.read_text(encoding="utf-8").splitlines() if line.startswith("#"))
+    return re.search(r"\d{4}-\d\d-\d\d", head).group(0)
+
+
+def test_benchmark_pages_say_which_recorded_run_their_text_reads():
+    """A benchmark page's text that restates figures of a table the page includes (two or more in a paragraph)
+    names the run it reads: its section says "as recorded YYYY-MM-DD", the date in that table's header, or the
+    paragraph is a dated record of an older run. Re-recording a table changes its date, so this fails until its
+    reading is redone."""
+    flagged = 0
+    for page in sorted((ROOT / "docs" / "benchmarks").glob("*.md")):
+        text = page.read_text(encoding="utf-8")
+        tables = [page.parent / inc for inc in re.findall(r"\{literalinclude\} (tables/\S+\.txt)", text)]
+        figures = {t: set(DECIMAL.findall(" ".join(_body(t)))) for t in tables}
+        body = re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)
+        for section in re.split(r"^#+ ", body, flags=re.M):
+            said = set(re.findall(r"(?i)as recorded (\d{4}-\d\d-\d\d)", " ".join(section.split())))
+            for para, record in _units(section):
+                if record or para.lstrip().startswith("|"):
+                    continue
+                for table, figs in figures.items():
+                    if len([f for f in DECIMAL.findall(para) if f in figs]) >= 2:
+                        flagged += 1
+                        assert _recorded_on(table) in said, \
+                            f"{page.name}: reads {table.name} without 'as recorded {_recorded_on(table)}': {para[:100]}"
+    assert flagged >= 10, flagged
