@@ -148,7 +148,7 @@ def thermal_cost(what: str, shape, *, steps: int = 0, saved: int = 1, geometry_o
 
 
 #: peak resident memory of a mesh-error estimate per node of its refined mesh [bytes] (the refined problem's
-#: conduction and linear laws in one data array, assembled one stencil plane at a time, its pattern and the
+#: conduction and linear laws in one data array, assembled in slabs of node planes, its pattern and the
 #: prolongation; no AMG hierarchy of its own: :func:`imutherm.thermal.refinement.refined_steady`). Measured
 #: ~0.75 kB (1.14 GB peak of the process at 1.5e6 refined nodes, the reference unit's air scheme, the coarse
 #: solve's memory included; 1.9 kB before the refined assembly's memory was cut); rounded up

@@ -17,8 +17,8 @@ field converges faster the estimate errs on the large side (a smooth field at p 
 board-in-cavity case of the verification suite: 1.2-1.3x).
 
 :func:`refined_steady` solves the refined problem from the coarse field (prolonged, exact on the nested grid):
-one or two Newton steps, since the start is within the discretisation error of the answer, each by CG with a
-two-level preconditioner whose coarse level is the coarse grid itself (:func:`_two_level`).
+one Newton step (a second only where the nonlinear laws need it), since the start is within the discretisation
+error of the answer, by CG with a two-level preconditioner whose coarse level is the coarse grid itself (:func:`_two_level`).
 """
 
 from __future__ import annotations
@@ -151,13 +151,11 @@ def _two_level(A, prolong, coarse_pc):
     return spla.LinearOperator(A.shape, matvec=apply, dtype=float)
 
 
-def _newton_matrix(asm, D, T, base=None):
-    """The sparse Newton matrix at ``T`` [°C]: conduction and linear laws (``base``: their CSR data with the fixed
-    nodes eliminated, if made before), the nonlinear laws' diagonal slopes (each s2s exchange's too, its coupling
-    is applied beside it), fixed nodes eliminated."""
-    data = D.eliminate(asm.K_data + asm.H_data if len(asm.H_data) else asm.K_data) if base is None else base
+def _newton_matrix(asm, D, T):
+    """The sparse Newton matrix at ``T`` [°C]: conduction and linear laws, the nonlinear laws' diagonal slopes (each
+    s2s exchange's too, its coupling is applied beside it), fixed nodes eliminated."""
+    data = D.eliminate(asm.K_data + asm.H_data)
     if asm.nonlinear:
-        data = data.copy()
         _, J = asm.nonlinear_flux(T)
         data[D.free_diag] += J[~D.mask]
     return asm.pattern.csr(data)
@@ -168,7 +166,7 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
                    max_newton: int = 4) -> RefinementEstimate:
     """The estimate of the coarse answer's error from the steady solve of ``fine_problem`` (``coarse_problem`` on
     its refined grid), started from ``prolong @ coarse_T_C`` (exact on the nested grid: the Newton steps only
-    carry the discretisation's correction, so one or two do).
+    carry the discretisation's correction, so one does on the reference unit).
 
     Each Newton step is solved by CG to :data:`REFINED_CG_RTOL` times the prolonged field's residual (an absolute
     tolerance), preconditioned by :func:`_two_level` with the coarse Newton matrix's AMG hierarchy; each s2s exchange
@@ -196,7 +194,6 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
     asm = assemble(fine_problem, mass=False, cache_pattern=False, merge_linear=True)   # K_data: K + H
     dnodes, dvals = asm.dirichlet_values(None)
     D = _Dirichlet(asm, dnodes)
-    asm.pattern.valid = None   # this one-off pattern makes no more data arrays (39 MiB on the reference unit's)
     L = asm.pattern.csr(asm.K_data)
     # the Newton matrix's data: L's own array where no node is fixed (its diagonal slopes added for the solve and
     # taken off again: the refined matrices are the run's largest arrays), else the eliminated copy
