@@ -33,10 +33,11 @@ def _linear():
     return ModelOptions(exterior="fixed", h_fixed_W_m2K=10.0, radiation=False, cavity_law="effective")
 
 
+#: a user's process as it is: no thread limit of its own (one set here, before numpy and scipy load their OpenBLAS,
+#: limited nothing: their 2 default threads spun through CG's dots, 5.1-5.6 CPU-s of this process; the package's
+#: solves now run on one BLAS thread themselves, ``imutherm.thermal.linear.one_blas_thread``: 3.3-4.1 CPU-s)
 WHOLE_PROCESS = r"""
 import sys
-from threadpoolctl import threadpool_limits
-threadpool_limits(1)
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.mesh import build_mesh
 from imutherm.thermal.steady import solve_steady

@@ -187,6 +187,32 @@ def test_amg_public_fallback_gives_the_same_field(monkeypatch):
     assert b.energy_balance_rel_error < 1e-8 and d.energy_balance_rel_error < 1e-7
 
 
+def test_solves_run_on_one_blas_thread_and_restore_the_callers(monkeypatch):
+    """linear.one_blas_thread: inside the steady and transient solves numpy's and scipy's OpenBLAS run one thread
+    (a second only spins between CG's dots: 5.1-5.6 against 3.3 CPU-s on the reference unit), even where the
+    caller allows two; the caller's setting is back after the call."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from imutherm.thermal import linear as solve_mod
+
+    seen = []
+    build = solve_mod.amg_preconditioner
+
+    def recording(A, *args, **kw):
+        seen.append({lib["filepath"]: lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"})
+        return build(A, *args, **kw)
+
+    monkeypatch.setattr(solve_mod, "amg_preconditioner", recording)
+    pr = _nonlinear_problem()
+    with threadpool_limits(limits=2, user_api="blas"):
+        solve_steady(pr, solver="amg")
+        solve_transient(pr, 60.0, time_steps(60.0, 2.0, 30.0), solver="amg")
+        after = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+    assert len(seen) >= 2 and all(seen)
+    assert all(n == 1 for libs in seen for n in libs.values())
+    assert after and all(n == 2 for n in after)
+
+
 def test_renamed_result_fields_fail_with_a_clear_error():
     """``iterations`` (Newton steps on a steady result, linear iterations on a transient) was split into
     ``newton_iterations`` and ``linear_iterations`` on both: the old name names the new ones."""

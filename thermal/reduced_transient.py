@@ -38,7 +38,7 @@ from scipy.integrate import solve_ivp
 from imutherm import InputError
 from imutherm.thermal.metrics import T95_FRACTION, settle_time
 from imutherm.thermal.reduced import linearised, sparse_part
-from imutherm.thermal.linear import amg_preconditioner
+from imutherm.thermal.linear import amg_preconditioner, one_blas_thread
 from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.results import TransientResult
 from imutherm.thermal.transient import SETTLE_FRACTION
@@ -270,6 +270,7 @@ def _settle_index(curves, final, fraction) -> int | None:
     return int(idx[0]) if idx.size else None
 
 
+@one_blas_thread
 def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle: bool = False,
                      save_times=None, tol_K: float | None = None, t95_rel: float | None = None,
                      order: int = KRYLOV_ORDER, max_rounds: int = 2):

@@ -31,6 +31,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from imutherm import InputError
+from imutherm.thermal.linear import one_blas_thread
 
 #: the order of convergence [-] a two-grid estimate assumes (module docstring)
 MESH_ERROR_ORDER = 1.0
@@ -161,6 +162,7 @@ def _newton_matrix(asm, D, T):
     return asm.pattern.csr(data)
 
 
+@one_blas_thread
 def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: dict, coarse_probe_C,
                    coarse_max_C: float, *, ratio: int = REFINEMENT_RATIO, order: float = MESH_ERROR_ORDER,
                    max_newton: int = 4) -> RefinementEstimate:

@@ -33,7 +33,7 @@ from imutherm import ConvergenceError, InputError
 from imutherm.thermal.assembly import Assembly, assemble
 from imutherm.thermal.cavity_radiation import CavityExchange
 from imutherm.thermal.guards import DIVERGED_RISE_K  # a steady rise beyond it is divergence, not physics
-from imutherm.thermal.linear import CG_RTOL, _check_rtol, _choose, _Dirichlet, _initial_field, _LinSolver
+from imutherm.thermal.linear import CG_RTOL, _check_rtol, _choose, _Dirichlet, _initial_field, _LinSolver, one_blas_thread
 from imutherm.thermal.probes import _probes
 from imutherm.thermal.problem import ThermalProblem
 from imutherm.thermal.results import SteadyResult
@@ -81,6 +81,7 @@ def _check_diverging(problem, T, amb: float, it: int) -> None:
                                f"(total {problem.power_W:.3g} W) or boundary coefficients that remove no heat")
 
 
+@one_blas_thread
 def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 50, solver: str = "auto",
                  probes=None, initial_C=None, assembly: Assembly | None = None,
                  rtol: float | None = None) -> SteadyResult:

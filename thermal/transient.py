@@ -22,7 +22,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.thermal.assembly import Assembly, assemble
 from imutherm.thermal.guards import MAX_STEPS, check_step
-from imutherm.thermal.linear import _check_rtol
+from imutherm.thermal.linear import _check_rtol, one_blas_thread
 from imutherm.thermal.observers import _EnergyAccount, _ProbeHistory, _SavedFields, _SettleWatch
 from imutherm.thermal.probes import _probes
 from imutherm.thermal.problem import ThermalProblem
@@ -136,6 +136,7 @@ def _positive(name, v, allow_none=True):
     return f
 
 
+@one_blas_thread
 def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: str = "theta", theta: float = 1.0,
                     tol_K: float | None = None, error_control: str = "nodes", dt_first: float | None = None, dt_max: float | None = None,
                     settle_C=None, settle_fraction: float = SETTLE_FRACTION, save_times=None,
