@@ -213,6 +213,40 @@ def test_solves_run_on_one_blas_thread_and_restore_the_callers(monkeypatch):
     assert after and all(n == 2 for n in after)
 
 
+def test_amg_hierarchy_built_a_level_at_a_time_is_pyamgs_own():
+    """linear._levels_on_csr builds pyamg's smoothed-aggregation hierarchy one level at a time on CSR matrices
+    (saving the Python-loop duplicate sums of its BSR coarse matrices): every level's A, P and R and the
+    V-cycle's result (both on CSR, as amg_preconditioner cycles them) equal the one-call hierarchy's exactly, on
+    a problem with three coarse levels."""
+    import pyamg
+    import scipy.sparse as sp
+
+    from imutherm.thermal import linear
+
+    pr = _fine_nonlinear_problem()
+    asm = assemble(pr, mass=True)
+    A = asm.pattern.csr(asm.K_data + asm.H_data + asm.M_data / 2.0).astype(np.float32)   # a transient's matrix
+    opts = dict(symmetry="hermitian", smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
+                strength=("symmetric", {"theta": linear.AMG_STRENGTH_THETA}),
+                presmoother=("gauss_seidel", {"sweep": "forward"}), postsmoother=("gauss_seidel", {"sweep": "backward"}))
+    # a small coarsest size: as many levels as the reference unit's hierarchy (4)
+    ref = pyamg.smoothed_aggregation_solver(A.copy(), max_coarse=20, **opts)
+    coarse, linear.AMG_MAX_COARSE = linear.AMG_MAX_COARSE, 20
+    try:
+        ours = linear._levels_on_csr(A.copy(), opts)
+    finally:
+        linear.AMG_MAX_COARSE = coarse
+    assert len(ref.levels) == len(ours.levels) >= 4
+    for a, b in zip(ref.levels, ours.levels):
+        for name in ("A", "P", "R"):
+            if hasattr(a, name):
+                X, Y = sp.csr_array(getattr(a, name)), sp.csr_array(getattr(b, name))
+                assert X.shape == Y.shape and abs(X - Y).max() == 0.0
+    b = np.random.default_rng(1).standard_normal(A.shape[0]).astype(np.float32)
+    ref, ours = linear._bsr_to_csr(ref), linear._bsr_to_csr(ours)     # as amg_preconditioner cycles them
+    assert np.array_equal(ref.solve(b, maxiter=1, cycle="V", tol=0.0), ours.solve(b, maxiter=1, cycle="V", tol=0.0))
+
+
 def test_renamed_result_fields_fail_with_a_clear_error():
     """``iterations`` (Newton steps on a steady result, linear iterations on a transient) was split into
     ``newton_iterations`` and ``linear_iterations`` on both: the old name names the new ones."""
