@@ -12,7 +12,9 @@ the extrapolated value T(h) + E and, from three grids, the observed order p (:fu
 :data:`MESH_ERROR_ORDER` is the order the two-grid estimate of a study assumes: the lowest observed at the
 reference unit's sensor dies by the refinement study of ``imutherm verify`` (``refinement_reference_unit``:
 1x, 2x, 3x of a 6 mm / 1-cell mesh, linear laws; 2026-12-04: air 1.22-1.52, grease 1.02-1.21 at the dies,
-1.3-1.45 at the hot spot), rounded down to 1. An order this low is the mark of the singular corners; where the
+1.3-1.45 at the hot spot), rounded down to 1; at the default mesh with the study's laws the orders at the dies are
+1.10-2.17 and the estimate bounds the three-grid error at every die (``benchmarks/bench_mesh_convergence.py``,
+2026-12-05: air, grease, potted). An order this low is the mark of the singular corners; where the
 field converges faster the estimate errs on the large side (a smooth field at p = 2: 1.5x the error; the
 board-in-cavity case of the verification suite: 1.2-1.3x).
 

@@ -1,0 +1,101 @@
+"""Mesh convergence of the reference unit at the default mesh: is the study's mesh-error estimate honest?
+
+Each scheme is solved steady with the study's laws (natural convection, radiation, the s2s cavity law) on the
+default mesh (2 mm cells, 2 across the thinnest parts and gaps) and on the same mesh with every interval split
+in 2 and in 3 (``imutherm.studies.mesh_convergence.refinement_study``: 0.19, 1.5 and 5.0 million nodes for
+air). Per sensor die, test point and the hot spot it prints the rises, the observed order of convergence p, the
+extrapolated rise and so the error of the default mesh (extrapolated minus 1x), against the estimate the study
+prints from two grids with p = 1 assumed (``imutherm.thermal.refinement.MESH_ERROR_ORDER``: 2 x (2x - 1x)), and
+the error left on the 2x mesh. Each scheme runs in its own process; its wall time and peak memory are its own
+(~50 s and ~3.5 GB a scheme on the 2-core machine).
+
+    python benchmarks/bench_mesh_convergence.py                    # air, grease, potted
+    python benchmarks/bench_mesh_convergence.py --schemes air
+    python benchmarks/bench_mesh_convergence.py --write            # and record docs/benchmarks/tables/mesh_convergence.txt
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+
+
+def one_scheme(scheme: str) -> dict:
+    """The three-grid study of ``scheme`` (JSON-able)."""
+    import numpy as np
+    from threadpoolctl import threadpool_limits
+
+    from imutherm.studies.mesh_convergence import refinement_study
+    from imutherm.unit.model import ModelOptions
+
+    with threadpool_limits(1):
+        st = refinement_study(None, scheme, options=ModelOptions(), mesh_size_mm=2.0, min_cells=2)
+    return {"scheme": scheme, "nodes": list(st.nodes), "names": list(st.names), "rise_K": st.rise_K.tolist(),
+            "order": [None if not np.isfinite(p) else float(p) for p in st.order],
+            "extrapolated_K": [None if not np.isfinite(v) else float(v) for v in st.extrapolated_K],
+            "seconds": st.seconds, "peak_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def report(r: dict, dies) -> tuple:
+    """Print one scheme's table; returns (largest error of the default mesh at a die [K], its site, largest
+    estimate at a die [K], every die's estimate >= its error, lowest order at the dies)."""
+    print(f"{r['scheme']}: nodes {' / '.join(f'{n:,}' for n in r['nodes'])}; {r['seconds']:.0f} s wall, "
+          f"peak {r['peak_MB'] / 1024:.1f} GB")
+    print(f"  {'site':<9} {'rise 1x -> 2x -> 3x [K]':<26} {'p':>5} {'extrap. [K]':>11} {'error 1x':>9} "
+          f"{'estimate':>9} {'error 2x':>9}")
+    worst, worst_at, est_max, bounded, p_min = 0.0, "", 0.0, True, float("inf")
+    for i, name in enumerate(r["names"]):
+        rise = [row[i] for row in r["rise_K"]]
+        p, ext = r["order"][i], r["extrapolated_K"][i]
+        est = 2.0 * (rise[1] - rise[0])           # the study's two-grid estimate, p = 1 (E = (2x - 1x) r^p/(r^p - 1))
+        err1 = None if ext is None else ext - rise[0]
+        err2 = None if ext is None else ext - rise[1]
+        fmt = lambda v: f"{v:+9.3f}" if v is not None else f"{'n/a':>9}"  # noqa: E731
+        print(f"  {name:<9} {' -> '.join(f'{v:.3f}' for v in rise):<26} "
+              f"{(f'{p:5.2f}' if p is not None else '  n/a'):>5} {(f'{ext:11.3f}' if ext is not None else 'not monotone'):>11} "
+              f"{fmt(err1)} {est:+9.3f} {fmt(err2)}")
+        if name in dies:
+            est_max = max(est_max, est)
+            if err1 is not None:
+                bounded &= est >= err1
+                if err1 > worst:
+                    worst, worst_at = err1, name
+            if p is not None:
+                p_min = min(p_min, p)
+    return worst, worst_at, est_max, bounded, p_min
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scheme", help=argparse.SUPPRESS)  # worker mode
+    ap.add_argument("--schemes", default="air,grease,potted")
+    args = ap.parse_args(argv)
+    if args.scheme:
+        print(json.dumps(one_scheme(args.scheme)))
+        return 0
+    from imutherm.imu.sensor_model import SITES
+
+    print("reference unit, steady, the study's laws; the default mesh (2 mm, 2 cells) refined 1x, 2x, 3x; "
+          "p: observed order; error 1x / 2x: extrapolated minus the 1x / 2x rise; estimate: the study's "
+          "two-grid estimate of the 1x error (p = 1)")
+    t0, ok = time.perf_counter(), True
+    for s in args.schemes.split(","):
+        out = subprocess.run([sys.executable, __file__, "--scheme", s], check=True, capture_output=True, text=True)
+        worst, at, est, bounded, p_min = report(json.loads(out.stdout.splitlines()[-1]), SITES)
+        print(f"  sensor dies: the default mesh's error up to {worst:.3f} K ({at}), the study's estimate up to "
+              f"{est:.3f} K; the estimate >= the error at every die: {'yes' if bounded else 'NO'}; lowest "
+              f"observed order {p_min:.2f}")
+        ok &= bounded and p_min >= 1.0
+    print(f"total {time.perf_counter() - t0:.0f} s")
+    print(f"  {'PASS' if ok else 'FAIL'}  the study's estimate (p = 1) bounds the default mesh's error at every "
+          "sensor die, and the observed order there is >= 1")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, "mesh_convergence", "mesh convergence of the reference unit at the default mesh"))
