@@ -12,6 +12,7 @@ runs in its own process so that the memory figure is its own.
     python benchmarks/bench_reference.py                 # all schemes + CalculiX
     python benchmarks/bench_reference.py --no-ccx        # imutherm only
     python benchmarks/bench_reference.py --convergence   # also the mesh-convergence check
+    python benchmarks/bench_reference.py --convergence --write   # and record docs/benchmarks/tables/reference.txt
 """
 
 from __future__ import annotations
@@ -178,4 +179,5 @@ def check_targets(rows: list) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, "reference", "the reference unit against CalculiX"))
