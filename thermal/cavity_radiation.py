@@ -341,10 +341,11 @@ def _enforce(F: np.ndarray, area: np.ndarray, tol: float = 1e-13, max_iter: int 
     S = 0.5 * (S + S.T)
     d = np.ones(len(area))
     ok = S.sum(axis=1) > 0
-    for _ in range(max_iter):
-        rs = S @ d
+    rs = S @ d
+    for _ in range(max_iter):   # one product an iteration: the test's S d is the next update's
         d[ok] = np.sqrt(d[ok] * area[ok] / rs[ok])
-        if np.max(np.abs(d[ok] * (S @ d)[ok] / area[ok] - 1.0), initial=0.0) < tol:
+        rs = S @ d
+        if np.max(np.abs(d[ok] * rs[ok] / area[ok] - 1.0), initial=0.0) < tol:
             break
     S = d[:, None] * S * d[None, :]
     return S / area[:, None]
