@@ -11,7 +11,7 @@ the error left on the 2x mesh. Each scheme runs in its own process; its wall tim
 
     python benchmarks/bench_mesh_convergence.py                    # air, grease, potted
     python benchmarks/bench_mesh_convergence.py --schemes air
-    python benchmarks/bench_mesh_convergence.py --write            # and record docs/benchmarks/tables/mesh_convergence.txt
+    python benchmarks/bench_mesh_convergence.py --write            # and record tables/mesh_convergence.txt
 """
 
 from __future__ import annotations
@@ -55,8 +55,9 @@ def report(r: dict, dies) -> tuple:
         err1 = None if ext is None else ext - rise[0]
         err2 = None if ext is None else ext - rise[1]
         fmt = lambda v: f"{v:+9.3f}" if v is not None else f"{'n/a':>9}"  # noqa: E731
-        print(f"  {name:<9} {' -> '.join(f'{v:.3f}' for v in rise):<26} "
-              f"{(f'{p:5.2f}' if p is not None else '  n/a'):>5} {(f'{ext:11.3f}' if ext is not None else 'not monotone'):>11} "
+        order = f"{p:5.2f}" if p is not None else "  n/a"
+        extrap = f"{ext:11.3f}" if ext is not None else "not monotone"
+        print(f"  {name:<9} {' -> '.join(f'{v:.3f}' for v in rise):<26} {order:>5} {extrap:>11} "
               f"{fmt(err1)} {est:+9.3f} {fmt(err2)}")
         if name in dies:
             est_max = max(est_max, est)

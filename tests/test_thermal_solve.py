@@ -228,7 +228,8 @@ def test_amg_hierarchy_built_a_level_at_a_time_is_pyamgs_own():
     A = asm.pattern.csr(asm.K_data + asm.H_data + asm.M_data / 2.0).astype(np.float32)   # a transient's matrix
     opts = dict(symmetry="hermitian", smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
                 strength=("symmetric", {"theta": linear.AMG_STRENGTH_THETA}),
-                presmoother=("gauss_seidel", {"sweep": "forward"}), postsmoother=("gauss_seidel", {"sweep": "backward"}))
+                presmoother=("gauss_seidel", {"sweep": "forward"}),
+                postsmoother=("gauss_seidel", {"sweep": "backward"}))
     # a small coarsest size: as many levels as the reference unit's hierarchy (4)
     ref = pyamg.smoothed_aggregation_solver(A.copy(), max_coarse=20, **opts)
     coarse, linear.AMG_MAX_COARSE = linear.AMG_MAX_COARSE, 20
