@@ -213,7 +213,7 @@ def test_solves_run_on_one_blas_thread_and_restore_the_callers(monkeypatch):
     assert after and all(n == 2 for n in after)
 
 
-def test_amg_hierarchy_built_a_level_at_a_time_is_pyamgs_own():
+def test_amg_hierarchy_built_a_level_at_a_time_is_pyamgs_own(monkeypatch):
     """linear._levels_on_csr builds pyamg's smoothed-aggregation hierarchy one level at a time on CSR matrices
     (saving the Python-loop duplicate sums of its BSR coarse matrices): every level's A, P and R and the
     V-cycle's result (both on CSR, as amg_preconditioner cycles them) equal the one-call hierarchy's exactly, on
@@ -226,17 +226,10 @@ def test_amg_hierarchy_built_a_level_at_a_time_is_pyamgs_own():
     pr = _fine_nonlinear_problem()
     asm = assemble(pr, mass=True)
     A = asm.pattern.csr(asm.K_data + asm.H_data + asm.M_data / 2.0).astype(np.float32)   # a transient's matrix
-    opts = dict(symmetry="hermitian", smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
-                strength=("symmetric", {"theta": linear.AMG_STRENGTH_THETA}),
-                presmoother=("gauss_seidel", {"sweep": "forward"}),
-                postsmoother=("gauss_seidel", {"sweep": "backward"}))
     # a small coarsest size: as many levels as the reference unit's hierarchy (4)
-    ref = pyamg.smoothed_aggregation_solver(A.copy(), max_coarse=20, **opts)
-    coarse, linear.AMG_MAX_COARSE = linear.AMG_MAX_COARSE, 20
-    try:
-        ours = linear._levels_on_csr(A.copy(), opts)
-    finally:
-        linear.AMG_MAX_COARSE = coarse
+    ref = pyamg.smoothed_aggregation_solver(A.copy(), max_coarse=20, **linear.AMG_OPTIONS)
+    monkeypatch.setattr(linear, "AMG_MAX_COARSE", 20)
+    ours = linear._levels_on_csr(A.copy(), linear.AMG_OPTIONS)
     assert len(ref.levels) == len(ours.levels) >= 4
     for a, b in zip(ref.levels, ours.levels):
         for name in ("A", "P", "R"):

@@ -71,6 +71,11 @@ AMG_STRENGTH_THETA = 0.02
 AMG_MAX_COARSE = 500
 #: pyamg's default cap on the levels of a hierarchy
 AMG_MAX_LEVELS = 10
+#: the options of pyamg's ``smoothed_aggregation_solver`` the preconditioner builds with (:func:`amg_preconditioner`)
+AMG_OPTIONS = dict(symmetry="hermitian", smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
+                   strength=("symmetric", {"theta": AMG_STRENGTH_THETA}),
+                   presmoother=("gauss_seidel", {"sweep": "forward"}),
+                   postsmoother=("gauss_seidel", {"sweep": "backward"}))
 
 
 def _levels_on_csr(A, options: dict):
@@ -135,15 +140,10 @@ def amg_preconditioner(A) -> spla.LinearOperator:
     """
     import pyamg
 
-    options = dict(symmetry="hermitian", smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
-                   strength=("symmetric", {"theta": AMG_STRENGTH_THETA}),
-                   presmoother=("gauss_seidel", {"sweep": "forward"}),
-                   postsmoother=("gauss_seidel", {"sweep": "backward"}))
-
     def build(dtype):
-        return pyamg.smoothed_aggregation_solver(A.astype(dtype), max_coarse=AMG_MAX_COARSE, **options)
+        return pyamg.smoothed_aggregation_solver(A.astype(dtype), max_coarse=AMG_MAX_COARSE, **AMG_OPTIONS)
 
-    ml = _bsr_to_csr(_levels_on_csr(A.astype(np.float32), options))
+    ml = _bsr_to_csr(_levels_on_csr(A.astype(np.float32), AMG_OPTIONS))
     vcycle = _private_vcycle(ml)
     if vcycle is None or len(ml.levels) < 2:  # small problem (one level: a dense solve) or another pyamg
         return build(np.float64).aspreconditioner(cycle="V")

@@ -156,7 +156,8 @@ def _two_level(A, prolong, coarse_pc):
 
 def _newton_matrix(asm, D, T):
     """The sparse Newton matrix at ``T`` [°C]: conduction and linear laws, the nonlinear laws' diagonal slopes (each
-    s2s exchange's too, its coupling is applied beside it), fixed nodes eliminated."""
+    s2s exchange's too, its coupling is applied beside it), fixed nodes eliminated. ``asm``: an assembly with its
+    own ``H_data`` (not ``merge_linear``)."""
     data = D.eliminate(asm.K_data + asm.H_data)
     if asm.nonlinear:
         _, J = asm.nonlinear_flux(T)
