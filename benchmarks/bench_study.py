@@ -37,6 +37,8 @@ from pathlib import Path
 
 TARGET_S = 20.0
 TARGET_MB = 2048.0
+#: the answer's discretisation error at a sensor die, the corrected answer's bound [K] (issue 45)
+ANSWER_TARGET_K = 0.1
 TABLES = Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "tables"
 ANSWER = TABLES / "compare_answer.txt"
 TIMING = TABLES / "study.txt"
@@ -135,11 +137,22 @@ def timing_table(summary: dict, wall_s: float, cpu_s: float, peak_mb: float, pss
             ("mesh-error estimate, largest at a sensor die",
              _per_scheme(summary, lambda s: s.get("numerical_error", {}).get("mesh", {}).get("sensor_die_max_K"),
                          ".3f", " K"), ""),
+            ("mesh-error estimate, the corrected answer's bound, largest at a sensor die",
+             _per_scheme(summary, lambda s: s.get("numerical_error", {}).get("mesh", {}).get("answer_sensor_die_max_K"),
+                         ".3f", " K"), _answer_target(summary)),
             ("mesh-error estimate's refined solve",
              _per_scheme(summary, lambda s: _thermal(s, "discretisation_error").get("timings_s", {}).get("wall"),
                          ".1f", " s"), ""),
             ("max rise", _per_scheme(summary, lambda s: s["max_rise_K"], ".2f", " K"), "")]
     return ["| figure | measured | target |", "|---|---|---|"] + [f"| {a} | {b} | {c} |" for a, b, c in rows]
+
+
+def _answer_target(summary: dict) -> str:
+    """The target column of the corrected answer's bound: <= :data:`ANSWER_TARGET_K` at every scheme's dies."""
+    bounds = [s.get("numerical_error", {}).get("mesh", {}).get("answer_sensor_die_max_K")
+              for s in summary["schemes"].values()]
+    ok = all(b is not None and b <= ANSWER_TARGET_K for b in bounds)
+    return f"<= {ANSWER_TARGET_K:g} K: {'PASS' if ok else 'FAIL'}"
 
 
 def write_timing(summary: dict, wall_s: float, cpu_s: float, peak_mb: float, load: str, path: Path = TIMING,

@@ -50,9 +50,11 @@ def add_args(parser) -> None:
                              "Newton solve (default: on reduced models checked against the full model, the full "
                              "FEM where a check fails)")
     parser.add_argument("--no-mesh-error", action="store_true",
-                        help="skip the estimate of each scheme's discretisation error (default: the steady solve "
-                             "again on the mesh with every interval split in two, Richardson's extrapolation; "
-                             "~8x the steady solve's memory, one scheme at a time)")
+                        help="skip the estimate of each scheme's discretisation error and the answer's correction "
+                             "by it (default: the steady solve again on the mesh with every interval split in two, "
+                             "Richardson's extrapolation; the site curves, oven rises and hot spot corrected to the "
+                             "midpoint between the refined value and the extrapolation; ~8x the steady solve's "
+                             "memory, one scheme at a time)")
     parser.add_argument("--steady-only", action="store_true", help="thermal steady states only (implies --thermal-only)")
     parser.add_argument("--thermal-only", action="store_true", help="thermal comparison only, no IMU / attitude")
     g = parser.add_argument_group("IMU and attitude (the end-to-end study)")
@@ -331,7 +333,8 @@ def print_answer(summary: dict) -> None:
 
 def numerical_error_lines(summary: dict) -> list:
     """The answer's numerical errors per scheme, one line each: the reduced transient's check against the full
-    FEM and the mesh's discretisation error (Richardson; estimated error of the steady rise, T* - T)."""
+    FEM and the mesh's discretisation error (Richardson: the corrected answer's error bound, and the default mesh's
+    own estimated error of the steady rise, T* - T)."""
     lines = []
     for name, s in summary["schemes"].items():
         ne = s.get("numerical_error", {})
@@ -341,9 +344,12 @@ def numerical_error_lines(summary: dict) -> list:
         elif "reduced_transient_note" in ne:
             parts.append(ne["reduced_transient_note"])
         m = ne.get("mesh")
-        if m:
-            parts.append(f"mesh (Richardson, 2x refined, p {m['order']:g}): sensor dies {m['sensor_die_max_K']:+.2f} K "
-                         f"at most ({m['sensor_die_max_site']}), hot spot {m['hot_spot_K']:+.2f} K")
+        if m and m.get("answer_sensor_die_max_K") is not None:
+            parts.append(f"mesh (Richardson, 2x refined, p >= {m['order']:g}): answer corrected to within "
+                         f"{m['answer_sensor_die_max_K']:.2f} K at the sensor dies ({m['answer_sensor_die_max_site']}), "
+                         f"{m['answer_hot_spot_K']:.2f} K at the hot spot (the default mesh's values: "
+                         f"{m['sensor_die_max_K']:+.2f} K at most ({m['sensor_die_max_site']}), hot spot "
+                         f"{m['hot_spot_K']:+.2f} K)")
         if parts:
             lines.append(f"numerical error, {name}: " + "; ".join(parts))
     return lines

@@ -133,7 +133,8 @@ def test_bench_study_writes_what_the_docs_tests_read(tmp_path, monkeypatch):
     monkeypatch.setattr(bench, "_commit", lambda: "abcdef1")
 
     def scheme(nodes, rise, err):
-        return {"max_rise_K": rise, "numerical_error": {"mesh": {"sensor_die_max_K": err}},
+        return {"max_rise_K": rise, "numerical_error": {"mesh": {"sensor_die_max_K": err,
+                                                                 "answer_sensor_die_max_K": err / 4}},
                 "self_heating_in_oven_K": {"chamber_C": [-40.0, 70.0], "gyro_x": [rise / 2, rise / 3]},
                 "self_heating_solves": {"-40": {"model": "reduced", "check": {
                     "rounds": 2, "full_solves": 2, "cg_iterations": 28, "max_site_error_K": 0.0015, "tol_K": 0.01}}},
@@ -151,6 +152,8 @@ def test_bench_study_writes_what_the_docs_tests_read(tmp_path, monkeypatch):
     assert rows["nodes (air / potted)"] == "1,000 / 1,200"
     assert rows["max rise"] == "36.36 / 15.80 K" and rows["of which the study"] == "61.3 s"
     assert rows["mesh-error estimate, largest at a sensor die"] == "0.219 / 0.040 K"
+    assert rows["mesh-error estimate, the corrected answer's bound, largest at a sensor die"] == "0.055 / 0.010 K"
+    assert "<= 0.1 K: PASS" in path.read_text()
     assert "<= 20 s: FAIL" in path.read_text() and "<= 2048 MB: PASS" in path.read_text()
 
     bench.write_oven(summary, tmp_path / "oven.txt")
@@ -326,10 +329,10 @@ def test_the_mesh_page_shows_the_recorded_mesh_error():
     assert ":start-at: numerical error, air" in doc and "tables/compare_answer.txt" in doc
     assert "{literalinclude} ../benchmarks/tables/study.txt" in doc
     rows = {k: v for k, v in timing()["rows"].items() if k.startswith("mesh-error estimate")}
-    assert len(rows) == 2 and all(f"| {k}" in TIMING.read_text(encoding="utf-8") for k in rows)
+    assert len(rows) == 3 and all(f"| {k}" in TIMING.read_text(encoding="utf-8") for k in rows)
     now = current_text(REFERENCE / "mesh.md")
     lines = [line for line in answer() if line.startswith("numerical error")]
-    figures = {f for line in lines for f in re.findall(r"[+]\d+\.\d+ K", line)}
+    figures = {f for line in lines for f in re.findall(r"[+]?\d+\.\d+ K", line)}
     figures |= {f"{float(v):.2f} K" for row in rows.values() for v in DECIMAL.findall(row)}
     assert len(figures) >= 4 and [f for f in figures if f in now] == []
 

@@ -1,5 +1,7 @@
 """The mesh's gaps, slivers and uniform refinement, and the discretisation-error estimate built on them."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -219,3 +221,50 @@ def test_the_refined_solve_with_fixed_temperatures_and_nonlinear_laws():
     ref = solve_steady(problem(f), probes=pts)
     np.testing.assert_allclose(est.fine_C[:-1], ref.probe_C, atol=2e-3)
     assert est.error_K[0] > 0.1     # the die's rise is low on the base grid (cf. the verification case)
+
+
+def test_the_bracket_holds_the_converged_value_at_every_order_from_the_assumed_one():
+    """The corrected answer (the midpoint between the refined value and its extrapolation at p = 1) is within its
+    bound of the converged value for any order >= 1, and the bound is a quarter of the coarse value's estimate."""
+    from imutherm.thermal.refinement import bracket, richardson
+
+    p = np.array([1.0, 1.3, 2.0, 4.0])
+    coarse, fine = 10.0 - 3.0 * 1.0**p, 10.0 - 3.0 * 0.5**p    # converged value 10, h and h / 2
+    answer, bound = bracket(coarse, fine)
+    assert np.all(np.abs(10.0 - answer) <= bound + 1e-12)
+    assert np.abs(10.0 - answer)[0] == pytest.approx(bound[0])   # p = 1: the converged value at the interval's end
+    np.testing.assert_allclose(bound, richardson(coarse, fine)[0] / 4)
+    below = 10.0 - 3.0 * 0.5**0.6                                 # an order below the assumed one: outside
+    answer, bound = bracket(10.0 - 3.0, below)
+    assert abs(10.0 - answer) > bound
+
+
+def test_the_answer_is_corrected_by_the_refined_mesh():
+    """With the mesh-error estimate the scheme's answer is the estimate's corrected one: the steady site values are
+    its answer_C, every site curve is the default mesh's rise scaled by one factor (so t63 and t95 do not move), the
+    hot spot's rise is scaled by its own, and result.json says so; without it nothing changes."""
+    from imutherm.studies.thermal_study import mesh_corrected, mesh_error, result_summary, run_scheme
+    from imutherm.thermal.refinement import HOT_SPOT
+
+    kw = dict(mesh_size_mm=6.0, min_cells=1, transient=True, transient_model="reduced", until_settled=True,
+              t_end=3000.0)
+    plain = run_scheme(None, "potted", **kw)
+    assert not plain.mesh_corrected and mesh_corrected(plain) is plain
+    res = mesh_corrected(replace(plain, mesh_error=mesh_error(plain)))
+    est, amb = res.mesh_error, plain.steady.problem.ambient_C
+    sites = list(plain.steady.probe_names)
+    np.testing.assert_allclose(res.steady.probe_C, est.answer_C[:len(sites)], rtol=0, atol=1e-12)
+    assert np.all(est.answer_C[:len(sites)] != est.coarse_C[:len(sites)])
+    f = (np.asarray(res.steady.probe_C) - amb) / (np.asarray(plain.steady.probe_C) - amb)
+    np.testing.assert_allclose(np.asarray(res.transient.probe_C) - amb, (np.asarray(plain.transient.probe_C) - amb) * f,
+                               rtol=1e-12, atol=1e-10)
+    for name in sites:
+        assert res.metrics.t95_s[name] == pytest.approx(plain.metrics.t95_s[name], rel=1e-9)
+    hot = est.names.index(HOT_SPOT)
+    assert res.metrics.max_rise_K == pytest.approx(plain.metrics.max_rise_K * (est.answer_C[hot] - amb)
+                                                   / (est.coarse_C[hot] - amb), rel=1e-12)
+    summary = result_summary(res)
+    assert summary["steady_max_rise_K"] == pytest.approx(est.answer_C[hot] - amb, rel=1e-12)
+    assert summary["sites"]["gyro_x"]["steady_rise_K"] == pytest.approx(est.answer_C[sites.index("gyro_x")] - amb)
+    assert "answer_C" in summary["discretisation_error"]["sites"]["gyro_x"]
+    assert mesh_corrected(res) is res                               # not corrected twice

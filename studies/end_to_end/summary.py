@@ -192,13 +192,23 @@ def _numerical_error(th: dict) -> dict:
     est = th.get("discretisation_error")
     if est is not None:
         sites = est["sites"]
-        dies = {n: sites[n]["error_K"] for n in SITES if n in sites}
-        worst = max(dies, key=lambda n: abs(dies[n])) if dies else None
-        out["mesh"] = {"sensor_die_max_K": dies[worst] if worst else None, "sensor_die_max_site": worst,
-                       "hot_spot_K": sites[HOT_SPOT]["error_K"] if HOT_SPOT in sites else None,
+
+        def worst(key):
+            dies = {n: sites[n][key] for n in SITES if n in sites and key in sites[n]}
+            at = max(dies, key=lambda n: abs(dies[n])) if dies else None
+            return (dies[at] if at else None), at
+        err, err_at = worst("error_K")
+        bound, bound_at = worst("answer_error_K")
+        hot = sites.get(HOT_SPOT, {})
+        out["mesh"] = {"sensor_die_max_K": err, "sensor_die_max_site": err_at,
+                       "hot_spot_K": hot.get("error_K"),
+                       "answer_sensor_die_max_K": bound, "answer_sensor_die_max_site": bound_at,
+                       "answer_hot_spot_K": hot.get("answer_error_K"),
                        "order": est["order"], "fine_nodes": est["fine_nodes"],
-                       "note": "estimated error of the default mesh's steady rise: T* - T (positive: the rise "
-                               "is low), Richardson from the default mesh and the mesh with every interval split"}
+                       "note": "sensor_die_max_K, hot_spot_K: estimated error of the default mesh's steady rise, "
+                               "T* - T (positive: the rise is low), Richardson from the default mesh and the mesh "
+                               "with every interval split; answer_*: the error bound of the answer the study uses "
+                               "(the refined value corrected, imutherm.thermal.refinement.bracket)"}
     return out
 
 

@@ -94,14 +94,16 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     """The thermal side of one scheme: (SchemeResult, chamber (k,) [°C], rise (k, 6) [K], oven solves).
 
     Steady field, power-on transient (always run) and the oven self-heating table; a pure function of its
-    arguments, so schemes can run in separate processes. The oven solves are reduced and checked when the
+    arguments, so schemes can run in separate processes. With ``estimate_mesh_error``, the sites' values and curves
+    and the oven's rises are the estimate's corrected answer (:func:`~imutherm.studies.thermal_study.mesh_corrected`). The oven solves are reduced and checked when the
     transient is (``transient_model`` 'reduced'), else full. Returns (SchemeResult, chamber, rise, oven solves
     (list of dicts, :func:`self_heating_table`)).
     """
     import contextlib
 
     from imutherm.budget import release_freed_memory
-    from imutherm.studies.thermal_study import mesh_error, run_scheme
+    from imutherm.imu.sensor_model import SITES
+    from imutherm.studies.thermal_study import mesh_corrected, mesh_error, mesh_factors, run_scheme
 
     estimate = thermal_kwargs.pop("estimate_mesh_error", False)
     res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, **thermal_kwargs)
@@ -111,7 +113,9 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     if estimate:
         release_freed_memory()   # the solves' freed arrays, before the refined solve's (the study's peak)
         with _REFINED_LOCK if _REFINED_LOCK is not None else contextlib.nullcontext():
-            res = replace(res, mesh_error=mesh_error(res))
+            res = mesh_corrected(replace(res, mesh_error=mesh_error(res)))
+        factors = mesh_factors(res)   # the oven's rises too: the same mesh, the same conduction
+        rise = rise * np.array([factors.get(s, 1.0) for s in SITES])
     release_freed_memory()
     return res, chamber, rise, solves
 
