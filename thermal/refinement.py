@@ -273,6 +273,6 @@ def fmt_error(est: RefinementEstimate, sites) -> str:
     hot = est.names.index(HOT_SPOT)
     head = f"mesh (Richardson, {est.ratio}x refined, p >= {est.order:g}): answer corrected"
     if not math.isfinite(b):
-        return head + f", hot spot within {est.answer_error_K[hot]:.2f} K (default mesh {est.error_K[hot]:+.2f} K)"
-    return (head + f" to within {b:.2f} K at the sensor dies ({at_b}), {est.answer_error_K[hot]:.2f} K at the hot "
+        return head + f", hot spot within {est.answer_error_K[hot]:.3f} K (default mesh {est.error_K[hot]:+.2f} K)"
+    return (head + f" to within {b:.3f} K at the sensor dies ({at_b}), {est.answer_error_K[hot]:.3f} K at the hot "
             f"spot (the default mesh's values: {e:+.2f} K at most ({at_e}), hot spot {est.error_K[hot]:+.2f} K)")
