@@ -327,29 +327,9 @@ def print_answer(summary: dict) -> None:
         print(line)
     for name, s in summary["schemes"].items():
         print(s["answer"])
+    from imutherm.studies.end_to_end.summary import numerical_error_lines
+
     for line in numerical_error_lines(summary):
         print(line)
 
 
-def numerical_error_lines(summary: dict) -> list:
-    """The answer's numerical errors per scheme, one line each: the reduced transient's check against the full
-    FEM and the mesh's discretisation error (Richardson: the corrected answer's error bound, and the default mesh's
-    own estimated error of the steady rise, T* - T)."""
-    lines = []
-    for name, s in summary["schemes"].items():
-        ne = s.get("numerical_error", {})
-        parts = []
-        if ne.get("reduced_transient_K") is not None:
-            parts.append(f"reduced transient within {ne['reduced_transient_K']:.3f} K of the full FEM")
-        elif "reduced_transient_note" in ne:
-            parts.append(ne["reduced_transient_note"])
-        m = ne.get("mesh")
-        if m and m.get("answer_sensor_die_max_K") is not None:
-            parts.append(f"mesh (Richardson, 2x refined, p >= {m['order']:g}): answer corrected to within "
-                         f"{m['answer_sensor_die_max_K']:.3f} K at the sensor dies ({m['answer_sensor_die_max_site']}), "
-                         f"{m['answer_hot_spot_K']:.3f} K at the hot spot (the default mesh's values: "
-                         f"{m['sensor_die_max_K']:+.2f} K at most ({m['sensor_die_max_site']}), hot spot "
-                         f"{m['hot_spot_K']:+.2f} K)")
-        if parts:
-            lines.append(f"numerical error, {name}: " + "; ".join(parts))
-    return lines

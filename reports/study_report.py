@@ -310,7 +310,7 @@ def _map_page(pdf, folder: Path, data: dict) -> None:
 def _curves_page(pdf, folder: Path, data: dict) -> None:
     schemes = [s for s in data["schemes"] if (folder / f"curves_{s}.csv").exists()]
     fig, axes = plt.subplots(1, len(schemes), figsize=A4, sharey=True, squeeze=False)
-    fig.subplots_adjust(left=0.07, right=0.98, top=0.85, bottom=0.12, wspace=0.08)
+    fig.subplots_adjust(left=0.07, right=0.98, top=0.85, bottom=0.2, wspace=0.08)
     _title(fig, "Sensor-site temperatures after power-on (the warm-up the IMU sees)",
            "die centroids of the six sensors, test points tp1-3 on the main board; markers: t95 of each sensor")
     for ax, s in zip(axes[0], schemes):
@@ -328,6 +328,11 @@ def _curves_page(pdf, folder: Path, data: dict) -> None:
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("temperature [C]")
     axes[0][-1].legend(fontsize=7, ncol=2)
+    from imutherm.studies.end_to_end.summary import numerical_error_lines
+
+    notes = [line for s in schemes for line in numerical_error_lines({"schemes": {s: data["schemes"][s]}})]
+    if notes:   # the curves' numerical errors: the reduced transient's check and the mesh's (corrected) error
+        fig.text(0.03, 0.11, "\n".join(textwrap.fill(n, 200) for n in notes), fontsize=6.5, va="top")
     pdf.savefig(fig)
     plt.close(fig)
 
