@@ -89,28 +89,38 @@ def refinement_study(layout=None, scheme: str = "air", *, options=None, levels=L
 
 def case_reference_unit_refinement(schemes=("air", "grease")):
     """Reference unit, air and grease, linear laws: rises on the base mesh refined 1x, 2x, 3x grow monotonically
-    at every sensor site, and the lowest observed order at the sensor dies is at least the study's assumed one."""
+    at every sensor site, the lowest observed order at the sensor dies is at least the study's assumed one, and the
+    study's corrected answer (from 1x and 2x, :func:`~imutherm.thermal.refinement.bracket`) is within its bound of
+    the three-grid extrapolation at every die."""
     from imutherm.imu.sensor_model import SITES
-    from imutherm.thermal.refinement import MESH_ERROR_ORDER
+    from imutherm.thermal.refinement import MESH_ERROR_ORDER, bracket
     from imutherm.thermal.verification import _record
 
     t0 = time.perf_counter()
     studies = [refinement_study(None, s) for s in schemes]
-    lowest, notes, bad = np.inf, [], []
+    lowest, notes, bad, outside = np.inf, [], [], []
     for st in studies:
         dies = [st.names.index(n) for n in SITES]
+        answer, bound = bracket(st.rise_K[0, dies], st.rise_K[1, dies])
+        off = np.abs(st.extrapolated_K[dies] - answer)
+        outside += [f"{st.scheme}/{st.names[i]}" for i, o, b in zip(dies, off, bound) if not o <= b]
         p = st.order[dies]
         lowest = min(lowest, float(np.nanmin(p)) if np.isfinite(p).any() else -np.inf)
         bad += [f"{st.scheme}/{st.names[i]}" for i in range(len(st.names) - 1) if not st.monotone[i]]
         notes.append(f"{st.scheme}: nodes {', '.join(f'{n:,}' for n in st.nodes)}; sensor-die rises "
                      + "; ".join(f"{st.names[i]} {' -> '.join(f'{v:.3f}' for v in st.rise_K[:, i])} K "
                                  f"(p {st.order[i]:.2f}, extrapolated {st.extrapolated_K[i]:.3f})" for i in dies)
-                     + f"; hot spot p {st.order[-1]:.2f}, extrapolated {st.extrapolated_K[-1]:.3f} K")
-    error = max(0.0, MESH_ERROR_ORDER - lowest) + (1.0 if bad else 0.0)
+                     + f"; hot spot p {st.order[-1]:.2f}, extrapolated {st.extrapolated_K[-1]:.3f} K; the corrected "
+                     f"answer's bound up to {float(np.max(bound)):.3f} K, its distance from the extrapolation up to "
+                     f"{float(np.nanmax(off)):.3f} K")
+    error = max(0.0, MESH_ERROR_ORDER - lowest) + (1.0 if bad else 0.0) + (1.0 if outside else 0.0)
     return _record("refinement_reference_unit", "lowest observed order at the sensor dies [-]", lowest,
                    MESH_ERROR_ORDER, error, 0.0,
                    f"reference unit, linear laws, base mesh {BASE_MESH_MM:g} mm / {BASE_MIN_CELLS} cell(s) refined "
                    f"{', '.join(f'{f}x' for f in LEVELS)}: " + " | ".join(notes)
                    + f". Every site's rise grows with refinement: {'yes' if not bad else 'no, ' + ', '.join(bad)}; "
-                     f"pass: monotone and the lowest order >= the study's assumed {MESH_ERROR_ORDER:g} (the error "
-                     "recorded: the shortfall of the order, plus 1 if a rise is not monotone)", t0)
+                     "the corrected answer within its bound of the extrapolation at every die: "
+                   + ("yes" if not outside else "no, " + ", ".join(outside))
+                   + f"; pass: monotone, the lowest order >= the study's assumed {MESH_ERROR_ORDER:g} and every answer "
+                     "within its bound (the error recorded: the shortfall of the order, plus 1 if a rise is not "
+                     "monotone, plus 1 if an answer is outside its bound)", t0)

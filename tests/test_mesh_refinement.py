@@ -268,3 +268,18 @@ def test_the_answer_is_corrected_by_the_refined_mesh():
     assert summary["sites"]["gyro_x"]["steady_rise_K"] == pytest.approx(est.answer_C[sites.index("gyro_x")] - amb)
     assert "answer_C" in summary["discretisation_error"]["sites"]["gyro_x"]
     assert mesh_corrected(res) is res                               # not corrected twice
+
+
+def test_the_numerical_error_line_gives_the_answer_s_bound_before_the_default_mesh_s_error():
+    """The study's printed line (and the report's): the corrected answer's bound at the dies and the hot spot to
+    3 decimals, then the default mesh's own estimated error, from the summary's ``numerical_error`` entry."""
+    from imutherm.studies.end_to_end.summary import numerical_error_lines
+
+    mesh = {"sensor_die_max_K": 0.2188, "sensor_die_max_site": "accel_x", "hot_spot_K": 0.6094,
+            "answer_sensor_die_max_K": 0.0547, "answer_sensor_die_max_site": "accel_x", "answer_hot_spot_K": 0.1524,
+            "order": 1.0}
+    lines = numerical_error_lines({"schemes": {"air": {"numerical_error": {"reduced_transient_K": 0.0288,
+                                                                           "mesh": mesh}}}})
+    assert lines == ["numerical error, air: reduced transient within 0.029 K of the full FEM; mesh (Richardson, 2x "
+                     "refined, p >= 1): answer corrected to within 0.055 K at the sensor dies (accel_x), 0.152 K at the "
+                     "hot spot (the default mesh's values: +0.22 K at most (accel_x), hot spot +0.61 K)"]
