@@ -93,3 +93,12 @@ def run(main, name, title: str, argv=None, tables: Path = TABLES) -> int:
         write(tables / f"{table}.txt", head, tee.kept.getvalue())
         print(f"wrote {tables / f'{table}.txt'}")
     return status
+
+
+def scheme_in_process(script: str, scheme: str) -> dict:
+    """Run ``script --scheme scheme`` in a process of its own (so its wall time and peak memory are its own) and
+    return the JSON object it printed last: the per-scheme worker mode of the mesh benchmarks."""
+    import json
+
+    out = subprocess.run([sys.executable, script, "--scheme", scheme], check=True, capture_output=True, text=True)
+    return json.loads(out.stdout.splitlines()[-1])

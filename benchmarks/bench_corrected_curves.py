@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import subprocess
 import sys
 import time
 
@@ -103,6 +102,7 @@ def main(argv=None) -> int:
     if args.scheme:
         print(json.dumps(one_scheme(args.scheme)))
         return 0
+    import _record  # benchmarks/_record.py
     from imutherm.imu.sensor_model import SITES
 
     print("reference unit, the study's laws, reduced power-on transients on the default mesh (1x) and on it "
@@ -110,8 +110,7 @@ def main(argv=None) -> int:
           "and scaled to the 2x steady rise (the study's correction: the curves' shapes compared)")
     t0, ok = time.perf_counter(), True
     for s in args.schemes.split(","):
-        out = subprocess.run([sys.executable, __file__, "--scheme", s], check=True, capture_output=True, text=True)
-        worst = report(json.loads(out.stdout.splitlines()[-1]), SITES)
+        worst = report(_record.scheme_in_process(__file__, s), SITES)
         print(f"  sensor dies: the scaled curves within {worst:.3f} K of the 2x mesh's at every time")
         ok &= worst <= SHAPE_TOL_K
     print(f"total {time.perf_counter() - t0:.0f} s")

@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import subprocess
 import sys
 import time
 
@@ -92,6 +91,7 @@ def main(argv=None) -> int:
     if args.scheme:
         print(json.dumps(one_scheme(args.scheme)))
         return 0
+    import _record  # benchmarks/_record.py
     from imutherm.imu.sensor_model import SITES
     from imutherm.thermal.refinement import MESH_ERROR_ORDER
 
@@ -101,8 +101,7 @@ def main(argv=None) -> int:
           "its error bound, off by: the extrapolation minus the answer")
     t0, ok, answer_ok = time.perf_counter(), True, True
     for s in args.schemes.split(","):
-        out = subprocess.run([sys.executable, __file__, "--scheme", s], check=True, capture_output=True, text=True)
-        worst, at, est, bounded, p_min, bound, within = report(json.loads(out.stdout.splitlines()[-1]), SITES)
+        worst, at, est, bounded, p_min, bound, within = report(_record.scheme_in_process(__file__, s), SITES)
         print(f"  sensor dies: the default mesh's error up to {worst:.3f} K ({at}), the study's estimate up to "
               f"{est:.3f} K; the estimate >= the error at every die: {'yes' if bounded else 'NO'}; lowest "
               f"observed order {p_min:.2f}")

@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import subprocess
 import sys
 import time
 
@@ -37,7 +36,6 @@ def q2_rises(problem, sites: dict) -> tuple:
     import numpy as np
     import scipy.sparse.linalg as spla
     from skfem import BilinearForm, Basis, ElementHex2, FacetBasis, LinearForm, MeshHex, asm
-    from skfem.helpers import dot
 
     from imutherm.thermal.assembly import faces
     from imutherm.thermal.calculix import _face_cells
@@ -166,6 +164,7 @@ def main(argv=None) -> int:
     if args.scheme:
         print(json.dumps(one_scheme(args.scheme)))
         return 0
+    import _record  # benchmarks/_record.py
     from imutherm.imu.sensor_model import SITES
 
     print("reference unit, steady, linear laws; Q1: the model's trilinear bricks on the default mesh (2 mm, 2 cells) "
@@ -173,8 +172,7 @@ def main(argv=None) -> int:
           "error bound (from 1x and 2x); Q2: 27-node quadratic bricks (scikit-fem) on the default mesh; rises [K]")
     t0, ok = time.perf_counter(), True
     for s in args.schemes.split(","):
-        out = subprocess.run([sys.executable, __file__, "--scheme", s], check=True, capture_output=True, text=True)
-        ratio, at, off, gap, estimated = report(json.loads(out.stdout.splitlines()[-1]), SITES)
+        ratio, at, off, gap, estimated = report(_record.scheme_in_process(__file__, s), SITES)
         print(f"  sensor dies: Q2 differs from the corrected answer by up to {off:.3f} K ({ratio:.2f}x its bound at "
               f"{at}), from the default mesh's Q1 by up to {gap:.3f} K (the study's estimate of that error >= it at "
               f"every die: {'yes' if estimated else 'NO'})")
