@@ -137,7 +137,8 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         (:func:`imutherm.thermal.reduced_transient.reduced_power_on`; adaptive TR-BDF2 settings only:
         given steps or the θ-scheme always run the full FEM)
     estimate_mesh_error : bool, also estimate the steady answer's discretisation error (:func:`mesh_error`: one
-        steady solve on the mesh refined 2x in every direction, 8x the cells)
+        steady solve on the mesh refined 2x in every direction, 8x the cells) and correct the sites' values and
+        curves and the hot spot by it (:func:`mesh_corrected`)
 
     Returns
     -------
