@@ -14,7 +14,8 @@ script prints the largest difference over the whole transient between the 2x cur
 
 The two reduced transients carry their own errors (each checked to 0.05 K, estimated ~0.03 K), so differences
 below ~0.05 K are within them; a difference at the same sites and times in both schemes, larger than that, is the
-meshes' (the warm-up's own discretisation error, which one steady factor cannot follow). ~3 min and ~5 GB a scheme on the 2-core machine; each scheme in its own process.
+meshes' (the warm-up's own discretisation error, which one steady factor cannot follow). ~3 min and ~5 GB a
+scheme on the 2-core machine; each scheme in its own process.
 
     python benchmarks/bench_corrected_curves.py                  # air, grease
     python benchmarks/bench_corrected_curves.py --schemes air
@@ -114,7 +115,8 @@ def main(argv=None) -> int:
         print(f"  sensor dies: the scaled curves within {worst:.3f} K of the 2x mesh's at every time")
         ok &= worst <= SHAPE_TOL_K
     print(f"total {time.perf_counter() - t0:.0f} s")
-    print(f"  {'PASS' if ok else 'FAIL'}  at every sensor die the scaled default-mesh curve is within {SHAPE_TOL_K:g} K "
+    print(f"  {'PASS' if ok else 'FAIL'}  at every sensor die the scaled default-mesh curve is within "
+          f"{SHAPE_TOL_K:g} K "
           "of the 2x mesh's own transient at every time")
     return 0 if ok else 1
 

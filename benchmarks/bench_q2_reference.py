@@ -178,7 +178,8 @@ def main(argv=None) -> int:
               f"every die: {'yes' if estimated else 'NO'})")
         ok &= ratio <= 1.0 and estimated
     print(f"total {time.perf_counter() - t0:.0f} s")
-    print(f"  {'PASS' if ok else 'FAIL'}  at every sensor die the Q2 rise is within the corrected answer's bound of it, "
+    print(f"  {'PASS' if ok else 'FAIL'}  at every sensor die the Q2 rise is within the corrected answer's bound "
+          "of it, "
           "and the study's estimate of the default mesh's error is at least the Q2 rise's distance from the default "
           "mesh's")
     return 0 if ok else 1

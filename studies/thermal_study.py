@@ -324,7 +324,9 @@ def result_summary(res: SchemeResult) -> dict:
     g, st, tr = res.geometry, res.steady, res.transient
     steady_m = thermal_metrics(st)
     if res.mesh_corrected:   # the hot spot's corrected rise (the field itself is the default mesh's)
-        steady_m = replace(steady_m, max_rise_K=steady_m.max_rise_K * mesh_factors(res)["hot spot"])
+        from imutherm.thermal.refinement import HOT_SPOT
+
+        steady_m = replace(steady_m, max_rise_K=steady_m.max_rise_K * mesh_factors(res)[HOT_SPOT])
     last = tr if tr is not None else st
     final_m = res.metrics
     sites = {}

@@ -227,7 +227,8 @@ def numerical_error_lines(summary: dict) -> list:
         m = ne.get("mesh")
         if m and m.get("answer_sensor_die_max_K") is not None:
             parts.append(f"mesh (Richardson, 2x refined, p >= {m['order']:g}): answer corrected to within "
-                         f"{m['answer_sensor_die_max_K']:.3f} K at the sensor dies ({m['answer_sensor_die_max_site']}), "
+                         f"{m['answer_sensor_die_max_K']:.3f} K at the sensor dies "
+                         f"({m['answer_sensor_die_max_site']}), "
                          f"{m['answer_hot_spot_K']:.3f} K at the hot spot (the default mesh's values: "
                          f"{m['sensor_die_max_K']:+.2f} K at most ({m['sensor_die_max_site']}), hot spot "
                          f"{m['hot_spot_K']:+.2f} K)")

@@ -94,8 +94,9 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     """The thermal side of one scheme: (SchemeResult, chamber (k,) [°C], rise (k, 6) [K], oven solves).
 
     Steady field, power-on transient (always run) and the oven self-heating table; a pure function of its
-    arguments, so schemes can run in separate processes. With ``estimate_mesh_error``, the sites' values and curves
-    and the oven's rises are the estimate's corrected answer (:func:`~imutherm.studies.thermal_study.mesh_corrected`). The oven solves are reduced and checked when the
+    arguments, so schemes can run in separate processes. With ``estimate_mesh_error``, the sites' values and
+    curves and the oven's rises are the estimate's corrected answer
+    (:func:`~imutherm.studies.thermal_study.mesh_corrected`). The oven solves are reduced and checked when the
     transient is (``transient_model`` 'reduced'), else full. Returns (SchemeResult, chamber, rise, oven solves
     (list of dicts, :func:`self_heating_table`)).
     """
