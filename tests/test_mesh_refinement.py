@@ -167,10 +167,11 @@ def test_the_study_s_estimate_bounds_the_default_mesh_s_error():
     estimate the study prints (p = 1: 2 x (2x - 1x)) is at least the error of the default mesh that three grids
     (1x, 2x, 3x: 0.19, 1.5, 5.0 million nodes; ~50 s, ~3.2 GB) extrapolate to, at every sensor die, where the
     observed order is 1.28-2.17 (benchmarks/bench_mesh_convergence.py, 2026-12-05: error up to 0.186 K, estimate
-    up to 0.219 K, both at accel_x); and the rises grow under refinement."""
+    up to 0.219 K, both at accel_x); the rises grow under refinement; and the study's corrected answer is within its
+    bound of that extrapolation, the bound <= 0.1 K (issue 45; up to 0.055 K, accel_x)."""
     from imutherm.imu.sensor_model import SITES
     from imutherm.studies.mesh_convergence import refinement_study
-    from imutherm.thermal.refinement import MESH_ERROR_ORDER, richardson
+    from imutherm.thermal.refinement import MESH_ERROR_ORDER, bracket, richardson
     from imutherm.unit.model import ModelOptions
 
     st = refinement_study(None, "air", options=ModelOptions(), mesh_size_mm=2.0, min_cells=2)
@@ -182,6 +183,10 @@ def test_the_study_s_estimate_bounds_the_default_mesh_s_error():
     estimate, _ = richardson(r[0], r[1])                      # the study's estimate, as mesh_error gives it
     error = st.extrapolated_K[dies] - r[0]
     assert np.all(estimate >= error) and np.all(error > 0), dict(zip(SITES, zip(estimate.round(3), error.round(3))))
+    # the study's corrected answer: within its bound of the three-grid extrapolation, and the bound <= 0.1 K
+    answer, bound = bracket(r[0], r[1])
+    off = np.abs(st.extrapolated_K[dies] - answer)
+    assert np.all(off <= bound) and np.all(bound <= 0.1), dict(zip(SITES, zip(off.round(3), bound.round(3))))
 
 
 def test_richardson_and_the_observed_order():
