@@ -30,9 +30,11 @@ import resource
 import sys
 import time
 
-#: the largest shape difference [K] the study's correction may leave at a sensor die (2 x the reduced
-#: transients' accepted check error, 0.05 K: below that the two reduced models cannot tell the meshes apart)
-SHAPE_TOL_K = 0.1
+from imutherm.thermal.reduced_transient import CHECK_TOL_K
+
+#: the largest shape difference [K] the study's correction may leave at a sensor die: the two reduced transients'
+#: accepted check errors added (below that the two reduced models cannot tell the meshes apart)
+SHAPE_TOL_K = 2 * CHECK_TOL_K
 
 
 def one_scheme(scheme: str) -> dict:
