@@ -48,7 +48,7 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numba import njit
+from imutherm.lazy_jit import njit
 
 from imutherm.imu.filters.registry import FilterSpec, Tuned, register
 from imutherm import InputError

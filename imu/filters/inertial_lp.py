@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from imutherm.lazy_jit import njit
 
 #: VQF's default tauAcc [s] (Laidig & Seel 2023, Table 1)
 TAU_ACC_S = 3.0

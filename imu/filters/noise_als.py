@@ -31,7 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from imutherm.lazy_jit import njit
 from scipy.linalg import solve_discrete_are, solve_discrete_lyapunov
 
 from imutherm import InputError

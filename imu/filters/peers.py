@@ -37,7 +37,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from imutherm.lazy_jit import njit
 
 from imutherm.imu.filters.registry import FilterSpec, Tuned, register
 from imutherm.imu.filters.common import (AttitudeEstimate, check_samples, estimate_from_gravity, initial_bias,
