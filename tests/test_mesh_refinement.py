@@ -104,7 +104,10 @@ def test_prolongation_is_exact_for_trilinear_fields():
     c, fc = m.node_coordinates(), f.node_coordinates()
     field = lambda x: 1.0 + 2.0 * x[:, 0] - 3.0 * x[:, 1] + 0.5 * x[:, 2] + 40.0 * x[:, 0] * x[:, 2]  # noqa: E731
     np.testing.assert_allclose(P @ field(c), field(fc), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(P.sum(axis=1)).ravel(), 1.0)
+    np.testing.assert_allclose(P @ np.ones(m.n_nodes), 1.0)
+    y = np.random.default_rng(0).random(f.n_nodes)   # the transpose is the restriction: (P^T y) . x = y . (P x)
+    x = np.random.default_rng(1).random(m.n_nodes)
+    assert abs((P.T @ y) @ x - y @ (P @ x)) <= 1e-9 * abs(y @ (P @ x))
 
 
 def test_the_refined_exchange_is_the_same_law():

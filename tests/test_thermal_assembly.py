@@ -151,7 +151,7 @@ def test_data_made_slab_by_slab_is_the_stencil_s(hetero, monkeypatch, block_byte
     pat = asm.pattern
     rows = np.arange(pat.n)
     for o in (0, 4, 13, 26):
-        has = pat.valid[:, o]
+        has = pat.valid()[:, o]
         pos = pat.positions(rows[has], o)
         assert np.array_equal(pat.rows[pos], rows[has]) and np.all(np.diff(pos) > 0)
 

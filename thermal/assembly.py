@@ -68,36 +68,42 @@ class Pattern:
         self.node_shape = (Nx, Ny, Nz)
         n = Nx * Ny * Nz
         self.n = n
-        i = np.arange(Nx)[:, None, None]
-        j = np.arange(Ny)[None, :, None]
-        k = np.arange(Nz)[None, None, :]
-        valid = np.empty((n, 27), dtype=bool)
-        flat = np.empty(27, dtype=np.int64)
-        for da in (-1, 0, 1):
-            for db in (-1, 0, 1):
-                for dc in (-1, 0, 1):
-                    o = _offset_index(da, db, dc)
-                    ok = ((i + da >= 0) & (i + da < Nx)) & ((j + db >= 0) & (j + db < Ny)) \
-                        & ((k + dc >= 0) & (k + dc < Nz))
-                    valid[:, o] = np.broadcast_to(ok, (Nx, Ny, Nz)).reshape(-1)
-                    flat[o] = (da * Ny + db) * Nz + dc
-        counts = valid.sum(axis=1)
-        self.valid = valid
+        flat = np.array([(da * Ny + db) * Nz + dc for da in (-1, 0, 1) for db in (-1, 0, 1) for dc in (-1, 0, 1)])
+        blocks = [(r0, min(r0 + _ROW_BLOCK, n)) for r0 in range(0, n, _ROW_BLOCK)]
         self.indptr = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(counts, out=self.indptr[1:])
+        self.diag_pos = np.empty(n, dtype=np.int64)   # the centre's position: the row start + the entries before it
+        for r0, r1 in blocks:
+            v = self.valid(r0, r1)
+            self.indptr[r0 + 1:r1 + 1] = v.sum(axis=1)
+            self.diag_pos[r0:r1] = v[:, :_CENTRE].sum(axis=1)
+        np.cumsum(self.indptr, out=self.indptr)
+        self.diag_pos += self.indptr[:-1]
         itype = np.int32 if n * 27 < 2 ** 31 - 1 else np.int64
         # column of each stored entry: row + offset, in the index type and in blocks of rows (a 2-D temporary of
         # every row was the largest array of an 8x refined mesh's assembly)
         self.indices = np.empty(int(self.indptr[-1]), dtype=itype)
         flat = flat.astype(itype)
-        for r0 in range(0, n, _ROW_BLOCK):
-            r1 = min(r0 + _ROW_BLOCK, n)
+        for r0, r1 in blocks:
             self.indices[self.indptr[r0]:self.indptr[r1]] = \
-                (np.arange(r0, r1, dtype=itype)[:, None] + flat[None, :])[valid[r0:r1]]
+                (np.arange(r0, r1, dtype=itype)[:, None] + flat[None, :])[self.valid(r0, r1)]
         self.indptr = self.indptr.astype(itype)
-        # the centre's position: the row start plus the row's entries before it
-        self.diag_pos = self.indptr[:-1].astype(np.int64) + valid[:, :_CENTRE].sum(axis=1)
         self.nnz = int(self.indptr[-1])
+
+    def valid(self, r0: int = 0, r1: int | None = None, rows: np.ndarray | None = None) -> np.ndarray:
+        """(rows, 27) bool: which of each row's 27 neighbour offsets (:func:`_offset_index`) lie in the grid, for
+        the rows ``r0`` .. ``r1`` - 1 (default all) or the given ``rows``. Computed when asked, not kept: on the
+        reference unit's 2x refined mesh the whole mask is 41 MB beside the refined solve, the study's peak."""
+        Nx, Ny, Nz = self.node_shape
+        r = np.arange(r0, self.n if r1 is None else r1) if rows is None else np.asarray(rows)
+        i, j, k = r // (Ny * Nz), (r // Nz) % Ny, r % Nz
+        inside = [((i + d >= 0) & (i + d < Nx), (j + d >= 0) & (j + d < Ny), (k + d >= 0) & (k + d < Nz))
+                  for d in (-1, 0, 1)]
+        out = np.empty((len(r), 27), dtype=bool)
+        for da in (-1, 0, 1):
+            for db in (-1, 0, 1):
+                for dc in (-1, 0, 1):
+                    out[:, _offset_index(da, db, dc)] = inside[da + 1][0] & inside[db + 1][1] & inside[dc + 1][2]
+        return out
 
     @functools.cached_property
     def rows(self) -> np.ndarray:
@@ -109,11 +115,11 @@ class Pattern:
 
     def data(self, stencil: np.ndarray) -> np.ndarray:
         """CSR data array from a stencil array of shape (27, Nx, Ny, Nz)."""
-        return stencil.reshape(27, self.n).T[self.valid]
+        return stencil.reshape(27, self.n).T[self.valid()]
 
     def positions(self, rows: np.ndarray, o: int) -> np.ndarray:
         """Positions in the data array of the entries (row, offset ``o``) of ``rows`` (each must have it)."""
-        return self.indptr[rows].astype(np.int64) + self.valid[rows, :o].sum(axis=1)
+        return self.indptr[rows].astype(np.int64) + self.valid(rows=rows)[:, :o].sum(axis=1)
 
     def csr(self, data: np.ndarray) -> sp.csr_matrix:
         """A CSR matrix with this pattern and the given data (no copy of the pattern)."""
@@ -157,7 +163,7 @@ def _volume_data(pattern: Pattern, grid: TensorGrid, coefs: list, refs: list) ->
         c0, c1 = max(i0 - 1, 0), min(i1, nx)   # the cells touching node planes i0 .. i1 - 1
         S = _volume_stencil((c1 - c0, ny, nz), [c[c0:c1] for c in coefs], refs)[:, i0 - c0:i1 - c0]
         r0, r1 = i0 * per, i1 * per
-        data[pattern.indptr[r0]:pattern.indptr[r1]] = S.reshape(27, -1).T[pattern.valid[r0:r1]]
+        data[pattern.indptr[r0]:pattern.indptr[r1]] = S.reshape(27, -1).T[pattern.valid(r0, r1)]
     return data
 
 
@@ -399,7 +405,7 @@ def pattern_of(node_shape: tuple) -> Pattern:
     """The (shared, read-only) :class:`Pattern` of a node grid: built once per shape (a correlation's reduced
     model assembles ~80 variants of one grid; building the pattern was a tenth of that)."""
     pattern = Pattern(tuple(node_shape))
-    for a in (pattern.valid, pattern.indices, pattern.indptr, pattern.diag_pos):   # (rows: read-only when built)
+    for a in (pattern.indices, pattern.indptr, pattern.diag_pos):   # (rows: read-only when built)
         a.setflags(write=False)   # shared by every assembly of the grid: an in-place change would leak
     return pattern
 
