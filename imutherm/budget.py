@@ -148,10 +148,11 @@ def thermal_cost(what: str, shape, *, steps: int = 0, saved: int = 1, geometry_o
 
 
 #: peak resident memory of a mesh-error estimate per node of its refined mesh [bytes] (the refined problem's
-#: conduction and linear laws in one data array, assembled in slabs of node planes, its pattern and the
-#: prolongation; no AMG hierarchy of its own: :func:`imutherm.thermal.refinement.refined_steady`). Measured
-#: ~0.75 kB (1.14 GB peak of the process at 1.5e6 refined nodes, the reference unit's air scheme, the coarse
-#: solve's memory included; 1.9 kB before the refined assembly's memory was cut); rounded up
+#: conduction and linear laws in one data array, assembled in slabs of node planes, its pattern; the prolongation
+#: applied as three 1-D interpolations; no AMG hierarchy of its own: :func:`imutherm.thermal.refinement.refined_steady`).
+#: Measured ~0.69 kB (1.13 GB peak of the process at 1.65e6 refined nodes, the reference unit's grease scheme, the
+#: coarse solve's memory included; 0.76 kB before the prolongation matrix and the pattern's mask went, 1.9 kB before
+#: the refined assembly's memory was cut); rounded up
 BYTES_PER_REFINED_UNKNOWN = 1000
 
 
