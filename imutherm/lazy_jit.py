@@ -32,8 +32,8 @@ class LazyKernel:
             self._dispatcher = numba.njit(**self.options)(self.func)
         return self._dispatcher
 
-    def __call__(self, *args):
-        return self.dispatcher(*args)
+    def __call__(self, *args, **kwargs):
+        return self.dispatcher(*args, **kwargs)
 
     @property
     def _numba_type_(self):
