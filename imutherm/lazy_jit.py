@@ -21,8 +21,8 @@ class LazyKernel:
     """A function compiled by ``numba.njit(**options)`` at its first call (or when a kernel that calls it
     is compiled); called before that, it compiles first. ``dispatcher``: numba's compiled function."""
 
-    def __init__(self, func, options: dict):
-        self.func, self.options, self._dispatcher = func, dict(options), None
+    def __init__(self, func, options: dict, signatures: tuple = ()):
+        self.func, self.options, self.signatures, self._dispatcher = func, dict(options), tuple(signatures), None
         functools.update_wrapper(self, func)
 
     @property
@@ -30,7 +30,7 @@ class LazyKernel:
         if self._dispatcher is None:
             import numba
 
-            self._dispatcher = numba.njit(**self.options)(self.func)
+            self._dispatcher = numba.njit(*self.signatures, **self.options)(self.func)
         return self._dispatcher
 
     def __call__(self, *args, **kwargs):
@@ -52,7 +52,8 @@ def _module_attribute(module: str, name: str):
 
 
 def njit(*args, **options):
-    """``numba.njit`` deferred to the first call: ``@njit``, ``@njit(cache=True)``, ``njit(cache=True)(f)``."""
-    if args and callable(args[0]) and not options:
-        return LazyKernel(args[0], {})
-    return lambda func: LazyKernel(func, options)
+    """``numba.njit`` deferred to the first call, with numba's forms: ``@njit``, ``@njit(cache=True)``,
+    ``njit(f, cache=True)``, ``njit(cache=True)(f)``; signatures (``njit("f8(f8)")``) are passed on to numba."""
+    if args and callable(args[0]):
+        return LazyKernel(args[0], options)
+    return lambda func: LazyKernel(func, options, args)

@@ -32,6 +32,15 @@ def test_a_kernel_calling_a_lazy_kernel_compiles_and_runs():
     assert _sum_scaled.__name__ == "_sum_scaled" and _sum_scaled.dispatcher.signatures   # compiled by numba
 
 
+def test_numba_s_other_forms_keep_their_options_and_signatures():
+    def add(a, b):
+        return a + b
+    direct = njit(add, cache=False)          # njit(f, **options): a kernel, not a decorator
+    typed = njit("float64(float64, float64)")(add)
+    assert isinstance(direct, LazyKernel) and direct.options == {"cache": False} and direct(1.0, 2.0) == 3.0
+    assert typed(1.0, 2.0) == 3.0 and len(typed.dispatcher.signatures) == 1   # compiled for the given signature
+
+
 def test_a_lazy_kernel_pickles_by_name():
     assert pickle.loads(pickle.dumps(_scale)) is _scale
 
