@@ -271,8 +271,17 @@ def fmt_error(est: RefinementEstimate, sites) -> str:
     b, at_b = est.max_error(sites, "answer_error_K")
     e, at_e = est.max_error(sites)
     hot = est.names.index(HOT_SPOT)
-    head = f"mesh (Richardson, {est.ratio}x refined, p >= {est.order:g}): answer corrected"
     if not math.isfinite(b):
-        return head + f", hot spot within {est.answer_error_K[hot]:.3f} K (default mesh {est.error_K[hot]:+.2f} K)"
-    return (head + f" to within {b:.3f} K at the sensor dies ({at_b}), {est.answer_error_K[hot]:.3f} K at the hot "
-            f"spot (the default mesh's values: {e:+.2f} K at most ({at_e}), hot spot {est.error_K[hot]:+.2f} K)")
+        return (f"mesh (Richardson, {est.ratio}x refined, p >= {est.order:g}): answer corrected, hot spot within "
+                f"{est.answer_error_K[hot]:.3f} K (default mesh {est.error_K[hot]:+.2f} K)")
+    return error_line(est.ratio, est.order, b, at_b, est.answer_error_K[hot], e, at_e, est.error_K[hot])
+
+
+def error_line(ratio: int, order: float, bound_K: float, bound_at: str, hot_bound_K: float, error_K: float,
+               error_at: str, hot_error_K: float) -> str:
+    """The printed sentence of a mesh-error estimate: the corrected answer's error bound, largest at the sensor
+    die ``bound_at`` and at the hot spot, then the default mesh's own estimated errors there [K] (the command's
+    line and the report's, from a :class:`RefinementEstimate` or from ``summary.json``)."""
+    return (f"mesh (Richardson, {ratio}x refined, p >= {order:g}): answer corrected to within {bound_K:.3f} K at "
+            f"the sensor dies ({bound_at}), {hot_bound_K:.3f} K at the hot spot (the default mesh's values: "
+            f"{error_K:+.2f} K at most ({error_at}), hot spot {hot_error_K:+.2f} K)")

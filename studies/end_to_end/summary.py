@@ -204,7 +204,7 @@ def _numerical_error(th: dict) -> dict:
                        "hot_spot_K": hot.get("error_K"),
                        "answer_sensor_die_max_K": bound, "answer_sensor_die_max_site": bound_at,
                        "answer_hot_spot_K": hot.get("answer_error_K"),
-                       "order": est["order"], "fine_nodes": est["fine_nodes"],
+                       "order": est["order"], "ratio": est["ratio"], "fine_nodes": est["fine_nodes"],
                        "note": "sensor_die_max_K, hot_spot_K: estimated error of the default mesh's steady rise, "
                                "T* - T (positive: the rise is low), Richardson from the default mesh and the mesh "
                                "with every interval split; answer_*: the error bound of the answer the study uses "
@@ -216,6 +216,8 @@ def numerical_error_lines(summary: dict) -> list:
     """The answer's numerical errors per scheme, one line each: the reduced transient's check against the full
     FEM and the mesh's discretisation error (Richardson: the corrected answer's error bound, and the default mesh's
     own estimated error of the steady rise, T* - T)."""
+    from imutherm.thermal.refinement import REFINEMENT_RATIO, error_line
+
     lines = []
     for name, s in summary["schemes"].items():
         ne = s.get("numerical_error", {})
@@ -226,12 +228,9 @@ def numerical_error_lines(summary: dict) -> list:
             parts.append(ne["reduced_transient_note"])
         m = ne.get("mesh")
         if m and m.get("answer_sensor_die_max_K") is not None:
-            parts.append(f"mesh (Richardson, 2x refined, p >= {m['order']:g}): answer corrected to within "
-                         f"{m['answer_sensor_die_max_K']:.3f} K at the sensor dies "
-                         f"({m['answer_sensor_die_max_site']}), "
-                         f"{m['answer_hot_spot_K']:.3f} K at the hot spot (the default mesh's values: "
-                         f"{m['sensor_die_max_K']:+.2f} K at most ({m['sensor_die_max_site']}), hot spot "
-                         f"{m['hot_spot_K']:+.2f} K)")
+            parts.append(error_line(m.get("ratio", REFINEMENT_RATIO), m["order"], m["answer_sensor_die_max_K"],
+                                    m["answer_sensor_die_max_site"], m["answer_hot_spot_K"], m["sensor_die_max_K"],
+                                    m["sensor_die_max_site"], m["hot_spot_K"]))
         if parts:
             lines.append(f"numerical error, {name}: " + "; ".join(parts))
     return lines
