@@ -166,3 +166,16 @@ def test_the_pattern_made_in_row_blocks_is_the_whole_one(monkeypatch):
     assert np.array_equal(whole.indices, blocks.indices) and np.array_equal(whole.indptr, blocks.indptr)
     A = sp.csr_matrix((np.ones(blocks.nnz), blocks.indices, blocks.indptr), shape=(blocks.n, blocks.n))
     assert A.has_sorted_indices and (A - A.T).nnz == 0 and A.diagonal().all()
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 1), (2, 1, 3), (5, 4, 3), (1, 6, 2), (3, 3, 3), (4, 2, 1)])
+def test_the_row_counts_from_the_axes_are_the_masks(shape):
+    """The row starts and diagonal positions, made from each axis's in-grid offsets, are those the neighbour mask
+    gives (rows' in-grid neighbours counted; the diagonal where the row's own column is stored)."""
+    from imutherm.thermal import assembly
+
+    pat = assembly.Pattern(shape)
+    v = pat.valid()
+    assert np.array_equal(np.diff(pat.indptr), v.sum(axis=1))
+    assert np.array_equal(pat.diag_pos - pat.indptr[:-1], v[:, :13].sum(axis=1))
+    assert np.array_equal(pat.indices[pat.diag_pos], np.arange(pat.n))

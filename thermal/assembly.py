@@ -70,14 +70,17 @@ class Pattern:
         self.n = n
         flat = np.array([(da * Ny + db) * Nz + dc for da in (-1, 0, 1) for db in (-1, 0, 1) for dc in (-1, 0, 1)])
         blocks = [(r0, min(r0 + _ROW_BLOCK, n)) for r0 in range(0, n, _ROW_BLOCK)]
+        # each row's count of in-grid neighbours, and of those before its centre, from the 1-D counts per axis
+        # (the neighbours of node (i, j, k) are the products of the axes' in-grid offsets)
+        lo = [(np.arange(N) > 0).astype(np.int64) for N in (Nx, Ny, Nz)]        # the offset -1 lies in the grid
+        cnt = [1 + lo[a] + (np.arange(N) < N - 1) for a, N in enumerate((Nx, Ny, Nz))]   # in-grid offsets, 1-3
+        ci, cj, ck = cnt[0][:, None, None], cnt[1][None, :, None], cnt[2][None, None, :]
         self.indptr = np.zeros(n + 1, dtype=np.int64)
-        self.diag_pos = np.empty(n, dtype=np.int64)   # the centre's position: the row start + the entries before it
-        for r0, r1 in blocks:
-            v = self.valid(r0, r1)
-            self.indptr[r0 + 1:r1 + 1] = v.sum(axis=1)
-            self.diag_pos[r0:r1] = v[:, :_CENTRE].sum(axis=1)
+        self.indptr[1:] = (ci * cj * ck).ravel()
+        # before the centre (offsets in lexicographic order): da = -1, then da = 0 and db = -1, then dc = -1
+        before = lo[0][:, None, None] * cj * ck + lo[1][None, :, None] * ck + lo[2][None, None, :]
         np.cumsum(self.indptr, out=self.indptr)
-        self.diag_pos += self.indptr[:-1]
+        self.diag_pos = self.indptr[:-1] + before.ravel()   # the centre's position in the data array
         itype = np.int32 if n * 27 < 2 ** 31 - 1 else np.int64
         # column of each stored entry: row + offset, in the index type and in blocks of rows (a 2-D temporary of
         # every row was the largest array of an 8x refined mesh's assembly)
