@@ -54,7 +54,7 @@ IGNORED = (
     Ignored(("compare",), TIME_OPTIONS + ("--full-length",), lambda a: a.steady_only, "with --steady-only",
             "a steady solve has no time steps, so drop them or run the transient", "time stepping"),
     Ignored(("compare",), ("--grade", "--seeds", "--seed", "--profiles", "--filters", "--filter-defaults",
-                           "--out-of-range", "--jobs"),
+                           "--out-of-range"),
             lambda a: a.thermal_only or a.steady_only, "with --thermal-only or --steady-only",
             "the thermal comparison has no IMU side; drop them or run the end-to-end study"),
     Ignored(("solve",), ("--effect",), lambda a: not a.transient and _signal_effects(a), "without --transient",

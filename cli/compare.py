@@ -7,8 +7,9 @@ temperatures [°C] over the power-on transient), ``residuals_<s>.csv`` (residual
 warm-up), ``attitude_<s>.csv`` (attitude error of each filter over the warm-up), ``steady_<s>.vtu``
 (ParaView), ``maps_<s>.npz`` and ``layout_<s>.png``.
 
-``--thermal-only`` (or ``--steady-only``) runs the thermal comparison alone and writes the earlier
-files: ``report.pdf``, ``compare.json``, ``probes_<s>.csv``, ``map_<s>.npz``, ``layout.png``.
+``--thermal-only`` (or ``--steady-only``) runs the thermal comparison alone, the schemes side by side in
+``--jobs`` processes, and writes the earlier files: ``report.pdf``, ``compare.json``, ``probes_<s>.csv``,
+``map_<s>.npz``, ``layout.png``.
 
 ``--uncertainty`` propagates the model's uncertain inputs (each with its range and source) through each
 scheme's reduced model to the sensor-die rises, the settle time and the differences between schemes
@@ -30,13 +31,15 @@ from __future__ import annotations
 from pathlib import Path
 
 from imutherm import InputError
-from imutherm.studies.cost import check_study_cost, check_transient_cost, transient_steps
+from imutherm.budget import refined_cost
+from imutherm.studies.cost import check_schemes_side_by_side, check_study_cost, check_transient_cost, transient_steps
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir, in_background
 from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,
                                    add_model_arguments, add_out_argument, add_progress_argument, add_time_arguments,
                                    check_thermal_cost, run_inputs, time_kwargs)
 from imutherm.geometry.build import build_geometry
+from imutherm.geometry.mesh import grid_shape
 from imutherm.studies.compare import compare_schemes, write_comparison
 
 
@@ -74,7 +77,8 @@ def add_args(parser) -> None:
                    help="compensation beyond the calibrated range: linear (default: extrapolate the "
                         "calibration's temperature trend), hold (clamp), error (refuse)")
     add_jobs_argument(g, default=None,
-                      help="processes (default: min(2, CPUs)); the IMU side runs beside the thermal solves")
+                      help="processes (default: min(2, CPUs)); the schemes' thermal solves run side by side (the "
+                           "mesh-error estimates' refined solves one at a time), the IMU side beside them")
     u = parser.add_argument_group("uncertainty of the answer")
     u.add_argument("--uncertainty", action="store_true",
                    help="propagate the model's uncertain inputs (ranges and sources in the report) to each scheme's "
@@ -126,8 +130,13 @@ def run(args) -> int:
     if unknown:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
     steps = transient_steps(args.time_kwargs) if args.time_kwargs else 0
+    solve_bytes, refined_bytes = [], []
     for s in schemes:  # every scheme's mesh and memory estimated before the first is solved
-        cost = check_thermal_cost(build_geometry(layout, s), args, steps=steps, refined=not args.no_mesh_error)
+        geometry = build_geometry(layout, s)
+        cost = check_thermal_cost(geometry, args, steps=steps, refined=not args.no_mesh_error)
+        solve_bytes.append(cost.memory_bytes)
+        if not args.no_mesh_error:
+            refined_bytes.append(refined_cost("", grid_shape(geometry, args.mesh_size, args.min_cells)).memory_bytes)
         full = args.time_kwargs and (args.full or args.time_kwargs.get("dt") is not None
                                      or args.time_kwargs.get("time_scheme") == "theta")
         if full:   # the full-FEM transients' time, printed (refused past the limit) before anything is solved
@@ -136,9 +145,11 @@ def run(args) -> int:
     if not (args.thermal_only or args.steady_only):
         config = _study_config(args)
         check_study_cost(config, len(schemes), args.jobs, args.max_memory)  # the IMU side, before any solve
+        check_schemes_side_by_side(solve_bytes, refined_bytes, args.jobs, args.max_memory)  # the thermal workers
         return _end_to_end(args, schemes, config)
-    comp = compare_schemes(layout, schemes, progress=not args.no_progress, transient=not args.steady_only,
-                           mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=options,
+    check_schemes_side_by_side(solve_bytes, refined_bytes, args.jobs, args.max_memory)
+    comp = compare_schemes(layout, schemes, progress=not args.no_progress, jobs=args.jobs,
+                           transient=not args.steady_only, mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=options,
                            **args.time_kwargs, **({"effects": effects} if effects else {}))
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout

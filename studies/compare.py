@@ -75,19 +75,66 @@ class Comparison:
 
 
 def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progress: bool = False,
-                    **run_kwargs) -> Comparison:
-    """Run every scheme (steady + transient by default) with the same mesh and model options."""
+                    jobs: int | None = None, **run_kwargs) -> Comparison:
+    """Run every scheme (steady + transient by default) with the same mesh and model options.
+
+    jobs : int, worker processes (default: min(2, CPUs), no more than the schemes); 1 solves the schemes one
+        after another in this process. With more, they are solved side by side, the longest first, and the
+        mesh-error estimates' refined solves (``estimate_mesh_error=True``, ~8x a scheme's memory) one at a
+        time, as in the end-to-end study (:func:`imutherm.studies.end_to_end.run_study`).
+    **run_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme`
+    """
+    import time
+    from concurrent.futures import as_completed
+
+    from imutherm.studies.cost import usable_workers
+    from imutherm.studies.end_to_end.run import _study_pool
+    from imutherm.studies.end_to_end.thermal import longest_first
+    from imutherm.unit.model import ModelOptions
+
     layout = load_layout(layout) if not hasattr(layout, "schemes") else layout
     unknown = [s for s in schemes if s not in layout.schemes]
     if unknown:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
+    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
+    if jobs < 1:
+        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    jobs = usable_workers(jobs, len(schemes))
     run_kwargs.setdefault("transient", True)
     runs = {}
-    for s in schemes:
-        if progress:
-            print(f"scheme {s}: solving ...", flush=True)
-        runs[s] = run_scheme(layout, s, progress=progress, **run_kwargs)
+    if jobs == 1:
+        for s in schemes:
+            if progress:
+                print(f"scheme {s}: solving ...", flush=True)
+            runs[s] = run_scheme(layout, s, progress=progress, **run_kwargs)
+        return Comparison(runs, {s: result_summary(r) for s, r in runs.items()})
+    if progress:
+        print(f"solving {', '.join(schemes)} in {jobs} processes ...", flush=True)
+    start = time.perf_counter()
+    pool = _study_pool(jobs)
+    try:
+        order = longest_first(layout, schemes, run_kwargs.get("options") or ModelOptions())
+        futs = {pool.submit(_scheme_task, layout, s, run_kwargs): s for s in order}
+        for f in as_completed(futs):
+            runs[futs[f]] = f.result()
+            if progress:
+                print(f"scheme {futs[f]}: done ({runs[futs[f]].wall_s:.0f} s; {time.perf_counter() - start:.0f} s "
+                      "since the start)", flush=True)
+    finally:
+        pool.shutdown(cancel_futures=True)
+    runs = {s: runs[s] for s in schemes}
     return Comparison(runs, {s: result_summary(r) for s, r in runs.items()})
+
+
+def _scheme_task(layout, scheme: str, run_kwargs: dict) -> SchemeResult:
+    """One scheme in a worker of :func:`compare_schemes`: :func:`run_scheme`, then its mesh-error estimate under
+    the workers' lock (:func:`imutherm.studies.end_to_end.thermal.with_mesh_error`)."""
+    from imutherm.studies.end_to_end.thermal import with_mesh_error
+
+    kw = dict(run_kwargs)
+    estimate = kw.pop("estimate_mesh_error", False)
+    res = run_scheme(layout, scheme, **kw)
+    return with_mesh_error(res) if estimate else res
 
 
 def board_plane_map(res: SchemeResult, board: str = "main") -> dict:

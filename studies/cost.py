@@ -93,6 +93,37 @@ def usable_workers(jobs: int, tasks: int) -> int:
     return max(1, min(int(jobs), int(tasks)))
 
 
+def check_schemes_side_by_side(solve_bytes, refined_bytes, jobs: int | None, max_memory: int | None) -> float:
+    """Memory [bytes] of ``compare``'s thermal solves side by side, InputError beyond ``max_memory`` (default: the
+    memory available now).
+
+    The schemes run in min(``jobs``, schemes) workers (``jobs`` default min(2, CPUs)), and the mesh-error
+    estimates' refined solves one at a time: the largest refined solve (``refined_bytes``, one per scheme, empty
+    without the estimate) beside the largest other schemes' solves (``solve_bytes``, one per scheme, each
+    :func:`imutherm.budget.thermal_cost`), plus the command's interpreter. One worker: the schemes' own checks
+    cover it (returns the largest of them)."""
+    solve_bytes, refined_bytes = sorted(map(float, solve_bytes), reverse=True), [float(b) for b in refined_bytes]
+    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
+    if jobs < 1:
+        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    k = usable_workers(jobs, len(solve_bytes))
+    if k <= 1:
+        return max(solve_bytes + refined_bytes, default=0.0)
+    if refined_bytes:
+        memory = BASE_BYTES + max(refined_bytes) + sum(solve_bytes[:k - 1])
+    else:
+        memory = BASE_BYTES + sum(solve_bytes[:k])
+    limit = available_memory_bytes() if max_memory is None else int(max_memory)
+    if memory > limit:
+        src = "--max-memory" if max_memory is not None else "the memory available now (--max-memory)"
+        what = "a refined solve (the mesh-error estimate) beside " if refined_bytes else ""
+        raise InputError(f"compare: {k} schemes solved side by side (--jobs {jobs}), {what}{k - 1 if refined_bytes else k} "
+                         f"scheme solve(s), estimated ~{fmt_bytes(memory)} of memory, more than {src} "
+                         f"{fmt_bytes(limit)}; use --jobs 1 (one scheme at a time)"
+                         + (" or --no-mesh-error" if refined_bytes else ""))
+    return memory
+
+
 # ------------------------------------------------------------------ the IMU side of `imutherm compare`
 #: wall time of one attitude filter over one motion sample in the end-to-end study's IMU side [s] (truth
 #: model and compensation included) and the fixed part of one (scheme, seed) case [s] (the in-unit

@@ -205,6 +205,30 @@ def test_compare_writes_the_report(tmp_path):
     assert pdf[:5] == b"%PDF-" and len(pdf) > 30_000
 
 
+def test_compare_thermal_only_solves_the_schemes_side_by_side(tmp_path, capsys):
+    """``compare --steady-only --jobs 2`` solves the schemes in two workers, each with its mesh-error estimate (one
+    refined solve at a time), and gets the answer of ``--jobs 1`` (one scheme after another in the command's
+    process) to round-off: the sites, the hot spot and the estimate's corrected answer."""
+    got = {}
+    for jobs in ("1", "2"):
+        out = tmp_path / f"J{jobs}"
+        assert main(["compare", "--steady-only", "--schemes", "potted,air", "--jobs", jobs, "--out", str(out)]
+                    + COARSE) == 0
+        got[jobs] = json.loads((out / "compare.json").read_text())["schemes"]
+        printed = capsys.readouterr().out
+        assert ("solving potted, air in 2 processes" in printed) == (jobs == "2")
+    assert list(got["2"]) == ["potted", "air"]
+    for s, one in got["1"].items():
+        two = got["2"][s]
+        assert abs(one["max_rise_K"] - two["max_rise_K"]) < 1e-5
+        for site, v in one["sites"].items():
+            assert abs(v["rise_K"] - two["sites"][site]["rise_K"]) < 1e-5, (s, site)
+        est1, est2 = one["discretisation_error"]["sites"], two["discretisation_error"]["sites"]
+        assert set(est1) == set(est2) and "hot spot" in est1
+        for n in est1:
+            assert abs(est1[n]["answer_C"] - est2[n]["answer_C"]) < 1e-5, (s, n)
+
+
 def test_theta_scheme_and_settle_stop_from_the_cli(tmp_path, capsys):
     out = tmp_path / "BE"
     assert main(["solve", "--scheme", "potted", "--transient", "--theta", "1", "--t-end", "40", "--dt", "20",

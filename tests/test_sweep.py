@@ -364,3 +364,25 @@ def test_usable_workers_and_the_study_cost_count_the_tasks():
     assert usable_workers(10000, 2) == 2 and usable_workers(1, 9) == 1 and usable_workers(3, 0) == 1
     work = check_study_cost(StudyConfig(), 3, 1000, None)     # 9 cases: 8 IMU workers beside the thermal one
     assert work["memory_bytes"] < 4 * 2**30
+
+
+def test_the_schemes_side_by_side_count_one_refined_solve_beside_the_other_workers():
+    """``compare``'s thermal workers at once: the largest refined solve beside the largest other solves (one refined
+    solve at a time), plus the command; one worker is the schemes' own checks; beyond the limit a one-line refusal
+    naming --jobs 1 and --no-mesh-error."""
+    from imutherm import InputError
+    from imutherm.budget import BASE_BYTES
+    from imutherm.studies.cost import check_schemes_side_by_side
+
+    MB = 2**20
+    solves, refined = [700 * MB, 600 * MB, 500 * MB], [1750 * MB, 1500 * MB, 1200 * MB]
+    assert check_schemes_side_by_side(solves, refined, 2, None) == BASE_BYTES + 1750 * MB + 700 * MB
+    assert check_schemes_side_by_side(solves, refined, 1000, None) == BASE_BYTES + 1750 * MB + 1300 * MB
+    assert check_schemes_side_by_side(solves, [], 2, None) == BASE_BYTES + 1300 * MB
+    assert check_schemes_side_by_side(solves, refined, 1, 1800 * MB) == 1750 * MB   # one worker: its own checks
+    assert check_schemes_side_by_side(solves[:1], refined[:1], 8, 1800 * MB) == 1750 * MB   # one scheme: one worker
+    with pytest.raises(InputError, match=r"2 schemes solved side by side \(--jobs 2\).*use --jobs 1 .* or "
+                                         r"--no-mesh-error"):
+        check_schemes_side_by_side(solves, refined, 2, 2 * 2**30)
+    with pytest.raises(InputError, match="--jobs: 0 is invalid"):
+        check_schemes_side_by_side(solves, refined, 0, None)

@@ -100,11 +100,9 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     transient is (``transient_model`` 'reduced'), else full. Returns (SchemeResult, chamber, rise, oven solves
     (list of dicts, :func:`self_heating_table`)).
     """
-    import contextlib
-
     from imutherm.budget import release_freed_memory
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.thermal_study import mesh_corrected, mesh_error, mesh_factors, run_scheme
+    from imutherm.studies.thermal_study import mesh_factors, run_scheme
 
     estimate = thermal_kwargs.pop("estimate_mesh_error", False)
     res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, **thermal_kwargs)
@@ -112,13 +110,29 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
                                        solves=solves)
     if estimate:
-        release_freed_memory()   # the solves' freed arrays, before the refined solve's (the study's peak)
-        with _REFINED_LOCK if _REFINED_LOCK is not None else contextlib.nullcontext():
-            res = mesh_corrected(replace(res, mesh_error=mesh_error(res)))
+        res = with_mesh_error(res)
         factors = mesh_factors(res)   # the oven's rises too: the same mesh, the same conduction
         rise = rise * np.array([factors.get(s, 1.0) for s in SITES])
     release_freed_memory()
     return res, chamber, rise, solves
+
+
+def with_mesh_error(res):
+    """``res`` with its mesh-error estimate and the answer corrected by it
+    (:func:`~imutherm.studies.thermal_study.mesh_error`, :func:`~imutherm.studies.thermal_study.mesh_corrected`),
+    the refined solve under the workers' lock (one at a time: ~8x the memory of a scheme's solve); ``wall_s``
+    includes it."""
+    import contextlib
+    import time
+
+    from imutherm.budget import release_freed_memory
+    from imutherm.studies.thermal_study import mesh_corrected, mesh_error
+
+    t0 = time.perf_counter()
+    release_freed_memory()   # the solves' freed arrays, before the refined solve's (the study's peak)
+    with _REFINED_LOCK if _REFINED_LOCK is not None else contextlib.nullcontext():
+        res = mesh_corrected(replace(res, mesh_error=mesh_error(res)))
+    return replace(res, wall_s=res.wall_s + time.perf_counter() - t0)
 
 
 def longest_first(layout: LayoutSpec, schemes, options: ModelOptions) -> tuple:
