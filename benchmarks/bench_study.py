@@ -12,6 +12,7 @@ an otherwise idle machine: the figures are the machine's.
     python benchmarks/bench_study.py -- --seeds 6   # extra arguments for imutherm compare
     python benchmarks/bench_study.py -- --full      # the transients on the full adaptive FEM (as before)
     python benchmarks/bench_study.py -- --no-mesh-error   # without the mesh-error estimates
+    python benchmarks/bench_study.py -- --thermal-only    # the thermal comparison alone (wall, CPU, memory)
     python benchmarks/bench_study.py --write        # and record the answer and the timing (defaults only)
 
 ``--write`` records, each with the date and the commit, (1) the answer the command printed (its table, the
@@ -228,8 +229,13 @@ def main(argv=None) -> int:
     if proc.returncode != 0:
         print(f"imutherm compare failed with status {proc.returncode}")
         return 1
-    s = json.loads((out / "summary.json").read_text())
     load = f"{load0:.1f} before, {os.getloadavg()[0]:.1f} after"
+    if not (out / "summary.json").exists():   # --thermal-only / --steady-only: the thermal comparison alone
+        print(f"\nimutherm compare {' '.join(args.extra)}: {wall:.1f} s wall, peak memory {peak:.0f} MB (process "
+              f"tree; {peak_pss:.0f} MB proportional), {os.cpu_count()} CPUs; CPU {cpu:.1f} s (user+sys, all "
+              f"processes); load average {load}")
+        return 0
+    s = json.loads((out / "summary.json").read_text())
     if args.write:
         write_answer(text)
         write_timing(s, wall, cpu, peak, load, pss_mb=peak_pss)
