@@ -32,7 +32,8 @@ from pathlib import Path
 
 from imutherm import InputError
 from imutherm.budget import refined_cost
-from imutherm.studies.cost import check_schemes_side_by_side, check_study_cost, check_transient_cost, transient_steps
+from imutherm.studies.cost import (check_jobs, check_schemes_side_by_side, check_study_cost, check_transient_cost,
+                                   transient_steps)
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir, in_background
 from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,
@@ -149,7 +150,8 @@ def run(args) -> int:
         return _end_to_end(args, schemes, config)
     check_schemes_side_by_side(solve_bytes, refined_bytes, args.jobs, args.max_memory)
     comp = compare_schemes(layout, schemes, progress=not args.no_progress, jobs=args.jobs,
-                           transient=not args.steady_only, mesh_size_mm=args.mesh_size, min_cells=args.min_cells, options=options,
+                           transient=not args.steady_only, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
+                           options=options,
                            **args.time_kwargs, **({"effects": effects} if effects else {}))
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout
@@ -214,8 +216,6 @@ def _scheme_files(res, folder) -> None:
 
 
 def _end_to_end(args, schemes, config) -> int:
-    import os
-
     from imutherm.io import write_json
     from imutherm.studies.end_to_end import run_study, study_summary
 
@@ -237,7 +237,7 @@ def _end_to_end(args, schemes, config) -> int:
         write_json(tmp / "summary.json", summary)
         # with more than one job, the schemes' files and layout drawings are written in a second process while
         # this one draws the report's first pages (from summary.json alone): ~2.5 s of the ~6 s after the study
-        jobs = min(2, os.cpu_count() or 1) if args.jobs is None else args.jobs
+        jobs = check_jobs(args.jobs)
         if jobs > 1:
             files_ready = in_background(_scheme_files, res, tmp)
         else:

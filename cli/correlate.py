@@ -18,6 +18,7 @@ import argparse
 import os
 
 from imutherm import InputError
+from imutherm.studies.cost import check_jobs
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir
 from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,
@@ -118,9 +119,7 @@ def run(args) -> int:
         raise InputError("--measured: give at least one measured CSV file")
     if not args.out:
         raise InputError("--out: give the output directory")
-    jobs = min(2, os.cpu_count() or 1) if args.jobs is None else args.jobs
-    if jobs < 1:
-        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    jobs = check_jobs(args.jobs)
     from imutherm.studies.correlation import MAX_EFFECTS
     max_effects = MAX_EFFECTS if args.max_effects is None else args.max_effects
     if max_effects < 1:

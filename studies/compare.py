@@ -87,8 +87,8 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
     import time
     from concurrent.futures import as_completed
 
-    from imutherm.studies.cost import usable_workers
-    from imutherm.studies.end_to_end.run import _study_pool
+    from imutherm.studies.cost import check_jobs, usable_workers
+    from imutherm.studies.end_to_end.run import study_pool
     from imutherm.studies.end_to_end.thermal import longest_first
     from imutherm.unit.model import ModelOptions
 
@@ -96,10 +96,7 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
     unknown = [s for s in schemes if s not in layout.schemes]
     if unknown:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
-    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
-    if jobs < 1:
-        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
-    jobs = usable_workers(jobs, len(schemes))
+    jobs = usable_workers(check_jobs(jobs), len(schemes))
     run_kwargs.setdefault("transient", True)
     runs = {}
     if jobs == 1:
@@ -111,7 +108,7 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
     if progress:
         print(f"solving {', '.join(schemes)} in {jobs} processes ...", flush=True)
     start = time.perf_counter()
-    pool = _study_pool(jobs)
+    pool = study_pool(jobs)
     try:
         order = longest_first(layout, schemes, run_kwargs.get("options") or ModelOptions())
         futs = {pool.submit(_scheme_task, layout, s, run_kwargs): s for s in order}

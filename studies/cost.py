@@ -86,6 +86,14 @@ def check_transient_cost(what: str, time_kwargs: dict, unknowns: int) -> dict:
     return c
 
 
+def check_jobs(jobs: int | None) -> int:
+    """``--jobs`` [-] checked: None is the default, min(2, CPUs); below 1 an InputError."""
+    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
+    if jobs < 1:
+        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    return jobs
+
+
 def usable_workers(jobs: int, tasks: int) -> int:
     """Worker processes [-] a run of ``tasks`` independent tasks can use with ``--jobs jobs``: no more than the
     tasks (a worker without a task would only hold memory), at least 1. The cost estimates count these, and
@@ -103,9 +111,7 @@ def check_schemes_side_by_side(solve_bytes, refined_bytes, jobs: int | None, max
     :func:`imutherm.budget.thermal_cost`), plus the command's interpreter. One worker: the schemes' own checks
     cover it (returns the largest of them)."""
     solve_bytes, refined_bytes = sorted(map(float, solve_bytes), reverse=True), [float(b) for b in refined_bytes]
-    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
-    if jobs < 1:
-        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    jobs = check_jobs(jobs)
     k = usable_workers(jobs, len(solve_bytes))
     if k <= 1:
         return max(solve_bytes + refined_bytes, default=0.0)
@@ -178,9 +184,7 @@ def check_study_cost(config, schemes: int, jobs: int | None, max_memory: int | N
     """
     work = study_imu_work(config, schemes)
     cpus = os.cpu_count() or 1
-    jobs = min(2, cpus) if jobs is None else int(jobs)
-    if jobs < 1:
-        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    jobs = check_jobs(jobs)
     jobs = usable_workers(jobs, work["cases"])   # the study starts no more (run_study)
     workers = max(1, jobs - 1)
     seconds = (work["filter_samples"] * SECONDS_PER_FILTER_SAMPLE + work["cases"] * SECONDS_PER_CASE) / min(workers, cpus)

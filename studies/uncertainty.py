@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from imutherm import InputError
+from imutherm.studies.cost import check_jobs
 from imutherm.unit.cavity_laws import LAW_BLEND, cavity_law_of
 
 #: time grid of the reduced transient, x t_end [s]
@@ -378,7 +379,7 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
         layout = load_layout(layout)
     if checks < 0:
         raise InputError(f"--uncertainty-checks must be an integer >= 0, got {checks}")
-    jobs = uncertainty_imu.check_jobs(jobs)
+    jobs = check_jobs(jobs)
     geo0 = build_geometry(layout, schemes[0])
     ins = inputs(geo0, options)
     notes = [supply_input(geo0)[1]]

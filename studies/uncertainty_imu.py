@@ -28,7 +28,6 @@ Only the answer's configuration runs (its compensation, filter(s) and profile, c
 from __future__ import annotations
 
 import math
-import os
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
@@ -358,8 +357,3 @@ def oven_check(sm, values0: dict, nom: Chain, values: dict) -> dict:
             "oven_mapped_rise_K": {f"{c:g}": ch.rise_K[k].tolist() for k, c in enumerate(nom.chamber_C)}}
 
 
-def check_jobs(jobs) -> int:
-    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
-    if jobs < 1:
-        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
-    return jobs

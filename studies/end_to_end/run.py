@@ -4,7 +4,6 @@ IMU cases queued as soon as its thermal result is in.
 
 from __future__ import annotations
 
-import os
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -50,7 +49,7 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     start = time.perf_counter()
     layout, schemes, options, jobs, seeds = _study_inputs(layout, schemes, options, jobs, config)
     thermal_kwargs.pop("transient", None)
-    pool = _study_pool(jobs)
+    pool = study_pool(jobs)
     try:
         pending, thermal = _thermal_then_imu(pool, jobs, layout, schemes, options, config, seeds, progress,
                                              thermal_kwargs)
@@ -71,7 +70,7 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
 def _study_inputs(layout, schemes, options, jobs, config: StudyConfig) -> tuple:
     """(layout, schemes, options, workers, seeds) of a study, checked (unknown schemes, ``jobs`` < 1 refused);
     the workers no more than the tasks that can run at once."""
-    from imutherm.studies.cost import usable_workers
+    from imutherm.studies.cost import check_jobs, usable_workers
 
     layout = layout if isinstance(layout, LayoutSpec) else load_layout(layout)
     schemes = tuple(schemes)
@@ -80,15 +79,13 @@ def _study_inputs(layout, schemes, options, jobs, config: StudyConfig) -> tuple:
         raise InputError(f"{layout.path}: unknown scheme(s) {unknown or '(none given)'}; "
                          f"valid: {', '.join(layout.schemes)}")
     options = options or ModelOptions()
-    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
-    if jobs < 1:
-        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
+    jobs = check_jobs(jobs)
     seeds = tuple(range(config.seed0, config.seed0 + config.seeds))
     jobs = usable_workers(jobs, len(schemes) * len(seeds))   # the most tasks that can run at once
     return layout, schemes, options, jobs, seeds
 
 
-def _study_pool(jobs: int):
+def study_pool(jobs: int):
     """The study's worker processes (one BLAS thread each, a shared lock for the refined solves), or None."""
     if jobs <= 1:
         return None
