@@ -16,6 +16,7 @@ from pathlib import Path
 
 from imutherm import ConvergenceError, InputError
 from imutherm.io import exchange_folders as _exchange  # the one-step folder swap (a test replaces it)
+from imutherm.io import current_umask as _umask
 from imutherm.io import move_staged
 from imutherm.io import write_json  # noqa: F401  (re-exported for the subcommands)
 
@@ -139,6 +140,15 @@ def _probe_writable(folder: Path, out, option: str) -> None:
                          f"give a writable directory") from None
 
 
+def lock_output_file(out: str | os.PathLike, option: str = "--out") -> Path:
+    """Lock the output file ``out`` for this run (as :func:`check_outdir` locks a folder: an flock, released when
+    the subcommand returns or the process dies); return it resolved. A second run writing the same file is
+    refused naming the first one's pid."""
+    real = Path(os.path.realpath(out))
+    _acquire(real, out, option)
+    return real
+
+
 def check_outdir(out: str | os.PathLike, option: str = "--out") -> Path:
     """Check ``out`` before any work and lock it for this run; return it resolved (symlinks followed).
 
@@ -167,19 +177,6 @@ def check_outdir(out: str | os.PathLike, option: str = "--out") -> Path:
 _TMP_TAG = ".imutherm-"
 #: a backup of the old set, only made where the atomic exchange of two folders is unavailable
 _OLD_TAG = ".imutherm-old-"
-
-
-def _umask() -> int:
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    mask = os.umask(0o022)  # pragma: no cover (not Linux)
-    os.umask(mask)
-    return mask
 
 
 def _normalise_modes(folder: Path) -> None:

@@ -12,12 +12,17 @@ package-class table (``imutherm.ecad.packages``), a footprint field ``Height_mm`
 ``reference,height_mm[,source]``) or ``--height REF=MM``. Sensor sites: ``--site U3=imu`` (a 6-axis chip: every
 gyro and accelerometer site), ``--site U5=gyro``, ``--site U6=accel``, ``--site U7=gyro_z``, ``--site U2=probe``.
 
-Prints what it did and the estimated mesh of the result before anything is meshed; a bad board ends in one
-line (exit 2) and nothing is written.
+Prints what it did (each part's power with the file or field it came from, and every note on what was
+unusual) and the estimated mesh of the result before anything is meshed; a bad board or option ends in one
+line (exit 2) and nothing is written. The output file is locked while it is written (a second import into it
+is refused); a temporary left beside it by a killed import is removed by the next; ``--force`` keeps the
+replaced file's permissions.
 """
 
 from __future__ import annotations
 
+import math
+import re
 from collections import defaultdict
 from pathlib import Path
 
@@ -85,17 +90,41 @@ def main(argv=None) -> int:
     return run_command("import", argv)
 
 
+#: a board name (``--board``): a layout name part, as the layout's boards are named
+BOARD_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,63}$")
+#: the numeric options and their valid ranges (lo, hi, unit, lo exclusive)
+NUMERIC_OPTIONS = {"clearance": (0.0, 100.0, "mm", True), "wall": (0.0, 100.0, "mm", True),
+                   "base": (0.0, 100.0, "mm", True), "lid": (0.0, 100.0, "mm", True),
+                   "ambient": (-60.0, 150.0, "degC", False), "mount_conductance": (0.0, 1e6, "W/m^2 K", True),
+                   "merge_area": (0.0, 1e4, "mm^2", False)}
+
+
+def _check_numbers(args) -> None:
+    """Every numeric option finite and in its range (the layout's own bounds), in one line each."""
+    for key, (lo, hi, unit, open_lo) in NUMERIC_OPTIONS.items():
+        value = getattr(args, key)
+        if value is None:
+            continue
+        if not (math.isfinite(value) and (lo < value if open_lo else lo <= value) and value <= hi):
+            raise InputError(f"--{key.replace('_', '-')} {value!r}: valid: a number in {lo:g}..{hi:g} {unit}"
+                             + (f" (exclusive of {lo:g})" if open_lo else ""))
+    if args.copper_layers is not None and not 1 <= args.copper_layers <= 64:
+        raise InputError(f"--copper-layers {args.copper_layers}: valid: 1..64")
+    if not BOARD_NAME.match(args.board):
+        raise InputError(f"--board {args.board!r}: valid: a name of letters, digits, '_' and '-' starting with a "
+                         f"letter (at most 64 characters), as the layout's boards are named")
+    if args.name is not None and (not args.name.strip() or len(args.name) > 100
+                                  or re.search(r"[\x00-\x1f\x7f/\\]", args.name)):
+        raise InputError(f"--name {args.name!r}: valid: a layout name of printable characters without '/' or '\\' "
+                         f"(at most 100)")
+
+
 def _options(args):
     from imutherm.ecad.to_layout import SITE_KINDS, HousingOptions, ImportOptions
     from imutherm.ecad.user_tables import (parse_assignments, parse_refs, parse_sites, read_electrical,
                                            read_value_csv)
 
-    for flag in ("clearance", "wall", "base", "lid"):
-        value = getattr(args, flag)
-        if not (value == value and 0 < value <= 100):
-            raise InputError(f"--{flag} {value!r}: valid: a length in 0..100 mm (exclusive of 0)")
-    if args.merge_area is not None and not (args.merge_area == args.merge_area and 0 <= args.merge_area <= 1e4):
-        raise InputError(f"--merge-area {args.merge_area!r}: valid: 0..10000 mm^2")
+    _check_numbers(args)
     powers = read_value_csv(args.powers, "power_W") if args.powers else {}
     powers.update(parse_assignments(args.power, "power_W", "--power"))
     heights = read_value_csv(args.heights, "height_mm") if args.heights else {}
@@ -114,7 +143,7 @@ def _options(args):
 
 
 def _print_report(result, out: Path) -> None:
-    from imutherm.ecad.to_layout import _natural
+    from imutherm.ecad.to_layout import natural_order
 
     b = result.board
     print(f"{b.source}: {b.format}, {b.width_mm:.2f} x {b.height_mm:.2f} mm, {b.thickness_mm:g} mm, "
@@ -122,14 +151,19 @@ def _print_report(result, out: Path) -> None:
     print(f"{len(result.decisions)} footprints: {result.count('modelled')} modelled, {result.count('merged')} merged "
           f"into the board, {result.count('skipped')} skipped")
     comps = {c.name: c for c in result.spec.components}
-    for d in sorted((d for d in result.decisions if d.fate == "modelled"), key=lambda d: _natural(d.footprint.ref)):
+    sources = defaultdict(lambda: [0.0, 0])
+    for d in sorted((d for d in result.decisions if d.fate == "modelled"), key=lambda d: natural_order(d.footprint.ref)):
         fp, body = d.footprint, d.body
         c = comps[result.names[fp.ref]]
         source = "the electrical design" if c.power_source.startswith("electrical") else d.power_source
-        power = f"{c.power_W:.3g} W ({source[:60]}{'...' if len(source) > 60 else ''})" if c.power_W else "unpowered"
+        power = f"{c.power_W:.3g} W ({source[:70]}{'...' if len(source) > 70 else ''})" if c.power_W else "unpowered"
+        if c.power_W:
+            origin = re.sub(r" line \d+.*", "", source) if " line " in source else source
+            sources[origin][0] += c.power_W
+            sources[origin][1] += 1
         print(f"  modelled {fp.ref:<6} {fp.value[:22]:<22} {body.width:5.2f} x {body.height:5.2f} x {d.height_mm:4.2f} mm "
               f"{fp.side:<6} {power}")
-    merged = sorted((d.footprint.ref for d in result.decisions if d.fate == "merged"), key=_natural)
+    merged = sorted((d.footprint.ref for d in result.decisions if d.fate == "merged"), key=natural_order)
     if merged:
         print(f"  merged ({len(merged)}, mass and heat capacity smeared into the board): {', '.join(merged)}")
     by_reason = defaultdict(list)
@@ -137,7 +171,10 @@ def _print_report(result, out: Path) -> None:
         if d.fate == "skipped":
             by_reason[d.reason].append(d.footprint.ref)
     for reason, refs in by_reason.items():
-        print(f"  skipped ({len(refs)}) {', '.join(sorted(refs, key=_natural))}: {reason}")
+        print(f"  skipped ({len(refs)}) {', '.join(sorted(refs, key=natural_order))}: {reason}")
+    if sources:
+        print(f"powers: {sum(w for w, _ in sources.values()):.3g} W in all: " + "; ".join(
+            f"{w:.3g} W from {origin} ({n} part{'s' if n > 1 else ''})" for origin, (w, n) in sources.items()))
     for note in result.notes:
         print(f"note: {note}")
 
@@ -157,9 +194,10 @@ def _estimate(spec) -> str:
 
 def run(args) -> int:
     """Read, decide, check and write (see the module docstring); returns 0."""
+    from imutherm.cli._common import lock_output_file
     from imutherm.ecad.read import read_board
     from imutherm.ecad.to_layout import import_board, replace_board
-    from imutherm.io import atomic_write
+    from imutherm.io import atomic_write, stale_temporaries
 
     board_path = Path(args.board_file)
     out = Path(args.out) if args.out else Path(board_path.name).with_suffix(".toml")
@@ -172,6 +210,10 @@ def run(args) -> int:
     if not out.parent.exists():
         raise InputError(f"--out {out}: its folder {out.parent} does not exist")
     opts = _options(args)
+    lock_output_file(out)
+    for stale in stale_temporaries(out):   # left by a killed import into the same file (we hold its lock)
+        stale.unlink(missing_ok=True)
+        print(f"removed {stale.name}, the temporary of an earlier import into {out} that was killed")
     board = read_board(board_path, copper_layers=args.copper_layers)
     if args.into:
         result = replace_board(args.into, args.board, board, opts)

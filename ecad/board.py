@@ -53,11 +53,14 @@ class Pad:
 
     kind : ``smd``, ``thru_hole``, ``np_thru_hole`` (a bare hole) or ``connect``
     rect : the pad's bounding rectangle in the footprint frame
+    drill_mm : float or None [mm], the hole's diameter (the smaller side of an oval hole); None for a pad
+        without a hole
     """
 
     name: str
     kind: str
     rect: Rect
+    drill_mm: float | None = None
 
 
 @dataclass(frozen=True)
@@ -78,6 +81,8 @@ class Footprint:
     attributes : tuple of str, the file's attributes (``smd``, ``through_hole``, ``virtual``,
         ``exclude_from_bom``, ``board_only``, ``dnp``, ...)
     height_mm : float or None [mm], the body height the file states (IDF does; KiCad does not)
+    off_board : str, why the footprint is not on the board modelled ("" when it is): outside the outline,
+        on another board or the frame of a panel (set by :func:`imutherm.ecad.panel.pick_board`)
     """
 
     ref: str
@@ -93,6 +98,7 @@ class Footprint:
     fields: dict = field(default_factory=dict)
     attributes: tuple = ()
     height_mm: float | None = None
+    off_board: str = ""
 
     def to_board(self, px: float, py: float) -> tuple:
         """A point of the footprint frame [mm] in board coordinates [mm]."""
@@ -131,6 +137,8 @@ class BoardDesign:
     stackup_source : str, where the thickness and copper come from
     footprints : tuple of Footprint
     vias : tuple of Via
+    notes : tuple of str, what the reader found unusual and how it took it (a stack-up far from the usual,
+        a panel, ...), printed by ``imutherm import``
     """
 
     source: str
@@ -144,3 +152,4 @@ class BoardDesign:
     stackup_source: str
     footprints: tuple
     vias: tuple = ()
+    notes: tuple = ()

@@ -2,16 +2,21 @@
 
 Rules, in order (each decision carries its reason, printed by ``imutherm import``):
 
-* **skipped**: marked do-not-populate; a mounting hole (a standoff goes under it); a fiducial; a test point;
-  a net tie or solder jumper (copper only); a footprint without pads (a logo, silkscreen-only art); a
-  footprint of one pad and no body outline (a wire or test pad); a KiCad 5 ``virtual`` footprint without pads.
+* **skipped**: not on the board modelled (outside its outline, on another board or the frame of a panel:
+  :mod:`imutherm.ecad.panel`); marked do-not-populate (KiCad's ``dnp`` attribute, a ``DNP`` field, or a
+  value such as ``DNP``, ``DNF``, ``DNI``, ``NP``, ``NF``, ``no-pop``, ``do not fit``); a mounting hole (a standoff goes
+  under it), by its name or by what it is: a hole of :data:`MOUNTING_MIN_DRILL_MM` or more and no body; bare
+  holes (tooling holes, mouse bites of a panel); a fiducial; a test point; a net tie or solder jumper (copper
+  only); a footprint without pads (a logo, silkscreen-only art, a panel tab); a footprint of one pad and no
+  body outline (a wire or test pad); a KiCad 5 ``virtual`` footprint without pads.
 * **modelled**: a part that dissipates power, carries a sensor site, is named by the electrical design, or
   that the user keeps (``--keep``); and every part larger than the merge limits.
 * **merged**: the rest: an unpowered part whose body is at most :data:`MERGE_AREA_MM2` and
   :data:`MERGE_HEIGHT_MM` (passives, small discretes). Its mass and heat capacity are smeared into the board
   material (:mod:`imutherm.geometry.board_material`); its pads' copper is within the board's assumed coverage.
 
-The body is the footprint's fab-layer outline (the package's own drawing); without one, the courtyard less the
+The body is the footprint's fab-layer outline (the package's own drawing; a fab drawing of less than a quarter
+of the pads' extent is only a marker); without one, the courtyard less the
 IPC-7351 nominal courtyard excess (0.25 mm a side) but at least the pads; without either, the pads. A
 package class with ``body = "fab+pads"`` (SOT-223, DPAK: the tab carries the die) takes the outline and the
 pads together. A footprint rotated by a multiple of 90 degrees keeps its body exactly; at any other angle the
@@ -28,12 +33,18 @@ from dataclasses import dataclass
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Footprint, Rect
 from imutherm.ecad.packages import PackageClass, package_class
+from imutherm.ecad.power_fields import power_from_fields
 
 #: largest body area [mm^2] of an unpowered part merged into the board: a 1210 chip is 8 mm^2, a SOT-23
 #: 4.4 mm^2, an 8-pin SOIC 24 mm^2 (modelled); parts this small sit below the mesh's 2 mm cells anyway
 MERGE_AREA_MM2 = 10.0
 #: tallest unpowered part [mm] merged into the board (a 1210 MLCC is 2.7 mm at most)
 MERGE_HEIGHT_MM = 3.0
+#: smallest hole [mm] of a mounting hole: an M2 screw's close fit is 2.2 mm (ISO 273), KiCad's smallest
+#: MountingHole footprint 2.1 mm; a single wire pad drills less (a 14 AWG wire is 1.63 mm across)
+MOUNTING_MIN_DRILL_MM = 2.0
+#: a fab drawing smaller than this share of its pads' extent is a marker (a pin-1 dot), not the body outline
+FAB_MIN_COVER = 0.25
 #: IPC-7351B nominal courtyard excess [mm] a side, removed from a courtyard to estimate a body without fab outline
 COURTYARD_EXCESS_MM = 0.25
 #: height [mm] assumed for a merged part of no known class: it only sets the mass smeared into the board
@@ -43,6 +54,16 @@ MERGED_UNKNOWN_HEIGHT_MM = 1.0
 #: (epoxy + silica filler: 1900, 880, the library's ``mould_compound``)
 _CHIP = (3970.0, 765.0)
 _PLASTIC = (1900.0, 880.0)
+
+#: values and fields that mark a part not fitted: do not populate / fit / install / mount / place, not
+#: populated / fitted, no-pop (whole words, any case, ``_``, ``-`` or a space between the words)
+_DNP = re.compile(r"(?<![A-Za-z0-9])(DNP|DNF|DNI|DNM|DNS|NOPOP|NO[ _-]?POP(ULATE)?|NO[ _-]?FIT|NOT[ _-]?(FITTED|"
+                  r"POPULATED|MOUNTED|PLACED|INSTALLED)|DO[ _-]?NOT[ _-]?(POPULATE|FIT|INSTALL|MOUNT|PLACE|STUFF)|"
+                  r"UNPOPULATED|UNFITTED)(?![A-Za-z0-9])", re.I)
+#: a whole value that marks a part not fitted
+_DNP_VALUES = {"np", "nf", "n/p", "n/f", "nofit", "-"}
+#: fields whose "no" / "false" / "0" marks a part not fitted
+_FITTED_FIELDS = {"populate", "populated", "fitted", "fit", "mount", "mounted", "place", "stuff", "assemble"}
 
 _SKIP = (
     (re.compile(r"MountingHole", re.I), "mounting hole (a standoff is placed under it)"),
@@ -63,6 +84,7 @@ class Decision:
     body : Rect or None, the body in board coordinates [mm] (axis-aligned; see the module docstring)
     height_mm : float or None [mm], and height_source : str
     power_W : float [W], and power_source : str
+    note : str, what was left out of the footprint's fields (a power rating, a field that holds no number)
     """
 
     footprint: Footprint
@@ -74,19 +96,54 @@ class Decision:
     height_source: str = ""
     power_W: float = 0.0
     power_source: str = ""
+    note: str = ""
+
+
+def not_fitted(fp: Footprint) -> str | None:
+    """Why ``fp`` is marked do-not-populate, or None (see the module docstring)."""
+    if "dnp" in fp.attributes:
+        return "marked do-not-populate (the file's DNP attribute)"
+    if _DNP.search(fp.value) or fp.value.strip().lower() in _DNP_VALUES:
+        return f"marked do-not-populate (value {fp.value!r})"
+    for name, text in fp.fields.items():
+        key, value = name.strip().lower(), str(text).strip().lower()
+        if (key in ("dnp", "dnf", "dni") and value in ("1", "yes", "true", "y", "x", "dnp", "dnf", "dni")) or \
+                (key in _FITTED_FIELDS and value in ("no", "false", "0", "n")) or (_DNP.fullmatch(str(text).strip())
+                                                                                 and key not in ("reference",)):
+            return f"marked do-not-populate (field {name} = {str(text)!r})"
+    return None
+
+
+def hole_only(fp: Footprint) -> str | None:
+    """Why ``fp`` is a hole and no part (a mounting hole, tooling holes, mouse bites), or None: it has no body
+    outline, a hole, and copper (if any) of one pad name only: a plated ring, its vias, its other side."""
+    holes = [p.drill_mm for p in fp.pads if p.drill_mm]
+    if fp.fab is not None or not holes or fp.height_mm is not None or len({p.name for p in fp.copper_pads}) > 1:
+        return None
+    if max(holes) >= MOUNTING_MIN_DRILL_MM:
+        return (f"mounting hole (a {max(holes):g} mm hole without a body: a standoff is placed under it)")
+    if not fp.copper_pads:
+        return f"bare hole{'s' if len(holes) > 1 else ''} ({max(holes):g} mm: a tooling hole or mouse bites), no part"
+    return None
 
 
 def skip_reason(fp: Footprint) -> str | None:
     """Why ``fp`` is not a physical part to model, or None."""
-    if "dnp" in fp.attributes:
-        return "marked do-not-populate (DNP)"
+    if fp.off_board:
+        return fp.off_board
+    dnp = not_fitted(fp)
+    if dnp:
+        return dnp
     if "unplaced" in fp.attributes:
         return "unplaced in the IDF file"
     for pattern, reason in _SKIP:
         if pattern.search(fp.library):
             return reason
+    hole = hole_only(fp)
+    if hole:
+        return hole
     if not fp.pads and fp.fab is None:
-        return "no pads: a logo or silkscreen-only footprint" if "virtual" not in fp.attributes else \
+        return "no pads: a logo, silkscreen-only art or a panel tab" if "virtual" not in fp.attributes else \
             "KiCad 5 virtual footprint without pads (no physical part)"
     if len({p.name for p in fp.copper_pads}) == 1 and fp.fab is None and fp.height_mm is None:
         return "one pad and no body outline: a wire or test pad"
@@ -96,7 +153,7 @@ def skip_reason(fp: Footprint) -> str | None:
 def body_local(fp: Footprint, package: PackageClass | None) -> Rect:
     """The body outline in the footprint frame [mm] (see the module docstring)."""
     pads = Rect.around(p for pad in fp.copper_pads for p in ((pad.rect.x0, pad.rect.y0), (pad.rect.x1, pad.rect.y1)))
-    if fp.fab is not None:
+    if fp.fab is not None and (pads is None or fp.fab.area >= FAB_MIN_COVER * pads.area):
         body = fp.fab
         if package is not None and package.body == "fab+pads" and pads is not None:
             body = Rect(min(body.x0, pads.x0), min(body.y0, pads.y0), max(body.x1, pads.x1), max(body.y1, pads.y1))
@@ -151,17 +208,17 @@ def decide(board: BoardDesign, *, powers: dict, heights: dict, keep: set, merge_
         package = package_class(fp.library)
         body = body_on_board(fp, body_local(fp, package))
         height, h_source = _height(fp, package, heights)
-        power, p_source = _power(fp, powers)
+        power, p_source, note = _power(fp, powers)
         if power > 0 or fp.ref in keep:
             why = f"dissipates {power:g} W" if power > 0 else "kept (a site, a rail of the electrical design, or --keep)"
-            out.append(Decision(fp, "modelled", why, package, body, height, h_source, power, p_source))
+            out.append(Decision(fp, "modelled", why, package, body, height, h_source, power, p_source, note))
         elif body.area <= merge_area_mm2 and (height or 0.0) <= merge_height_mm:
             out.append(Decision(fp, "merged", f"unpowered, body {body.width:.2g} x {body.height:.2g} mm "
-                                f"<= {merge_area_mm2:g} mm^2", package, body, height, h_source, 0.0, ""))
+                                f"<= {merge_area_mm2:g} mm^2", package, body, height, h_source, 0.0, "", note))
         else:
             out.append(Decision(fp, "modelled", f"unpowered but {body.width:.2g} x {body.height:.2g} x "
                                 f"{height if height is not None else '?'} mm, larger than the merge limit",
-                                package, body, height, h_source, 0.0, ""))
+                                package, body, height, h_source, 0.0, "", note))
     return out
 
 
@@ -169,8 +226,8 @@ def _height(fp: Footprint, package: PackageClass | None, heights: dict) -> tuple
     """(height [mm] or None, source): --height, then the footprint's Height_mm field, the file's, the class."""
     if fp.ref in heights:
         return heights[fp.ref]
-    field = next((v for k, v in fp.fields.items() if k.lower() in ("height_mm", "height")), None)
-    if field is not None:
+    field = next((v for k, v in fp.fields.items() if k.lower() in ("height_mm", "height") and str(v).strip()), None)
+    if field is not None:  # an empty field is no height given
         try:
             value = float(str(field).lower().replace("mm", "").strip())
         except ValueError:
@@ -188,17 +245,9 @@ def _height(fp: Footprint, package: PackageClass | None, heights: dict) -> tuple
 
 
 def _power(fp: Footprint, powers: dict) -> tuple:
-    """(power [W], source): --powers / --power, then the footprint's Power_W field, else 0."""
+    """(power [W], source, note): --powers / --power, then a dissipation field (:mod:`imutherm.ecad.power_fields`;
+    never a rating), else 0."""
+    value, source, note = power_from_fields(fp.ref, fp.fields)
     if fp.ref in powers:
-        return powers[fp.ref]
-    key = next((k for k in fp.fields if k.lower() in ("power_w", "power", "power_opr")), None)
-    if key is None:
-        return 0.0, ""
-    field = fp.fields[key]
-    try:
-        value = float(str(field).upper().replace("W", "").strip())
-    except ValueError:
-        raise InputError(f"footprint {fp.ref}: field Power_W {field!r} is not a number [W]") from None
-    if not (math.isfinite(value) and 0 <= value <= 100):
-        raise InputError(f"footprint {fp.ref}: field Power_W {value:g} W is outside 0..100 W")
-    return value, f"the footprint's {key} field"
+        return (*powers[fp.ref], note)
+    return (value or 0.0), source, note

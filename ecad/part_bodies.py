@@ -7,7 +7,6 @@ the edges a tensor mesh sees coincide to the last bit and make no sliver cells.
 
 from __future__ import annotations
 
-from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Rect
 from imutherm.ecad.classify import Decision, body_local
 
@@ -155,32 +154,3 @@ def snap_soft_parts(board: BoardDesign, modelled: list, bodies: dict, hard: set,
                           f"a die: its exact outline would only add mesh lines); exact body {b.x0:.3f}..{b.x1:.3f} x "
                           f"{b.y0:.3f}..{b.y1:.3f} mm")
     return out, notes
-
-
-def check_placement(board: BoardDesign, modelled: list, notes: list) -> dict:
-    """Bodies on the board: centre inside the outline's rectangle, overhangs clipped, no two overlapping."""
-    bodies = {}
-    for d in modelled:
-        fp, b = d.footprint, d.body
-        cx, cy = b.centre
-        if not (0.0 <= cx <= board.width_mm and 0.0 <= cy <= board.height_mm):
-            raise InputError(f"{board.source}: footprint {fp.ref} ({fp.library}) at ({cx:.2f}, {cy:.2f}) mm lies outside "
-                             f"the board outline (0..{board.width_mm:.2f} x 0..{board.height_mm:.2f} mm)")
-        clipped = quantised(clip(b, board))
-        over = max(-b.x0, -b.y0, b.x1 - board.width_mm, b.y1 - board.height_mm)
-        if over > 10.0**-DIGITS:  # more than the lattice's rounding: the body really crosses the edge
-            notes.append(f"{fp.ref}: its body overhangs the board edge by {over:.2f} mm; the model keeps the part "
-                         f"on the board")
-        bodies[fp.ref] = clipped
-    refs = list(bodies)
-    for i, a in enumerate(refs):
-        for b in refs[i + 1:]:
-            da = next(d for d in modelled if d.footprint.ref == a)
-            db = next(d for d in modelled if d.footprint.ref == b)
-            if da.footprint.side == db.footprint.side and overlaps(bodies[a], bodies[b]):
-                ra, rb = bodies[a], bodies[b]
-                raise InputError(f"{board.source}: parts {a} and {b} overlap on the {da.footprint.side} side "
-                                 f"({a}: {ra.x0:.2f}..{ra.x1:.2f} x {ra.y0:.2f}..{ra.y1:.2f} mm; {b}: {rb.x0:.2f}.."
-                                 f"{rb.x1:.2f} x {rb.y0:.2f}..{rb.y1:.2f} mm); correct their fab outlines or "
-                                 f"placement in KiCad")
-    return bodies

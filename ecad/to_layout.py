@@ -20,15 +20,17 @@ the tallest bottom-side part plus 1 mm, 2 mm at least.
 from __future__ import annotations
 
 import hashlib
-import math
 import re
 from dataclasses import dataclass, field, replace
 
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Rect
 from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, decide, merged_heat, off_axis
-from imutherm.ecad.part_bodies import (DIE_FRACTION, MIN_VIAS, SNAP_MM, check_placement, clip, die_and_pad,
-                                      overlaps, quantised, round_centre, round_mm, round_size, snap_soft_parts)
+from imutherm.ecad.panel import pick_board, unique_references
+from imutherm.ecad.part_bodies import (DIE_FRACTION, MIN_VIAS, SNAP_MM, die_and_pad, overlaps, round_centre, round_mm,
+                                      round_size, snap_soft_parts)
+from imutherm.ecad.placement import place_parts
+from imutherm.ecad.standoffs import standoff_rects, standoff_parts
 from imutherm.ecad.toml_writer import NOTE, Inline, Note, dumps
 from imutherm.geometry.board_material import DEFAULT_COVERAGE, board_material
 from imutherm.geometry.layout import parse_layout
@@ -123,25 +125,34 @@ def component_name(ref: str, prefix: str = "") -> str:
 
 
 def _check_refs(board: BoardDesign, opts: ImportOptions) -> None:
+    on_board = [fp.ref for fp in board.footprints if not fp.off_board]
+    named = set(opts.sites) | set(opts.powers) | set(opts.heights) | set(opts.keep) | set(opts.grease or ())
+    dup = sorted({ref for ref in named if on_board.count(ref) > 1}, key=natural_order)
+    if dup:
+        where = "; ".join(f"({fp.x:.2f}, {fp.y:.2f}) mm" for fp in board.footprints if fp.ref == dup[0] and not fp.off_board)
+        raise InputError(f"{board.source}: {dup[0]} is a duplicate reference: {on_board.count(dup[0])} footprints carry "
+                         f"it (at {where}); give each part a unique reference in KiCad (Annotate) before naming it "
+                         f"in --site / --power / --height / --keep / --grease")
     refs = {fp.ref for fp in board.footprints}
     for what, given in (("--site", opts.sites), ("--power/--powers", opts.powers), ("--height/--heights", opts.heights),
                         ("--keep", opts.keep), ("--grease", opts.grease or ())):
         unknown = sorted(set(given) - refs)
         if unknown:
-            listed = ", ".join(sorted(refs, key=_natural)[:40])
+            listed = ", ".join(sorted(refs, key=natural_order)[:40])
             raise InputError(f"{board.source}: {what}: no footprint {', '.join(unknown[:5])} on the board; its "
                              f"references: {listed}{' ...' if len(refs) > 40 else ''}")
+        elsewhere = sorted(ref for ref in given if ref not in on_board)
+        if elsewhere and what == "--site":
+            fp = next(fp for fp in board.footprints if fp.ref == elsewhere[0])
+            raise InputError(f"{board.source}: {what} {elsewhere[0]}: not on the board modelled ({fp.off_board}); a "
+                             f"layout models one board: import each with --site on one of its parts")
     for ref, kind in opts.sites.items():
         if kind not in SITE_KINDS:
             raise InputError(f"--site {ref}={kind}: unknown kind; valid: {', '.join(SITE_KINDS)}")
-    dup = sorted({fp.ref for fp in board.footprints if [f.ref for f in board.footprints].count(fp.ref) > 1}
-                 & (set(opts.sites) | set(opts.powers) | set(opts.heights)))
-    if dup:
-        raise InputError(f"{board.source}: reference {dup[0]} names more than one footprint; give each part a unique "
-                         f"reference in KiCad (Annotate) before naming it in --site / --power / --height")
 
 
-def _natural(ref: str):
+def natural_order(ref: str):
+    """A sort key putting references in their natural order (``R2`` before ``R10``)."""
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", ref)]
 
 
@@ -166,9 +177,15 @@ def likely_dissipators(board: BoardDesign, limit: int = 6) -> str:
     return "; ".join(f"{fp.ref} {fp.value or '?'} ({fp.library.split(':')[-1]})" for fp in icish[:limit]) or "none found"
 
 
-def _no_power(board: BoardDesign) -> InputError:
-    return InputError(f"{board.source}: no power anywhere on the board (no Power_W field, --powers or --electrical): "
-                      f"give the dissipated powers, e.g. --power REF=W; likely dissipators: {likely_dissipators(board)}")
+def _no_power(board: BoardDesign, decisions: list) -> InputError:
+    lost = [d for d in decisions if d.power_W > 0 and d.fate != "modelled"]
+    if lost:
+        d = lost[0]
+        return InputError(f"{board.source}: no power on the board modelled: {d.footprint.ref} ({d.power_W:g} W) is "
+                          f"{d.fate}: {d.reason}" + (f" (and {len(lost) - 1} more powered parts)" if len(lost) > 1 else ""))
+    return InputError(f"{board.source}: no power anywhere on the board (no dissipation field such as Power_W, no "
+                      f"--powers or --electrical): give the dissipated powers, e.g. --power REF=W; likely dissipators: "
+                      f"{likely_dissipators(board)}")
 
 
 def _unknown_heights(board: BoardDesign, missing: list) -> InputError:
@@ -261,49 +278,6 @@ def _grease_parts(decisions: list, opts: ImportOptions, standoffs: list, notes: 
     return out
 
 
-def _standoff_rects(board: BoardDesign, decisions: list, notes: list) -> list:
-    """(ref, Rect) of the standoffs in board coordinates: under the mounting holes (a round standoff of twice the
-    hole as its equal-area square, clipped to the board), else at the board's corners. One that would overlap
-    a part on the back shrinks to the hole's size, and goes (with a note) if that overlaps too."""
-    holes = [d.footprint for d in decisions if d.fate == "skipped" and d.reason.startswith("mounting hole")]
-    back = [d for d in decisions if d.fate in ("modelled", "merged") and d.footprint.side == "bottom"]
-    boxes = []
-    for fp in holes:
-        d_hole = min((min(p.rect.width, p.rect.height) for p in fp.pads), default=3.0)
-        outer = 2.0 * d_hole if fp.courtyard is None else min(2.0 * d_hole, fp.courtyard.width)
-        for size in (outer * math.sqrt(math.pi) / 2.0, d_hole * math.sqrt(math.pi) / 2.0):
-            r = quantised(clip(Rect(fp.x - size / 2, fp.y - size / 2, fp.x + size / 2, fp.y + size / 2), board))
-            clash = [d.footprint.ref for d in back if overlaps(r, d.body)]
-            if not clash:
-                boxes.append((fp.ref, r))
-                break
-        else:
-            notes.append(f"no standoff under {fp.ref}: parts on the back ({', '.join(clash[:4])}) take its place")
-    if not boxes and not holes:
-        s, inset = 3.0, 1.0
-        w, h = board.width_mm, board.height_mm
-        for i, (x, y) in enumerate(((inset, inset), (w - inset - s, inset), (inset, h - inset - s),
-                                    (w - inset - s, h - inset - s))):
-            r = Rect(x, y, x + s, y + s)
-            if not any(overlaps(r, d.body) for d in back):
-                boxes.append((f"corner{i + 1}", r))
-    if not boxes:
-        raise InputError(f"{board.source}: no place for a standoff under the board (its mounting holes and corners are "
-                         f"taken by parts on the back); give the board a mounting hole or place the unit by hand")
-    return [(ref, r) for ref, r in boxes if r.width > 0.1 and r.height > 0.1]
-
-
-def _standoffs(rects: list, x0: float, y0: float, z0: float, height: float, material: str) -> list:
-    """The ``[[parts]]`` tables of the standoffs (board rects shifted to the unit)."""
-    parts = []
-    for i, (ref, r) in enumerate(rects):
-        parts.append({NOTE: f"standoff under {ref}" + (" (mounting hole)" if not ref.startswith("corner") else
-                                                        " (no mounting hole on the board: a corner, assumed)"),
-                      "name": f"standoff_{i + 1}", "min_mm": [round_mm(x0 + r.x0), round_mm(y0 + r.y0), round_mm(z0)],
-                      "size_mm": [round_mm(r.width), round_mm(r.height), round_mm(height)], "material": material})
-    return parts
-
-
 def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> ImportResult:
     """A single-board unit around ``board`` (see the module docstring); InputError on any problem.
 
@@ -341,7 +315,25 @@ def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> I
     ``unit.spec`` goes wherever a layout goes: ``build_geometry(unit.spec, "grease")``,
     ``run_scheme(unit.spec, "grease")``.
     """
+    board, decisions, keep, regulators, notes = _prepare(board, opts)
+    modelled = [d for d in decisions if d.fate == "modelled"]
+    missing = [d for d in modelled if d.height_mm is None]
+    if missing:
+        raise _unknown_heights(board, missing)
+    decisions, bodies = place_parts(board, decisions, keep, set(opts.sites), notes)
+    if not any(d.power_W > 0 for d in decisions if d.fate == "modelled") and not regulators:
+        raise _no_power(board, decisions)
+    names = _names(decisions, opts.prefix, notes)
+    layout, spec = _single_board_layout(board, decisions, names, opts, regulators, notes, bodies)
+    return ImportResult(board, tuple(decisions), layout, spec, tuple(notes), names)
+
+
+def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
+    """(board, decisions, refs kept, regulators, notes): the board picked from its file (a panel's, without what
+    lies outside it), the user's references checked, repeated ones told apart, each footprint's fate decided."""
+    board = pick_board(board, sites=opts.sites, powered=opts.powers)
     _check_refs(board, opts)
+    board, renamed = unique_references(board)
     rails_refs = _electrical_refs(opts.electrical)
     unknown_rail = sorted(rails_refs - {fp.ref for fp in board.footprints})
     if unknown_rail:
@@ -350,17 +342,19 @@ def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> I
     keep = set(opts.keep) | set(opts.sites) | rails_refs
     merge = opts.merge_area_mm2 if opts.merge_area_mm2 is not None else 10.0
     decisions = decide(board, powers=opts.powers, heights=opts.heights, keep=keep, merge_area_mm2=merge)
-    modelled = [d for d in decisions if d.fate == "modelled"]
-    missing = [d for d in modelled if d.height_mm is None]
-    if missing:
-        raise _unknown_heights(board, missing)
     regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
-    if not any(d.power_W > 0 for d in modelled) and not regulators:
-        raise _no_power(board)
-    notes = []
-    names = _names(decisions, opts.prefix, notes)
-    layout, spec = _single_board_layout(board, decisions, names, opts, regulators, notes)
-    return ImportResult(board, tuple(decisions), layout, spec, tuple(notes), names)
+    notes = list(board.notes) + ([renamed] if renamed else []) + _field_notes(decisions)
+    return board, decisions, keep, regulators, notes
+
+
+def _field_notes(decisions: list) -> list:
+    """One note per kind of field left out (a power rating, a field without a number), naming its parts."""
+    by_note: dict = {}
+    for d in decisions:
+        if d.note and d.fate != "skipped":
+            by_note.setdefault(d.note, []).append(d.footprint.ref)
+    return [f"{', '.join(sorted(refs, key=natural_order)[:12])}{f' (+{len(refs) - 12} more)' if len(refs) > 12 else ''}: "
+            f"{note}" for note, refs in by_note.items()]
 
 
 def _names(decisions: list, prefix: str, notes: list) -> dict:
@@ -396,15 +390,14 @@ def _board_material_entry(board: BoardDesign, decisions: list, board_name: str) 
     return name, table
 
 
-def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tuple:
+def _single_board_layout(board, decisions, names, opts, regulators, notes, bodies) -> tuple:
     hs = opts.housing
     for mat in (hs.material, hs.standoff_material):
         get_material(mat)
     modelled = [d for d in decisions if d.fate == "modelled"]
-    bodies = check_placement(board, modelled, notes)
     site_refs = set(opts.sites)
-    standoff_rects = _standoff_rects(board, decisions, notes)
-    moved = _grease_parts(decisions, opts, standoff_rects, notes)
+    standoffs_at = standoff_rects(board, decisions, notes)
+    moved = _grease_parts(decisions, opts, standoffs_at, notes)
     placed = [d for d in decisions if d.fate in ("modelled", "merged")]
     top_h = max([d.height_mm or 0.0 for d in placed if d.footprint.side == "top"], default=0.0)
     bottom_h = max([d.height_mm or 0.0 for d in placed if d.footprint.side == "bottom"]
@@ -426,17 +419,18 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
     x0, y0, z0 = hs.wall_mm + c, hs.wall_mm + c, hs.base_mm + standoff
     mat_name, mat_table = _board_material_entry(board, decisions, opts.board_name)
 
-    standoffs = _standoffs(standoff_rects, x0, y0, hs.base_mm, standoff, hs.standoff_material)
+    standoffs = standoff_parts(standoffs_at, x0, y0, hs.base_mm, standoff, hs.standoff_material)
     hard = {d.footprint.ref for d in modelled if _has_die(d, site_refs, regulators)}
-    bodies, snapped = snap_soft_parts(board, modelled, bodies, hard, [r for _, r in standoff_rects], opts.exact)
+    fixed = hard | {d.footprint.ref for d in modelled if d.power_W > 0 or d.footprint.ref in site_refs}
+    exact = dict(bodies)
+    bodies, snapped = snap_soft_parts(board, modelled, bodies, fixed, [r for _, r in standoffs_at], opts.exact)
     components = []
     for d in modelled:
         ref = d.footprint.ref
         components.append(_component(board, d, names[ref], opts.board_name, bodies[ref], ref in hard,
                                      ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
     if snapped:
-        notes.append(f"{len(snapped)} parts without a die have their edges snapped (<= {SNAP_MM:g} mm) to their "
-                     f"neighbours' lines, so they add few mesh lines; --exact keeps every edge")
+        notes.append(snap_note(exact, bodies, snapped))
     doc = {
         NOTE: _header(board, decisions, notes),
         "name": opts.layout_name or _layout_name(board),
@@ -484,6 +478,18 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes) -> tu
     text = dumps(doc)
     spec = check_layout_text(text, board.source)
     return text, spec
+
+
+def snap_note(exact: dict, bodies: dict, snapped: dict) -> str:
+    """The note naming every snapped part with how far its edges moved [mm] and its area changed [%]."""
+    moves = []
+    for ref in sorted(snapped, key=natural_order):
+        a, b = exact[ref], bodies[ref]
+        move = max(abs(a.x0 - b.x0), abs(a.x1 - b.x1), abs(a.y0 - b.y0), abs(a.y1 - b.y1))
+        moves.append(f"{ref} {move:.2f} mm ({100 * (b.area / a.area - 1):+.0f} %)")
+    return (f"{len(snapped)} unpowered parts without a die have their edges snapped (<= {SNAP_MM:g} mm) to their "
+            f"neighbours' lines, so they add few mesh lines (powered parts and sites never are; --exact keeps every "
+            f"edge): {', '.join(moves)}")
 
 
 def _merged_entries(decisions: list) -> list:
@@ -535,8 +541,8 @@ def _header(board: BoardDesign, decisions: list, notes: list) -> str:
              "Lengths in mm, powers in W, temperatures in degC; board-local (u, v) = the board file's (x, y) with y "
              "up, origin at the outline's lower left. Edit freely: this is an ordinary layout file.",
              "merged (mass and heat capacity smeared into the board): " + ", ".join(
-                 sorted((d.footprint.ref for d in fates["merged"]), key=_natural))]
-    for d in sorted(fates["skipped"], key=lambda d: _natural(d.footprint.ref)):
+                 sorted((d.footprint.ref for d in fates["merged"]), key=natural_order))]
+    for d in sorted(fates["skipped"], key=lambda d: natural_order(d.footprint.ref)):
         lines.append(f"skipped {d.footprint.ref}: {d.reason}")
     return "\n".join(lines)
 
@@ -574,18 +580,16 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
         raise InputError(f"{path}: --board {board_name!r}: no such board; boards: "
                          f"{', '.join(str(b.get('name')) for b in boards if isinstance(b, dict))}")
     opts = replace(opts, board_name=board_name, prefix=opts.prefix or f"{board_name}_")
-    _check_refs(board, opts)
-    keep = set(opts.keep) | set(opts.sites) | _electrical_refs(opts.electrical)
-    decisions = decide(board, powers=opts.powers, heights=opts.heights, keep=keep,
-                       merge_area_mm2=opts.merge_area_mm2 if opts.merge_area_mm2 is not None else 10.0)
+    board, decisions, keep, _, notes = _prepare(board, opts)
     modelled = [d for d in decisions if d.fate == "modelled"]
     missing = [d for d in modelled if d.height_mm is None]
     if missing:
         raise _unknown_heights(board, missing)
-    notes = [f"{path}: board {board_name!r} replaced; the file is regenerated from its data, so its comments are "
-             f"not carried over"]
+    notes.insert(0, f"{path}: board {board_name!r} replaced; the file is regenerated from its data, so its comments "
+                    f"are not carried over")
+    decisions, bodies = place_parts(board, decisions, keep, set(opts.sites), notes)
+    modelled = [d for d in decisions if d.fate == "modelled"]
     names = _names(decisions, opts.prefix, notes)
-    bodies = check_placement(board, modelled, notes)
     normal = target.get("normal", "z")
     axis = "xyz".index(normal)
     a0, a1 = (a for a in range(3) if a != axis)
@@ -616,7 +620,11 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
                 rail["loads_A"] = Inline({k: v for k, v in rail["loads_A"].items() if k not in old})
     regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
     hard = {d.footprint.ref for d in modelled if _has_die(d, set(opts.sites), regulators)}
-    bodies, snapped = snap_soft_parts(board, modelled, bodies, hard, (), opts.exact)
+    fixed = hard | {d.footprint.ref for d in modelled if d.power_W > 0 or d.footprint.ref in opts.sites}
+    exact = dict(bodies)
+    bodies, snapped = snap_soft_parts(board, modelled, bodies, fixed, (), opts.exact)
+    if snapped:
+        notes.append(snap_note(exact, bodies, snapped))
     for d in modelled:
         ref = d.footprint.ref
         data["components"].append(_component(board, d, names[ref], board_name, bodies[ref], ref in hard,

@@ -29,7 +29,7 @@ def read_value_csv(path: str | Path, column: str) -> dict:
     """``reference,<column>[,source]`` lines -> ``{ref: (value, source)}``.
 
     A header line naming the columns is required; ``#`` lines are comments. ``source`` (optional) says where a
-    value comes from (a datasheet); without it the source is the file and its line.
+    value comes from (a datasheet); the source kept is the file and its line, then that text.
     """
     path = Path(path)
     text = read_text(path, f"{column} CSV", MAX_TABLE_BYTES)
@@ -56,7 +56,7 @@ def read_value_csv(path: str | Path, column: str) -> dict:
                              f"{lo:g}..{hi:g} {unit}")
         if ref in out:
             raise InputError(f"{path}: line {number}: {ref} is given twice")
-        source = cells[2] if len(cells) == 3 and cells[2] else f"{path.name} line {number}"
+        source = f"{path.name} line {number}" + (f": {cells[2]}" if len(cells) == 3 and cells[2] else "")
         out[ref] = (value, source)
     return out
 

@@ -8,7 +8,9 @@ site-temperature tables: :mod:`imutherm.site_table`).
 The package's atomic file operations live here too, so there is one of each:
 
 * :func:`atomic_write` (and :func:`atomic_write_bytes`) is the one way a single file is
-  replaced: a temporary name beside it, then one rename;
+  replaced: a temporary name beside it, then one rename; the file keeps the mode of the one it replaces
+  (a new one gets 0666 less the umask, as any new file); :func:`stale_temporaries` finds what a killed
+  writer left beside a path;
 * :func:`move_staged` moves what was staged in a temporary folder into the output
   folder, each entry replacing its namesake in one rename;
 * :func:`exchange_folders` swaps two whole folders in one step, the primitive of
@@ -23,7 +25,9 @@ import errno
 import json
 import math
 import os
+import re
 import shutil
+import stat
 import tempfile
 from pathlib import Path
 
@@ -46,6 +50,37 @@ def plain(obj, *, finite: bool = True):
     return obj
 
 
+def current_umask() -> int:
+    """The process's umask (read from /proc on Linux, so no other thread sees it changed)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)  # pragma: no cover (not Linux)
+    os.umask(mask)
+    return mask
+
+
+def _temporary_prefix(path: Path, tmp_prefix: str | None) -> str:
+    return f".{path.stem}." if tmp_prefix is None else tmp_prefix
+
+
+def stale_temporaries(path: str | os.PathLike) -> list:
+    """The temporary files :func:`atomic_write` makes beside ``path`` (``.STEM.XXXXXXXX.SUFFIX``, its default
+    naming) that are there now. Only a writer that was killed leaves one behind: call this while holding a lock
+    on ``path`` that every writer of it takes, and the ones found are stale."""
+    path = Path(path)
+    pattern = re.compile(re.escape(_temporary_prefix(path, None)) + r"[a-z0-9_]{8}" + re.escape(path.suffix) + "$")
+    try:
+        names = os.listdir(path.parent if str(path.parent) else ".")
+    except OSError:
+        return []
+    return sorted(path.parent / n for n in names if pattern.match(n))
+
+
 def atomic_write(path: str | os.PathLike, write, *, sync: bool = False, tmp_prefix: str | None = None) -> Path:
     """Replace ``path`` in one step: ``write(tmp)`` fills a temporary file beside it (same folder, so the
     same file system), which is then renamed over ``path``; on any error the temporary file is removed
@@ -53,14 +88,19 @@ def atomic_write(path: str | os.PathLike, write, *, sync: bool = False, tmp_pref
     records, which a resume after a crash reads back). The temporary file is ``.STEM.XXXX.SUFFIX``, or
     ``TMP_PREFIXXXXX.SUFFIX`` with ``tmp_prefix`` (the cache's ``.tmp-``, which its eviction passes over);
     its name is unique (:func:`tempfile.mkstemp`), so concurrent writers of one path do not collide: the
-    last rename wins. Returns ``path``."""
+    last rename wins. The file keeps the permissions of the one it replaces (a new one: 0666 less the umask,
+    not the temporary's 0600). Returns ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    prefix = f".{path.stem}." if tmp_prefix is None else tmp_prefix
-    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=path.suffix, dir=path.parent)
+    try:
+        mode = stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:
+        mode = 0o666 & ~current_umask()
+    fd, tmp = tempfile.mkstemp(prefix=_temporary_prefix(path, tmp_prefix), suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
         write(tmp)
+        os.chmod(tmp, mode)
         if sync:
             fd = os.open(tmp, os.O_RDONLY)
             try:
