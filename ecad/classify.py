@@ -202,7 +202,7 @@ def decide(board: BoardDesign, *, powers: dict, heights: dict, keep: set, merge_
     out = []
     for fp in board.footprints:
         reason = skip_reason(fp)
-        if reason is not None and fp.ref not in powers and fp.ref not in keep:
+        if fp.off_board or (reason is not None and fp.ref not in powers and fp.ref not in keep):
             out.append(Decision(fp, "skipped", reason))
             continue
         package = package_class(fp.library)

@@ -17,18 +17,24 @@ can be checked by a round trip.
 from __future__ import annotations
 
 import math
+import re
 import shlex
 from pathlib import Path
 
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Footprint, Rect
+from imutherm.ecad.outline_loops import simplified_outline
 from imutherm.textio import quote, read_text
 
 MM_PER_THOU = 0.0254
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 #: IDF carries no stack-up: copper layers assumed when reading one (the reference unit's 4-layer board)
 DEFAULT_COPPER_LAYERS = 4
 DEFAULT_COPPER_UM = 35.0
 MAX_IDF_BYTES = 64 * 2**20
+#: most outline records read (ten times the points a layout's outline holds after simplification; a real
+#: board edge has hundreds to a few thousand)
+MAX_OUTLINE_RECORDS = 200_000
 ARC_SEGMENTS = 72
 
 
@@ -52,6 +58,9 @@ def _sections(text: str, where: str) -> list:
             continue
         if current is None:
             raise InputError(f"{where}: line {number}: {quote(s, 60)} outside any section; not an IDF file?")
+        if '"' not in s and "'" not in s and "\\" not in s:
+            rows.append((number, s.split()))  # most records (outline points): 20x faster than shlex
+            continue
         try:
             rows.append((number, shlex.split(s, posix=True)))
         except ValueError:
@@ -71,6 +80,28 @@ def _float(tok: str, where: str, number: int, what: str) -> float:
     return v
 
 
+def _number_or_nan(tok: str) -> float:
+    try:
+        return float(tok)
+    except ValueError:
+        return math.nan
+
+
+def _outline_records(text: str) -> int:
+    """The records in the file's outline sections, counted at C speed before they are read."""
+    count, start = 0, 0
+    while True:
+        a = text.find(".BOARD_OUTLINE", start)
+        if a < 0:
+            a = text.find(".PANEL_OUTLINE", start)
+        if a < 0:
+            return count
+        b = text.find(".END_", a + 1)
+        b = len(text) if b < 0 else b
+        count += text.count("\n", a, b)
+        start = b
+
+
 def _loop_points(rows, where: str, scale: float) -> list:
     """The polylines of outline records ``label x y angle`` (arcs sampled), in file units x ``scale``."""
     loops, current, label = [], [], None
@@ -78,12 +109,19 @@ def _loop_points(rows, where: str, scale: float) -> list:
         if len(tok) < 4:
             raise InputError(f"{where}: line {number}: an outline point needs 'loop x y angle', got {' '.join(tok)}")
         lab = tok[0]
-        x, y, ang = (_float(t, where, number, "outline point") for t in tok[1:4])
-        x, y = x * scale, y * scale
+        try:
+            x, y, ang = float(tok[1]) * scale, float(tok[2]) * scale, float(tok[3])
+        except ValueError:
+            x = y = ang = math.nan
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(ang)):
+            bad = next(t for t in tok[1:4] if not math.isfinite(_number_or_nan(t)))
+            raise InputError(f"{where}: line {number}: outline point: expected a number, got {quote(bad, 30)}")
         if label is not None and lab != label and current:
             loops.append(current)
             current = []
         label = lab
+        if abs(ang) > 360.0 + 1e-6:
+            raise InputError(f"{where}: line {number}: an arc of {ang:g} degrees; an arc turns at most 360 degrees")
         if ang == 0 or not current:
             current.append((x, y))
             continue
@@ -164,7 +202,12 @@ def read_idf(path: str | Path, copper_layers: int = DEFAULT_COPPER_LAYERS,
     """Read an IDF 3.0 board (``.emn``) and its library (the ``.emp`` of the same name beside it)."""
     path = Path(path)
     where = str(path)
-    sections = _sections(read_text(path, "IDF board file", MAX_IDF_BYTES), where)
+    text = read_text(path, "IDF board file", MAX_IDF_BYTES)
+    records = _outline_records(text)
+    if records > MAX_OUTLINE_RECORDS:
+        raise InputError(f"{where}: the board outline has {records:,} points; at most {MAX_OUTLINE_RECORDS:,}: not an "
+                         f"outline to model (simplify the board edge in the ECAD tool)")
+    sections = _sections(text, where)
     scale, _ = _header(sections, where, "BOARD_FILE")
     lib_path = path.with_suffix(".emp")
     if not lib_path.exists():
@@ -180,7 +223,7 @@ def read_idf(path: str | Path, copper_layers: int = DEFAULT_COPPER_LAYERS,
     thickness = _float(first[0], where, number, "board thickness") * scale
     if not 0.1 <= thickness <= 10:
         raise InputError(f"{where}: line {number}: board thickness {thickness:g} mm is impossible (valid 0.1..10 mm)")
-    loops = _loop_points(outline[1:], where, scale)
+    loops = simplified_outline(_loop_points(outline[1:], where, scale), where)
     box = Rect.around(p for loop in loops for p in loop)
     if box is None or box.width <= 0 or box.height <= 0:
         raise InputError(f"{where}: the board outline encloses no area")
@@ -196,6 +239,10 @@ def read_idf(path: str | Path, copper_layers: int = DEFAULT_COPPER_LAYERS,
                 raise InputError(f"{where}: line {n1}: a placement is 'package part_number reference' then "
                                  f"'x y offset rotation side status'")
             package, part, ref = a[0], a[1], a[2]
+            bad = _CONTROL.search(ref)
+            if bad:
+                raise InputError(f"{where}: line {n1}: reference {quote(ref, 40)} holds the control character "
+                                 f"U+{ord(bad.group()):04X}; a reference is printable text")
             x, y, _off, rot = (_float(t, where, n2, "placement") for t in b[:4])
             side = {"TOP": "top", "BOTTOM": "bottom"}.get(b[4].upper())
             if side is None:

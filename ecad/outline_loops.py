@@ -14,14 +14,16 @@ import math
 import numpy as np
 
 from imutherm import InputError
+from imutherm.geometry.layout import MAX_OUTLINE_POINTS
 
 #: ends of two outline pieces closer than this join [mm] (KiCad snaps ends to 1 nm; hand-drawn outlines
 #: leave gaps of a few um)
 JOIN_MM = 0.01
 #: a simplified outline stays within this of the drawn one [mm] (far below a mesh cell)
 SIMPLIFY_MM = 0.005
-#: most outline points kept after simplification: a board edge of more is not an outline to model
-MAX_POINTS = 50_000
+#: most outline points kept after simplification: what a layout holds (a board edge of more is not an outline
+#: to model)
+MAX_POINTS = MAX_OUTLINE_POINTS
 
 
 def chain(polylines, tol: float = JOIN_MM) -> tuple:

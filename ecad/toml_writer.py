@@ -38,7 +38,7 @@ def _key(k: str) -> str:
 
 def _string(s: str) -> str:
     out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
-    out = "".join(c if ord(c) >= 32 else f"\\u{ord(c):04x}" for c in out)
+    out = "".join(c if 32 <= ord(c) != 127 else f"\\u{ord(c):04x}" for c in out)
     return f'"{out}"'
 
 
@@ -74,7 +74,9 @@ def value_text(v) -> str:
 
 
 def _comment_lines(text: str) -> list:
-    return [f"# {line}".rstrip() for line in str(text).splitlines()]
+    """Comment lines of ``text``; a control character (which TOML forbids in comments) shown as U+FFFD."""
+    clean = "".join(c if c in "\n\t" or 32 <= ord(c) != 127 else "\ufffd" for c in str(text))
+    return [f"# {line}".rstrip() for line in clean.splitlines()]
 
 
 def _is_table(v) -> bool:
@@ -92,7 +94,7 @@ def _pairs(table: dict) -> list:
             continue
         line = f"{_key(k)} = {value_text(v)}"
         if isinstance(v, Note) and v.comment:
-            line += f"   # {v.comment}"
+            line += f"   {' '.join(_comment_lines(' '.join(str(v.comment).split())))}"
         out.append(line)
     return out
 

@@ -3,7 +3,11 @@
 A part is a dict: ``ref``, ``lib`` (library name), ``value``, ``at`` (x, y, rotation) in KiCad's coordinates
 (mm, y down), ``side`` (``top``/``bottom``), ``fab`` ((x0, y0, x1, y1) in the footprint's local frame, y down,
 as the part sits on the top side; a bottom part is written mirrored, as KiCad stores it), ``pads``
-(list of (name, kind, x, y, w, h) in the same frame), ``fields`` (dict), ``attr`` (list).
+(list of (name, kind, x, y, w, h[, drill]) in the same frame), ``fields`` (dict), ``attr`` (list).
+
+Copper layers renamed (``copper_names``) are written as each KiCad writes them: KiCad 5 names the layer so in
+its table and on every pad and footprint; KiCad 6-9 keep the canonical name everywhere and add the user's as a
+fourth word of the table.
 """
 
 from __future__ import annotations
@@ -17,9 +21,14 @@ def _layers(dialect: str, copper: int, names: tuple | None) -> tuple:
         nums = [0] + [4 + 2 * i for i in range(copper - 2)] + [2]
     else:
         nums = [0] + list(range(1, copper - 1)) + [31]
-    cu = (names or ("F.Cu",) + tuple(f"In{i}.Cu" for i in range(1, copper - 1)) + ("B.Cu",))
+    canonical = ("F.Cu",) + tuple(f"In{i}.Cu" for i in range(1, copper - 1)) + ("B.Cu",)
     q = (lambda s: s) if dialect == "kicad5" else (lambda s: f'"{s}"')
-    rows = [f"    ({n} {q(name)} signal)" for n, name in zip(nums, cu)]
+    if names and dialect != "kicad5":   # KiCad 6+: canonical names in use, the user's in the table
+        rows = [f"    ({n} {q(name)} signal {q(user)})" for n, name, user in zip(nums, canonical, names)]
+        cu = canonical
+    else:
+        cu = names or canonical
+        rows = [f"    ({n} {q(name)} signal)" for n, name in zip(nums, cu)]
     other = (("F.SilkS", 37, 5), ("B.SilkS", 36, 7), ("Edge.Cuts", 44, 25), ("F.CrtYd", 47, 31),
              ("B.CrtYd", 46, 29), ("F.Fab", 49, 35), ("B.Fab", 48, 33))
     rows += [f"    ({n9 if dialect == 'kicad9' else n} {q(name)} user)" for name, n, n9 in other]
@@ -29,17 +38,22 @@ def _layers(dialect: str, copper: int, names: tuple | None) -> tuple:
 def kicad_board(parts, *, dialect: str = "kicad7", outline=(100.0, 100.0, 140.0, 130.0), thickness: float = 1.6,
                 copper: int = 4, stackup=None, copper_names: tuple | None = None, vias=(), extra: str = "") -> str:
     """The text of a ``.kicad_pcb`` holding ``parts`` (see the module docstring) inside the rectangle
-    ``outline`` (x0, y0, x1, y1) [mm]; ``stackup``: list of (name, type, thickness [mm]) or None."""
+    ``outline`` (x0, y0, x1, y1) [mm] (None: no outline; draw one in ``extra``); ``stackup``: list of (name,
+    type, thickness [mm], or a list of sublayer thicknesses [mm]) or None."""
     version = {"kicad5": 20171130, "kicad7": 20221018, "kicad8": 20240108, "kicad9": 20241229}[dialect]
     layers, front, back, q = _layers(dialect, copper, copper_names)
     lines = [f"(kicad_pcb (version {version}) (generator pcbnew)", f"  (general (thickness {thickness}))", layers]
     if stackup:
-        rows = "\n".join(f'      (layer "{n}" (type "{t}") (thickness {th}))' for n, t, th in stackup)
+        def thick(th):
+            return " addsublayer ".join(f"(thickness {t}) (material \"FR4\")" for t in th) \
+                if isinstance(th, (list, tuple)) else f"(thickness {th})"
+        rows = "\n".join(f'      (layer "{n}" (type "{t}") {thick(th)})' for n, t, th in stackup)
         lines.append(f"  (setup\n    (stackup\n{rows}\n    )\n  )")
-    x0, y0, x1, y1 = outline
     edge = q("Edge.Cuts")
-    for a, b in (((x0, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x0, y1)), ((x0, y1), (x0, y0))):
-        lines.append(f"  (gr_line (start {a[0]} {a[1]}) (end {b[0]} {b[1]}) (layer {edge}) (width 0.05))")
+    if outline is not None:
+        x0, y0, x1, y1 = outline
+        for a, b in (((x0, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x0, y1)), ((x0, y1), (x0, y0))):
+            lines.append(f"  (gr_line (start {a[0]} {a[1]}) (end {b[0]} {b[1]}) (layer {edge}) (width 0.05))")
     for x, y, drill in vias:
         lines.append(f"  (via (at {x} {y}) (size 0.6) (drill {drill}) (layers {q(front)} {q(back)}) (net 0))")
     for p in parts:
@@ -73,10 +87,11 @@ def _footprint(p: dict, dialect: str, front: str, back: str, q) -> str:
         fx0, fx1 = sorted((mirror(fx0), mirror(fx1)))
         for a, b in (((fx0, fy0), (fx1, fy0)), ((fx1, fy0), (fx1, fy1)), ((fx1, fy1), (fx0, fy1)), ((fx0, fy1), (fx0, fy0))):
             out.append(f"    (fp_line (start {a[0]} {a[1]}) (end {b[0]} {b[1]}) (layer {q(side + '.Fab')}) (width 0.1))")
-    for name, kind, px, py, w, h in p.get("pads", []):
-        cu = f"{q(side + '.Cu')} {q(side + '.Paste')}" if kind == "smd" else q("*.Cu")
-        out.append(f"    (pad {name if dialect == 'kicad5' else chr(34) + str(name) + chr(34)} {kind} rect "
-                   f"(at {mirror(px)} {py} {rot}) (size {w} {h}) (layers {cu}))")
+    for name, kind, px, py, w, h, *drill in p.get("pads", []):
+        cu = f"{q(back if bottom else front)} {q(side + '.Paste')}" if kind == "smd" else q("*.Cu")
+        hole = f" (drill {drill[0]})" if drill else ""
+        out.append(f"    (pad {name if dialect == 'kicad5' else chr(34) + str(name) + chr(34)} {kind} "
+                   f"{'circle' if drill else 'rect'} (at {mirror(px)} {py} {rot}) (size {w} {h}){hole} (layers {cu}))")
     out.append("  )")
     return "\n".join(out)
 
