@@ -39,6 +39,8 @@ def main():
         with open(power, "w") as fh:
             fh.write(ref.replace("power_W = 0.35", "power_W = 1e30", 1))
         out = os.path.join(d, "out")
+        boards = _bad_boards(d)
+        unit = os.path.join(d, "unit.toml")
         cases = {
             "imports only (--help)": ["solve", "--help"],
             "solve --mesh-size 0.01": ["solve", "--mesh-size", "0.01", "--out", out],
@@ -58,6 +60,10 @@ def main():
             "layout: nested 100000 deep": ["geometry", deep, "--out", out],
             "layout: power_W = 1e30": ["solve", power, "--out", out],
             "--out under /proc": ["solve", "--out", "/proc/x"],
+            "import: IDF outline of 1,000,000 points": ["import", boards["million"], "--out", unit],
+            "import: KiCad arc of 1e12 degrees": ["import", boards["arc"], "--out", unit],
+            "import: (version 1e999)": ["import", boards["version"], "--out", unit],
+            "import: --ambient nan": ["import", boards["good"], "--ambient", "nan", "--out", unit],
         }
         code = "import sys; from imutherm.cli import main; sys.exit(main(sys.argv[1:]))"
         failed = 0
@@ -67,6 +73,36 @@ def main():
             shown = "NOT REFUSED" if status is None else f"exit {status}"
             print(f"{name:<62} {shown}  {dt:5.2f} s  {msg[:260]}")
     return 1 if failed else 0
+
+
+def _bad_boards(folder: str) -> dict:
+    """Board files of the import's costliest bad inputs, written into ``folder``: {name: path}."""
+    import math
+
+    edge = "\n".join(f"  (gr_line (start {a} {b}) (end {c} {e}) (layer Edge.Cuts) (width 0.05))"
+                      for a, b, c, e in ((0, 0, 40, 0), (40, 0, 40, 30), (40, 30, 0, 30), (0, 30, 0, 0)))
+    kicad = ("(kicad_pcb (version 20171130) (host pcbnew 5)\n  (general (thickness 1.6))\n  (layers (0 F.Cu signal) "
+             "(31 B.Cu signal) (44 Edge.Cuts user))\n" + edge + "\n  (module Package_SO:SOIC-8 (layer F.Cu) (at 20 15)"
+             " (fp_text reference U1 (at 0 0) (layer F.SilkS)) (property Power_W 0.1) (pad 1 smd rect (at 0 0) "
+             "(size 1 1) (layers F.Cu)))\n")
+    texts = {"good": kicad + ")\n",
+             "arc": kicad + "  (gr_arc (start 20 15) (end 25 15) (angle 1e12) (layer Edge.Cuts) (width 0.05))\n)\n",
+             "version": kicad.replace("(version 20171130)", "(version 1e999)") + ")\n"}
+    paths = {}
+    for name, text in texts.items():
+        paths[name] = os.path.join(folder, f"{name}.kicad_pcb")
+        with open(paths[name], "w") as fh:
+            fh.write(text)
+    n = 1_000_000
+    points = "".join(f"0 {20 + 15 * math.cos(2 * math.pi * k / n):.6f} {15 + 15 * math.sin(2 * math.pi * k / n):.6f} 0\n"
+                     for k in range(n + 1))
+    paths["million"] = os.path.join(folder, "million.emn")
+    with open(paths["million"], "w") as fh:
+        fh.write(".HEADER\nBOARD_FILE 3.0 \"t\" 2026/01/01.00:00:00 1\n\"b\" MM\n.END_HEADER\n.BOARD_OUTLINE ECAD\n1.6\n"
+                 + points + ".END_BOARD_OUTLINE\n")
+    with open(os.path.join(folder, "million.emp"), "w") as fh:
+        fh.write(".HEADER\nLIBRARY_FILE 3.0 \"t\" 2026/01/01.00:00:00 1\n.END_HEADER\n")
+    return paths
 
 
 def _refuse(cmd):

@@ -191,13 +191,17 @@ def _normalise_modes(folder: Path) -> None:
                 os.chmod(p, 0o666 & ~mask)
 
 
-def _test_pause(stage: str) -> None:
-    """Test-only hook: with ``IMUTHERM_TEST_PAUSE=STAGE`` (``solving``, ``written``, ``swap``, ``swapped``, ``old-moved``)
-    say so on stderr and sleep ``IMUTHERM_TEST_PAUSE_S`` seconds (default 30) there, so a test can kill the
-    process at that point (before the solve, or in the final move). Unset in normal use."""
+def pause_for_test(stage: str) -> None:
+    """Test-only hook: with ``IMUTHERM_TEST_PAUSE=STAGE`` (``solving``, ``written``, ``swap``, ``swapped``, ``old-moved``,
+    ``import-written``) say so on stderr and sleep ``IMUTHERM_TEST_PAUSE_S`` seconds (default 30) there, so a test
+    can kill the process at that point (before the solve, in the final move, or with an import's temporary
+    written). Unset in normal use."""
     if os.environ.get("IMUTHERM_TEST_PAUSE") == stage:
         print(f"imutherm: test pause at {stage}", file=sys.stderr, flush=True)
         time.sleep(float(os.environ.get("IMUTHERM_TEST_PAUSE_S", "30")))
+
+
+_test_pause = pause_for_test  # the name the folder moves call (a test replaces it)
 
 
 def _recover(real: Path) -> None:

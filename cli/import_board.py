@@ -194,7 +194,7 @@ def _estimate(spec) -> str:
 
 def run(args) -> int:
     """Read, decide, check and write (see the module docstring); returns 0."""
-    from imutherm.cli._common import lock_output_file
+    from imutherm.cli._common import lock_output_file, pause_for_test
     from imutherm.ecad.read import read_board
     from imutherm.ecad.to_layout import import_board, replace_board
     from imutherm.io import atomic_write, stale_temporaries
@@ -221,6 +221,10 @@ def run(args) -> int:
         result = import_board(board, opts)
     _print_report(result, out)
     print(_estimate(result.spec), flush=True)
-    atomic_write(out, lambda tmp: Path(tmp).write_text(result.text, encoding="utf-8"))
+    def write(tmp):
+        Path(tmp).write_text(result.text, encoding="utf-8")
+        pause_for_test("import-written")
+
+    atomic_write(out, write)
     print(f"wrote {out} (layout {result.spec.name!r}; next: imutherm geometry {out}, imutherm compare {out})")
     return 0

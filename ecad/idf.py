@@ -88,17 +88,18 @@ def _number_or_nan(tok: str) -> float:
 
 
 def _outline_records(text: str) -> int:
-    """The records in the file's outline sections, counted at C speed before they are read."""
+    """The points of the file's outline sections (their records less the thickness line), counted at C speed
+    before they are read."""
     count, start = 0, 0
     while True:
-        a = text.find(".BOARD_OUTLINE", start)
-        if a < 0:
-            a = text.find(".PANEL_OUTLINE", start)
+        a = min((i for i in (text.find(".BOARD_OUTLINE", start), text.find(".PANEL_OUTLINE", start)) if i >= 0),
+                default=-1)
         if a < 0:
             return count
+        head_end = text.find("\n", a)
         b = text.find(".END_", a + 1)
         b = len(text) if b < 0 else b
-        count += text.count("\n", a, b)
+        count += max(text.count("\n", head_end + 1, b) - 1, 0) if head_end >= 0 else 0
         start = b
 
 

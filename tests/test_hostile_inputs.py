@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import codecs
 import fcntl
+import functools
+import math
 import os
 import shutil
 import signal
@@ -876,3 +878,153 @@ def test_an_inherited_sigint_ignore_is_honoured(out):
     proc.communicate(timeout=60)
     assert alive, "the run stopped at SIGINT although it was started with SIGINT ignored"
     assert _snapshot(out) == before
+
+
+# --------------------------------------------------------------------------- board files and import options
+def _kicad(parts=None, **kw) -> str:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from kicad_writer import kicad_board, part
+
+    parts = parts if parts is not None else [part("U1", "Package_SO:SOIC-8_3.9x4.9mm", (110, 110, 0),
+                                                  fields={"Power_W": "0.1"})]
+    return kicad_board(parts, **kw)
+
+
+def _idf(outline_lines=None, ref="U1") -> tuple:
+    """(.emn text, .emp text) of a 40 x 30 mm IDF board with one 0.1 W SOIC."""
+    outline = outline_lines or ["0 0 0 0", "0 40 0 0", "0 40 30 0", "0 0 30 0", "0 0 0 0"]
+    emn = "\n".join([".HEADER", 'BOARD_FILE 3.0 "t" 2026/01/01.00:00:00 1', '"b" MM', ".END_HEADER",
+                     ".BOARD_OUTLINE ECAD", "1.6", *outline, ".END_BOARD_OUTLINE", ".PLACEMENT",
+                     f'"SOIC8" "P1" "{ref}"', "20 15 0 0 TOP PLACED", ".END_PLACEMENT"]) + "\n"
+    emp = "\n".join([".HEADER", 'LIBRARY_FILE 3.0 "t" 2026/01/01.00:00:00 1', ".END_HEADER", ".ELECTRICAL",
+                     '"SOIC8" "P1" MM 1.75', "PROP POWER_OPR 0.1", "0 -2 -2.5 0", "0 2 -2.5 0", "0 2 2.5 0",
+                     "0 -2 2.5 0", "0 -2 -2.5 0", ".END_ELECTRICAL"]) + "\n"
+    return emn, emp
+
+
+@functools.lru_cache(maxsize=1)
+def _import_board_cases() -> dict:
+    """name -> (file name, text or (emn, emp), extra options, words of the refusal)."""
+    circle = [f"0 {20 + 15 * math.cos(k * 2 * math.pi / 1_000_000):.6f} {15 + 15 * math.sin(k * 2 * math.pi / 1_000_000):.6f} 0"
+              for k in range(1_000_000)]
+    nan_poly = '  (gr_poly (pts (xy 100 100) (xy nan 100) (xy 140 130)) (layer "Edge.Cuts") (width 0.05))'
+    return {
+        "nan_in_outline": ("b.kicad_pcb", _kicad(extra=nan_poly), [], "Edge.Cuts): poly point: expected a number, got 'nan'"),
+        "inf_in_outline": ("b.kicad_pcb", _kicad().replace("(start 140.0 100.0)", "(start 1e999 100.0)", 1), [],
+                           "expected a number, got inf"),
+        "arc_of_1e12_degrees": ("b.kicad_pcb", _kicad(dialect="kicad5", extra="  (gr_arc (start 120 115) (end 125 115) "
+                                                                               "(angle 1e12) (layer Edge.Cuts) (width 0.05))"),
+                                [], "an arc of 1e+12 degrees; an arc turns at most 360 degrees"),
+        "at_with_one_number": ("b.kicad_pcb", _kicad().replace("(at 110 110 0)", "(at 88.9)", 1), [],
+                               "(at 88.9) needs x and y"),
+        "version_1e999": ("b.kicad_pcb", _kicad().replace("(version 20221018)", "(version 1e999)"), [],
+                          "(version inf): not a KiCad file version"),
+        "del_in_reference": ("b.kicad_pcb", _kicad().replace('"U1"', '"U\x7f1"', 1), [],
+                             "holds the control character U+007F"),
+        "coordinate_beyond_kicad": ("b.kicad_pcb", _kicad().replace("(at 110 110 0)", "(at 110 9e9 0)", 1), [],
+                                    "outside KiCad's coordinate range"),
+        "idf_arc_of_1e12_degrees": ("b.emn", _idf(["0 0 0 0", "0 40 0 1e12", "0 40 30 0", "0 0 30 0", "0 0 0 0"]), [],
+                                    "line 8: an arc of 1e+12 degrees"),
+        "idf_million_point_outline": ("b.emn", _idf(circle + [circle[0]]), [],
+                                      "the board outline has 1,000,001 points; at most 200,000"),
+        "idf_del_in_reference": ("b.emn", _idf(ref="U\x7f1"), [], "holds the control character U+007F"),
+        "duplicate_reference_named": ("b.kicad_pcb", _kicad().replace("(footprint", "(footprint \"X:Y\" (layer \"F.Cu\") "
+                                                                      "(at 125 110 0) (property \"Reference\" \"U1\") "
+                                                                      "(pad \"1\" smd rect (at 0 0) (size 1 1) (layers "
+                                                                      "\"F.Cu\")))\n  (footprint", 1),
+                                      ["--site", "U1=imu"], "U1 is a duplicate reference: 2 footprints carry it"),
+    }
+
+
+IMPORT_OPTION_CASES = {
+    "ambient_nan": (["--ambient", "nan"], "--ambient nan: valid: a number in -60..150 degC"),
+    "ambient_inf": (["--ambient", "inf"], "--ambient inf"),
+    "ambient_past_the_layout": (["--ambient", "400"], "--ambient 400.0"),
+    "mount_conductance_nan": (["--mount-conductance", "nan"], "--mount-conductance nan"),
+    "clearance_inf": (["--clearance", "inf"], "--clearance inf"),
+    "wall_nan": (["--wall", "nan"], "--wall nan"),
+    "merge_area_nan": (["--merge-area", "nan"], "--merge-area nan"),
+    "board_name_climbing_out": (["--board", "../../x"], "--board '../../x': valid: a name of letters"),
+    "layout_name_with_a_slash": (["--name", "a/../b"], "--name 'a/../b'"),
+}
+
+
+def _write_board(folder: Path, name: str, content) -> Path:
+    path = folder / name
+    if isinstance(content, tuple):
+        path.write_text(content[0])
+        path.with_suffix(".emp").write_text(content[1])
+    else:
+        path.write_text(content)
+    return path
+
+
+@pytest.mark.parametrize("case", list(_import_board_cases()) + list(IMPORT_OPTION_CASES))
+def test_bad_board_file_or_import_option(case, tmp_path, capsys):
+    """Refused in one line, exit status 2, no traceback, nothing written beside the inputs (no layout, no
+    temporary); an earlier layout at --out with --force stays byte-identical."""
+    cases = _import_board_cases()
+    name, content, extra, words = cases[case] if case in cases else ("b.kicad_pcb", _kicad(), *IMPORT_OPTION_CASES[case])
+    board = _write_board(tmp_path, name, content)
+    site = [] if "--site" in extra else ["--site", "U1=probe"]
+    before = sorted(os.listdir(tmp_path))
+    code, err = _run(["import", str(board), "--height", "U1=1.75", *site, *extra, "--out", str(tmp_path / "unit.toml")],
+                     capsys)
+    _assert_refused(code, err, words)
+    assert sorted(os.listdir(tmp_path)) == before
+    (tmp_path / "unit.toml").write_text("the user's earlier layout\n")
+    code, err = _run(["import", str(board), "--height", "U1=1.75", *site, *extra, "--force", "--out",
+                      str(tmp_path / "unit.toml")], capsys)
+    _assert_refused(code, err, words)
+    assert (tmp_path / "unit.toml").read_text() == "the user's earlier layout\n"
+    assert sorted(os.listdir(tmp_path)) == sorted(before + ["unit.toml"])
+
+
+def _spawn_import(board: Path, out: Path, pause: str | None = None):
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    if pause:
+        env.update(IMUTHERM_TEST_PAUSE=pause, IMUTHERM_TEST_PAUSE_S="60")
+    code = "import sys; from imutherm.cli import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.Popen([sys.executable, "-c", code, "import", str(board), "--height", "U1=1.75", "--site",
+                             "U1=probe", "--force", "--out", str(out)], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)
+
+
+def test_a_killed_import_leaves_its_temporary_and_the_next_import_removes_it(tmp_path):
+    """SIGKILL with the layout written to its temporary, not yet renamed (the test pause there): the earlier
+    layout is untouched and `.unit.XXXXXXXX.toml` is left; meanwhile a second import into the same file is
+    refused (the file is locked); the next import removes the temporary, says so, and writes the layout."""
+    board = _write_board(tmp_path, "b.kicad_pcb", _kicad())
+    out = tmp_path / "unit.toml"
+    out.write_text("the user's earlier layout\n")
+    proc = _spawn_import(board, out, "import-written")
+    _wait_for_pause(proc, "import-written")
+    second = _spawn_import(board, out)
+    _, err = second.communicate(timeout=120)
+    assert second.returncode == 2 and "another imutherm run" in err and "Traceback" not in err, err
+    proc.kill()
+    proc.communicate(timeout=60)
+    left = sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".unit."))
+    assert len(left) == 1 and left[0].endswith(".toml") and out.read_text() == "the user's earlier layout\n"
+    again = _spawn_import(board, out)
+    text, err = again.communicate(timeout=120)
+    assert again.returncode == 0, err
+    assert f"removed {left[0]}, the temporary of an earlier import into {out} that was killed" in text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.kicad_pcb", "unit.toml"]
+    assert "imported by imutherm import" in out.read_text()
+
+
+def test_force_keeps_the_replaced_layouts_permissions(tmp_path, capsys):
+    board = _write_board(tmp_path, "b.kicad_pcb", _kicad())
+    args = ["import", str(board), "--height", "U1=1.75", "--site", "U1=probe"]
+    old_umask = os.umask(0o022)
+    try:
+        assert _run(args + ["--out", str(tmp_path / "new.toml")], capsys)[0] == 0
+        assert oct((tmp_path / "new.toml").stat().st_mode & 0o777) == "0o644"   # a new file: 0666 less the umask
+        out = tmp_path / "unit.toml"
+        out.write_text("old\n")
+        os.chmod(out, 0o640)
+        assert _run(args + ["--force", "--out", str(out)], capsys)[0] == 0
+        assert oct(out.stat().st_mode & 0o777) == "0o640" and "imported by imutherm import" in out.read_text()
+    finally:
+        os.umask(old_umask)
