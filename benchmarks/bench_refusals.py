@@ -94,12 +94,12 @@ def _bad_boards(folder: str) -> dict:
         with open(paths[name], "w") as fh:
             fh.write(text)
     n = 1_000_000
-    points = "".join(f"0 {20 + 15 * math.cos(2 * math.pi * k / n):.6f} {15 + 15 * math.sin(2 * math.pi * k / n):.6f} 0\n"
-                     for k in range(n + 1))
+    angles = [2 * math.pi * k / n for k in range(n + 1)]
+    points = "".join(f"0 {20 + 15 * math.cos(a):.6f} {15 + 15 * math.sin(a):.6f} 0\n" for a in angles)
     paths["million"] = os.path.join(folder, "million.emn")
     with open(paths["million"], "w") as fh:
-        fh.write(".HEADER\nBOARD_FILE 3.0 \"t\" 2026/01/01.00:00:00 1\n\"b\" MM\n.END_HEADER\n.BOARD_OUTLINE ECAD\n1.6\n"
-                 + points + ".END_BOARD_OUTLINE\n")
+        fh.write(".HEADER\nBOARD_FILE 3.0 \"t\" 2026/01/01.00:00:00 1\n\"b\" MM\n.END_HEADER\n"
+                 ".BOARD_OUTLINE ECAD\n1.6\n" + points + ".END_BOARD_OUTLINE\n")
     with open(os.path.join(folder, "million.emp"), "w") as fh:
         fh.write(".HEADER\nLIBRARY_FILE 3.0 \"t\" 2026/01/01.00:00:00 1\n.END_HEADER\n")
     return paths

@@ -192,10 +192,10 @@ def _normalise_modes(folder: Path) -> None:
 
 
 def pause_for_test(stage: str) -> None:
-    """Test-only hook: with ``IMUTHERM_TEST_PAUSE=STAGE`` (``solving``, ``written``, ``swap``, ``swapped``, ``old-moved``,
-    ``import-written``) say so on stderr and sleep ``IMUTHERM_TEST_PAUSE_S`` seconds (default 30) there, so a test
-    can kill the process at that point (before the solve, in the final move, or with an import's temporary
-    written). Unset in normal use."""
+    """Test-only hook: with ``IMUTHERM_TEST_PAUSE=STAGE`` (``solving``, ``written``, ``swap``, ``swapped``,
+    ``old-moved``, ``import-written``) say so on stderr and sleep ``IMUTHERM_TEST_PAUSE_S`` seconds (default 30)
+    there, so a test can kill the process at that point (before the solve, in the final move, or with an
+    import's temporary written). Unset in normal use."""
     if os.environ.get("IMUTHERM_TEST_PAUSE") == stage:
         print(f"imutherm: test pause at {stage}", file=sys.stderr, flush=True)
         time.sleep(float(os.environ.get("IMUTHERM_TEST_PAUSE_S", "30")))

@@ -152,7 +152,8 @@ def _print_report(result, out: Path) -> None:
           f"into the board, {result.count('skipped')} skipped")
     comps = {c.name: c for c in result.spec.components}
     sources = defaultdict(lambda: [0.0, 0])
-    for d in sorted((d for d in result.decisions if d.fate == "modelled"), key=lambda d: natural_order(d.footprint.ref)):
+    modelled = [d for d in result.decisions if d.fate == "modelled"]
+    for d in sorted(modelled, key=lambda d: natural_order(d.footprint.ref)):
         fp, body = d.footprint, d.body
         c = comps[result.names[fp.ref]]
         source = "the electrical design" if c.power_source.startswith("electrical") else d.power_source

@@ -133,11 +133,12 @@ def pick_board(board: BoardDesign, sites=(), powered=()) -> BoardDesign:
         ys, xs = extent[chosen - 1]
         why = ("holding the --site part" if _holds(board, owner, chosen, sites) else
                "holding the --power parts" if _holds(board, owner, chosen, powered) else "the one with the most parts")
+        plural = "s" if len(frame) > 1 else ""
         notes.append(f"the file holds {len(boards)} board{'s' if len(boards) > 1 else ''}"
-                     + (f" and a frame ({len(frame)} piece{'s' if len(frame) > 1 else ''} without parts)" if frame else "")
-                     + f", joined by tabs or mouse bites: modelled the board at {xs.start * r:.1f}..{xs.stop * r:.1f} x "
-                     f"{ys.start * r:.1f}..{ys.stop * r:.1f} mm of the file ({why}); the footprints of the rest are "
-                     f"skipped (to model another board, give --site on one of its parts)")
+                     + (f" and a frame ({len(frame)} piece{plural} without parts)" if frame else "")
+                     + f", joined by tabs or mouse bites: modelled the board at {xs.start * r:.1f}..{xs.stop * r:.1f}"
+                     f" x {ys.start * r:.1f}..{ys.stop * r:.1f} mm of the file ({why}); the footprints of the rest "
+                     f"are skipped (to model another board, give --site on one of its parts)")
     footprints = []
     for i, fp in enumerate(board.footprints):
         k = owner[i]

@@ -81,7 +81,8 @@ def read_stackup(tree, where: str, copper_names: list, stated_mm: float | None) 
         if stated_mm is None:
             raise InputError(f"{where}: the board states no thickness ((general (thickness ...)) and no stack-up)")
         if not lo <= stated_mm <= hi:
-            raise InputError(f"{where}: the board's thickness is {stated_mm:g} mm, impossible (valid {lo:g}..{hi:g} mm)")
+            raise InputError(f"{where}: the board's thickness is {stated_mm:g} mm, impossible "
+                             f"(valid {lo:g}..{hi:g} mm)")
         if stated_mm > USUAL_MAX_MM:
             notes.append(f"the board states {stated_mm:g} mm, thicker than the usual boards (up to {USUAL_MAX_MM:g} "
                          f"mm): taken as stated")

@@ -57,7 +57,8 @@ def standoff_rects(board: BoardDesign, decisions: list, notes: list) -> list:
         loops, _ = chain(board.outline)
         s, w, h = CORNER_STANDOFF_MM, board.width_mm, board.height_mm
         moved = []
-        for i, (x, y, dx, dy) in enumerate(((0, 0, 1, 1), (w - s, 0, -1, 1), (0, h - s, 1, -1), (w - s, h - s, -1, -1))):
+        corners = ((0, 0, 1, 1), (w - s, 0, -1, 1), (0, h - s, 1, -1), (w - s, h - s, -1, -1))
+        for i, (x, y, dx, dy) in enumerate(corners):
             reach = 0.5 * math.hypot(w - s, h - s)
             for step in np.arange(CORNER_INSET_MM, reach, CORNER_STEP_MM):
                 a = step / math.sqrt(2.0)

@@ -129,10 +129,11 @@ def _check_refs(board: BoardDesign, opts: ImportOptions) -> None:
     named = set(opts.sites) | set(opts.powers) | set(opts.heights) | set(opts.keep) | set(opts.grease or ())
     dup = sorted({ref for ref in named if on_board.count(ref) > 1}, key=natural_order)
     if dup:
-        where = "; ".join(f"({fp.x:.2f}, {fp.y:.2f}) mm" for fp in board.footprints if fp.ref == dup[0] and not fp.off_board)
-        raise InputError(f"{board.source}: {dup[0]} is a duplicate reference: {on_board.count(dup[0])} footprints carry "
-                         f"it (at {where}); give each part a unique reference in KiCad (Annotate) before naming it "
-                         f"in --site / --power / --height / --keep / --grease")
+        where = "; ".join(f"({fp.x:.2f}, {fp.y:.2f}) mm" for fp in board.footprints
+                          if fp.ref == dup[0] and not fp.off_board)
+        raise InputError(f"{board.source}: {dup[0]} is a duplicate reference: {on_board.count(dup[0])} footprints "
+                         f"carry it (at {where}); give each part a unique reference in KiCad (Annotate) before "
+                         f"naming it in --site / --power / --height / --keep / --grease")
     refs = {fp.ref for fp in board.footprints}
     for what, given in (("--site", opts.sites), ("--power/--powers", opts.powers), ("--height/--heights", opts.heights),
                         ("--keep", opts.keep), ("--grease", opts.grease or ())):
@@ -182,7 +183,8 @@ def _no_power(board: BoardDesign, decisions: list) -> InputError:
     if lost:
         d = lost[0]
         return InputError(f"{board.source}: no power on the board modelled: {d.footprint.ref} ({d.power_W:g} W) is "
-                          f"{d.fate}: {d.reason}" + (f" (and {len(lost) - 1} more powered parts)" if len(lost) > 1 else ""))
+                          f"{d.fate}: {d.reason}"
+                          + (f" (and {len(lost) - 1} more powered parts)" if len(lost) > 1 else ""))
     return InputError(f"{board.source}: no power anywhere on the board (no dissipation field such as Power_W, no "
                       f"--powers or --electrical): give the dissipated powers, e.g. --power REF=W; likely dissipators: "
                       f"{likely_dissipators(board)}")
@@ -353,8 +355,11 @@ def _field_notes(decisions: list) -> list:
     for d in decisions:
         if d.note and d.fate != "skipped":
             by_note.setdefault(d.note, []).append(d.footprint.ref)
-    return [f"{', '.join(sorted(refs, key=natural_order)[:12])}{f' (+{len(refs) - 12} more)' if len(refs) > 12 else ''}: "
-            f"{note}" for note, refs in by_note.items()]
+    out = []
+    for note, refs in by_note.items():
+        more = f" (+{len(refs) - 12} more)" if len(refs) > 12 else ""
+        out.append(f"{', '.join(sorted(refs, key=natural_order)[:12])}{more}: {note}")
+    return out
 
 
 def _names(decisions: list, prefix: str, notes: list) -> dict:

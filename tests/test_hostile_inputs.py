@@ -905,16 +905,19 @@ def _idf(outline_lines=None, ref="U1") -> tuple:
 @functools.lru_cache(maxsize=1)
 def _import_board_cases() -> dict:
     """name -> (file name, text or (emn, emp), extra options, words of the refusal)."""
-    circle = [f"0 {20 + 15 * math.cos(k * 2 * math.pi / 1_000_000):.6f} {15 + 15 * math.sin(k * 2 * math.pi / 1_000_000):.6f} 0"
-              for k in range(1_000_000)]
+    angles = [k * 2 * math.pi / 1_000_000 for k in range(1_000_000)]
+    circle = [f"0 {20 + 15 * math.cos(a):.6f} {15 + 15 * math.sin(a):.6f} 0" for a in angles]
+    arc = "  (gr_arc (start 120 115) (end 125 115) (angle 1e12) (layer Edge.Cuts) (width 0.05))"
+    twin = ('(footprint "X:Y" (layer "F.Cu") (at 125 110 0) (property "Reference" "U1") '
+            '(pad "1" smd rect (at 0 0) (size 1 1) (layers "F.Cu")))\n  (footprint')
     nan_poly = '  (gr_poly (pts (xy 100 100) (xy nan 100) (xy 140 130)) (layer "Edge.Cuts") (width 0.05))'
     return {
-        "nan_in_outline": ("b.kicad_pcb", _kicad(extra=nan_poly), [], "Edge.Cuts): poly point: expected a number, got 'nan'"),
+        "nan_in_outline": ("b.kicad_pcb", _kicad(extra=nan_poly), [],
+                           "Edge.Cuts): poly point: expected a number, got 'nan'"),
         "inf_in_outline": ("b.kicad_pcb", _kicad().replace("(start 140.0 100.0)", "(start 1e999 100.0)", 1), [],
                            "expected a number, got inf"),
-        "arc_of_1e12_degrees": ("b.kicad_pcb", _kicad(dialect="kicad5", extra="  (gr_arc (start 120 115) (end 125 115) "
-                                                                               "(angle 1e12) (layer Edge.Cuts) (width 0.05))"),
-                                [], "an arc of 1e+12 degrees; an arc turns at most 360 degrees"),
+        "arc_of_1e12_degrees": ("b.kicad_pcb", _kicad(dialect="kicad5", extra=arc), [],
+                                "an arc of 1e+12 degrees; an arc turns at most 360 degrees"),
         "at_with_one_number": ("b.kicad_pcb", _kicad().replace("(at 110 110 0)", "(at 88.9)", 1), [],
                                "(at 88.9) needs x and y"),
         "version_1e999": ("b.kicad_pcb", _kicad().replace("(version 20221018)", "(version 1e999)"), [],
@@ -928,11 +931,8 @@ def _import_board_cases() -> dict:
         "idf_million_point_outline": ("b.emn", _idf(circle + [circle[0]]), [],
                                       "the board outline has 1,000,001 points; at most 200,000"),
         "idf_del_in_reference": ("b.emn", _idf(ref="U\x7f1"), [], "holds the control character U+007F"),
-        "duplicate_reference_named": ("b.kicad_pcb", _kicad().replace("(footprint", "(footprint \"X:Y\" (layer \"F.Cu\") "
-                                                                      "(at 125 110 0) (property \"Reference\" \"U1\") "
-                                                                      "(pad \"1\" smd rect (at 0 0) (size 1 1) (layers "
-                                                                      "\"F.Cu\")))\n  (footprint", 1),
-                                      ["--site", "U1=imu"], "U1 is a duplicate reference: 2 footprints carry it"),
+        "duplicate_reference_named": ("b.kicad_pcb", _kicad().replace("(footprint", twin, 1), ["--site", "U1=imu"],
+                                      "U1 is a duplicate reference: 2 footprints carry it"),
     }
 
 
@@ -964,7 +964,8 @@ def test_bad_board_file_or_import_option(case, tmp_path, capsys):
     """Refused in one line, exit status 2, no traceback, nothing written beside the inputs (no layout, no
     temporary); an earlier layout at --out with --force stays byte-identical."""
     cases = _import_board_cases()
-    name, content, extra, words = cases[case] if case in cases else ("b.kicad_pcb", _kicad(), *IMPORT_OPTION_CASES[case])
+    name, content, extra, words = (cases[case] if case in cases else
+                                   ("b.kicad_pcb", _kicad(), *IMPORT_OPTION_CASES[case]))
     board = _write_board(tmp_path, name, content)
     site = [] if "--site" in extra else ["--site", "U1=probe"]
     before = sorted(os.listdir(tmp_path))

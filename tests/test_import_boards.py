@@ -51,9 +51,9 @@ def imported(tmp_path_factory):
     for name, (ref, kind) in SITES.items():
         path = folder / f"{name}.kicad_pcb"
         path.write_bytes(gzip.decompress((BOARDS / f"{name}.kicad_pcb.gz").read_bytes()))
+        electrical = read_electrical(BOARDS / "openuav_electrical.toml") if name == "openuav" else None
         opts = ImportOptions(powers=read_value_csv(BOARDS / f"{name}_powers.csv", "power_W"), heights=_heights(name),
-                             sites={ref: kind},
-                             electrical=read_electrical(BOARDS / "openuav_electrical.toml") if name == "openuav" else None)
+                             sites={ref: kind}, electrical=electrical)
         out[name] = import_board(read_board(path), opts)
     return out
 
@@ -147,7 +147,8 @@ def test_the_import_command_says_which_file_gave_each_power(tmp_path, capsys):
     board = tmp_path / "unl-core-board.kicad_pcb"
     board.write_bytes(gzip.decompress((BOARDS / "unl-core-board.kicad_pcb.gz").read_bytes()))
     heights = tmp_path / "h.csv"
-    heights.write_text("reference,height_mm\n" + "".join(f"{ref},{h}\n" for ref, (h, _) in _heights("unl-core-board").items()))
+    rows = "".join(f"{ref},{h}\n" for ref, (h, _) in _heights("unl-core-board").items())
+    heights.write_text("reference,height_mm\n" + rows)
     out = tmp_path / "unit.toml"
     assert import_main([str(board), "--powers", str(BOARDS / "unl-core-board_powers.csv"), "--site", "U5=imu",
                         "--heights", str(heights), "--out", str(out)]) == 0
