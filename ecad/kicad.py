@@ -88,7 +88,10 @@ def read_kicad(path: str | Path) -> BoardDesign:
     general = child(tree, "general")
     stated = child(general, "thickness") if general else None
     stated_mm = _num(stated[1] if len(stated) > 1 else None, where, "general thickness") if stated else None
-    thickness, copper_um, stack_source, notes = read_stackup(tree, where, [layers[n][0] for n in order], stated_mm)
+    kicad9 = version >= KICAD_VERSIONS[0][0]
+    canonical = {front: "F.Cu", back: "B.Cu"}
+    names_of = [(layers[n][0], canonical.get(n, f"In{(n - 2) // 2 if kicad9 else n}.Cu")) for n in order]
+    thickness, copper_um, stack_source, notes = read_stackup(tree, where, names_of, stated_mm)
     outline = _outline(tree, where)
     if not outline:
         raise InputError(f"{where}: the board has no outline: nothing is drawn on the Edge.Cuts layer "

@@ -61,7 +61,8 @@ def _thickness_mm(node, where: str, layer_name: str) -> list:
 def read_stackup(tree, where: str, copper_names: list, stated_mm: float | None) -> tuple:
     """(thickness [mm], copper thicknesses [um] per table copper layer, source, notes) of a parsed board.
 
-    copper_names : the layer table's copper layers, front to back (canonical names, ``F.Cu``)
+    copper_names : the layer table's copper layers, front to back: (name in the table, canonical name) pairs
+        (a KiCad 5 table names a renamed layer ``C1F``, its stack-up ``F.Cu``)
     stated_mm : the board's ``(general (thickness))`` [mm], or None
     """
     lo, hi = THICKNESS_RANGE_MM
@@ -96,8 +97,9 @@ def read_stackup(tree, where: str, copper_names: list, stated_mm: float | None) 
     for name, um in copper.items():
         if not 5.0 <= um <= 500.0:
             raise InputError(f"{where}: stack-up copper layer {quote(name, 40)} is {um:g} um thick; valid 5..500 um")
-    copper_um = tuple(copper.get(name, DEFAULT_COPPER_UM) for name in copper_names)
-    if len(copper) != len(copper_names) or set(copper) != set(copper_names):
+    copper_um = tuple(copper.get(name, copper.get(canon, DEFAULT_COPPER_UM)) for name, canon in copper_names)
+    matched = {name if name in copper else canon for name, canon in copper_names}
+    if len(copper) != len(copper_names) or matched != set(copper):
         notes.append(f"the stack-up lists {len(copper)} copper layers, the layer table {len(copper_names)} (the "
                      f"layers that carry copper): the table's {len(copper_names)} modelled, each at the stack-up's "
                      f"thickness of that name ({DEFAULT_COPPER_UM:g} um where it has none), in the stack-up's "

@@ -345,7 +345,12 @@ def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
     merge = opts.merge_area_mm2 if opts.merge_area_mm2 is not None else 10.0
     decisions = decide(board, powers=opts.powers, heights=opts.heights, keep=keep, merge_area_mm2=merge)
     regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
+    off = {fp.ref: fp.off_board for fp in board.footprints if fp.off_board}
+    off = {ref: why for ref, why in off.items() if ref not in {fp.ref for fp in board.footprints if not fp.off_board}}
     notes = list(board.notes) + ([renamed] if renamed else []) + _field_notes(decisions)
+    for what, given in (("--power", opts.powers), ("--height", opts.heights), ("--keep", opts.keep)):
+        notes += [f"{what} {ref}: not on the board modelled ({off[ref]}): left out"
+                  for ref in sorted(given, key=natural_order) if ref in off]
     return board, decisions, keep, regulators, notes
 
 

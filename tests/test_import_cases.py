@@ -50,9 +50,14 @@ def test_renamed_copper_layers_keep_every_pad(tmp_path, dialect):
     pads = [("1", "smd", -1.5, 0, 1.0, 2.0), ("2", "smd", 1.5, 0, 1.0, 2.0)]
     parts = [dict(part("U1", "Vendor:ChipNoFab", (110, 105, 0), pads=pads), fab=None),
              dict(part("U2", SOIC, (120, 115, 90), side="bottom"))]
-    board = _board(tmp_path, parts, dialect=dialect, copper=4, copper_names=("C1F", "C2", "C3", "C4B"))
+    stack = [("F.Cu", "copper", 0.018), ("dielectric 1", "core", 0.5), ("In1.Cu", "copper", 0.035),
+             ("dielectric 2", "prepreg", 0.5), ("In2.Cu", "copper", 0.035), ("dielectric 3", "core", 0.5),
+             ("B.Cu", "copper", 0.07)]   # KiCad names the stack-up's layers canonically, whatever the table says
+    board = _board(tmp_path, parts, dialect=dialect, copper=4, copper_names=("C1F", "C2", "C3", "C4B"), stackup=stack,
+                   thickness=1.658)
     u1, u2 = board.footprints
     assert len(u1.pads) == 2 and len(u2.pads) == 2 and (u1.side, u2.side) == ("top", "bottom")
+    assert board.copper_um == pytest.approx((18.0, 35.0, 35.0, 70.0)) and board.notes == ()
     r = import_board(board, ImportOptions(powers={"U1": (0.1, "t")}, heights={"U1": (1.0, "t")}))
     assert _fates(r)["U1"][0] == "modelled" and r.decisions[0].body.width == pytest.approx(4.0)
 
@@ -121,6 +126,14 @@ def test_overhanging_edge_parts_are_kept_and_cut_at_the_edge(tmp_path):
     assert notes[0].startswith("J1 at (37.50, 15.00) mm: its body overhangs the board's right edge by 1.10 mm")
     assert notes[1].startswith("J2 at (15.00, 3.00) mm: its body overhangs the board's bottom edge by 1.50 mm")
     assert all("kept, cut at the edge" in n for n in notes)
+
+
+def test_a_part_left_outside_the_board_is_skipped_and_its_power_said_left_out(tmp_path):
+    r = import_board(_board(tmp_path, [part("U1", SOIC, (110, 110, 0)), part("U9", SOIC, (200, 110, 0))]),
+                     ImportOptions(powers={"U1": (0.1, "t"), "U9": (0.2, "t")}))
+    assert _fates(r)["U9"] == ("skipped", "outside the board outline")
+    assert "--power U9: not on the board modelled (outside the board outline): left out" in r.notes
+    assert sum(c.power_W for c in r.spec.components) == pytest.approx(0.1)
 
 
 # ------------------------------------------------------------------ item 2: overlaps by design
