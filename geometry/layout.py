@@ -193,6 +193,7 @@ class SiteSpec:
     board: str | None = None
     side: str | None = None
     at_mm: tuple | None = None
+    grade: str | None = None  # sensor grade of the site's chip (imutherm.imu.site_grades), None: not named
 
 
 @dataclass(frozen=True)
@@ -641,7 +642,15 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
     sites = []
     for name, t in _named_tables(top, "sites", "[sites] with name = { ... } lines").items():
         s = _Table(path, f"site {quote(name, 60)}", t, {"part": "part name", "board": "board name",
-                                                "side": "top|bottom", "at_mm": "(u, v)"})
+                                                "side": "top|bottom", "at_mm": "(u, v)", "grade": "sensor grade"})
+        grade = None
+        if "grade" in t:  # the chip's grade (imutherm import writes it), checked against the sensor library
+            from imutherm.imu.site_grades import check_grade
+
+            try:
+                grade = check_grade(s.string("grade"), "grade")
+            except InputError as e:
+                s.fail("grade", str(e).split(": ", 1)[1])
         if "part" in t:
             extra = [k for k in ("board", "side", "at_mm") if k in t]
             if extra:
@@ -650,7 +659,7 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
             part = s.string("part")
             if part not in names or part == "fill":
                 s.fail("part", f"unknown part {part!r}; valid: {', '.join(sorted(names))}")
-            sites.append(SiteSpec(name, part=part))
+            sites.append(SiteSpec(name, part=part, grade=grade))
         else:
             if "board" not in t:
                 s.fail(None, "needs 'part' (a part's centroid) or 'board' with 'at_mm' (a point on a board face)")
@@ -658,7 +667,7 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
             if board not in board_by_name:
                 s.fail("board", f"unknown board {board!r}; valid: {', '.join(board_by_name)}")
             sites.append(SiteSpec(name, board=board, side=s.string("side", "top", choices=("top", "bottom")),
-                                  at_mm=s.vector("at_mm", 2)))
+                                  at_mm=s.vector("at_mm", 2), grade=grade))
     return sites
 
 

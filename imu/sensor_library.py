@@ -316,15 +316,16 @@ def chip_source(key: str) -> str:
     return f"{c['name']} ({c['maker']} {c['datasheet']})"
 
 
-def grade_for_part(ref: str, value: str, footprint: str = "") -> GradeChoice:
-    """The grade of site part ``ref`` from its value or footprint: its library chip, else ``generic_mems``."""
+def grade_for_part(ref: str, value: str, footprint: str = "", kind: str = "imu") -> GradeChoice:
+    """The grade of site part ``ref`` (a ``kind`` site) from its value or footprint: its library chip, else
+    ``generic_mems``; ``line`` says which, in one line."""
     key = match_chip(value, footprint)
     if key is None:
         shown = value or footprint or "?"
-        return GradeChoice(GENERIC, None, f"site {ref}: unknown chip {shown!r}: generic consumer MEMS grade "
+        return GradeChoice(GENERIC, None, f"site {ref}={kind}: unknown chip {shown!r}: generic consumer MEMS grade "
                                           f"({GENERIC}: the median of the library's consumer chips); --grade "
                                           f"{ref}=NAME names its grade")
-    return GradeChoice(key, key, f"site {ref}: {chip_source(key)}: grade {key}")
+    return GradeChoice(key, key, f"site {ref}={kind}: {chip_source(key)}: grade {key}")
 
 
 def grade_source(name: str) -> str:
