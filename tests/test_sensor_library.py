@@ -166,3 +166,125 @@ def test_combined_grade_and_unknown_grade():
     assert g.gyro == load_grade("bmi088").gyro and g.accel == load_grade("adxl355").accel
     with pytest.raises(InputError, match="unknown grade 'nope'"):
         load_grade("nope")
+
+
+# --------------------------------------------------------------------------- the grade follows the chip
+import gzip  # noqa: E402
+from pathlib import Path  # noqa: E402
+from types import SimpleNamespace  # noqa: E402
+
+from imutherm.imu import site_grades as SG  # noqa: E402
+
+BOARDS = Path(__file__).resolve().parents[1] / "examples" / "boards"
+
+
+def _import(tmp_path, name, ref, **kw):
+    from imutherm.ecad.read import read_board
+    from imutherm.ecad.to_layout import ImportOptions, import_board
+    from imutherm.ecad.user_tables import read_electrical, read_value_csv
+
+    path = tmp_path / f"{name}.kicad_pcb"
+    path.write_bytes(gzip.decompress((BOARDS / f"{name}.kicad_pcb.gz").read_bytes()))
+    el = read_electrical(BOARDS / "openuav_electrical.toml") if name == "openuav" else None
+    opts = ImportOptions(powers=read_value_csv(BOARDS / f"{name}_powers.csv", "power_W"),
+                         heights=read_value_csv(BOARDS / f"{name}_heights.csv", "height_mm"),
+                         sites={ref: "imu"}, electrical=el, **kw)
+    return import_board(read_board(path), opts)
+
+
+def test_matching_aliases_and_footprints():
+    assert [L.match_chip(v) for v in ("ICM42688P", "icm-42688-p", "MPU6050", "MPU-6000", "BMI088", "BMX160",
+                                      "LSM6DSOXTR", "LSM6DSOTR", "LSM6DSV16XTR", "ISM330DHCXTR", "ADIS16470AMLZ")] == [
+        "icm42688p", "icm42688p", "mpu6000", "mpu6000", "bmi088", "bmi160", "lsm6dsox", "lsm6dso", "lsm6dsv16x",
+        "ism330dhcx", "adis16470"]
+    assert L.match_chip("10k", "Package_LGA:Bosch_LGA-16_3x4.5mm_BMI088") == "bmi088"   # the footprint names it
+    assert L.match_chip("STM32F405", "LQFP-64") is None and L.match_chip("", "") is None
+
+
+def test_grade_from_the_openuav_boards_icm42688p(tmp_path):
+    """openuav (examples/boards, KiCad): U3 is an ICM-42688-P: every sensor site gets its grade, said in one line,
+    and the study takes it."""
+    r = _import(tmp_path, "openuav", "U3")
+    assert {s.name: s.grade for s in r.spec.sites} == {s: "icm42688p" for s in
+                                                       ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")}
+    assert "site U3=imu: ICM-42688-P (TDK InvenSense ICM-42688-P Datasheet DS-000347 rev 1.7): grade icm42688p" \
+        in r.notes
+    assert 'grade = "icm42688p"' in r.text
+    grade, lines = SG.study_grade(r.spec, None)
+    assert grade == "icm42688p" and len(lines) == 2 and "DS-000347 rev 1.7" in lines[0]
+    assert SG.study_grade(r.spec, "adis16488")[0] == "adis16488"   # --grade wins
+
+
+def test_unknown_chip_gets_the_generic_grade(tmp_path):
+    """drone-fc's U2 is an ICM-20689, not in the library: generic_mems, named in one line."""
+    r = _import(tmp_path, "drone-fc", "U2")
+    assert {s.grade for s in r.spec.sites if s.name.startswith(("gyro", "accel"))} == {"generic_mems"}
+    line = next(n for n in r.notes if n.startswith("site U2=imu"))
+    assert line == ("site U2=imu: unknown chip 'ICM-20689': generic consumer MEMS grade (generic_mems: the median of "
+                    "the library's consumer chips); --grade U2=NAME names its grade")
+
+
+def test_grade_option_overrides(tmp_path):
+    assert SG.parse_grade_options(["BMI088"]) == {"*": "bmi088"}
+    assert SG.parse_grade_options(["U2=icm20602", "U5=bmi088+adxl355"]) == {"U2": "icm20602", "U5": "bmi088+adxl355"}
+    with pytest.raises(InputError, match="--grade 'nope': unknown grade; valid: adis16355"):
+        SG.parse_grade_options(["nope"])
+    with pytest.raises(InputError, match="U2 is given twice"):
+        SG.parse_grade_options(["U2=bmi088", "U2=icm20602"])
+    r = _import(tmp_path, "drone-fc", "U2", grades={"U2": "icm20602"})
+    assert {s.grade for s in r.spec.sites if s.name.startswith("gyro")} == {"icm20602"}
+    assert any(n.startswith("site U2=imu: grade icm20602 (--grade; icm20602: ICM-20602") for n in r.notes)
+    with pytest.raises(InputError, match="U9 is not a --site part"):
+        _import(tmp_path, "drone-fc", "U2", grades={"U9": "icm20602"})
+
+
+def test_import_cli_prints_the_grade(tmp_path, capsys):
+    from imutherm.cli.import_board import main as import_main
+
+    board = tmp_path / "drone-fc.kicad_pcb"
+    board.write_bytes(gzip.decompress((BOARDS / "drone-fc.kicad_pcb.gz").read_bytes()))
+    out = tmp_path / "fc.toml"
+    assert import_main([str(board), "--powers", str(BOARDS / "drone-fc_powers.csv"), "--heights",
+                        str(BOARDS / "drone-fc_heights.csv"), "--site", "U2=imu", "--grade", "mpu6000",
+                        "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "note: site U2=imu: grade mpu6000 (--grade; mpu6000: MPU-6000/MPU-6050 (InvenSense" in text
+    assert 'grade = "mpu6000"' in out.read_text()
+
+
+def test_layout_site_grade_checked():
+    from imutherm.ecad.to_layout import check_layout_text
+    from imutherm.geometry.layout import load_layout, resolve_layout
+
+    ref = load_layout("imu_reference")
+    assert SG.study_grade(ref, None)[0] == "adis16355"     # the reference unit's sites name no grade
+    text = resolve_layout("imu_reference").read_text()
+    mixed = text.replace('gyro_x = { part = "gyro_x_die" }', 'gyro_x = { part = "gyro_x_die", grade = "bmi088" }') \
+                .replace('accel_x = { part = "accel_x_die" }', 'accel_x = { part = "accel_x_die", grade = "ADXL355" }')
+    spec = check_layout_text(mixed, "mixed.toml")
+    grade, lines = SG.study_grade(spec, None)
+    assert grade == "bmi088+adxl355" and lines[0].startswith("gyro sites gyro_x: grade bmi088: BMI088 (Bosch")
+    assert load_grade(grade).accel == load_grade("adxl355").accel
+    bad = text.replace('gyro_x = { part = "gyro_x_die" }', 'gyro_x = { part = "gyro_x_die", grade = "xyz" }')
+    with pytest.raises(InputError, match="site 'gyro_x': field 'grade': 'xyz': unknown grade"):
+        check_layout_text(bad, "bad.toml")
+
+
+def test_compare_prints_the_grade_and_the_report_names_it(capsys):
+    from imutherm.cli.compare import _study_config
+    from imutherm.ecad.to_layout import check_layout_text
+    from imutherm.geometry.layout import resolve_layout
+
+    text = resolve_layout("imu_reference").read_text()
+    for s in ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"):
+        text = text.replace(f'{s} = {{ part = "{s}_die" }}', f'{s} = {{ part = "{s}_die", grade = "icm42688p" }}')
+    spec = check_layout_text(text, "unit.toml")
+    args = SimpleNamespace(run_model=(spec, None, None, None), grade=None, seeds=1, seed=0, out_of_range="linear",
+                           profiles="flight", filter_defaults=False, filters=None)
+    assert _study_config(args).grade == "icm42688p"
+    out = capsys.readouterr().out
+    assert "gyro sites gyro_x, gyro_y, gyro_z: grade icm42688p: ICM-42688-P (TDK InvenSense" in out
+    summary = {"study": {"grade": "icm42688p"}, "sensor_grade": SG.grades_summary(spec, "icm42688p")}
+    assert SG.grade_text(summary).startswith("grade icm42688p (icm42688p: ICM-42688-P (TDK InvenSense ICM-42688-P "
+                                             "Datasheet DS-000347 rev 1.7); 4 figures read in the datasheet")
+    assert SG.grade_text({"study": {"grade": "adis16355"}}) == "grade adis16355"   # an older summary.json
