@@ -131,10 +131,13 @@ def test_st_lsm6dso():
 
 
 def test_analog_devices_adis16470_and_adxl355():
-    """ADIS16470: ARW 0.34 deg/rth, in-run 8 deg/h (recalled): the model's density is the ARW itself.
+    """ADIS16470 Rev. C p.1: 0.008 deg/s/rtHz, in-run 8 deg/h, 13 ug: the model's density is the ARW, ND / sqrt 2
+    (ADI's own ARW, 0.34 deg/rth, agrees).
     ADXL355 is an accelerometer only: its grade's gyros are the generic consumer grade's."""
     s = load_grade("adis16470")
-    assert s.gyro.noise_density == pytest.approx(0.34 / 60.0 * DEG)
+    assert s.gyro.noise_density == pytest.approx(0.008 / math.sqrt(2) * DEG)
+    assert s.gyro.noise_density == pytest.approx(0.34 / 60.0 * DEG, rel=0.01)           # ARW 0.34 deg/rth
+    assert s.accel.bias_instability == pytest.approx(13e-6 * G0)
     assert s.gyro.bias_instability == pytest.approx(8.0 / 3600.0 * DEG)
     assert s.accel.noise_density == pytest.approx(0.037 / 60.0, rel=1e-9)            # VRW 0.037 m/s/rth
     assert GRADES["adxl355"]["gyro"]["bias_temp_amplitude_dps"] == GRADES["generic_mems"]["gyro"]["bias_temp_amplitude_dps"]
