@@ -345,3 +345,32 @@ def grade_source(name: str) -> str:
         else:
             lines.append(f"{p}: {d['description']}")
     return " + ".join(lines) if len(parts) == 1 else "gyro " + lines[0] + "; accel " + lines[1]
+
+
+def markdown_table() -> str:
+    """The library as a Markdown table (docs/reference/sensor-library.md); each figure marked D (read in the
+    datasheet), R (recalled, not checked) or A (assumed by the class rule)."""
+    from imutherm.imu.grades import GRADES
+
+    mark = {"checked": "D", "recalled": "R", "assumed": "A"}
+
+    def cell(figs, key, fmt):
+        v, src = figs[key]
+        return f"{fmt(v)} {mark[status(src)]}" if v is not None else f"- {mark[status(src)]}"
+
+    rows = ["| grade | chip | datasheet | gyro range [dps] | gyro noise [dps/rtHz] | gyro bias tempco [dps/K] | "
+            "gyro SF tempco [%/K] | accel noise [ug/rtHz] | accel bias tempco [mg/K] | accel SF tempco [%/K] | "
+            "figures D / R / A |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for key in [*library(), GENERIC]:
+        g = GRADES[key]
+        gy, ac = g["figures"]["gyro"], g["figures"]["accel"]
+        c = g["counts"]
+        chip = f"{library()[key]['name']} ({library()[key]['maker']})" if key in library() else "generic consumer MEMS"
+        ds = library()[key]["datasheet"] if key in library() else "median of the consumer chips"
+        rows.append(f"| `{key}` | {chip} | {ds} | {cell(gy, 'range_dps', lambda v: f'{v:g}')} | "
+                    f"{cell(gy, 'nd', lambda v: f'{v:.4g}')} | {cell(gy, 'bias_tc', lambda v: f'{v:.3g}')} | "
+                    f"{cell(gy, 'sf_tc', lambda v: f'{v:.3g}')} | {cell(ac, 'nd', lambda v: f'{v:.4g}')} | "
+                    f"{cell(ac, 'bias_tc', lambda v: f'{v:.3g}')} | {cell(ac, 'sf_tc', lambda v: f'{v:.3g}')} | "
+                    f"{c['checked']} / {c['recalled']} / {c['assumed']} |")
+    return "\n".join(rows) + "\n"

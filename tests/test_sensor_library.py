@@ -291,3 +291,9 @@ def test_compare_prints_the_grade_and_the_report_names_it(capsys):
     assert SG.grade_text(summary).startswith("grade icm42688p (icm42688p: ICM-42688-P (TDK InvenSense ICM-42688-P "
                                              "Datasheet DS-000347 rev 1.7); 4 figures read in the datasheet")
     assert SG.grade_text({"study": {"grade": "adis16355"}}) == "grade adis16355"   # an older summary.json
+
+
+def test_docs_table_is_current():
+    """docs/reference/sensor-library.md carries the generated table of the library as it is."""
+    page = (Path(__file__).resolve().parents[1] / "docs" / "reference" / "sensor-library.md").read_text()
+    assert L.markdown_table() in page
