@@ -650,7 +650,7 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
             try:
                 grade = check_grade(s.string("grade"), "grade")
             except InputError as e:
-                s.fail("grade", str(e)[len("grade "):])
+                s.fail("grade", str(e)[len("grade: "):])
         if "part" in t:
             extra = [k for k in ("board", "side", "at_mm") if k in t]
             if extra:

@@ -27,7 +27,7 @@ def check_grade(name: str, what: str = "--grade") -> str:
     parts = key.split("+")
     if not key or len(parts) > 2 or any(p not in GRADES for p in parts):
         chips = sorted(k for k in GRADES if "chip" in GRADES[k] and k != GENERIC)
-        raise InputError(f"{what} {name!r}: unknown grade; valid: adis16355, adis16488, ideal, {GENERIC}, the "
+        raise InputError(f"{what}: unknown grade {name!r}; valid: adis16355, adis16488, ideal, {GENERIC}, the "
                          f"sensor library's chips ({', '.join(chips)}) or GYRO+ACCEL")
     return key
 

@@ -230,7 +230,7 @@ def test_unknown_chip_gets_the_generic_grade(tmp_path):
 def test_grade_option_overrides(tmp_path):
     assert SG.parse_grade_options(["BMI088"]) == {"*": "bmi088"}
     assert SG.parse_grade_options(["U2=icm20602", "U5=bmi088+adxl355"]) == {"U2": "icm20602", "U5": "bmi088+adxl355"}
-    with pytest.raises(InputError, match="--grade 'nope': unknown grade; valid: adis16355"):
+    with pytest.raises(InputError, match="--grade: unknown grade 'nope'; valid: adis16355"):
         SG.parse_grade_options(["nope"])
     with pytest.raises(InputError, match="U2 is given twice"):
         SG.parse_grade_options(["U2=bmi088", "U2=icm20602"])
@@ -269,7 +269,7 @@ def test_layout_site_grade_checked():
     assert grade == "bmi088+adxl355" and lines[0].startswith("gyro sites gyro_x: grade bmi088: BMI088 (Bosch")
     assert load_grade(grade).accel == load_grade("adxl355").accel
     bad = text.replace('gyro_x = { part = "gyro_x_die" }', 'gyro_x = { part = "gyro_x_die", grade = "xyz" }')
-    with pytest.raises(InputError, match="site 'gyro_x': field 'grade': 'xyz': unknown grade"):
+    with pytest.raises(InputError, match="site 'gyro_x': field 'grade': unknown grade 'xyz'; valid"):
         check_layout_text(bad, "bad.toml")
 
 
