@@ -297,3 +297,26 @@ def test_docs_table_is_current():
     """docs/reference/sensor-library.md carries the generated table of the library as it is."""
     page = (Path(__file__).resolve().parents[1] / "docs" / "reference" / "sensor-library.md").read_text()
     assert L.markdown_table() in page
+
+
+@pytest.mark.parametrize("chip", ["mpu6000", "mpu9250"])
+def test_every_given_figure_moves_the_grade(chip):
+    """The thermal error model uses every figure a chip gives: doubling any one changes the grade (the ODR, which
+    only bounds the study's rate, is refused when below it)."""
+    figs = L._fill(chip)
+    ref = GRADES["adis16355"]
+    base = L._grade(chip, chip, "", [], figs, ref)
+    given = [(p, f) for p in ("gyro", "accel", "chip") for f, (_v, s) in figs[p].items() if L.status(s) == "checked"]
+    assert len(given) >= 16
+    for part, f in given:
+        v, s = figs[part][f]
+        changed = {p: dict(d) for p, d in figs.items()}
+        if f == "odr_max_hz":
+            changed[part][f] = (50.0, s)
+            with pytest.raises(InputError, match="below the study's 100 Hz"):
+                L._grade(chip, chip, "", [], changed, ref)
+            continue
+        changed[part][f] = (2.0 * v, s)
+        other = L._grade(chip, chip, "", [], changed, ref)
+        assert {k: other[k] for k in ("gyro", "accel", "temp_sensor_lsb_C")} != \
+            {k: base[k] for k in ("gyro", "accel", "temp_sensor_lsb_C")}, (part, f)
