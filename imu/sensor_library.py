@@ -269,7 +269,8 @@ def library_grades(reference: dict) -> dict:
     grades = {}
     for key, c in library().items():
         grades[key] = _grade(key, c["name"], f"{c['name']} ({c['maker']}), {c['class']} MEMS, from its datasheet",
-                             [f"{c['maker']} {c['name']}: {c['datasheet']}"], _fill(key), reference)
+                             [f"{c['maker']} {c['name']}: {c['datasheet']}", *([c["note"]] if "note" in c else [])],
+                             _fill(key), reference)
     grades[GENERIC] = _grade(GENERIC, "generic consumer MEMS",
                              "generic consumer MEMS IMU: the median of the library's consumer chips' datasheet figures",
                              ["the median over the library's consumer chips of each figure they give"],
