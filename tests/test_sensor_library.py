@@ -88,7 +88,8 @@ def test_invensense_mpu6000_against_ps_mpu_6000a_rev34():
 
 def test_invensense_mpu9250_and_icm20948_tables():
     """MPU-9250 PS-MPU-9250A-01 rev 1.0 Tables 1-2; ICM-20948 DS-000189 rev 1.3 Table 2."""
-    assert fig("mpu9250", "gyro", "bias_change_dps")["v"] == 30.0 and fig("mpu9250", "gyro", "sf_change_pct")["v"] == 4.0
+    assert fig("mpu9250", "gyro", "bias_change_dps")["v"] == 30.0
+    assert fig("mpu9250", "gyro", "sf_change_pct")["v"] == 4.0
     assert fig("mpu9250", "gyro", "noise_density_dps_rthz")["v"] == 0.01
     assert fig("mpu9250", "accel", "bias_tempco_mg_per_C")["v"] == 1.5
     assert fig("mpu9250", "accel", "sf_tempco_pct_per_C")["v"] == 0.026
@@ -140,7 +141,8 @@ def test_analog_devices_adis16470_and_adxl355():
     assert s.accel.bias_instability == pytest.approx(13e-6 * G0)
     assert s.gyro.bias_instability == pytest.approx(8.0 / 3600.0 * DEG)
     assert s.accel.noise_density == pytest.approx(0.037 / 60.0, rel=1e-9)            # VRW 0.037 m/s/rth
-    assert GRADES["adxl355"]["gyro"]["bias_temp_amplitude_dps"] == GRADES["generic_mems"]["gyro"]["bias_temp_amplitude_dps"]
+    assert GRADES["adxl355"]["gyro"]["bias_temp_amplitude_dps"] == \
+        GRADES["generic_mems"]["gyro"]["bias_temp_amplitude_dps"]
     assert GRADES["adxl355"]["accel"]["noise_rms_mg"] == pytest.approx(22.5e-3 / math.sqrt(2) * 10.0)
 
 
