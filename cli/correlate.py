@@ -18,7 +18,7 @@ import argparse
 import os
 
 from imutherm import InputError
-from imutherm.studies.cost import check_jobs
+from imutherm.workers import check_jobs
 from imutherm.cli import run_command
 from imutherm.cli._common import atomic_outdir, check_outdir
 from imutherm.cli._options import (add_jobs_argument, add_layout_arguments, add_model_arguments, add_out_argument,

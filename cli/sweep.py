@@ -32,7 +32,7 @@ from imutherm.cli._common import check_outdir
 from imutherm.cli._options import (add_fitted_model_argument, add_jobs_argument, add_layout_arguments,
                                    add_model_arguments, add_out_argument, add_progress_argument, check_cavity_cost,
                                    run_inputs)
-from imutherm.studies.cost import usable_workers
+from imutherm.workers import usable_workers
 from imutherm.studies.sweep import METHODS, estimate_cost, plan_sweep, run_sweep
 from imutherm.studies.sweep.keys import SURROGATES, VERIFY_DEFAULT, VERIFY_TOL_K
 from imutherm.studies.sweep.surrogate import verify_words

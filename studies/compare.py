@@ -87,10 +87,9 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
     import time
     from concurrent.futures import as_completed
 
-    from imutherm.studies.cost import check_jobs, usable_workers
-    from imutherm.studies.end_to_end.run import study_pool
-    from imutherm.studies.end_to_end.thermal import longest_first
+    from imutherm.studies.thermal_study import longest_first
     from imutherm.unit.model import ModelOptions
+    from imutherm.workers import check_jobs, process_pool, usable_workers
 
     layout = load_layout(layout) if not hasattr(layout, "schemes") else layout
     unknown = [s for s in schemes if s not in layout.schemes]
@@ -108,7 +107,7 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
     if progress:
         print(f"solving {', '.join(schemes)} in {jobs} processes ...", flush=True)
     start = time.perf_counter()
-    pool = study_pool(jobs)
+    pool = process_pool(jobs, shared_lock=True)
     try:
         order = longest_first(layout, schemes, run_kwargs.get("options") or ModelOptions())
         futs = {pool.submit(_scheme_task, layout, s, run_kwargs): s for s in order}
@@ -125,8 +124,8 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
 
 def _scheme_task(layout, scheme: str, run_kwargs: dict) -> SchemeResult:
     """One scheme in a worker of :func:`compare_schemes`: :func:`run_scheme`, then its mesh-error estimate under
-    the workers' lock (:func:`imutherm.studies.end_to_end.thermal.with_mesh_error`)."""
-    from imutherm.studies.end_to_end.thermal import with_mesh_error
+    the workers' lock (:func:`imutherm.studies.thermal_study.with_mesh_error`)."""
+    from imutherm.studies.thermal_study import with_mesh_error
 
     kw = dict(run_kwargs)
     estimate = kw.pop("estimate_mesh_error", False)

@@ -12,6 +12,7 @@ import os
 
 from imutherm import InputError
 from imutherm.budget import BASE_BYTES, available_memory_bytes, count_time_steps, fmt_bytes
+from imutherm.workers import check_jobs, usable_workers
 
 
 def transient_steps(time_kwargs: dict) -> int:
@@ -84,21 +85,6 @@ def check_transient_cost(what: str, time_kwargs: dict, unknowns: int) -> dict:
         line += f" (more than {WARN_TRANSIENT_S / 60:g} min; cheaper: {hint})"
     print(line, flush=True)
     return c
-
-
-def check_jobs(jobs: int | None) -> int:
-    """``--jobs`` [-] checked: None is the default, min(2, CPUs); below 1 an InputError."""
-    jobs = min(2, os.cpu_count() or 1) if jobs is None else int(jobs)
-    if jobs < 1:
-        raise InputError(f"--jobs: {jobs} is invalid; valid: an integer >= 1")
-    return jobs
-
-
-def usable_workers(jobs: int, tasks: int) -> int:
-    """Worker processes [-] a run of ``tasks`` independent tasks can use with ``--jobs jobs``: no more than the
-    tasks (a worker without a task would only hold memory), at least 1. The cost estimates count these, and
-    the runs start no more (``sweep --jobs 10000`` of 2 cases runs, and is estimated, on 2 workers)."""
-    return max(1, min(int(jobs), int(tasks)))
 
 
 def check_schemes_side_by_side(solve_bytes, refined_bytes, jobs: int | None, max_memory: int | None) -> float:

@@ -298,6 +298,35 @@ def mesh_corrected(res: SchemeResult) -> SchemeResult:
                    metrics=metrics, mesh_corrected=True)
 
 
+def with_mesh_error(res):
+    """``res`` with its mesh-error estimate and the answer corrected by it (:func:`mesh_error`,
+    :func:`mesh_corrected`), the refined solve one at a time in a pool's workers
+    (:func:`imutherm.workers.one_at_a_time`: ~8x the memory of a scheme's solve); ``wall_s`` includes it."""
+    import time
+
+    from imutherm.budget import release_freed_memory
+    from imutherm.workers import one_at_a_time
+
+    t0 = time.perf_counter()
+    release_freed_memory()   # the solves' freed arrays, before the refined solve's (the study's peak)
+    with one_at_a_time():
+        res = mesh_corrected(replace(res, mesh_error=mesh_error(res)))
+    return replace(res, wall_s=res.wall_s + time.perf_counter() - t0)
+
+
+def longest_first(layout: LayoutSpec, schemes, options: ModelOptions) -> tuple:
+    """``schemes`` in the order their thermal cases go to the workers: the longest first (so the shortest one
+    runs last, beside the first schemes' IMU cases). A scheme whose cavity is air under the s2s law adds the
+    view factors and the dense exchange to every solve, and goes first (reference unit, default mesh: air
+    18.6, grease 17.7, potted 10.2 CPU-s); ties keep the given order."""
+    from imutherm.unit.cavity_laws import cavity_law_of
+
+    def s2s(sch):
+        fill = layout.schemes[sch].fill
+        return cavity_law_of(options).patches and options.material(fill).name == "air"
+    return tuple(sorted(schemes, key=lambda sch: not s2s(sch)))
+
+
 def _with_signal_effects(tr, steady, asm, effects, sites: dict):
     """The transient with its site curves as read under the signal effects (probe lag, ambient drift)."""
     lag = None

@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from imutherm import InputError
-from imutherm.studies.cost import check_jobs
+from imutherm.workers import check_jobs
 from imutherm.unit.cavity_laws import LAW_BLEND, cavity_law_of
 
 #: time grid of the reduced transient, x t_end [s]

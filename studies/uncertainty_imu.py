@@ -29,13 +29,13 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from imutherm import InputError
 from imutherm.unit.cavity_laws import LAW_BLEND
+from imutherm.workers import process_pool
 
 #: below this many draws the interval quoted is min .. max (5 / 95 % quantiles of a handful mean little)
 MIN_DRAWS_FOR_QUANTILES = 20
@@ -270,13 +270,7 @@ def run_imu_draws(chains: dict, config, *, jobs: int = 1, progress=None) -> dict
         progress(f"uncertainty: {len(next(iter(chains.values())))} draws x {len(chains)} schemes x {len(seeds)} seeds "
                  f"through the IMU chain ({', '.join(cfg.filters)}, {cfg.compensations[0]}, {cfg.profiles[-1]}) ...")
     if jobs > 1 and len(tasks) > 1:
-        import multiprocessing
-
-        from imutherm.studies.end_to_end import _one_blas_thread  # the study's worker start-up
-
-        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context(method),
-                                 initializer=_one_blas_thread) as pool:
+        with process_pool(jobs) as pool:   # one BLAS thread each
             futs = [pool.submit(_case, config.grade, seed, chains[s][k], cfg) for s, k, seed in tasks]
             results = [f.result() for f in futs]
     else:

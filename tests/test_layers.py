@@ -81,3 +81,94 @@ def test_the_facades_only_re_export_the_unit_model():
         assert names == ["imutherm.unit"], (rel, names)  # ``from imutherm.unit import <its module>``
         assert importlib.import_module(f"imutherm.{rel[:-3].replace('/', '.')}") is \
             importlib.import_module(f"imutherm.unit.{Path(rel).stem}")
+
+
+# ------------------------------------------------------------------ import cycles stay inside one folder
+#: cycles that still cross a folder, each with where it goes (the list shrinks; a stale entry fails)
+CROSSING = {"imutherm.studies.findings": "moves into studies/correlation/ (issue 60, item 1)"}
+
+
+def module_of(path: Path, root: Path = ROOT) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    parts = parts[:-1] if parts[-1] == "__init__" else parts
+    return ".".join(parts) if parts[0] == "imutherm" else ".".join(["imutherm"] + parts)
+
+
+def import_graph(root: Path = ROOT) -> dict:
+    """module -> the package modules it imports (at the top or in a function; importing ``a.b.c`` also imports
+    the packages ``a.b`` and ``a``, as Python does)."""
+    files = {module_of(p, root): p for layer in LAYERS for p in (root / layer).rglob("*.py")}
+    graph = {}
+    for mod, path in files.items():
+        deps = set()
+        for _, _, name in imports_of(path):
+            while name and name not in files:   # ``from a.b import name``: the module a.b
+                name = name.rpartition(".")[0]
+            parts = name.split(".")
+            deps |= {q for q in (".".join(parts[:i]) for i in range(2, len(parts) + 1)) if q in files and q != mod}
+        graph[mod] = deps
+    return graph
+
+
+def cycles(graph: dict) -> list:
+    """The import cycles of ``graph``: its strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = set()
+            while not comp or v not in comp:
+                comp.add(stack.pop())
+            on.difference_update(comp)
+            if len(comp) > 1:
+                out.append(comp)
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def folder(mod: str, graph: dict) -> str:
+    """The package ``mod`` is in: itself for a package (its ``__init__``), else its parent."""
+    return mod if any(m.startswith(mod + ".") for m in graph) else mod.rpartition(".")[0]
+
+
+def test_import_cycles_stay_inside_one_folder():
+    """A package's ``__init__`` and its modules may import each other; a cycle between folders (``compare`` ->
+    ``cost`` -> ``end_to_end`` -> ``compare``, before the workers had one home) may not."""
+    graph = import_graph()
+    crossing = [sorted(c) for c in cycles(graph) if len({folder(m, graph) for m in c}) > 1]
+    assert [c for c in crossing if not set(c) & set(CROSSING)] == []
+    assert sorted(m for m in CROSSING if any(m in c for c in crossing)) == sorted(CROSSING)
+
+
+def test_the_cycle_check_sees_a_lazy_cycle_across_folders(tmp_path):
+    """The check finds a cycle made of function-level imports between two folders."""
+    for rel, body in {"imutherm/__init__.py": "", "studies/__init__.py": "", "studies/a.py":
+                      "def f():\n    from imutherm.studies.b.c import g\n", "studies/b/__init__.py": "",
+                      "studies/b/c.py": "def g():\n    import imutherm.studies.a\n"}.items():
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text(body)
+    graph = import_graph(tmp_path)
+    assert cycles(graph) == [{"imutherm.studies.a", "imutherm.studies.b.c"}]
+    assert {folder(m, graph) for m in cycles(graph)[0]} == {"imutherm.studies", "imutherm.studies.b"}
+
+
+def test_the_workers_module_imports_only_the_base():
+    """``imutherm.workers`` is started first in a spawned worker: it imports nothing of the package but its base
+    (and no numpy at import, so the thread limits it sets apply when BLAS loads)."""
+    tree = ast.parse((ROOT / "imutherm/workers.py").read_text(encoding="utf-8"))
+    top = {a.name.split(".")[0] for n in tree.body if isinstance(n, ast.Import) for a in n.names}
+    top |= {n.module.split(".")[0] for n in tree.body if isinstance(n, ast.ImportFrom) and n.module}
+    assert {name for _, _, name in imports_of(ROOT / "imutherm/workers.py")} <= {"imutherm.InputError"}
+    assert top <= {"__future__", "contextlib", "os", "imutherm"}

@@ -358,7 +358,8 @@ def test_jobs_beyond_the_cases_run_on_as_many_workers_as_cases(tmp_path, capsys,
 
 
 def test_usable_workers_and_the_study_cost_count_the_tasks():
-    from imutherm.studies.cost import check_study_cost, usable_workers
+    from imutherm.studies.cost import check_study_cost
+    from imutherm.workers import usable_workers
     from imutherm.studies.end_to_end import StudyConfig
 
     assert usable_workers(10000, 2) == 2 and usable_workers(1, 9) == 1 and usable_workers(3, 0) == 1

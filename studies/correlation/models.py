@@ -37,15 +37,9 @@ class Models:
 
 def _pool(jobs: int, n: int):
     """A process pool of min(jobs, n) workers with one BLAS thread each, or None for one job."""
-    if min(jobs, n) <= 1:
-        return None
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    from imutherm.workers import process_pool
 
-    from imutherm.studies.end_to_end import _one_blas_thread
-    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-    return ProcessPoolExecutor(max_workers=min(jobs, n), mp_context=multiprocessing.get_context(method),
-                               initializer=_one_blas_thread)
+    return process_pool(min(jobs, n))
 
 
 def _map(fn, args, jobs: int) -> list:

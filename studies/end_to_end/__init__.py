@@ -46,5 +46,5 @@ from imutherm.studies.end_to_end.imu import (bare_calibration, imu_case, reduce_
 from imutherm.studies.end_to_end.run import run_study  # noqa: F401
 from imutherm.studies.end_to_end.summary import (answer_sentences, map_boards, paper_comparison,  # noqa: F401
                                                  study_summary, write_scheme_files, write_study)
-from imutherm.studies.end_to_end.thermal import (_one_blas_thread, longest_first, self_heating_table,  # noqa: F401
+from imutherm.studies.end_to_end.thermal import (longest_first, self_heating_table,  # noqa: F401
                                                  site_curves, thermal_case)

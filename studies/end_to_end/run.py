@@ -5,7 +5,7 @@ IMU cases queued as soon as its thermal result is in.
 from __future__ import annotations
 
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 
 import numpy as np
 
@@ -14,7 +14,8 @@ from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.unit.model import ModelOptions
 from imutherm.studies.end_to_end.config import SchemeStudy, StudyConfig, StudyResult
 from imutherm.studies.end_to_end.imu import bare_calibration, imu_case, reduce_cases
-from imutherm.studies.end_to_end.thermal import _one_blas_thread, longest_first, site_curves, thermal_case
+from imutherm.studies.end_to_end.thermal import longest_first, site_curves, thermal_case
+from imutherm.workers import check_jobs, process_pool, usable_workers
 
 
 def _imu_jobs(pool, config: StudyConfig, seeds, bare, args):
@@ -49,7 +50,7 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     start = time.perf_counter()
     layout, schemes, options, jobs, seeds = _study_inputs(layout, schemes, options, jobs, config)
     thermal_kwargs.pop("transient", None)
-    pool = study_pool(jobs)
+    pool = process_pool(jobs, shared_lock=True)   # one BLAS thread each, the refined solves one at a time
     try:
         pending, thermal = _thermal_then_imu(pool, jobs, layout, schemes, options, config, seeds, progress,
                                              thermal_kwargs)
@@ -70,8 +71,6 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
 def _study_inputs(layout, schemes, options, jobs, config: StudyConfig) -> tuple:
     """(layout, schemes, options, workers, seeds) of a study, checked (unknown schemes, ``jobs`` < 1 refused);
     the workers no more than the tasks that can run at once."""
-    from imutherm.studies.cost import check_jobs, usable_workers
-
     layout = layout if isinstance(layout, LayoutSpec) else load_layout(layout)
     schemes = tuple(schemes)
     unknown = [s for s in schemes if s not in layout.schemes]
@@ -83,19 +82,6 @@ def _study_inputs(layout, schemes, options, jobs, config: StudyConfig) -> tuple:
     seeds = tuple(range(config.seed0, config.seed0 + config.seeds))
     jobs = usable_workers(jobs, len(schemes) * len(seeds))   # the most tasks that can run at once
     return layout, schemes, options, jobs, seeds
-
-
-def study_pool(jobs: int):
-    """The study's worker processes (one BLAS thread each, a shared lock for the refined solves), or None."""
-    if jobs <= 1:
-        return None
-    import multiprocessing
-
-    # fork (where there is one) before any solve starts: user scripts need no __main__ guard
-    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-    ctx = multiprocessing.get_context(method)
-    return ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_one_blas_thread,
-                               initargs=(ctx.Lock(),))
 
 
 def _thermal_then_imu(pool, jobs: int, layout, schemes, options, config: StudyConfig, seeds, progress: bool,

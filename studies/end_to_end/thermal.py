@@ -10,9 +10,9 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec
-from imutherm.unit.cavity_laws import cavity_law_of
 from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.steady import solve_steady
+from imutherm.studies.thermal_study import longest_first, with_mesh_error  # noqa: F401  (the package's names)
 
 
 def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | None = None
@@ -74,21 +74,6 @@ def site_curves(res) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(tr.times, float), np.asarray(tr.probe_C, float)[:, idx]
 
 
-def _one_blas_thread(lock=None) -> None:
-    """Worker start-up: one BLAS thread per process. The workers already use every core; OpenBLAS's own
-    threads on top oversubscribe them (two schemes' solves side by side ran 2.4x slower on 2 cores).
-    ``lock``: the study's lock around the refined solves of the mesh-error estimates (:func:`thermal_case`)."""
-    from threadpoolctl import threadpool_limits
-
-    global _REFINED_LOCK
-    threadpool_limits(1)
-    _REFINED_LOCK = lock
-
-
-#: a lock shared by the study's workers: one refined solve (~8x the memory of a scheme's solve) at a time
-_REFINED_LOCK = None
-
-
 def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, progress: bool = False,
                  **thermal_kwargs):
     """The thermal side of one scheme: (SchemeResult, chamber (k,) [°C], rise (k, 6) [K], oven solves).
@@ -115,32 +100,3 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
         rise = rise * np.array([factors.get(s, 1.0) for s in SITES])
     release_freed_memory()
     return res, chamber, rise, solves
-
-
-def with_mesh_error(res):
-    """``res`` with its mesh-error estimate and the answer corrected by it
-    (:func:`~imutherm.studies.thermal_study.mesh_error`, :func:`~imutherm.studies.thermal_study.mesh_corrected`),
-    the refined solve under the workers' lock (one at a time: ~8x the memory of a scheme's solve); ``wall_s``
-    includes it."""
-    import contextlib
-    import time
-
-    from imutherm.budget import release_freed_memory
-    from imutherm.studies.thermal_study import mesh_corrected, mesh_error
-
-    t0 = time.perf_counter()
-    release_freed_memory()   # the solves' freed arrays, before the refined solve's (the study's peak)
-    with _REFINED_LOCK if _REFINED_LOCK is not None else contextlib.nullcontext():
-        res = mesh_corrected(replace(res, mesh_error=mesh_error(res)))
-    return replace(res, wall_s=res.wall_s + time.perf_counter() - t0)
-
-
-def longest_first(layout: LayoutSpec, schemes, options: ModelOptions) -> tuple:
-    """``schemes`` in the order their thermal cases go to the workers: the longest first (so the shortest one
-    runs last, beside the first schemes' IMU cases). A scheme whose cavity is air under the s2s law adds the
-    view factors and the dense exchange to every solve, and goes first (reference unit, default mesh: air
-    18.6, grease 17.7, potted 10.2 CPU-s); ties keep the given order."""
-    def s2s(sch):
-        fill = layout.schemes[sch].fill
-        return cavity_law_of(options).patches and options.material(fill).name == "air"
-    return tuple(sorted(schemes, key=lambda sch: not s2s(sch)))

@@ -78,8 +78,8 @@ def run_case(case: Case, settings: CaseSettings) -> dict:
 
 def _pool_case(case: Case, settings: CaseSettings) -> dict:
     """``run_case`` in a local worker; a worker whose sweep was killed stops instead of running queued cases."""
-    from imutherm.studies import _worker
+    from imutherm.workers import parent_gone
 
-    if _worker.parent_gone():
+    if parent_gone():
         raise SystemExit(0)
     return run_case(case, settings)

@@ -10,19 +10,19 @@ from __future__ import annotations
 import json
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from imutherm import InputError
-from imutherm.studies.cost import usable_workers
 from imutherm.studies.sweep.case import _pool_case, run_case
 from imutherm.studies.sweep.plan import SweepPlan, full_case
 from imutherm.studies.sweep.results import (RESULTS_CSV, SWEEP_JSON, _defaults, _design_mismatch, _json_text,
                                             _row_line, _RowWriter, _write_text, read_results)
 from imutherm.studies.sweep.influence import sensitivity
+from imutherm.workers import process_pool, usable_workers
 
 
 @dataclass(frozen=True)
@@ -66,16 +66,12 @@ def _run_local(pending, settings, jobs, record, lost):
         for case in pending:
             record(run_case(case, settings))
         return
-    import multiprocessing
     from concurrent.futures.process import BrokenProcessPool
 
-    from imutherm.studies._worker import init_worker
-
     threads = max(1, (os.cpu_count() or 1) // jobs)
-    # spawn: workers start without the parent's numpy, and init_worker (a module without numpy) sets the
-    # thread limits before the first task imports it, so they apply when BLAS loads
-    pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), initializer=init_worker,
-                               initargs=(threads, os.getpid()))
+    # spawn: workers start without the parent's numpy, and the thread limits are in their environment
+    # before the first task imports it, so they apply when BLAS loads
+    pool = process_pool(jobs, threads=threads, spawn=True)
     try:
         futures = {pool.submit(_pool_case, c, settings): c.case_id for c in pending}
         for fut in as_completed(futures):
