@@ -8,7 +8,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec, load_layout
@@ -19,6 +18,7 @@ from imutherm.studies import form_error
 from imutherm.unit.model import ModelOptions
 from imutherm.studies.findings import findings as findings_of
 from imutherm.studies.plausibility import check_plausible
+from imutherm.workers import thread_limit
 from imutherm.studies.written_model import choose as choose_written
 from imutherm.studies.correlation.discrepancy import _disc_curve, form_band
 from imutherm.studies.correlation.fit import Fit, _fit
@@ -135,7 +135,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     # OpenBLAS's two threads on matrices that small cost more than they give (measured at load 5: a re-tune
     # 0.13 s on one thread, 0.23-0.30 s on two; at load ~9 the three re-tune fits took 12 s of CPU, not 1 s),
     # and the results are the same
-    with threadpool_limits(1):
+    with thread_limit(1):
         sel = _select(runs, models, fwd, form, form_retune, candidates, holdout, discrepancy, nominal, noise, caps,
                       fscale, jobs, max_effects, say)
     t_fits = time.perf_counter() - t0 - t_rom
@@ -372,7 +372,7 @@ def _physics(sel: _Selection, after: Fit, disc, noise: float, nominal: dict) -> 
     """(the corrected physics without the term, findings, the model to write): the re-tune's far moves and
     the written model, both on the physics without the discrepancy term."""
     fwd, full, folds, ratio0 = sel.fwd, sel.full, sel.folds, sel.ratio0
-    with threadpool_limits(1):
+    with thread_limit(1):
         free = after
         if disc is not None:
             free = _held(_fit(fwd, after.effects, full, None, ratio0, noise, None, after.values),
