@@ -95,8 +95,8 @@ def test_the_check_sees_a_name_test():
 
 def test_each_cavity_law_does_what_its_entry_says(tmp_path):
     """The capabilities of every registered law, against what the model does with it (reference unit, air, a
-    10 mm mesh): ``patches`` <-> the problem has an interior exchange; ``calculix`` <-> the CalculiX export
-    takes the problem; ``blendable`` <-> ``cavity_law_blend`` is accepted; ``conductivity_share`` > 0 <-> the
+    10 mm mesh): ``patches`` <-> the problem has an interior exchange <-> the CalculiX export refuses the
+    problem; ``blendable`` <-> ``cavity_law_blend`` is accepted; ``conductivity_share`` > 0 <-> the
     air conducts more than without cavity radiation (a linear exterior, as the export needs)."""
     import numpy as np
     import pytest
@@ -118,7 +118,7 @@ def test_each_cavity_law_does_what_its_entry_says(tmp_path):
         pb = build_problem(geo, grid, ModelOptions(cavity_law=name, **linear))
         assert bool(pb.exchanges) == law.patches, name
         assert bool(np.any(pb.k[air] > k_off)) == (law.conductivity_share > 0), name
-        if law.calculix:
+        if not law.patches:
             write_ccx_deck(pb, tmp_path / f"{name}.inp")
         else:
             with pytest.raises(InputError):
@@ -128,6 +128,46 @@ def test_each_cavity_law_does_what_its_entry_says(tmp_path):
         else:
             with pytest.raises(InputError, match="cavity_law_blend"):
                 ModelOptions(cavity_law=name, cavity_law_blend=0.5)
+
+
+def test_a_law_registered_here_is_built_by_the_model_through_its_hook():
+    """A new cavity law is one registration: its build hook is what the unit model applies (reference unit, air,
+    a 10 mm mesh): a law adding half the effective conductivity and half the patch exchange gives the air half
+    the effective law's extra conductivity and the s2s exchange at half its X; a cavity not of air calls no hook."""
+    import numpy as np
+
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.geometry.mesh import build_mesh
+    from imutherm.unit.cavity_laws import CAVITY_LAWS, CavityTerms, register_cavity_law
+    from imutherm.unit.model import ModelOptions, build_problem
+
+    seen = []
+
+    def half_of_each(law, setting):
+        seen.append((law.name, setting.options.cavity_law, setting.blend))
+        return CavityTerms(0.5, (setting.exchange().scaled(0.5),))
+
+    geo = build_geometry(load_layout(None), "air")
+    grid = build_mesh(geo, 10.0, 1)
+    air = (grid.cell_part == grid.part_names.index("fill")).ravel()
+    register_cavity_law("test_half", "half the effective law and half the s2s exchange (this test's)",
+                        build=half_of_each)
+    try:
+        pb = build_problem(geo, grid, ModelOptions(cavity_law="test_half"))
+        potted = build_problem(build_geometry(load_layout(None), "potted"), grid, ModelOptions(cavity_law="test_half"))
+    finally:
+        CAVITY_LAWS.pop("test_half")
+    off = build_problem(geo, grid, ModelOptions(cavity_radiation=False))
+    eff = build_problem(geo, grid, ModelOptions(cavity_law="effective"))
+    s2s = build_problem(geo, grid, ModelOptions(cavity_law="s2s"))
+    assert seen == [("test_half", "test_half", 0.0)]   # called once, for the air scheme only
+    assert potted.exchanges == ()
+    assert np.any(eff.k[air] > off.k[air])
+    np.testing.assert_allclose(pb.k[air] - off.k[air], 0.5 * (eff.k[air] - off.k[air]), rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(pb.k[~air], off.k[~air])
+    (ex,), (ex_s2s,) = pb.exchanges, s2s.exchanges
+    np.testing.assert_allclose(ex.X, 0.5 * ex_s2s.X, rtol=1e-12)
 
 
 def test_the_cavity_law_help_is_read_from_the_registry(monkeypatch):

@@ -20,7 +20,8 @@ from imutherm.geometry.grid import FACE_NAMES, TensorGrid
 from imutherm.geometry.layout import AXES
 from imutherm.geometry.materials import Material, get_material
 from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM, DEFAULT_RAYS
-from imutherm.unit.cavity_laws import CAVITY_LAWS as LAWS, DEFAULT_CAVITY_LAW, cavity_law, cavity_law_of
+from imutherm.unit.cavity_laws import (CAVITY_LAWS as LAWS, DEFAULT_CAVITY_LAW, CavitySetting, CavityTerms, cavity_law,
+                                       cavity_law_of)
 from imutherm.thermal.problem import (SIGMA, ZERO_C_K, Contact, Convection, NaturalConvection, Radiation,
                                       ThermalProblem, natural_convection_h)
 
@@ -341,14 +342,14 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
 
     fill = grid.part_names.index("fill")
     law = cavity_law_of(options)
-    in_air = options.material(parts[fill].material).name == "air"
-    blend = float(options.cavity_law_blend) if law.blendable else 0.0
-    exchanges = ()
-    if law.patches and in_air:  # kept at w = 1 (exchanging nothing): a reduced model's knob changes its G
-        ex = cavity_exchange_law(geometry, grid, options) if exchange is None else exchange
-        exchanges = (ex.scaled(1.0 - blend) if blend else ex,)
-    weight = law.conductivity_share + blend  # the effective law's share of the cavity radiation
-    if weight > 0 and in_air:
+    terms = CavityTerms()
+    if options.material(parts[fill].material).name == "air":   # the law's build hook: what it adds
+        blend = float(options.cavity_law_blend) if law.blendable else 0.0
+        ex = (lambda: exchange) if exchange is not None else (lambda: cavity_exchange_law(geometry, grid, options))
+        terms = law.terms(CavitySetting(geometry, grid, options, blend, ex))
+    exchanges = tuple(terms.exchanges)
+    weight = terms.conductivity_share  # the effective law's share of the cavity radiation
+    if weight > 0:
         air = cp == fill
         mean_T = ambient + 10.0  # linearisation point [degC]: hot parts run ~0-30 K above ambient
         for axis, w in enumerate(grid.cell_sizes()):
