@@ -32,9 +32,10 @@ from imutherm.cli import run_command
 
 def add_args(parser) -> None:
     """The options of ``imutherm import``."""
+    from imutherm.ecad.read import formats   # the registered readers
     from imutherm.ecad.to_layout import SITE_KINDS, HousingOptions
 
-    parser.add_argument("board_file", metavar="BOARD", help="the board file: .kicad_pcb (KiCad 4-9) or .emn (IDF 3.0, .emp beside it)")
+    parser.add_argument("board_file", metavar="BOARD", help=f"the board file: {formats()}")
     parser.add_argument("--out", default=None, metavar="FILE",
                         help="the layout file to write (default: the board file's name with .toml, here)")
     parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
