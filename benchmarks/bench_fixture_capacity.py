@@ -4,7 +4,7 @@
 
 For each scheme: the unit's power-on transient with the fixture held at 70 degC (the model as it is), the
 steady heat into the mount Q_m0, and a steady solve with the fixture 1 K warmer (G_b, S_i); then
-:func:`imutherm.studies.rig_heat_capacity.fixture_response` for aluminium plates of three sizes in still air and in a
+:func:`rig_heat_capacity.fixture_response` (``benchmarks/rig_heat_capacity.py``) for aluminium plates of three sizes in still air and in a
 fan-stirred chamber. Prints tp1's steady rise and t95 for each (the model's default laws: s2s cavity law).
 
 Fixture parameters (all assumed: the paper does not describe its fixture):
@@ -27,10 +27,10 @@ import numpy as np
 from imutherm.geometry.build import MM, build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
-from imutherm.studies.rig_heat_capacity import fixture_response, t95
 from imutherm.thermal.assembly import assemble
 from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.solve import solve_steady, solve_transient
+from rig_heat_capacity import fixture_response, t95  # benchmarks/rig_heat_capacity.py, beside this script
 
 RHO_C_AL = 2700.0 * 896.0          # [J/m^3 K]
 FOOTPRINT_M2 = 0.070 * 0.048

@@ -1,10 +1,20 @@
-"""The fixture-capacity estimate (studies/rig_heat_capacity.py) against the analytic lumped solutions."""
+"""The fixture-capacity estimate (benchmarks/rig_heat_capacity.py, the helper of bench_fixture_capacity.py; no package
+module uses it) against the analytic lumped solutions."""
+
+import importlib.util
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from imutherm import InputError
-from imutherm.studies.rig_heat_capacity import fixture_response, fixture_theta, t95
+
+_SPEC = importlib.util.spec_from_file_location(
+    "rig_heat_capacity", Path(__file__).resolve().parents[1] / "benchmarks" / "rig_heat_capacity.py")
+rig = sys.modules.setdefault("rig_heat_capacity", importlib.util.module_from_spec(_SPEC))   # dataclasses need it
+_SPEC.loader.exec_module(rig)
+fixture_response, fixture_theta, t95 = rig.fixture_response, rig.fixture_theta, rig.t95
 
 
 def test_step_response_is_the_first_order_exponential():
