@@ -171,8 +171,9 @@ def _run_session(unit: ImuUnit, rng, omega: np.ndarray, f: np.ndarray, T_die_C, 
     return mean(s.gyro), mean(s.accel), mean(s.temp_C)
 
 
-def _lsq_KD(E: np.ndarray, N: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Fit N = K E + D; E, N (R,3). Returns K (3,3), D (3,), rms residual per axis (3,)."""
+def fit_scale_bias(E: np.ndarray, N: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least-squares fit of N = K E + D over R rows: E (R, 3) the input, N (R, 3) the reading (any one unit
+    each). Returns K (3, 3) [N per E], D (3,) [N's unit] and the rms residual per axis (3,) [N's unit]."""
     A = np.hstack([E, np.ones((E.shape[0], 1))])
     X, *_ = np.linalg.lstsq(A, N, rcond=None)
     res = N - A @ X
@@ -527,8 +528,8 @@ def _room_step(unit, rng, rig: RigConfig, R_table, die, noise) -> _RoomStep:
     g_m, a_m, T_m = _run_session(unit, rng, om_all @ R_table.T, f_all @ R_table.T, die(rig.room_temp_C), rig, p_room,
                                  noise)
     P = len(pos)
-    accel = _KDFit(*_lsq_KD(f_pos, a_m[:P]))  # table input: the fixture's small misalignment is not known
-    gyro = _KDFit(*_lsq_KD(om_room, g_m[P:]))
+    accel = _KDFit(*fit_scale_bias(f_pos, a_m[:P]))  # table input: the fixture's small misalignment is not known
+    gyro = _KDFit(*fit_scale_bias(om_room, g_m[P:]))
     return _RoomStep(accel=accel, gyro=gyro, temp_C=T_m.mean(axis=0))
 
 
@@ -552,8 +553,8 @@ def _oven_step(unit, rng, rig: RigConfig, R_oven, die, noise) -> _OvenStep:
     for Tc in centres:
         g_k, a_k, T_k = oven(Tc)
         nodes.append(T_k.mean(axis=0))
-        acc.append(_lsq_KD(f_pos, a_k[:P]))  # table input: the mounting error is not known
-        gyr.append(_lsq_KD(om_ov, g_k[P:]))
+        acc.append(fit_scale_bias(f_pos, a_k[:P]))  # table input: the mounting error is not known
+        gyr.append(fit_scale_bias(om_ov, g_k[P:]))
         acc_s.append(_fit_sigma(a_k[:P], a_k[:P] - a_ref[:P]))  # same position, same mounting: R_oven cancels
         gyr_s.append(_fit_sigma(g_k[P:], g_k[P:] - g_ref[P:]))
 

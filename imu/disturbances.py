@@ -45,7 +45,7 @@ from scipy import signal
 
 from imutherm import InputError
 from imutherm.imu.attitude_math import G0, quat_to_dcm, quat_to_euler
-from imutherm.imu.motion import Jet, Trajectory, _assemble
+from imutherm.imu.motion import Jet, Trajectory, assemble_trajectory
 
 FT = 0.3048  # [m]
 KT = 0.514444  # [m/s]
@@ -408,7 +408,7 @@ def perturb(traj: Trajectory, d_roll: Jet, d_pitch: Jet, da_body) -> Trajectory:
     """
     a_n = _nav_accel(traj)
     z = Jet(np.zeros_like(traj.t))
-    dp = _assemble("delta", traj.t, d_roll, d_pitch, z, np.zeros((traj.t.size, 3)), np.zeros(3),
+    dp = assemble_trajectory("delta", traj.t, d_roll, d_pitch, z, np.zeros((traj.t.size, 3)), np.zeros(3),
                    traj.segment, traj.phase)
     R = quat_to_dcm(dp.quat)  # perturbed body -> profile body
     w_rot = np.einsum("nji,nj->ni", R, traj.omega_b)

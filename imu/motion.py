@@ -206,8 +206,12 @@ class Trajectory:
         return 1.0 / float(self.t[1] - self.t[0])
 
 
-def _assemble(profile, t, roll: Jet, pitch: Jet, yaw: Jet, a_n, lever_arm, segment, phase, vel_n=None) -> Trajectory:
-    """Body rate, angular acceleration and specific force from Euler jets and the nav acceleration."""
+def assemble_trajectory(profile, t, roll: Jet, pitch: Jet, yaw: Jet, a_n, lever_arm, segment, phase,
+                        vel_n=None) -> Trajectory:
+    """The :class:`Trajectory` of ``profile`` (its name): body rate [rad/s], angular acceleration [rad/s^2] and
+    specific force [m/s^2] from the Euler angles' jets [rad, rad/s, rad/s^2] on times ``t`` [s], the nav-frame
+    acceleration ``a_n`` (n, 3) [m/s^2] and the sensor's ``lever_arm`` (3,) [m]; ``segment`` and ``phase``
+    label each sample; ``vel_n`` (n, 3) [m/s] the nav velocity (None: zero)."""
     sphi, cphi = roll.sin(), roll.cos()
     sth, cth = pitch.sin(), pitch.cos()
     rdot = Jet(roll.d1, roll.d2)
@@ -283,7 +287,7 @@ def static_profile(duration: float = 60.0, rate_hz: float = 100.0, *, roll_deg: 
     z = np.zeros_like(t)
     j = lambda deg: Jet(np.full_like(t, np.radians(deg)), z, z)  # noqa: E731
     seg, ph = _labels(t, [("static", "stable", 0.0, t[-1] + 1)])
-    return _assemble("static", t, j(roll_deg), j(pitch_deg), j(yaw_deg), np.zeros((t.size, 3)), d, seg, ph)
+    return assemble_trajectory("static", t, j(roll_deg), j(pitch_deg), j(yaw_deg), np.zeros((t.size, 3)), d, seg, ph)
 
 
 def swing_profile(duration: float = 60.0, rate_hz: float = 100.0, *, axis: str = "x",
@@ -317,7 +321,7 @@ def swing_profile(duration: float = 60.0, rate_hz: float = 100.0, *, axis: str =
     roll, pitch = (angle, zero) if axis == "x" else (zero, angle)
     seg, phl = _labels(t, [("rest", "stable", 0.0, t0), ("swing", "manoeuvre", t0, t3),
                            ("rest-end", "stable", t3, t[-1] + 1)])
-    return _assemble("swing", t, roll, pitch, Jet(np.zeros_like(t)), np.zeros((t.size, 3)), d, seg, phl)
+    return assemble_trajectory("swing", t, roll, pitch, Jet(np.zeros_like(t)), np.zeros((t.size, 3)), d, seg, phl)
 
 
 def shake_profile(duration: float = 60.0, rate_hz: float = 100.0, *, peak_accel_g: float = 1.2,
@@ -355,7 +359,7 @@ def shake_profile(duration: float = 60.0, rate_hz: float = 100.0, *, peak_accel_
     vel = cumulative_trapezoid(a_n, t, axis=0, initial=0.0)
     zero = Jet(np.zeros_like(t))
     seg, ph = _labels(t, segs)
-    return _assemble("shake", t, zero, zero, zero, a_n, d, seg, ph, vel)
+    return assemble_trajectory("shake", t, zero, zero, zero, a_n, d, seg, ph, vel)
 
 
 #: the flight plan: (name, phase, nominal duration [s], ΔA [m/s^2], Δγ [deg], Δψ̇ [deg/s]);
@@ -476,7 +480,7 @@ def flight_profile(duration: float = 400.0, rate_hz: float = 100.0, *, lever_arm
     zw = np.stack([sg.v * np.cos(yaw.v), sg.v * np.sin(yaw.v), cg.v], -1)
     a_n = Vdj.v[:, None] * u + (Vj.v * wj.v * cg.v)[:, None] * yw - (Vj.v * gdj.v)[:, None] * zw
     seg, ph = _labels(t, segs)
-    return _assemble("flight", t, roll, gj, yaw, a_n, d, seg, ph, Vj.v[:, None] * u)
+    return assemble_trajectory("flight", t, roll, gj, yaw, a_n, d, seg, ph, Vj.v[:, None] * u)
 
 
 def make_profile(name: str, duration: float | None = None, rate_hz: float = 100.0, **kwargs) -> Trajectory:
@@ -578,7 +582,7 @@ def vehicle_profile(duration: float = 240.0, rate_hz: float = 100.0, *, lever_ar
     zw = np.stack([sg.v * np.cos(yaw.v), sg.v * np.sin(yaw.v), cg.v], -1)
     a_n = aj.v[:, None] * u + a_lat.v[:, None] * yw - (Vj.v * gdj.v)[:, None] * zw
     seg, ph = _labels(t, segs)
-    return _assemble("vehicle", t, roll, pitch, yaw, a_n, d, seg, ph, Vj.v[:, None] * u)
+    return assemble_trajectory("vehicle", t, roll, pitch, yaw, a_n, d, seg, ph, Vj.v[:, None] * u)
 
 
 # --------------------------------------------------------------------------- handheld
@@ -655,4 +659,4 @@ def handheld_profile(duration: float = 150.0, rate_hz: float = 100.0, *,
 
     vel = cumulative_trapezoid(a_n, t, axis=0, initial=0.0)
     seg, ph = _labels(t, segs)
-    return _assemble("handheld", t, roll, pitch, yj, a_n, d, seg, ph, vel)
+    return assemble_trajectory("handheld", t, roll, pitch, yj, a_n, d, seg, ph, vel)

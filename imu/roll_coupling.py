@@ -5,7 +5,7 @@ vertical, the unit's axes on the table's axes):
 
 1. **Initial calibration** (Wang et al.): rate table about each axis at ±10..±300
    °/s in 10 °/s steps, CW and CCW (180 runs); least squares ``N = K ω + D``
-   (:func:`imutherm.imu.calibration._lsq_KD`). This removes scale factor,
+   (:func:`imutherm.imu.calibration.fit_scale_bias`). This removes scale factor,
    misalignment and bias, and the part of the roll coupling a linear map can
    take (the cubic's projection on ω_x).
 2. **Coupling fit**: on the roll-axis runs of step 1, the y and z gyros'
@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from imutherm import InputError
-from imutherm.imu.calibration import _lsq_KD
+from imutherm.imu.calibration import fit_scale_bias
 from imutherm.imu.sensor_model import G0, ImuUnit, draw_power_on, simulate_imu
 
 _DEG = np.pi / 180.0
@@ -148,7 +148,7 @@ def calibrate_roll_coupling(unit: ImuUnit, rng: np.random.Generator,
                 om.append(s * r * _DEG * np.eye(3)[a])
     om = np.array(om)
     N = _table_means(unit, rng, om, rig, p_on)
-    K, D, _ = _lsq_KD(om, N)
+    K, D, _ = fit_scale_bias(om, N)
     Kinv = np.linalg.inv(K)
 
     def linear(Nm):
