@@ -3,7 +3,8 @@
 :func:`process_pool` builds every pool the studies run on (the end-to-end study, ``compare``'s schemes side
 by side, a sweep, the correlation's reduced models, the uncertainty's IMU draws); :func:`check_jobs` and
 :func:`usable_workers` count its workers; :func:`one_at_a_time` is the section its workers enter one at a
-time (the mesh-error estimate's refined solve, ~8x a scheme's memory).
+time (the mesh-error estimate's refined solve, ~8x a scheme's memory). In one process, :func:`thread_limit` and
+:func:`one_blas_thread` (the thermal solves' decorator) limit the BLAS and OpenMP threads.
 
 This module imports nothing heavy (no numpy): a spawned worker unpickles its start-up (:func:`_start`) before
 any task, so the thread limits set there are in the environment before numpy / scipy load BLAS and OpenMP.
@@ -100,3 +101,17 @@ def thread_limit(threads: int = 1, user_api: str | None = None):
     from threadpoolctl import threadpool_limits
 
     return threadpool_limits(limits=threads, user_api=user_api)
+
+
+def one_blas_thread(func):
+    """``func`` run with one BLAS thread (numpy's and scipy's OpenBLAS), restored after the call.
+
+    The thermal solves' decorator. They are sparse: their only BLAS calls are the vector dots and norms of CG,
+    which are memory-bound, so a second OpenBLAS thread does not shorten them but spins between the calls. On the
+    reference unit's steady solve (air, default mesh, linear laws; ``benchmarks/bench_reference.py``) the
+    whole process took 5.1-5.6 CPU-s with OpenBLAS's default 2 threads on the 2-core machine and 3.3 CPU-s
+    with one, in the same wall time (3.0-3.5 s; 2026-12-05). Entering the limit costs ~0.5 ms.
+    """
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits.wrap(limits=1, user_api="blas")(func)

@@ -188,7 +188,7 @@ def test_amg_public_fallback_gives_the_same_field(monkeypatch):
 
 
 def test_solves_run_on_one_blas_thread_and_restore_the_callers(monkeypatch):
-    """linear.one_blas_thread: inside the steady and transient solves numpy's and scipy's OpenBLAS run one thread
+    """workers.one_blas_thread: inside the steady and transient solves numpy's and scipy's OpenBLAS run one thread
     (a second only spins between CG's dots: 5.1-5.6 against 3.3 CPU-s on the reference unit), even where the
     caller allows two; the caller's setting is back after the call."""
     from threadpoolctl import threadpool_info, threadpool_limits

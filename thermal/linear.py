@@ -7,7 +7,6 @@
   ``DIRECT_LIMIT`` unknowns, else AMG-CG), ``_check_rtol`` checks a tolerance.
 * ``_Dirichlet``: symmetric elimination of the fixed-temperature nodes on the shared CSR pattern.
 * ``_initial_field``: the start field of a Newton iteration or a transient.
-* :func:`one_blas_thread`: the solves' decorator that runs them on one BLAS thread.
 """
 
 from __future__ import annotations
@@ -15,7 +14,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from threadpoolctl import threadpool_limits
 
 from imutherm import ConvergenceError, InputError
 from imutherm.thermal.assembly import Assembly
@@ -25,18 +23,6 @@ from imutherm.thermal.problem import ThermalProblem
 DIRECT_LIMIT = 20_000
 #: Relative residual of the CG solve of a linear steady problem (one solve).
 CG_RTOL = 1e-10
-
-
-def one_blas_thread(func):
-    """``func`` run with one BLAS thread (numpy's and scipy's OpenBLAS), restored after the call.
-
-    The thermal solves are sparse: their only BLAS calls are the vector dots and norms of CG, which are
-    memory-bound, so a second OpenBLAS thread does not shorten them but spins between the calls. On the
-    reference unit's steady solve (air, default mesh, linear laws; ``benchmarks/bench_reference.py``) the
-    whole process took 5.1-5.6 CPU-s with OpenBLAS's default 2 threads on the 2-core machine and 3.3 CPU-s
-    with one, in the same wall time (3.0-3.5 s; 2026-12-05). Entering the limit costs ~0.5 ms.
-    """
-    return threadpool_limits.wrap(limits=1, user_api="blas")(func)
 
 
 def _private_vcycle(ml):

@@ -38,7 +38,8 @@ from scipy.integrate import solve_ivp
 from imutherm import InputError
 from imutherm.thermal.metrics import T95_FRACTION, settle_time
 from imutherm.thermal.reduced import linearised, sparse_part
-from imutherm.thermal.linear import amg_preconditioner, one_blas_thread
+from imutherm.thermal.linear import amg_preconditioner
+from imutherm.workers import one_blas_thread
 from imutherm.thermal.probes import probe_matrix
 from imutherm.thermal.results import TransientResult
 from imutherm.thermal.transient import SETTLE_FRACTION

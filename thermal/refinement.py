@@ -41,7 +41,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from imutherm import InputError
-from imutherm.thermal.linear import one_blas_thread
+from imutherm.workers import one_blas_thread
 
 #: the order of convergence [-] a two-grid estimate assumes (module docstring)
 MESH_ERROR_ORDER = 1.0

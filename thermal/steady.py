@@ -33,9 +33,9 @@ from imutherm import ConvergenceError, InputError
 from imutherm.thermal.assembly import Assembly, assemble
 from imutherm.thermal.cavity_radiation import CavityExchange
 from imutherm.thermal.guards import DIVERGED_RISE_K  # a steady rise beyond it is divergence, not physics
-from imutherm.thermal.linear import (CG_RTOL, _check_rtol, _choose, _Dirichlet, _initial_field, _LinSolver,
-                                    one_blas_thread)
+from imutherm.thermal.linear import CG_RTOL, _check_rtol, _choose, _Dirichlet, _initial_field, _LinSolver
 from imutherm.thermal.probes import _probes
+from imutherm.workers import one_blas_thread
 from imutherm.thermal.problem import ThermalProblem
 from imutherm.thermal.results import SteadyResult
 

@@ -22,7 +22,8 @@ import numpy as np
 from imutherm import InputError
 from imutherm.thermal.assembly import Assembly, assemble
 from imutherm.thermal.guards import MAX_STEPS, check_step
-from imutherm.thermal.linear import _check_rtol, one_blas_thread
+from imutherm.thermal.linear import _check_rtol
+from imutherm.workers import one_blas_thread
 from imutherm.thermal.observers import _EnergyAccount, _ProbeHistory, _SavedFields, _SettleWatch
 from imutherm.thermal.probes import _probes
 from imutherm.thermal.problem import ThermalProblem
