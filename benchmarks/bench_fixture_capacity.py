@@ -5,7 +5,8 @@
 For each scheme: the unit's power-on transient with the fixture held at 70 degC (the model as it is), the
 steady heat into the mount Q_m0, and a steady solve with the fixture 1 K warmer (G_b, S_i); then
 :func:`rig_heat_capacity.fixture_response` (``benchmarks/rig_heat_capacity.py``) for aluminium plates of three
-sizes in still air and in a fan-stirred chamber. Prints tp1's steady rise and t95 for each (the model's default laws: s2s cavity law).
+sizes in still air and in a fan-stirred chamber. Prints tp1's steady rise and t95 for each (the model's
+default laws: s2s cavity law).
 
 Fixture parameters (all assumed: the paper does not describe its fixture):
 - aluminium plate, rho c = 2700 kg/m^3 x 896 J/kg K (6061, Incropera Table A.1);
