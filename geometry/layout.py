@@ -107,8 +107,10 @@ class MountingSpec:
 class BoardSpec:
     """A PCB: global lower corner and size [mm]; ``normal`` is its thin axis.
 
-    The model is the rectangle; an imported board also keeps, for drawings and reports:
-    outline_mm : tuple of polylines or None, the true outline, each a tuple of (u, v) board-local points [mm]
+    The board is the rectangle, less what its true outline leaves out; an imported board also keeps:
+    outline_mm : tuple of polylines or None, the true outline, each a tuple of (u, v) board-local points [mm];
+        where they close into loops, the mesh's board is what the loops fill (cut-outs and slots are the
+        cavity's fill, :mod:`imutherm.geometry.outline`)
     source : str or None, the file the board was imported from (and its format)
     """
 
@@ -530,7 +532,8 @@ MAX_OUTLINE_POINTS = 20000
 
 
 def _outline(b: _Table, board: BoardSpec):
-    """``outline_mm``: polylines of (u, v) board-local points [mm] within the board's rectangle (drawings only)."""
+    """``outline_mm``: polylines of (u, v) board-local points [mm] within the board's rectangle (the true outline:
+    the mesh's board where they close into loops)."""
     value = b.get("outline_mm", None)
     if value is None:
         return None

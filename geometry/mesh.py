@@ -25,6 +25,8 @@ import numpy as np
 from imutherm import InputError
 from imutherm.geometry.build import MM, Geometry
 from imutherm.geometry.grid import FACE_NAMES, TensorGrid
+from imutherm.geometry.layout import AXES
+from imutherm.geometry.outline import board_loops, cuts_board, edge_lines, outside_cells
 
 DEFAULT_MAX_CELL_MM = 2.0  # [mm] default largest cell edge; the mesh convergence study: docs/benchmarks/reference.md
 DEFAULT_MIN_CELLS = 2      # cells across the thinnest dimension of every part
@@ -92,6 +94,11 @@ def _face_lines(geometry: Geometry, axis: int) -> np.ndarray:
     pts = [geometry.outer[0][axis], geometry.outer[1][axis], geometry.cavity[0][axis], geometry.cavity[1][axis]]
     for p in geometry.parts:
         pts += [p.lo[axis], p.hi[axis]]
+    for board, loops in _cut_boards(geometry):   # a cut-out's or slot's long straight edges
+        n = AXES.index(board.normal)
+        if axis != n:
+            k = [a for a in range(3) if a != n].index(axis)
+            pts += [(board.min_mm[axis] + c) * MM for c in edge_lines(loops, k)]
     v = np.unique(np.asarray(pts, float))
     keep = np.concatenate([[True], np.diff(v) >= LINE_TOL_MM * MM])
     return v[keep]
@@ -113,7 +120,32 @@ def _paint(geometry: Geometry, lines: tuple) -> np.ndarray:
         p = parts[i]
         idx = tuple(slice(*_line_index(v, [p.lo[a], p.hi[a]])) for a, v in enumerate(lines))
         cell_part[idx] = i
+    fill = next((i for i, p in enumerate(parts) if p.kind == "fill"), None)
+    index = {p.name: i for i, p in enumerate(parts)}
+    for board, loops in _cut_boards(geometry) if fill is not None else ():
+        i = index[board.name]
+        p = parts[i]
+        idx = tuple(slice(*_line_index(v, [p.lo[a], p.hi[a]])) for a, v in enumerate(lines))
+        n = AXES.index(board.normal)
+        a0, a1 = (a for a in range(3) if a != n)
+        centres = [0.5 * (lines[a][idx[a]] + lines[a][idx[a].start + 1:idx[a].stop + 1]) / MM - board.min_mm[a]
+                   for a in (a0, a1)]
+        out = np.expand_dims(outside_cells(loops, *centres), n)   # (u, v) -> the board's (x, y, z) order
+        block = cell_part[idx]
+        block[(block == i) & out] = fill
     return cell_part
+
+
+def _cut_boards(geometry: Geometry) -> list:
+    """(board spec, closed loops [mm]) of the boards whose true outline takes cells off their rectangle."""
+    out = []
+    for b in geometry.layout.boards:
+        loops = board_loops(b.outline_mm)
+        n = AXES.index(b.normal)
+        a0, a1 = (a for a in range(3) if a != n)
+        if loops and cuts_board(loops, b.size_mm[a0], b.size_mm[a1]):
+            out.append((b, loops))
+    return out
 
 
 def _fill_runs(solid: np.ndarray, widths: np.ndarray, axis: int) -> tuple:
