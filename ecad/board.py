@@ -139,6 +139,10 @@ class BoardDesign:
     vias : tuple of Via
     notes : tuple of str, what the reader found unusual and how it took it (a stack-up far from the usual,
         a panel, ...), printed by ``imutherm import``
+    copper : tuple of :class:`~imutherm.ecad.kicad_copper.CopperLayer`, each copper layer's zones, tracks, vias
+        and pads, front first (empty when the format gives none: IDF)
+    coverage : tuple of float [-], each copper layer's measured coverage within the outline (empty: not
+        measured; set by :func:`imutherm.ecad.kicad_copper.with_coverage`)
     """
 
     source: str
@@ -153,3 +157,5 @@ class BoardDesign:
     footprints: tuple
     vias: tuple = ()
     notes: tuple = ()
+    copper: tuple = ()
+    coverage: tuple = ()

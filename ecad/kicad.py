@@ -4,11 +4,12 @@ What is read: the outline (``Edge.Cuts`` lines, arcs, circles, rectangles and po
 footprint), the thickness and copper layers (the ``(stackup)`` section where there is one, else
 ``(general (thickness))`` and the layer table), every footprint (reference, library name, value, side,
 position, rotation, fab and courtyard outlines, pads, user fields such as ``Height_mm`` / ``Power_W``,
-attributes) and the vias. Copper layers are identified by their type in the layer table (``signal``,
-``power``, ``mixed``, ``jumper``) or, where a file gives none, by number (< 32 in KiCad 4-8), never by name:
-KiCad 4/5 let a designer rename them (``C1F`` / ``C4B``), and their files then name the layer so on every pad,
-while KiCad 6-9 write the canonical name and keep the user's as a fourth word of the table. The front copper
-layer is number 0; the back is 31 (KiCad 4-8) or 2 (KiCad 9, which numbers copper layers 0, 2, 4, ...). The
+attributes), the vias and each copper layer's zones, tracks and pads (:mod:`imutherm.ecad.kicad_copper`).
+Copper layers are identified by their type in the layer table (``signal``, ``power``, ``mixed``, ``jumper``) or,
+where a file gives none, by number (< 32 in KiCad 4-8), never by name: KiCad 4/5 let a designer rename them
+(``C1F`` / ``C4B``), and their files then name the layer so on every pad, while KiCad 6-9 write the canonical
+name and keep the user's as a fourth word of the table. The front copper layer is number 0; the back is 31
+(KiCad 4-8) or 2 (KiCad 9, which numbers copper layers 0, 2, 4, ...). The
 stack-up (sublayers included) is read by :mod:`imutherm.ecad.stackup`.
 
 A damaged file is refused in one line naming the item: a number that is not finite or lies outside KiCad's
@@ -29,6 +30,7 @@ from pathlib import Path
 
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Footprint, Pad, Rect, Via
+from imutherm.ecad.kicad_copper import read_copper
 from imutherm.ecad.outline_loops import simplified_outline
 from imutherm.ecad.sexpr import child, children, parse_sexpr
 from imutherm.ecad.stackup import read_stackup
@@ -113,8 +115,9 @@ def read_kicad(path: str | Path) -> BoardDesign:
         drill = child(v, "drill")
         d = _num(drill[1] if len(drill) > 1 else None, where, "a via's drill") if drill else 0.3
         vias.append(Via(*flip(x, y), d))
+    art = read_copper(tree, where, order, names, [c for _, c in names_of], flip)
     return BoardDesign(where, f"{release} ({int(version)})", box.width, box.height, outline, thickness,
-                       len(copper), copper_um, stack_source, footprints, tuple(vias), notes)
+                       len(copper), copper_um, stack_source, footprints, tuple(vias), notes, art)
 
 
 def _version(tree, where: str) -> float:

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Rect
 from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, decide, merged_heat, off_axis
+from imutherm.ecad.kicad_copper import with_coverage
 from imutherm.ecad.panel import pick_board, unique_references
 from imutherm.ecad.part_bodies import (DIE_FRACTION, MIN_VIAS, SNAP_MM, die_and_pad, overlaps, round_centre, round_mm,
                                       round_size, snap_soft_parts)
@@ -35,6 +36,7 @@ from imutherm.ecad.toml_writer import NOTE, Inline, Note, dumps
 from imutherm.geometry.board_material import DEFAULT_COVERAGE, board_material
 from imutherm.geometry.layout import parse_layout
 from imutherm.geometry.materials import get_material
+from imutherm.geometry.outline import board_loops, outline_area
 from imutherm.site_table import ACCEL_SITES, GYRO_SITES, SITES
 
 try:  # Python >= 3.11
@@ -336,6 +338,7 @@ def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
     board = pick_board(board, sites=opts.sites, powered=opts.powers)
     _check_refs(board, opts)
     board, renamed = unique_references(board)
+    board, coverage = with_coverage(board)
     rails_refs = _electrical_refs(opts.electrical)
     unknown_rail = sorted(rails_refs - {fp.ref for fp in board.footprints})
     if unknown_rail:
@@ -347,7 +350,7 @@ def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
     regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
     off = {fp.ref: fp.off_board for fp in board.footprints if fp.off_board}
     off = {ref: why for ref, why in off.items() if ref not in {fp.ref for fp in board.footprints if not fp.off_board}}
-    notes = list(board.notes) + ([renamed] if renamed else []) + _field_notes(decisions)
+    notes = list(board.notes) + [n for n in (renamed, coverage) if n] + _field_notes(decisions)
     for what, given in (("--power", opts.powers), ("--height", opts.heights), ("--keep", opts.keep)):
         notes += [f"{what} {ref}: not on the board modelled ({off[ref]}): left out"
                   for ref in sorted(given, key=natural_order) if ref in off]
@@ -387,9 +390,10 @@ def _board_material_entry(board: BoardDesign, decisions: list, board_name: str) 
     merged = [d for d in decisions if d.fate == "merged"]
     mass = sum(merged_heat(d)[0] for d in merged)
     heat = sum(merged_heat(d)[1] for d in merged)
-    area = board.width_mm * board.height_mm
-    m = board_material("board", board.thickness_mm, board.copper_um, coverage=DEFAULT_COVERAGE, merged_mass_kg=mass,
-                       merged_heat_capacity_J_K=heat, area_mm2=area,
+    loops = board_loops(board.outline)   # the mesh's board is the outline's (imutherm.geometry.outline)
+    area = outline_area(loops) if loops else board.width_mm * board.height_mm
+    m = board_material("board", board.thickness_mm, board.copper_um, coverage=board.coverage or DEFAULT_COVERAGE,
+                       merged_mass_kg=mass, merged_heat_capacity_J_K=heat, area_mm2=area,
                        note=f"stack-up: {board.stackup_source}; {len(merged)} parts merged")
     # named by its values, so two boards of the same name but other stack-ups never share a name in a process
     digest = hashlib.sha1(repr((m.k_in_plane, m.k_through, m.density, m.specific_heat)).encode()).hexdigest()[:6]

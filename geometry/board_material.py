@@ -1,7 +1,8 @@
 """A multilayer board's effective orthotropic properties from its stack-up: the rule of mixtures.
 
-A board of thickness t with copper layers of thicknesses t_i, each covering a fraction ``coverage`` of the
-board, holds a copper volume fraction f = coverage * sum(t_i) / t. Heat along the board runs through the
+A board of thickness t with copper layers of thicknesses t_i, layer i covering a fraction c_i of the board
+(one ``coverage`` for all, or each layer's as measured from the board file), holds a copper volume fraction
+f = sum(c_i t_i) / t. Heat along the board runs through the
 copper and the laminate side by side (parallel), across it through them in turn (series)::
 
     k_in_plane = f k_Cu + (1 - f) k_FR4          k_through = 1 / (f / k_Cu + (1 - f) / k_FR4)
@@ -41,15 +42,19 @@ def board_material(name: str, thickness_mm: float, copper_um, *, coverage: float
     name : str, the material's name
     thickness_mm : float [mm], the board thickness
     copper_um : sequence of float [um], each copper layer's thickness
-    coverage : float [-], the copper coverage of each layer
+    coverage : float [-], the copper coverage of every layer, or a sequence of each layer's [-] (measured)
     merged_mass_kg, merged_heat_capacity_J_K : float [kg], [J/K], of the parts merged into the board
     area_mm2 : float [mm^2], the board's area (needed with merged parts)
     note : str, appended to the source (what was merged)
     """
     copper = [float(t) for t in copper_um]
-    if not copper or thickness_mm <= 0 or not 0 < coverage <= 1:
-        raise InputError(f"board material {name!r}: needs a thickness > 0, copper layers and 0 < coverage <= 1")
-    f = coverage * sum(copper) * 1e-3 / thickness_mm
+    measured = not isinstance(coverage, (int, float))
+    cover = [float(c) for c in coverage] if measured else [float(coverage)] * len(copper)
+    if (not copper or not thickness_mm > 0 or len(cover) != len(copper)
+            or not all(0 <= c <= 1 for c in cover) or not sum(cover) > 0):
+        raise InputError(f"board material {name!r}: needs a thickness > 0, copper layers and a coverage of each "
+                         f"(0..1, not all 0)")
+    f = sum(c * t for c, t in zip(cover, copper)) * 1e-3 / thickness_mm
     if not 0 < f < 1:
         raise InputError(f"board material {name!r}: {len(copper)} copper layers of {sum(copper):g} um in all do not "
                          f"fit a {thickness_mm:g} mm board")
@@ -59,7 +64,8 @@ def board_material(name: str, thickness_mm: float, copper_um, *, coverage: float
     rho = mass_cu + mass_fr4
     c = (mass_cu * COPPER["specific_heat"] + mass_fr4 * FR4["specific_heat"]) / rho
     source = (f"{len(copper)} copper layers ({', '.join(f'{t:g}' for t in copper)} um) in a {thickness_mm:g} mm FR-4 "
-              f"board at {coverage:.0%} coverage: copper volume fraction {f:.4f}; rule of mixtures (in-plane parallel, "
+              f"board at {_coverage_text(cover, measured)}: copper volume fraction {f:.4f}; rule of mixtures "
+              f"(in-plane parallel, "
               f"through series; Lemczyk et al. 1992) with FR-4 k 0.3, rho 1850, c 1100 and Cu k 398, rho 8933, c 385; "
               f"solder-mask emissivity 0.9 (assumed)")
     if merged_mass_kg or merged_heat_capacity_J_K:
@@ -74,3 +80,9 @@ def board_material(name: str, thickness_mm: float, copper_um, *, coverage: float
     if note:
         source += f"; {note}"
     return Material(name, round(k_in, 4), round(k_th, 4), round(rho, 2), round(c, 2), MASK_EMISSIVITY, source)
+
+
+def _coverage_text(cover: list, measured: bool) -> str:
+    if not measured:
+        return f"{cover[0]:.0%} coverage"
+    return f"measured coverage {', '.join(f'{c:.1%}' for c in cover)} (front to back)"

@@ -11,6 +11,7 @@ import pytest
 from imutherm.ecad.read import read_board
 from imutherm.ecad.to_layout import ImportOptions, import_board
 from imutherm.geometry.build import build_geometry
+from imutherm.geometry.materials import get_material
 from imutherm.geometry.mesh import build_mesh
 from imutherm.geometry.outline import board_loops, outline_area
 
@@ -97,3 +98,67 @@ def test_a_notched_board_edge_is_fill(tmp_path):
     g = build_geometry(r.spec, "air")
     vol, _ = _board_cells(build_mesh(g))
     assert vol == pytest.approx((40 * 30 - 15 * 10) * r.board.thickness_mm, rel=1e-9)
+
+
+# ------------------------------------------------------------------ 2: copper coverage measured
+def _zone(layer, pts, filled=True):
+    xy = " ".join(f"(xy {x} {y})" for x, y in pts)
+    fill = f' (filled_polygon (layer "{layer}") (pts {xy}))' if filled else ""
+    return (f'  (zone (net 0) (net_name "") (layer "{layer}") (hatch edge 0.5) (min_thickness 0.25) (fill yes) '
+            f"(polygon (pts {xy})){fill})")
+
+
+def test_copper_coverage_is_measured_against_a_hand_count(tmp_path):
+    """A 20 x 20 mm board with a 2 x 10 mm slot (380 mm^2 of board), four copper layers:
+    F.Cu: a 10 x 10 mm zone + two 1 x 1 mm pads + a 0.6 mm via = 102.283 mm^2 -> 26.92 %;
+    In1.Cu: a zone left unfilled in the file, counted by its 20 x 20 mm outline, clipped to the board -> 100 %;
+    In2.Cu: the via alone -> 0.07 %;
+    B.Cu: a 0.5 mm track 10 mm long (5 + pi 0.25^2 mm^2 with its round ends) + the via -> 1.44 %.
+    The board's conductivity is the rule of mixtures at these coverages, and the printout and the TOML say them.
+    (The track lies off the 0.1 mm raster's cell edges, as a routed track does: one whose edges fall on cell
+    centres would count a row more or less.)"""
+    from imutherm.ecad.kicad_copper import with_coverage
+    from imutherm.geometry.board_material import board_material
+
+    pads = [("1", "smd", -1.5, 0, 1.0, 1.0), ("2", "smd", 1.5, 0, 1.0, 1.0)]
+    u1 = part("U1", SOIC, (103, 117, 0), fab=(-2, -1, 2, 1), pads=pads)
+    square = [(105, 103), (115, 103), (115, 113), (105, 113)]
+    extra = "\n".join([
+        _zone("F.Cu", square),
+        _zone("In1.Cu", [(100, 100), (120, 100), (120, 120), (100, 120)], filled=False),
+        '  (segment (start 102 116.03) (end 112 116.03) (width 0.5) (layer "B.Cu") (net 0))',
+        '  (gr_rect (start 117 105) (end 119 115) (layer "Edge.Cuts") (width 0.05))'])
+    path = tmp_path / "cu.kicad_pcb"
+    path.write_text(kicad_board([u1], outline=(100, 100, 120, 120), vias=[(110, 118.5, 0.3)], extra=extra))
+    board = read_board(path)
+    measured, note = with_coverage(board)
+    via = math.pi * 0.3 ** 2
+    hand = ((100 + 2 + via) / 380, 1.0, via / 380, (5 + math.pi * 0.25 ** 2 + via) / 380)
+    assert measured.coverage == pytest.approx(hand, abs=0.1 / 380)   # within 0.1 mm^2 of the hand count
+    assert "F.Cu 27 %, In1.Cu 100 %, In2.Cu 0 %, B.Cu 1 %" in note and "1 zones without a fill" in note
+
+    r = import_board(board, ImportOptions(powers={"U1": (0.1, "test")}))
+    assert note in r.notes and "measured coverage 26.9%, 100.0%, 0.1%, 1.4%" in r.text
+    expected = board_material("board", board.thickness_mm, board.copper_um, coverage=measured.coverage)
+    got = get_material(r.spec.boards[0].material)
+    assert got.k_in_plane == pytest.approx(expected.k_in_plane, rel=1e-3)
+    assert got.k_through == pytest.approx(expected.k_through, rel=1e-3)
+
+
+def test_rotated_and_round_pads_cover_their_own_area(tmp_path):
+    """A footprint turned 45 degrees with a 2 x 1 mm rectangular pad, a 1 mm round pad and a 2 x 1 mm oval pad,
+    on a 20 x 20 mm board: F.Cu covers 2 + pi/4 + (1 + pi/4) mm^2 of 400, to 0.12 mm^2 (a cell row along an
+    edge is 0.1 mm wide: a lone pad's area is good to a few %, a board's thousands of pads average out; the part
+    stands off the raster's cell edges, as a placed part does)."""
+    pads = [("1", "smd", -3, 0, 2.0, 1.0), ("2", "thru_hole", 0, 0, 1.0, 1.0, 0.5), ("3", "smd", 3, 0, 2.0, 1.0)]
+    u1 = part("U1", SOIC, (110.013, 110.037, 45), fab=(-4, -1, 4, 1), pads=pads)
+    text = kicad_board([u1], outline=(100, 100, 120, 120), copper=2)
+    text = text.replace('(pad "3" smd rect', '(pad "3" smd oval')
+    path = tmp_path / "pads.kicad_pcb"
+    path.write_text(text)
+    from imutherm.ecad.kicad_copper import with_coverage
+
+    measured, _ = with_coverage(read_board(path))
+    front = (2 + math.pi / 4 + 1 + math.pi / 4) / 400
+    back = (math.pi / 4) / 400   # the through-hole pad is on every copper layer
+    assert measured.coverage == pytest.approx((front, back), abs=0.12 / 400)
