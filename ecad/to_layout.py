@@ -33,6 +33,7 @@ from imutherm.ecad.part_bodies import (DIE_FRACTION, MIN_VIAS, SNAP_MM, die_and_
 from imutherm.ecad.placement import place_parts
 from imutherm.ecad.standoffs import standoff_rects, standoff_parts
 from imutherm.ecad.toml_writer import NOTE, Inline, Note, dumps
+from imutherm.ecad.via_fields import via_field_entry
 from imutherm.geometry.board_material import DEFAULT_COVERAGE, board_material
 from imutherm.geometry.layout import parse_layout
 from imutherm.geometry.materials import get_material
@@ -202,8 +203,9 @@ def _unknown_heights(board: BoardDesign, missing: list) -> InputError:
 
 
 def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body: Rect, die: bool,
-               power_from_rails: bool, snapped: str = "") -> dict:
-    """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it)."""
+               power_from_rails: bool, snapped: str = "", materials: dict | None = None) -> dict:
+    """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it); a via
+    field's material is added to ``materials`` (the layout's, holding the board's as ``materials["board"]``)."""
     fp = d.footprint
     h = d.height_mm
     entry = {NOTE: (f"{fp.ref} {fp.value} ({fp.library}) at ({fp.x:.3f}, {fp.y:.3f}) mm, {fp.rotation_deg:g} deg, "
@@ -225,6 +227,9 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
             entry["pad_mm"] = [round_mm(pad[0]), round_mm(pad[1])]
             if vias >= MIN_VIAS:
                 entry["vias"] = Note(True, f"{vias} vias inside the exposed pad")
+                if materials is not None:   # the field's material from the file's vias (ecad/via_fields.py)
+                    mat, table = via_field_entry(board, d, entry["pad_mm"], materials["board"], name)
+                    entry["vias_material"], materials[mat] = mat, table
         entry["die_mm"] = Note([round_mm(du), round_mm(dv), round_mm(dt)], f"assumed: {DIE_FRACTION:g} of the body, as the reference "
                                                           f"unit's dies")
         entry["die_base_mm"] = round_mm(db)
@@ -438,11 +443,11 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
     fixed = hard | {d.footprint.ref for d in modelled if d.power_W > 0 or d.footprint.ref in site_refs}
     exact = dict(bodies)
     bodies, snapped = snap_soft_parts(board, modelled, bodies, fixed, [r for _, r in standoffs_at], opts.exact)
-    components = []
+    components, mats = [], {"board": (mat_name, mat_table)}
     for d in modelled:
         ref = d.footprint.ref
         components.append(_component(board, d, names[ref], opts.board_name, bodies[ref], ref in hard,
-                                     ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
+                                     ref in regulators and ref not in opts.powers, snapped.get(ref, ""), mats))
     if snapped:
         notes.append(snap_note(exact, bodies, snapped))
     doc = {
@@ -458,7 +463,7 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
                     "outer_mm": [round_mm(v) for v in outer], "wall_mm": hs.wall_mm, "base_mm": hs.base_mm,
                     "lid_mm": hs.lid_mm, "material": hs.material},
         "mounting": _mounting(hs),
-        "materials": {mat_name: mat_table},
+        "materials": {mat_name: mat_table, **{k: v for k, v in mats.items() if k != "board"}},
         "boards": [{NOTE: f"{board.format} board {board.source}: {board.width_mm:.3f} x {board.height_mm:.3f} mm "
                           f"(the outline's bounding rectangle), {t:g} mm, {board.copper_layers} copper layers",
                     "name": opts.board_name, "normal": "z", "min_mm": [round_mm(x0), round_mm(y0), round_mm(z0)],
@@ -639,10 +644,12 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
     bodies, snapped = snap_soft_parts(board, modelled, bodies, fixed, (), opts.exact)
     if snapped:
         notes.append(snap_note(exact, bodies, snapped))
+    mats = {"board": (mat_name, mat_table)}
     for d in modelled:
         ref = d.footprint.ref
         data["components"].append(_component(board, d, names[ref], board_name, bodies[ref], ref in hard,
-                                             ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
+                                             ref in regulators and ref not in opts.powers, snapped.get(ref, ""), mats))
+    data["materials"].update({k: v for k, v in mats.items() if k != "board"})
     if opts.electrical:
         new = _renamed_electrical(opts.electrical, names)
         data["electrical"] = new["electrical"]

@@ -17,6 +17,8 @@ added to the board's mass and heat capacity (``merged_mass_kg``, ``merged_heat_c
 
 from __future__ import annotations
 
+import math
+
 from imutherm import InputError
 from imutherm.geometry.materials import Material
 
@@ -86,3 +88,40 @@ def _coverage_text(cover: list, measured: bool) -> str:
     if not measured:
         return f"{cover[0]:.0%} coverage"
     return f"measured coverage {', '.join(f'{c:.1%}' for c in cover)} (front to back)"
+
+
+#: hole-wall copper of a plated via [um]: 25 um, IPC-6012 class 3's least average (class 1-2: 20 um), the figure
+#: TI's PowerPAD note SLMA002 and the library's ``pcb_via_field`` take (recalled, not checked against the text)
+PLATING_UM = 25.0
+
+
+def via_field_material(name: str, board: Material, drills_mm, area_mm2: float,
+                       plating_um: float = PLATING_UM) -> Material:
+    """The board under an exposed pad with vias: the board's material with the vias' copper barrels in parallel
+    through it.
+
+    Each via of finished hole d (KiCad's drill) has a plated barrel of wall t outside it, a copper ring of area
+    a = pi t (d + t); N vias in a pad of area A are a copper area fraction phi = sum(a) / A, and (unfilled
+    barrels, air inside; the barrels run straight through the board)::
+
+        k_through = phi k_Cu + (1 - phi) k_board_through        k_in_plane = k_board_in_plane
+
+    with rho and c mixed by volume and mass as :func:`board_material` does. Lengths [mm], t [um]."""
+    drills = [float(d) for d in drills_mm]
+    if not drills or not area_mm2 > 0 or not all(d > 0 for d in drills) or not plating_um > 0:
+        raise InputError(f"via field {name!r}: needs vias of drill > 0, a pad area > 0 and a plating > 0")
+    t = plating_um * 1e-3
+    phi = sum(math.pi * t * (d + t) for d in drills) / area_mm2
+    if not 0 < phi < 1:
+        raise InputError(f"via field {name!r}: {len(drills)} vias' barrels ({phi:.0%}) do not fit a "
+                         f"{area_mm2:g} mm^2 pad")
+    k_th = phi * COPPER["k"] + (1 - phi) * board.k_through
+    mass_cu, mass_b = phi * COPPER["density"], (1 - phi) * board.density
+    rho = mass_cu + mass_b
+    c = (mass_cu * COPPER["specific_heat"] + mass_b * board.specific_heat) / rho
+    sizes = sorted(set(round(d, 3) for d in drills))
+    source = (f"{len(drills)} vias of {', '.join(f'{d:g}' for d in sizes)} mm drill under a {area_mm2:.3g} mm^2 pad, "
+              f"{plating_um:g} um barrels (IPC-6012 class 3 average, recalled): copper area fraction {phi:.4f} = "
+              f"sum(pi t (d + t)) / A; through-plane parallel {phi:.4f} x 398 + {1 - phi:.4f} x "
+              f"{board.k_through:g} W/m K; in-plane, rho, c: the board's ({board.name}) with the barrels' copper")
+    return Material(name, board.k_in_plane, round(k_th, 4), round(rho, 2), round(c, 2), board.emissivity, source)

@@ -22,7 +22,7 @@ from imutherm.geometry.materials import Material, get_material
 from imutherm.geometry.outline import board_loops, cuts_board, outline_area
 
 MM = 1e-3  # [m per mm]
-VIA_FIELD_MATERIAL = "pcb_via_field"  # board material under an exposed pad with thermal vias
+VIA_FIELD_MATERIAL = "pcb_via_field"  # board material under an exposed pad with thermal vias (a layout's default)
 _TOL = 1e-9  # [m] geometric tolerance for touching faces
 
 
@@ -176,7 +176,7 @@ def _component_parts(layout: LayoutSpec, comp, board, side: str) -> list:
                             parent=comp.name))
             if comp.vias:
                 thick = board.size_mm[n]
-                out.append(Part(comp.name + "_vias", "vias", VIA_FIELD_MATERIAL, *box(pu, pv, -thick, 0.0),
+                out.append(Part(comp.name + "_vias", "vias", comp.vias_material, *box(pu, pv, -thick, 0.0),
                                 normal=board.normal, parent=board.name))
         out.append(Part(comp.name + "_die", "die", "silicon",
                         *box(du, dv, comp.die_base_mm, comp.die_base_mm + dt), power_W=comp.power_W,

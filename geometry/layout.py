@@ -162,7 +162,8 @@ class ComponentSpec:
     die_mm : (u, v, thickness) of the die, centred, ``die_base_mm`` above the board face [mm]
     exposed_pad : the die sits on a copper pad / tab soldered to the board
     pad_mm : (u, v) footprint of that pad [mm] (default: the die's)
-    vias : a thermal-via field through the board under the pad
+    vias : a thermal-via field through the board under the pad; vias_material : its material (default the
+        library's ``pcb_via_field``; an import computes one from the file's vias)
     power_W : float [W] dissipated in the die
     power_source : str, where ``power_W`` comes from (``layout power_W``, or the electrical design's
         formula for a rail's regulator without an explicit ``power_W``)
@@ -184,6 +185,7 @@ class ComponentSpec:
     axis: str | None
     power_source: str = "layout power_W"
     footprint: str | None = None
+    vias_material: str = "pcb_via_field"
 
 
 @dataclass(frozen=True)
@@ -600,7 +602,7 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
                    {"name": "str", "board": "board name", "side": "top|bottom", "center_mm": "(u, v)",
                     "size_mm": "(u, v, height)", "material": "name", "die_mm": "(u, v, thickness)",
                     "die_base_mm": "mm", "exposed_pad": "bool", "pad_mm": "(u, v)", "vias": "bool",
-                    "power_W": "W", "axis": "x|y|z", "footprint": "text"})
+                    "vias_material": "name", "power_W": "W", "axis": "x|y|z", "footprint": "text"})
         name = c.string("name")
         c.where = f"component {quote(name, 60)}"
         board = c.string("board")
@@ -626,11 +628,14 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
             c.fail("vias", f"must be true or false, got {vias!r}")
         if vias and not pad:
             c.fail("vias", "a via field sits under an exposed pad: set exposed_pad = true")
+        if "vias_material" in t and not vias:
+            c.fail("vias_material", "needs vias = true")
         spec = ComponentSpec(name, board, c.string("side", choices=("top", "bottom")), c.vector("center_mm", 2),
                              size, c.material("material", mats), die, die_base, pad,
                              (pad_mm or (die[:2] if pad else None)), vias,
                              c.number("power_W", None, nonneg=True, bounds=POWER_BOUNDS),
-                             c.string("axis", None, choices=AXES), footprint=c.string("footprint", None))
+                             c.string("axis", None, choices=AXES), footprint=c.string("footprint", None),
+                             vias_material=c.material("vias_material", mats, "pcb_via_field"))
         names.claim(name, c.where)
         for sub in ("_die", "_pad", "_vias"):
             names.claim(name + sub, c.where)

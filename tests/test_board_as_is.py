@@ -162,3 +162,42 @@ def test_rotated_and_round_pads_cover_their_own_area(tmp_path):
     front = (2 + math.pi / 4 + 1 + math.pi / 4) / 400
     back = (math.pi / 4) / 400   # the through-hole pad is on every copper layer
     assert measured.coverage == pytest.approx((front, back), abs=0.12 / 400)
+
+
+# ------------------------------------------------------------------ 3: via fields from the file's vias
+def test_a_via_field_is_made_of_the_files_vias_against_a_hand_computation(tmp_path):
+    """A QFN with a 3 x 3 mm exposed pad over four 0.3 mm board vias and one 0.2 mm plated hole of its own (a
+    fifth via beside the part does not count): copper barrels of 25 um outside each hole,
+    phi = pi 0.025 (4 x 0.325 + 0.225) / 9 = 0.01331, and k_through = phi 398 + (1 - phi) k_board_through;
+    in-plane the board's. The via field of the mesh is made of it."""
+    from imutherm.geometry.board_material import via_field_material
+
+    ring = [(str(i + 1), "smd", x, y, 0.8, 0.3) for i, (x, y) in enumerate(
+        [(-2.2, -0.5), (-2.2, 0.5), (2.2, -0.5), (2.2, 0.5), (-0.5, -2.2), (0.5, -2.2), (-0.5, 2.2), (0.5, 2.2)])]
+    pads = ring + [("9", "smd", 0, 0, 3.0, 3.0), ("9", "thru_hole", 0, 0, 0.4, 0.4, 0.2)]
+    u1 = part("U1", "Package_DFN_QFN:QFN-16-1EP_5x5mm_P0.8mm_EP3x3mm", (110, 110, 0), fab=(-2.5, -2.5, 2.5, 2.5),
+              pads=pads)
+    vias = [(109.2, 109.2, 0.3), (110.8, 109.2, 0.3), (109.2, 110.8, 0.3), (110.8, 110.8, 0.3), (115, 115, 0.3)]
+    path = tmp_path / "vias.kicad_pcb"
+    path.write_text(kicad_board([u1], vias=vias))
+    r = import_board(read_board(path), POWER)
+    comp = next(c for c in r.spec.components if c.name == "U1")
+    assert comp.exposed_pad and comp.vias and comp.pad_mm == (3.0, 3.0)
+    field = get_material(comp.vias_material)
+    board = get_material(r.spec.boards[0].material)
+    phi = math.pi * 0.025 * (4 * 0.325 + 0.225) / 9.0
+    assert phi == pytest.approx(0.01331, abs=5e-5)
+    assert field.k_through == pytest.approx(phi * 398 + (1 - phi) * board.k_through, rel=1e-4)
+    assert field.k_in_plane == board.k_in_plane
+    assert field.density == pytest.approx(phi * 8933 + (1 - phi) * board.density, rel=1e-4)
+    assert via_field_material("x", board, [0.3] * 4 + [0.2], 9.0).k_through == pytest.approx(field.k_through)
+    g = build_geometry(r.spec, "air")
+    assert g.part("U1_vias").material == comp.vias_material
+    assert "5 vias" in field.source and "5 vias inside the exposed pad" in r.text
+
+
+def test_a_hand_written_via_field_keeps_the_library_material():
+    """A layout's via field without ``vias_material`` is the library's ``pcb_via_field`` (the reference unit)."""
+    g = build_geometry("imu_reference", "air")
+    fields = [p for p in g.parts if p.kind == "vias"]
+    assert fields and all(p.material == "pcb_via_field" for p in fields)
