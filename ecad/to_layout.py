@@ -470,7 +470,7 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
                     "size_mm": [round_mm(board.width_mm), round_mm(board.height_mm), round_mm(t)], "material": mat_name,
                     "source": f"{board.source} ({board.format})",
                     "outline_mm": [[[round_mm(x), round_mm(y)] for x, y in line] for line in board.outline],
-                    "merged_parts": _merged_entries(decisions)}],
+                    **_coverage_entry(board), "merged_parts": _merged_entries(decisions)}],
         "parts": standoffs,
         "components": components,
     }
@@ -523,6 +523,14 @@ def _merged_entries(decisions: list) -> list:
                                            round_mm(d.height_mm or MERGED_UNKNOWN_HEIGHT_MM)],
                                "footprint": d.footprint.library}))
     return out
+
+
+def _coverage_entry(board: BoardDesign) -> dict:
+    """The board's ``copper_coverage`` (measured, front to back) for the layout, {} when not measured."""
+    if not board.coverage:
+        return {}
+    return {"copper_coverage": Note([round(c, 4) for c in board.coverage], "measured from the file's zones, tracks, "
+                                    "vias and pads within the outline, front to back (ecad/kicad_copper.py)")}
 
 
 def _mounting(hs: HousingOptions) -> dict:
@@ -615,9 +623,10 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
     size = [0.0, 0.0, 0.0]
     size[a0], size[a1], size[axis] = board.width_mm, board.height_mm, board.thickness_mm
     mat_name, mat_table = _board_material_entry(board, decisions, board_name)
+    target.pop("copper_coverage", None)
     target.update(size_mm=[round_mm(v) for v in size], material=mat_name, source=f"{board.source} ({board.format})",
                   outline_mm=[[[round_mm(x), round_mm(y)] for x, y in line] for line in board.outline],
-                  merged_parts=_merged_entries(decisions))
+                  **_coverage_entry(board), merged_parts=_merged_entries(decisions))
     data.setdefault("materials", {})[mat_name] = mat_table
     old = {c.get("name") for c in data.get("components", []) if isinstance(c, dict) and c.get("board") == board_name}
     data["components"] = [c for c in data.get("components", []) if c.get("name") not in old]

@@ -16,12 +16,16 @@ from functools import lru_cache
 
 import numpy as np
 
+from imutherm.textio import quote
+
 #: ends of two outline pieces closer than this join [mm] (KiCad snaps ends to 1 nm; hand-drawn outlines
 #: leave gaps of a few um)
 JOIN_MM = 0.01
 #: an axis-aligned outline edge at least this long [mm] gets a grid line of its own (shorter ones, and the
 #: short chords of an arc, are followed by the cells)
 EDGE_LINE_MM = 1.0
+#: most points of a board outline (a real outline with its arcs drawn as polylines has a few hundred)
+MAX_OUTLINE_POINTS = 20000
 #: most grid lines an outline adds along each axis (the longest edges first): a castellated or panel edge of
 #: hundreds of short straight pieces must not multiply the mesh
 MAX_EDGE_LINES = 48
@@ -144,3 +148,41 @@ def outside_cells(loops, u_centres, v_centres) -> np.ndarray:
     gu, gv = np.meshgrid(np.asarray(u_centres, float), np.asarray(v_centres, float), indexing="ij")
     return ~inside(loops, gu, gv)
 
+
+
+def outline_from_table(value, span: tuple, fail):
+    """A layout board's ``outline_mm`` (polylines of [u, v] board-local points [mm] within the board's ``span``
+    (u, v) [mm]) as a tuple of tuples, None when absent; ``fail(field, message)`` raises on bad input."""
+    if value is None:
+        return None
+    if not isinstance(value, list) or not value:
+        fail("outline_mm", "must be a non-empty list of polylines, each a list of [u, v] points [mm]")
+    lines, count = [], 0
+    for line in value:
+        if not isinstance(line, list) or len(line) < 2:
+            fail("outline_mm", f"each polyline needs at least 2 [u, v] points, got {quote(line, 80)}")
+        pts = []
+        for p in line:
+            if (not isinstance(p, list) or len(p) != 2 or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in p)):
+                fail("outline_mm", f"points must be [u, v] pairs of finite numbers [mm], got {quote(p, 80)}")
+            if not all(-1e-3 <= v <= s + 1e-3 for v, s in zip(p, span)):
+                fail("outline_mm", f"point {p} lies outside the board (0..{span[0]:g}, 0..{span[1]:g} mm)")
+            pts.append((float(p[0]), float(p[1])))
+        count += len(pts)
+        if count > MAX_OUTLINE_POINTS:
+            fail("outline_mm", f"more than {MAX_OUTLINE_POINTS} points")
+        lines.append(tuple(pts))
+    return tuple(lines)
+
+
+def coverage_from_table(value, fail):
+    """A layout board's ``copper_coverage`` (each copper layer's measured coverage, front to back, fractions
+    0..1) as a tuple, () when absent; ``fail(field, message)`` raises on bad input."""
+    if value is None:
+        return ()
+    if not (isinstance(value, list) and 0 < len(value) <= 64
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v <= 1 for v in value)):
+        fail("copper_coverage", f"must be a list of fractions 0..1, one per copper layer front to back, got "
+                                f"{quote(value, 80)}")
+    return tuple(float(v) for v in value)

@@ -201,3 +201,32 @@ def test_a_hand_written_via_field_keeps_the_library_material():
     g = build_geometry("imu_reference", "air")
     fields = [p for p in g.parts if p.kind == "vias"]
     assert fields and all(p.material == "pcb_via_field" for p in fields)
+
+
+# ------------------------------------------------------------------ 4: the drawing
+def test_the_board_drawing_shades_the_outline_and_names_the_measured_coverage(tmp_path):
+    """The drawing shades the model's board (the slot left clear, as the mesh has it) and gives each layer's
+    measured copper coverage (the layout's ``copper_coverage``)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from imutherm.reports.board_plot import board_figure
+
+    slot = '  (gr_rect (start 110 112) (end 130 114) (layer "Edge.Cuts") (width 0.05))'
+    r = _import(tmp_path, extra=slot)
+    b = r.spec.boards[0]
+    assert len(b.copper_coverage) == 4 and b.copper_coverage == pytest.approx(r.board.coverage, abs=1e-4)
+    fig = board_figure(build_geometry(r.spec, "air"), "main")
+    try:
+        image = fig.axes[0].images[0].get_array()
+        cell = 40.0 / image.shape[1]
+        slot_px = image[int(17 / cell), int(20 / cell)]      # board-local (u, v) = (20, 17): in the slot
+        board_px = image[int(5 / cell), int(20 / cell)]
+        assert slot_px[3] == 0 and board_px[3] > 0
+        front = 100 * b.copper_coverage[0]
+        assert f"front copper {front:.0f} %" in fig.axes[0].get_title()
+        assert "copper coverage measured, front to back" in fig._suptitle.get_text()
+    finally:
+        plt.close(fig)
