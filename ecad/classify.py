@@ -236,7 +236,7 @@ def _height(fp: Footprint, package: PackageClass | None, heights: dict) -> tuple
             raise InputError(f"footprint {fp.ref}: field Height_mm {value:g} mm is outside 0..100 mm")
         return value, "the footprint's Height_mm field"
     if fp.height_mm is not None:
-        return fp.height_mm, "the board file's component height"
+        return fp.height_mm, fp.height_source or "the board file's component height"
     if package is not None:
         h = package.height(fp.library)
         if h is not None:

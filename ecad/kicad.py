@@ -26,11 +26,13 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import replace
 from pathlib import Path
 
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Footprint, Pad, Rect, Via
 from imutherm.ecad.kicad_copper import read_copper
+from imutherm.ecad.models3d import footprint_model_height
 from imutherm.ecad.outline_loops import simplified_outline
 from imutherm.ecad.sexpr import child, children, parse_sexpr
 from imutherm.ecad.stackup import read_stackup
@@ -107,8 +109,9 @@ def read_kicad(path: str | Path) -> BoardDesign:
 
     outline = tuple(tuple(flip(x, y) for x, y in line) for line in simplified_outline(outline, where))
     copper_set = set(copper)
-    footprints = tuple(_footprint(fp, where, names, copper_set, front, back, flip)
-                       for fp in children(tree, "footprint") + children(tree, "module"))
+    nodes = children(tree, "footprint") + children(tree, "module")
+    footprints = tuple(_footprint(fp, where, names, copper_set, front, back, flip) for fp in nodes)
+    footprints = tuple(_with_model_height(f, node, path.parent) for f, node in zip(footprints, nodes))
     vias = []
     for v in children(tree, "via"):
         x, y = _xy(v, "at", where, "a via")
@@ -118,6 +121,12 @@ def read_kicad(path: str | Path) -> BoardDesign:
     art = read_copper(tree, where, order, names, [c for _, c in names_of], flip)
     return BoardDesign(where, f"{release} ({int(version)})", box.width, box.height, outline, thickness,
                        len(copper), copper_um, stack_source, footprints, tuple(vias), notes, art)
+
+
+def _with_model_height(fp: Footprint, node, board_dir: Path) -> Footprint:
+    """The footprint with the height of its 3D model where the model file is on the disk (models3d.py)."""
+    h, source = footprint_model_height(node, board_dir)
+    return fp if h is None else replace(fp, height_mm=h, height_source=source)
 
 
 def _version(tree, where: str) -> float:

@@ -230,3 +230,71 @@ def test_the_board_drawing_shades_the_outline_and_names_the_measured_coverage(tm
         assert "copper coverage measured, front to back" in fig._suptitle.get_text()
     finally:
         plt.close(fig)
+
+
+# ------------------------------------------------------------------ 5: heights from the 3D models on the disk
+def _box_wrl(z0: float, z1: float) -> str:
+    """A VRML box 2 x 1 units in plan from z0 to z1 [VRML units of 0.1 inch], as KiCad's libraries write."""
+    pts = ", ".join(f"{x} {y} {z}" for z in (z0, z1) for x, y in ((-1, -0.5), (1, -0.5), (1, 0.5), (-1, 0.5)))
+    return ("#VRML V2.0 utf8\nShape { appearance Appearance {}\n geometry IndexedFaceSet {\n"
+            f"  coord Coordinate {{ point [ {pts} ] }}\n  coordIndex [ 0, 1, 2, 3, -1 ]\n }}\n}}\n")
+
+
+def _step(points, unit="SI_UNIT(.MILLI.,.METRE.)") -> str:
+    rows = "\n".join(f"#{i + 10}=CARTESIAN_POINT('',({x},{y},{z}));" for i, (x, y, z) in enumerate(points))
+    return (f"ISO-10303-21;\nHEADER;\nENDSEC;\nDATA;\n#1=( LENGTH_UNIT() NAMED_UNIT(*) {unit} );\n{rows}\n"
+            "ENDSEC;\nEND-ISO-10303-21;\n")
+
+
+def _model_part(ref, at, model):
+    p = part(ref, "Vendor:NoSuchPackage", at, fab=(-1.5, -1.0, 1.5, 1.0))
+    p["fields"] = {}
+    p["model"] = model
+    return p
+
+
+def test_heights_from_wrl_and_step_models_on_the_disk(tmp_path, monkeypatch):
+    """Three parts of no known package, each with a 3D model the board names:
+    U1 ``${KIPRJMOD}/models/u1.wrl``: a box up to 0.6 VRML units = 0.6 x 2.54 = 1.524 mm;
+    U2 ``${KICAD8_3DMODEL_DIR}/x.3dshapes/u2.wrl`` that exists only as ``u2.step`` (mm, top at z = 2.0 mm),
+    offset 0.5 mm up and scaled 1.5 in z: 2.0 x 1.5 + 0.5 = 3.5 mm;
+    U3 a STEP in inches (top at 0.1 in) turned 180 degrees about x: its lowest point (-0.02 in = -0.508 mm)
+    becomes its top, 0.508 mm.
+    A model the disk does not hold (U4) gives no height: the import asks for it, as before."""
+    models = tmp_path / "models"
+    models.mkdir()
+    (models / "u1.wrl").write_text(_box_wrl(0.0, 0.6))
+    lib = tmp_path / "lib" / "x.3dshapes"
+    lib.mkdir(parents=True)
+    (lib / "u2.step").write_text(_step([(0, 0, 0), (1, 1, 2.0), (-1, -1, 0.3)]))
+    (lib / "u3.stp").write_text(_step([(0, 0, -0.02), (0.05, 0.05, 0.1)],
+                                      "( CONVERSION_BASED_UNIT('INCH',#5) LENGTH_UNIT() NAMED_UNIT(#6) )"))
+    for var in ("KICAD9_3DMODEL_DIR", "KICAD7_3DMODEL_DIR", "KICAD6_3DMODEL_DIR", "KISYS3DMOD"):
+        monkeypatch.delenv(var, raising=False)
+    monkeypatch.setenv("KICAD8_3DMODEL_DIR", str(tmp_path / "lib"))
+    parts = [
+        _model_part("U1", (105, 105, 0), '(model "${KIPRJMOD}/models/u1.wrl" (offset (xyz 0 0 0)) '
+                                         '(scale (xyz 1 1 1)) (rotate (xyz 0 0 0)))'),
+        _model_part("U2", (115, 105, 90), '(model "${KICAD8_3DMODEL_DIR}/x.3dshapes/u2.wrl" (offset (xyz 0 0 0.5)) '
+                                          '(scale (xyz 1 1 1.5)) (rotate (xyz 0 0 0)))'),
+        _model_part("U3", (125, 105, 0), '(model "${KICAD6_3DMODEL_DIR}/x.3dshapes/u3.stp" '
+                                         '(scale (xyz 1 1 1)) (rotate (xyz 180 0 0)))'),
+        _model_part("U4", (105, 120, 0), '(model "${KICAD8_3DMODEL_DIR}/x.3dshapes/missing.wrl")'),
+    ]
+    path = tmp_path / "m.kicad_pcb"
+    text = kicad_board(parts)
+    for p in parts:   # the model inside its footprint, before the footprint closes
+        text = text.replace(f'(fp_text reference "{p["ref"]}" (at 0 0) (layer "F.SilkS"))',
+                            f'(fp_text reference "{p["ref"]}" (at 0 0) (layer "F.SilkS"))\n    {p["model"]}')
+    path.write_text(text)
+    fps = {fp.ref: fp for fp in read_board(path).footprints}
+    assert fps["U1"].height_mm == pytest.approx(0.6 * 2.54)
+    assert fps["U2"].height_mm == pytest.approx(3.5)
+    assert fps["U3"].height_mm == pytest.approx(0.508)
+    assert fps["U4"].height_mm is None
+    assert "u1.wrl" in fps["U1"].height_source and "u2.step" in fps["U2"].height_source
+    r = import_board(read_board(path), ImportOptions(powers={"U1": (0.1, "t"), "U2": (0.1, "t"), "U3": (0.1, "t")},
+                                                     heights={"U4": (1.0, "test")}))
+    comps = {c.name: c for c in r.spec.components}
+    assert comps["U1"].size_mm[2] == pytest.approx(1.524) and comps["U2"].size_mm[2] == pytest.approx(3.5)
+    assert "its 3D model" in r.text
