@@ -298,3 +298,35 @@ def test_heights_from_wrl_and_step_models_on_the_disk(tmp_path, monkeypatch):
     comps = {c.name: c for c in r.spec.components}
     assert comps["U1"].size_mm[2] == pytest.approx(1.524) and comps["U2"].size_mm[2] == pytest.approx(3.5)
     assert "its 3D model" in r.text
+
+
+# ------------------------------------------------------------------ bad input in what this reads
+@pytest.mark.parametrize("item, words", [
+    ('  (zone (net 0) (layer "F.Cu") (polygon (pts (xy 105 105) (xy nan 105) (xy 110 110))))',
+     "a zone's outline point: expected a number"),
+    ('  (segment (start 102 116) (end 1e12 116) (width 0.5) (layer "B.Cu") (net 0))', "a track (segment) end"),
+    ('  (via (at 110 110) (size inf) (drill 0.3) (layers "F.Cu" "B.Cu"))', "a via size"),
+])
+def test_damaged_copper_is_refused_in_one_line(tmp_path, item, words):
+    from imutherm import InputError
+
+    path = tmp_path / "bad.kicad_pcb"
+    path.write_text(kicad_board([part("U1", SOIC, (110, 105, 0))], extra=item))
+    with pytest.raises(InputError) as exc:
+        read_board(path)
+    assert words in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_a_via_material_without_a_via_field_is_refused(tmp_path):
+    from imutherm import InputError
+    from imutherm.geometry.layout import parse_layout
+
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover
+        import tomli as tomllib
+    r = _import(tmp_path)
+    text = r.text.replace('material = "mould_compound"',
+                          'material = "mould_compound"\nvias_material = "pcb_via_field"', 1)
+    with pytest.raises(InputError, match="vias_material.*needs vias = true"):
+        parse_layout(tomllib.loads(text), "t")
