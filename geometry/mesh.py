@@ -32,9 +32,16 @@ DEFAULT_MAX_CELL_MM = 2.0  # [mm] default largest cell edge; the mesh convergenc
 DEFAULT_MIN_CELLS = 2      # cells across the thinnest dimension of every part
 BOARD_CELLS_FACTOR = 2     # boards, via fields, standoffs: this many times min_cells across
 _FACTOR_KINDS = ("board", "vias", "box")
-#: [mm] part faces closer than this share one grid line (1 um: no layer of a unit is that thin; faces a CAD
-#: export puts a rounding error apart make no sliver cells)
-LINE_TOL_MM = 1e-3
+#: [mm] part faces closer than this share one grid line (20 um: no layer of a unit is that thin, the thinnest
+#: cells are 50 um; faces a CAD export puts a rounding error apart, or a board's parts placed a few um out of
+#: line, make no sliver cells: cube-main's four stepper drivers 6 um apart made a 6 um row of cells across the
+#: unit and tripled its steady solve's CG iterations)
+LINE_TOL_MM = 0.02
+
+#: [mm] an outline edge's grid line is left out when another line lies closer than this (the cells follow the
+#: edge by their centres instead, at most this far off): a sliver of 5 um across the whole unit took a board's
+#: steady solve from 75 to 274 CG iterations
+EDGE_GAP_MM = 0.25
 
 #: names of the outer faces of the housing, by grid face
 HOUSING_FACE_NAMES = {"xmin": "side_xmin", "xmax": "side_xmax", "ymin": "side_ymin", "ymax": "side_ymax",
@@ -94,14 +101,18 @@ def _face_lines(geometry: Geometry, axis: int) -> np.ndarray:
     pts = [geometry.outer[0][axis], geometry.outer[1][axis], geometry.cavity[0][axis], geometry.cavity[1][axis]]
     for p in geometry.parts:
         pts += [p.lo[axis], p.hi[axis]]
+    v = np.unique(np.asarray(pts, float))
+    keep = np.concatenate([[True], np.diff(v) >= LINE_TOL_MM * MM])
+    v = v[keep]
     for board, loops in _cut_boards(geometry):   # a cut-out's or slot's long straight edges
         n = AXES.index(board.normal)
         if axis != n:
             k = [a for a in range(3) if a != n].index(axis)
-            pts += [(board.min_mm[axis] + c) * MM for c in edge_lines(loops, k)]
-    v = np.unique(np.asarray(pts, float))
-    keep = np.concatenate([[True], np.diff(v) >= LINE_TOL_MM * MM])
-    return v[keep]
+            for c in edge_lines(loops, k):   # one near another line would make a sliver of cells across the unit
+                c = (board.min_mm[axis] + c) * MM
+                if np.min(np.abs(v - c)) >= EDGE_GAP_MM * MM:
+                    v = np.insert(v, np.searchsorted(v, c), c)
+    return v
 
 
 def _line_index(lines: np.ndarray, values) -> np.ndarray:
