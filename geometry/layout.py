@@ -165,6 +165,8 @@ class ComponentSpec:
     power_source : str, where ``power_W`` comes from (``layout power_W``, or the electrical design's
         formula for a rail's regulator without an explicit ``power_W``)
     footprint : str or None, the ECAD footprint it was imported from (information only)
+    height_source : str or None, where the height comes from (``estimated: ...`` for an imported part whose
+        height was estimated: :mod:`imutherm.ecad.heights`)
     """
 
     name: str
@@ -182,6 +184,7 @@ class ComponentSpec:
     axis: str | None
     power_source: str = "layout power_W"
     footprint: str | None = None
+    height_source: str | None = None
 
 
 @dataclass(frozen=True)
@@ -597,7 +600,7 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
                    {"name": "str", "board": "board name", "side": "top|bottom", "center_mm": "(u, v)",
                     "size_mm": "(u, v, height)", "material": "name", "die_mm": "(u, v, thickness)",
                     "die_base_mm": "mm", "exposed_pad": "bool", "pad_mm": "(u, v)", "vias": "bool",
-                    "power_W": "W", "axis": "x|y|z", "footprint": "text"})
+                    "power_W": "W", "axis": "x|y|z", "footprint": "text", "height_source": "text"})
         name = c.string("name")
         c.where = f"component {quote(name, 60)}"
         board = c.string("board")
@@ -627,7 +630,8 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
                              size, c.material("material", mats), die, die_base, pad,
                              (pad_mm or (die[:2] if pad else None)), vias,
                              c.number("power_W", None, nonneg=True, bounds=POWER_BOUNDS),
-                             c.string("axis", None, choices=AXES), footprint=c.string("footprint", None))
+                             c.string("axis", None, choices=AXES), footprint=c.string("footprint", None),
+                             height_source=c.string("height_source", None))
         names.claim(name, c.where)
         for sub in ("_die", "_pad", "_vias"):
             names.claim(name + sub, c.where)
