@@ -164,3 +164,16 @@ def test_the_heights_template_round_trip(tmp_path, capsys):
     assert import_main([str(board), "--out", str(out), "--heights", str(template), "--strict-heights"]) == 0
     printed = capsys.readouterr().out
     assert "ESTIMATED" not in printed and "7 from the user" in printed and out.exists()
+
+
+def test_estimated_heights_reach_the_reports_parameters_page(tmp_path):
+    """The study summary carries each estimated height with its rule; the parameters page lists them."""
+    from imutherm.reports.study_report import estimated_height_lines
+    from imutherm.studies.end_to_end.summary import estimated_heights
+
+    r = import_board(read_board(_unknown_board(tmp_path)), ImportOptions(keep=frozenset({"U10"})))
+    est = estimated_heights(r.spec)
+    assert list(est) == ["U10"] and est["U10"][0] == pytest.approx(1.05) and is_estimated(est["U10"][1])
+    lines = estimated_height_lines({"estimated_heights": est})
+    assert lines[0].startswith("  height of U10 1.05 mm ESTIMATED (estimated: 0.35 x the body's shorter side")
+    assert estimated_height_lines({}) == []
