@@ -52,6 +52,8 @@ _KIND_BY_REF = (
     (re.compile(r"(J|P|CN|CON|X|USB|JP|H)\d", re.I), "connector"),
     (re.compile(r"(SW|S|BT|BAT|BZ|LS|Y|XTAL|K|RLY|ANT|E)\d", re.I), "electromechanical"),
 )
+#: the tallest height [mm] a name or table may give (as --height's bound: no taller part fits a small housing)
+MAX_HEIGHT_MM = 100.0
 #: prefix of every estimated height's source (tests and reports find estimated parts by it)
 ESTIMATED = "estimated: "
 
@@ -110,11 +112,11 @@ def resolve_height(fp: Footprint, package: PackageClass | None, heights: dict, b
     if fp.height_mm is not None:
         return fp.height_mm, "the board file's component height"
     dims = name_dims(fp.library)
-    if dims.height_mm is not None and 0 < dims.height_mm <= 100:
+    if dims.height_mm is not None and 0 < dims.height_mm <= MAX_HEIGHT_MM:
         return dims.height_mm, f"the footprint name: {dims.height_how}"
     if package is not None:
         h = package.height(fp.library, max(body.width, body.height))
-        if h is not None:
+        if h is not None and 0 < h <= MAX_HEIGHT_MM:   # a name stating 99999 mm states nothing
             return h, f"{package.name}: {package.source}"
     return estimate_height(fp, package, body)
 

@@ -95,6 +95,12 @@ def test_sizes_are_read_wherever_they_stand_in_a_name():
     assert package_class("Connector_Coaxial:SMA_Amphenol_132134_Vertical").kind == "connector"   # not a diode
 
 
+def test_a_name_stating_an_impossible_height_is_estimated_instead():
+    for name in ("Capacitor_SMD:CP_Elec_5x99999", "MyLib:L_5x5_H400", "Buzzer_Beeper:Buzzer_12x1000"):
+        h, source = _height(name, "C1")
+        assert is_estimated(source) and h <= 3.0, (name, source)
+
+
 def test_the_user_and_the_footprint_field_win_over_the_name():
     assert _height("Inductor_SMD:L_10.4x10.4_H4.8", fields={"Height_mm": "5.1"}) == (
         5.1, "the footprint's Height_mm field")
