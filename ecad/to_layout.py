@@ -559,6 +559,10 @@ def _header(board: BoardDesign, decisions: list, notes: list) -> str:
              "up, origin at the outline's lower left. Edit freely: this is an ordinary layout file.",
              "merged (mass and heat capacity smeared into the board): " + ", ".join(
                  sorted((d.footprint.ref for d in fates["merged"]), key=natural_order))]
+    estimated = estimated_parts(decisions)
+    if estimated:
+        lines.append("heights ESTIMATED (no height in the footprint, its name or the package tables; "
+                     "imutherm.ecad.heights): " + ", ".join(f"{d.footprint.ref} {d.height_mm:g} mm" for d in estimated))
     for d in sorted(fates["skipped"], key=lambda d: natural_order(d.footprint.ref)):
         lines.append(f"skipped {d.footprint.ref}: {d.reason}")
     return "\n".join(lines)

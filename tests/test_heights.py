@@ -142,6 +142,8 @@ def test_estimated_heights_are_listed_in_the_notes_and_the_layout(tmp_path):
     note = next(n for n in r.notes if n.startswith("ESTIMATED heights of 7 parts"))
     assert "U10 1.05 mm, U11 1.05 mm (merged)" in note
     assert "height 1.05 mm ESTIMATED (no height found): estimated: 0.35 x" in r.text
+    assert "# heights ESTIMATED (no height in the footprint, its name or the package tables; imutherm.ecad.heights): " \
+           "U10 1.05 mm, U11 1.05 mm," in r.text
     comp = next(c for c in r.spec.components if c.name == "U10")
     assert is_estimated(comp.height_source) and not is_estimated(
         next(c for c in r.spec.components if c.name == "U1").height_source)
