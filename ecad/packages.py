@@ -65,7 +65,18 @@ class PackageClass:
             return float(groups["h"].replace(",", ".")) + self.height_offset_mm
         if groups.get("h10"):
             return float(groups["h10"]) / 10.0 + self.height_offset_mm
+        if groups.get("ss") and groups.get("hh"):   # a vendor's SSHH: size, then height (see _series_code)
+            return _series_code(int(groups["ss"]), int(groups["hh"]))
         return None
+
+
+def _series_code(ss: int, hh: int) -> float:
+    """The height [mm] of a power inductor's SSHH series code: the size SS in 0.1 mm from 20 (40 = 4.0 mm), in
+    mm below (10 = 10 mm); the height HH in 0.1 mm (XFL4020: 2.0 mm), or in mm when that would make it less
+    than a fifth of the size (SRR1005: 5 mm, XAL1010: 10 mm, MWSA0503: 3 mm)."""
+    size = ss / 10.0 if ss >= 20 else float(ss)
+    h = hh / 10.0
+    return float(hh) if h < 0.2 * size else h
 
 
 @lru_cache(maxsize=None)

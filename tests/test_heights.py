@@ -68,7 +68,12 @@ LIBRARY_NAMES = [
     ("RF_GPS:ublox_NEO", 3.3, "NEO-M8 2.4"),
     ("Battery:BatteryHolder_Keystone_3034_1x20mm", 5.2, "CR2032"),
     ("LoaDy:CR2032_SMD", 5.2, "IEC 60086 name CRddhh"),
-    ("Inductor_SMD:L_Bourns-SRN6045TA", 4.5, "LLHH: height HH in 0.1 mm"),
+    ("Inductor_SMD:L_Bourns-SRN6045TA", 4.5, "SSHH: size SS, height HH in 0.1 mm"),
+    ("Inductor_SMD:L_Bourns-SRR1005", 5.0, "SSHH"),
+    ("Inductor_SMD:L_Coilcraft_XAL1010-XXX", 10.0, "SSHH"),
+    ("Inductor_SMD:L_Sunlord_MWSA0503S", 3.0, "SSHH"),
+    ("Inductor_SMD:L_12x12mm_H6mm", 6.0, "the name's H6"),
+    ("Inductor_SMD:L_1008_2520Metric", 2.5, "1008CS"),
     ("Crystal:Crystal_C26-LF_D2.1mm_L6.5mm_Horizontal", 2.1, "a cylinder lying down"),
     ("Resistor_THT:R_Axial_DIN0207_L6.3mm_D2.5mm_P7.62mm_Horizontal", 2.5, "a cylinder lying down"),
 ]
