@@ -4,7 +4,8 @@ KiCad's library conventions (KLC F2.x) and IPC-7351 names write a package's size
 ``L_10.4x10.4_H4.8`` (body 10.4 x 10.4 mm, height 4.8 mm), ``SW_PUSH_6mm_H5mm``, ``LED_D3.0mm`` (a
 round body of 3.0 mm diameter), ``CP_Radial_D12.5mm_P5.00mm``, ``Crystal_SMD_3225-4Pin_3.2x2.5mm`` (body
 3.2 x 2.5 mm), ``Crystal_C26-LF_D2.1mm_L6.5mm_Horizontal`` (a cylinder lying down), ``5.0x5.0x1.6mm`` (three
-sizes: the third the height). :func:`name_dims` reads them; a vendor prefix (``InvenSense_QFN-24_3x3mm``) or
+sizes: the third the height), ``R_Axial_Power_L20.0mm_W6.4mm`` (lying down: its width); ``LED_Rectangular_W5.0mm_H2.0mm``
+names a face, not a height. :func:`name_dims` reads them; a vendor prefix (``InvenSense_QFN-24_3x3mm``) or
 a library nickname before ``:`` does not matter. Pitches (``P2.54mm``), pad sizes (``Pad1.05x0.95mm``) and
 exposed pads (``EP2.8x2.8mm``) are not bodies and are ignored.
 """
@@ -24,6 +25,8 @@ _LENGTH = re.compile(rf"(?<![A-Za-z0-9.])L(?P<l>{_NUM})(?:mm)?(?![0-9A-Za-z])")
 #: two or three sizes ``AxB`` / ``AxBxC`` with an optional ``mm`` (not after Pad / EP / P / a letter)
 _SIZES = re.compile(rf"(?<![A-Za-z0-9.])(?P<a>{_NUM})x(?P<b>{_NUM})(?:x(?P<c>{_NUM}))?(?:mm)?(?![0-9A-Za-z.])",
                     re.I)
+#: a box body's width: ``W6.4mm`` (an axial power resistor lying down)
+_WIDTH = re.compile(rf"(?<![A-Za-z0-9.])W(?P<w>{_NUM})(?:mm)?(?![0-9A-Za-z])")
 #: IPC / easyeda style ``L4.0-W4.0`` (length and width of the body)
 _LW = re.compile(rf"(?<![A-Za-z0-9.])L(?P<a>{_NUM})-W(?P<b>{_NUM})(?:-H(?P<c>{_NUM}))?", re.I)
 
@@ -52,7 +55,7 @@ def name_dims(library: str) -> NameDims:
     name = library.split(":", 1)[-1]
     height, how = None, ""
     m = _HEIGHT.search(name)
-    if m:
+    if m and not re.search(rf"(?<![A-Za-z0-9.])W{_NUM}(mm)?_$", name[:m.start()]):   # W5.0mm_H2.0mm: a face
         height, how = _num(m["h"]), f"the name's H{m['h']}"
     body = None
     for m in list(_LW.finditer(name)) + list(_SIZES.finditer(name)):
@@ -71,8 +74,12 @@ def name_dims(library: str) -> NameDims:
     if m:
         diameter = _num(m["d"])
         length = _LENGTH.search(name)
-        if height is None and re.search(r"Horizontal", name, re.I):
+        if height is None and (re.search(r"Horizontal", name, re.I) or
+                               (re.search(r"Axial", name, re.I) and not re.search(r"Vertical", name, re.I))):
             height, how = diameter, f"the name's D{m['d']}: a cylinder lying down stands its diameter"
         elif height is None and length and re.search(r"Vertical", name, re.I):
             height, how = _num(length["l"]), f"the name's L{length['l']}: a cylinder standing up"
+    w = _WIDTH.search(name)
+    if height is None and w and re.search(r"Axial", name, re.I) and not re.search(r"Vertical", name, re.I):
+        height, how = _num(w["w"]), f"the name's W{w['w']}: an axial body lying down stands its width"
     return NameDims(height, body, diameter, how)

@@ -76,6 +76,9 @@ LIBRARY_NAMES = [
     ("Inductor_SMD:L_1008_2520Metric", 2.5, "1008CS"),
     ("Crystal:Crystal_C26-LF_D2.1mm_L6.5mm_Horizontal", 2.1, "a cylinder lying down"),
     ("Resistor_THT:R_Axial_DIN0207_L6.3mm_D2.5mm_P7.62mm_Horizontal", 2.5, "a cylinder lying down"),
+    ("Resistor_THT:R_Axial_Power_L20.0mm_W6.4mm_P22.40mm", 6.4, "an axial body lying down stands its width"),
+    ("Capacitor_THT:CP_Axial_L10.0mm_D4.5mm_P15.00mm_Horizontal", 4.5, "a cylinder lying down"),
+    ("LED_THT:LED_Rectangular_W5.0mm_H2.0mm", 8.6, "rectangular through-hole LEDs"),   # W x H: a face
 ]
 
 
