@@ -80,7 +80,8 @@ def estimate_height(fp: Footprint, package: PackageClass | None, body: Rect) -> 
     factor, lo, hi, why = ESTIMATE[kind]
     short = max(min(body.width, body.height), 0.0)
     h = round(min(max(factor * short, lo), hi), 2)
-    return h, (f"{ESTIMATED}{factor:g} x the body's shorter side {short:.2f} mm for a part of kind {kind}, within {lo:g}..{hi:g} "
+    return h, (f"{ESTIMATED}{factor:g} x the body's shorter side {short:.2f} mm for a part of kind {kind}, "
+               f"within {lo:g}..{hi:g} "
                f"mm ({why}); give Height_mm or --height to replace it")
 
 

@@ -4,8 +4,8 @@ KiCad's library conventions (KLC F2.x) and IPC-7351 names write a package's size
 ``L_10.4x10.4_H4.8`` (body 10.4 x 10.4 mm, height 4.8 mm), ``SW_PUSH_6mm_H5mm``, ``LED_D3.0mm`` (a
 round body of 3.0 mm diameter), ``CP_Radial_D12.5mm_P5.00mm``, ``Crystal_SMD_3225-4Pin_3.2x2.5mm`` (body
 3.2 x 2.5 mm), ``Crystal_C26-LF_D2.1mm_L6.5mm_Horizontal`` (a cylinder lying down), ``5.0x5.0x1.6mm`` (three
-sizes: the third the height), ``R_Axial_Power_L20.0mm_W6.4mm`` (lying down: its width); ``LED_Rectangular_W5.0mm_H2.0mm``
-names a face, not a height. :func:`name_dims` reads them; a vendor prefix (``InvenSense_QFN-24_3x3mm``) or
+sizes: the third the height), ``R_Axial_Power_L20.0mm_W6.4mm`` (lying down: its width);
+``LED_Rectangular_W5.0mm_H2.0mm`` names a face, not a height. :func:`name_dims` reads them; a vendor prefix (``InvenSense_QFN-24_3x3mm``) or
 a library nickname before ``:`` does not matter. Pitches (``P2.54mm``), pad sizes (``Pad1.05x0.95mm``) and
 exposed pads (``EP2.8x2.8mm``) are not bodies and are ignored.
 """

@@ -136,7 +136,8 @@ def _unknown_board(tmp_path, n=7):
     """A board with a powered SOIC and ``n`` 3 x 3 mm parts of an unknown library (each an estimated height,
     merged unless kept)."""
     parts = [part("U1", "Package_SO:SOIC-8_3.9x4.9mm", (105, 105, 0), fields={"Power_W": "0.2"})]
-    parts += [part(f"U{10 + i}", f"MyLib:Mystery{i}", (110 + 5 * (i % 4), 112 + 6 * (i // 4), 0), fab=(-1.5, -1.5, 1.5, 1.5))
+    parts += [part(f"U{10 + i}", f"MyLib:Mystery{i}", (110 + 5 * (i % 4), 112 + 6 * (i // 4), 0),
+                   fab=(-1.5, -1.5, 1.5, 1.5))
               for i in range(n)]
     path = tmp_path / "unknown.kicad_pcb"
     path.write_text(kicad_board(parts))
@@ -178,7 +179,8 @@ def test_the_heights_template_round_trip(tmp_path, capsys):
     assert import_main([str(board), "--out", str(out), "--heights", str(template), "--strict-heights"]) == 2
     capsys.readouterr()
     # filled in with the datasheet's heights: accepted, each height and its source kept
-    filled = text.replace("estimated (replace with the datasheet height)", "Mystery datasheet").replace(",1.05,", ",0.9,")
+    filled = text.replace("estimated (replace with the datasheet height)", "Mystery datasheet")
+    filled = filled.replace(",1.05,", ",0.9,")
     template.write_text(filled)
     assert import_main([str(board), "--out", str(out), "--heights", str(template), "--strict-heights"]) == 0
     printed = capsys.readouterr().out
