@@ -50,7 +50,7 @@ _KIND_BY_REF = (
     (re.compile(r"(R|RN|RA|C|CP|FB|F|FUSE|TH|RT|NTC)\d", re.I), "passive"),
     (re.compile(r"L\d", re.I), "inductor"),
     (re.compile(r"(J|P|CN|CON|X|USB|JP|H)\d", re.I), "connector"),
-    (re.compile(r"(SW|S|BT|BAT|BZ|LS|Y|XTAL|K|RLY|ANT|E)\d", re.I), "electromechanical"),
+    (re.compile(r"(SW|S|BT|BAT|BZ|LS|Y|XTAL|K|RLY|ANT|E|RV|POT|TR|T)\d", re.I), "electromechanical"),
 )
 #: the tallest height [mm] a name or table may give (as --height's bound: no taller part fits a small housing)
 MAX_HEIGHT_MM = 100.0
