@@ -74,8 +74,9 @@ def name_dims(library: str) -> NameDims:
     if m:
         diameter = _num(m["d"])
         length = _LENGTH.search(name)
-        if height is None and (re.search(r"Horizontal", name, re.I) or
-                               (re.search(r"Axial", name, re.I) and not re.search(r"Vertical", name, re.I))):
+        body_d = length is not None or re.search(r"LED_D", name)   # else a D may be a drill (Fuseholder_..._D1.17mm)
+        if height is None and body_d and (re.search(r"Horizontal", name, re.I) or
+                                          (re.search(r"Axial", name, re.I) and not re.search(r"Vertical", name, re.I))):
             height, how = diameter, f"the name's D{m['d']}: a cylinder lying down stands its diameter"
         elif height is None and length and re.search(r"Vertical", name, re.I):
             height, how = _num(length["l"]), f"the name's L{length['l']}: a cylinder standing up"
