@@ -76,6 +76,7 @@ LIBRARY_NAMES = [
     ("Connector_FFC-FPC:Hirose_FH12-24S-0.5SH_1x24-1MP_P0.50mm_Horizontal", 2.5, "FFC / FPC"),
     ("Connector_BarrelJack:BarrelJack_CUI_PJ-102AH_Horizontal", 11.0, "barrel jacks"),
     ("Relay_THT:Relay_SPDT_Omron-G5LE-1", 15.7, "G5LE"),
+    ("Button_Switch_Keyboard:SW_Cherry_MX_1.00u_PCB", 11.6, "Cherry MX"),
     ("Inductor_SMD:L_Bourns-SRN6045TA", 4.5, "SSHH: size SS, height HH in 0.1 mm"),
     ("Inductor_SMD:L_Bourns-SRR1005", 5.0, "SSHH"),
     ("Inductor_SMD:L_Coilcraft_XAL1010-XXX", 10.0, "SSHH"),
