@@ -118,6 +118,8 @@ def resolve_height(fp: Footprint, package: PackageClass | None, heights: dict, b
     if package is not None:
         h = package.height(fp.library, max(body.width, body.height))
         if h is not None and 0 < h <= MAX_HEIGHT_MM:   # a name stating 99999 mm states nothing
+            if package.height_from_name:   # a size the name states, read by the class (CP_Elec_5x5.4, SSHH codes)
+                return h, f"the footprint name, read as {package.name}: {package.source}"
             return h, f"{package.name}: {package.source}"
     return estimate_height(fp, package, body)
 
