@@ -31,6 +31,17 @@ _WIDTH = re.compile(rf"(?<![A-Za-z0-9.])W(?P<w>{_NUM})(?:mm)?(?![0-9A-Za-z])")
 _LW = re.compile(rf"(?<![A-Za-z0-9.])L(?P<a>{_NUM})-W(?P<b>{_NUM})(?:-H(?P<c>{_NUM}))?", re.I)
 
 
+#: the longest library nickname and footprint name read [characters]: KiCad's names are under 120; a longer one
+#: (a damaged or hostile file) is cut, so matching stays a few microseconds a footprint
+MAX_NAME_CHARS = 256
+
+
+def matched_name(library: str) -> str:
+    """``Library:Footprint`` cut to what the matching reads (:data:`MAX_NAME_CHARS` of each part)."""
+    nick, sep, name = library.rpartition(":")
+    return nick[-MAX_NAME_CHARS:] + sep + name[:MAX_NAME_CHARS]
+
+
 def _num(text: str) -> float:
     return float(text.replace(",", "."))
 
@@ -52,7 +63,7 @@ class NameDims:
 
 def name_dims(library: str) -> NameDims:
     """The sizes in the footprint name ``library`` (``Library:Footprint`` or a bare name)."""
-    name = library.split(":", 1)[-1]
+    name = matched_name(library).rpartition(":")[2]
     height, how = None, ""
     m = _HEIGHT.search(name)
     if m and not re.search(rf"(?<![A-Za-z0-9.])W{_NUM}(mm)?_$", name[:m.start()]):   # W5.0mm_H2.0mm: a face

@@ -16,7 +16,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from imutherm import InputError
-from imutherm.ecad.name_dims import name_dims
+from imutherm.ecad.name_dims import matched_name, name_dims
 from imutherm.geometry.materials import get_material
 
 try:  # Python >= 3.11
@@ -57,7 +57,7 @@ class PackageClass:
             if size is None:
                 return None
             return next((h for limit, h in self.height_by_size if size <= limit + 1e-9), self.height_by_size[-1][1])
-        m = re.search(self.height_from_name, library, re.I)
+        m = re.search(self.height_from_name, matched_name(library), re.I)
         if m is None:
             return None
         groups = m.groupdict()
@@ -116,6 +116,7 @@ def package_classes(path: str | None = None) -> tuple:
 
 def package_class(library: str) -> PackageClass | None:
     """The first class whose pattern is found in the footprint's library name, or None."""
+    library = matched_name(library)
     for c in package_classes():
         if re.search(c.pattern, library, re.I):
             return c

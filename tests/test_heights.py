@@ -127,6 +127,17 @@ def test_a_name_stating_an_impossible_height_is_estimated_instead():
         assert is_estimated(source) and h <= 3.0, (name, source)
 
 
+def test_a_damaged_files_endless_name_is_cut_before_matching():
+    """Only the first 256 characters of a footprint name (and the last 256 of its library nickname) are matched,
+    so a name of a million characters costs no more than a real one (no timed test: the cut is asserted)."""
+    from imutherm.ecad.name_dims import MAX_NAME_CHARS, matched_name
+
+    huge = "N" * 1_000_000 + ":" + "x" * 1_000_000 + "_QFN-24"
+    assert len(matched_name(huge)) == 2 * MAX_NAME_CHARS + 1 and package_class(huge) is None
+    assert package_class("Package_DFN_QFN:" + "x" * 200 + "_QFN-24").name == "QFN / DFN / SON"
+    assert is_estimated(_height("SO-1" * 250_000)[1]) is False   # SOIC-like: the cut name still matches
+
+
 def test_the_user_and_the_footprint_field_win_over_the_name():
     assert _height("Inductor_SMD:L_10.4x10.4_H4.8", fields={"Height_mm": "5.1"}) == (
         5.1, "the footprint's Height_mm field")
