@@ -227,3 +227,17 @@ def test_estimated_heights_reach_the_reports_parameters_page(tmp_path):
     lines = estimated_height_lines({"estimated_heights": est})
     assert lines[0].startswith("  height of U10 1.05 mm ESTIMATED (estimated: 0.35 x the body's shorter side")
     assert estimated_height_lines({}) == []
+
+
+@pytest.mark.parametrize("case", ["exists", "is_out", "no_folder"])
+def test_a_bad_heights_template_path_is_refused_in_one_line(tmp_path, capsys, case):
+    from imutherm.cli.import_board import main as import_main
+
+    board, out = _unknown_board(tmp_path), tmp_path / "u.toml"
+    existing = tmp_path / "h.csv"
+    existing.write_text("keep me")
+    template = {"exists": existing, "is_out": out, "no_folder": tmp_path / "nowhere" / "h.csv"}[case]
+    assert import_main([str(board), "--out", str(out), "--heights-template", str(template)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("imutherm import: error: --heights-template") and "\n" not in err, err
+    assert not out.exists() and existing.read_text() == "keep me"
