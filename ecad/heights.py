@@ -10,8 +10,8 @@ The order (the first that gives a height wins):
 5. the package class of the name (:mod:`imutherm.ecad.packages`: JEDEC outlines, KiCad's library families,
    the footprint generator's size definitions, datasheets), matched anywhere in the name;
 6. else an **estimate** by :data:`ESTIMATE` (below): the body's shorter in-plane side times a factor of the
-   part's kind, within bounds, chosen so that the known packages of that kind lie at or below it (an
-   estimate errs tall). Estimated heights are listed by ``imutherm import``, carried as
+   part's kind, within bounds, chosen so that the packages each kind's reason lists lie at or below it (an
+   estimate errs tall; a connector of no known family may stand taller: a pin header does). Estimated heights are listed by ``imutherm import``, carried as
    ``height_source = "estimated: ..."`` in the layout and on the report's parameters page;
    ``--strict-heights`` refuses them instead and ``--heights-template FILE`` writes them out to fill in.
 """
@@ -30,18 +30,21 @@ from imutherm.ecad.packages import PackageClass
 
 #: the estimate by kind: (factor on the body's shorter side, least [mm], most [mm], why)
 ESTIMATE = {
-    "passive": (0.8, 0.3, 3.0, "a chip part is at most 0.8 of its width thick (MLCC 0603 0.8 / 0.8 mm, "
-                               "1206 1.6 / 1.6 mm)"),
-    "discrete": (0.5, 0.6, 2.5, "a small discrete package stands at most half its width (SOT-23 1.12 / 1.3 mm, "
-                                "SOD-123 1.35 / 1.6 mm, SMA 2.44 / 2.6 mm)"),
-    "ic": (0.35, 0.8, 2.5, "a plastic package or module stands at most 0.35 of its shorter side (SOIC 1.75 / "
-                           "3.9 mm, QFN 1.0 / 3 mm, TQFP 1.2 / 10 mm; shielded modules 2-3.3 mm)"),
-    "inductor": (0.75, 0.5, 8.0, "a power inductor stands at most 0.75 of its side (XAL4020 2.0 / 4 mm, "
-                                 "SRN6045 4.5 / 6 mm, SRR1260 6.0 / 12 mm)"),
-    "connector": (1.0, 1.0, 12.0, "a board connector stands at most its shorter side (JST SH 4.25 / 4.25 mm, "
-                                  "micro-USB 2.5 / 5 mm, USB-C 3.3 / 7.4 mm)"),
+    "passive": (1.0, 0.35, 5.0, "a chip part is at most as thick as it is wide (MLCC 0603 0.8 / 0.8 mm, 1206 "
+                                "1.6 / 1.6 mm, tantalum 7343-43 4.3 / 4.3 mm)"),
+    "discrete": (1.0, 1.2, 3.0, "a discrete package stands at most its width, and at most 1.2 mm when small "
+                                "(SOT-23 1.12 / 1.3 mm, SOD-123 1.35 / 1.6 mm, SMA 2.44 / 2.6 mm, DPAK 2.39 / 6.1 mm)"),
+    "ic": (0.5, 1.5, 3.5, "a plastic package or module stands at most half its shorter side, and at most 1.5 mm "
+                          "when small (SOIC 1.75 / 3.9 mm, QFN 1.0 / 3 mm, SOT-23-5 1.45 / 1.6 mm, TQFP 1.2 / 10 mm, "
+                          "shielded modules 2-3.3 mm)"),
+    "inductor": (1.0, 0.5, 10.0, "a power inductor stands at most its side (XAL4020 2.0 / 4 mm, SRN6045 4.5 / 6 mm, "
+                                 "XAL1010 10 / 10 mm, chip 1008 2.0 / 2.0 mm)"),
+    "connector": (1.0, 1.0, 12.0, "a board connector stands about its shorter side (JST SH 4.25 / 4.25 mm, "
+                                  "micro-USB 2.5 / 5 mm, USB-C 3.3 / 7.4 mm); a pin header stands more (8.5 mm on a "
+                                  "2.54 mm row: its own class)"),
     "electromechanical": (1.0, 1.0, 12.0, "a switch, crystal or buzzer stands at most its shorter side (6 mm "
-                                          "tactile switch 5 / 6 mm, 12 mm buzzer 9.5 / 12 mm)"),
+                                          "tactile switch 5 / 6 mm, 12 mm buzzer 9.5 / 12 mm, 3225 crystal 0.9 / "
+                                          "2.5 mm)"),
 }
 #: the kind of a part of no package class, by its reference designator's letters
 _KIND_BY_REF = (

@@ -176,12 +176,12 @@ def _unknown_board(tmp_path, n=7):
 def test_estimated_heights_are_listed_in_the_notes_and_the_layout(tmp_path):
     r = import_board(read_board(_unknown_board(tmp_path)), ImportOptions(keep=frozenset({"U10"})))
     u10 = next(d for d in r.decisions if d.footprint.ref == "U10")
-    assert u10.fate == "modelled" and u10.height_mm == pytest.approx(1.05) and is_estimated(u10.height_source)
+    assert u10.fate == "modelled" and u10.height_mm == pytest.approx(1.5) and is_estimated(u10.height_source)
     note = next(n for n in r.notes if n.startswith("ESTIMATED heights of 7 parts"))
-    assert "U10 1.05 mm, U11 1.05 mm (merged)" in note
-    assert "height 1.05 mm ESTIMATED (no height found): estimated: 0.35 x" in r.text
+    assert "U10 1.5 mm, U11 1.5 mm (merged)" in note
+    assert "height 1.5 mm ESTIMATED (no height found): estimated: 0.5 x" in r.text
     assert "# heights ESTIMATED (no height in the footprint, its name or the package tables; imutherm.ecad.heights): " \
-           "U10 1.05 mm, U11 1.05 mm," in r.text
+           "U10 1.5 mm, U11 1.5 mm," in r.text
     comp = next(c for c in r.spec.components if c.name == "U10")
     assert is_estimated(comp.height_source) and not is_estimated(
         next(c for c in r.spec.components if c.name == "U1").height_source)
@@ -209,7 +209,7 @@ def test_the_heights_template_round_trip(tmp_path, capsys):
     capsys.readouterr()
     # filled in with the datasheet's heights: accepted, each height and its source kept
     filled = text.replace("estimated (replace with the datasheet height)", "Mystery datasheet")
-    filled = filled.replace(",1.05,", ",0.9,")
+    filled = filled.replace(",1.5,", ",0.9,")
     template.write_text(filled)
     assert import_main([str(board), "--out", str(out), "--heights", str(template), "--strict-heights"]) == 0
     printed = capsys.readouterr().out
@@ -223,9 +223,9 @@ def test_estimated_heights_reach_the_reports_parameters_page(tmp_path):
 
     r = import_board(read_board(_unknown_board(tmp_path)), ImportOptions(keep=frozenset({"U10"})))
     est = estimated_heights(r.spec)
-    assert list(est) == ["U10"] and est["U10"][0] == pytest.approx(1.05) and is_estimated(est["U10"][1])
+    assert list(est) == ["U10"] and est["U10"][0] == pytest.approx(1.5) and is_estimated(est["U10"][1])
     lines = estimated_height_lines({"estimated_heights": est})
-    assert lines[0].startswith("  height of U10 1.05 mm ESTIMATED (estimated: 0.35 x the body's shorter side")
+    assert lines[0].startswith("  height of U10 1.5 mm ESTIMATED (estimated: 0.5 x the body's shorter side")
     assert estimated_height_lines({}) == []
 
 
