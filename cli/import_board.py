@@ -64,6 +64,9 @@ def add_args(parser) -> None:
                         "each footprint and rule), to fill in and pass back with --heights")
     g.add_argument("--site", action="append", metavar="REF=KIND",
                    help=f"a sensor site on part REF; KIND: {', '.join(SITE_KINDS)} (repeatable)")
+    g.add_argument("--grade", action="append", metavar="[REF=]NAME",
+                   help="the sensor grade of every site (NAME) or of part REF's sites (REF=NAME), instead of the "
+                        "grade of the chip its value or footprint names (imutherm.imu.sensor_library; repeatable)")
     g.add_argument("--keep", action="append", metavar="REF[,REF]",
                    help="model these parts even if small and unpowered (repeatable)")
     g.add_argument("--merge-area", type=float, default=None, metavar="MM2",
@@ -141,7 +144,10 @@ def _options(args):
                              standoff_material=args.standoff_material, mounting=args.mounting,
                              mounting_face=args.mounting_face,
                              contact_conductance_W_m2K=args.mount_conductance, ambient_C=args.ambient)
+    from imutherm.imu.site_grades import parse_grade_options
+
     return ImportOptions(powers=powers, heights=heights, sites=parse_sites(args.site, SITE_KINDS),
+                         grades=parse_grade_options(args.grade),
                          keep=frozenset(parse_refs(args.keep)),
                          electrical=read_electrical(args.electrical) if args.electrical else None,
                          electrical_source=args.electrical or "",

@@ -90,6 +90,7 @@ class ImportOptions:
     heights: dict = field(default_factory=dict)
     heights_source: str = "--height"
     sites: dict = field(default_factory=dict)
+    grades: dict = field(default_factory=dict)  # --grade: "*" or ref -> sensor grade (imutherm.imu.site_grades)
     keep: frozenset = frozenset()
     electrical: dict | None = None
     electrical_source: str = ""
@@ -235,14 +236,19 @@ def _has_die(d: Decision, site_refs: set, regulators: set) -> bool:
     return ref in site_refs or ref in regulators or (d.power_W >= DIE_MIN_W and chip)
 
 
-def _sites(opts: ImportOptions, names: dict) -> dict:
+def _sites(opts: ImportOptions, names: dict, board: BoardDesign, notes: list) -> dict:
+    """The ``[sites]`` of the --site parts, each sensor site with its chip's grade (one note line per part)."""
+    from imutherm.imu.site_grades import site_grades
+
+    grades, lines = site_grades(opts.sites, {fp.ref: fp for fp in board.footprints}, opts.grades)
+    notes.extend(lines)
     sites = {}
     for ref, kind in opts.sites.items():
         targets = SITE_KINDS[kind] or (names[ref],)
         for s in targets:
             if s in sites:
                 raise InputError(f"--site: {s} is given twice ({sites[s]['part'][:-4]} and {names[ref]})")
-            sites[s] = Inline({"part": names[ref] + "_die"})
+            sites[s] = Inline({"part": names[ref] + "_die", **({"grade": grades[ref]} if ref in grades else {})})
     return sites
 
 
@@ -474,7 +480,7 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
     }
     if opts.electrical:
         doc.update(_renamed_electrical(opts.electrical, names))
-    sites = _sites(opts, names)
+    sites = _sites(opts, names, board, notes)
     if sites:
         doc["sites"] = sites
     else:
@@ -652,7 +658,7 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
         data["electrical"] = new["electrical"]
         data["rails"] = list(data.get("rails", []) or []) + new["rails"]
     data["sites"] = {k: Inline(v) if isinstance(v, dict) else v for k, v in data.get("sites", {}).items()}
-    data["sites"].update(_sites(opts, names))
+    data["sites"].update(_sites(opts, names, board, notes))
     data[NOTE] = (f"{path} with board {board_name!r} imported from {board.source} ({board.format}) by "
                   f"`imutherm import --into`.\n" + _header(board, decisions, notes))
     text = dumps(data)

@@ -165,8 +165,7 @@ class ComponentSpec:
     power_source : str, where ``power_W`` comes from (``layout power_W``, or the electrical design's
         formula for a rail's regulator without an explicit ``power_W``)
     footprint : str or None, the ECAD footprint it was imported from (information only)
-    height_source : str or None, where the height comes from (``estimated: ...`` for an imported part whose
-        height was estimated: :mod:`imutherm.ecad.heights`)
+    height_source : str or None, the height's source (``estimated: ...``: :mod:`imutherm.ecad.heights`)
     """
 
     name: str
@@ -196,6 +195,7 @@ class SiteSpec:
     board: str | None = None
     side: str | None = None
     at_mm: tuple | None = None
+    grade: str | None = None  # sensor grade of the site's chip (imutherm.imu.site_grades), None: not named
 
 
 @dataclass(frozen=True)
@@ -645,7 +645,15 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
     sites = []
     for name, t in _named_tables(top, "sites", "[sites] with name = { ... } lines").items():
         s = _Table(path, f"site {quote(name, 60)}", t, {"part": "part name", "board": "board name",
-                                                "side": "top|bottom", "at_mm": "(u, v)"})
+                                                "side": "top|bottom", "at_mm": "(u, v)", "grade": "sensor grade"})
+        grade = None
+        if "grade" in t:  # the chip's grade (imutherm import writes it), checked against the sensor library
+            from imutherm.imu.site_grades import check_grade
+
+            try:
+                grade = check_grade(s.string("grade"), "grade")
+            except InputError as e:
+                s.fail("grade", str(e)[len("grade: "):])
         if "part" in t:
             extra = [k for k in ("board", "side", "at_mm") if k in t]
             if extra:
@@ -654,7 +662,7 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
             part = s.string("part")
             if part not in names or part == "fill":
                 s.fail("part", f"unknown part {part!r}; valid: {', '.join(sorted(names))}")
-            sites.append(SiteSpec(name, part=part))
+            sites.append(SiteSpec(name, part=part, grade=grade))
         else:
             if "board" not in t:
                 s.fail(None, "needs 'part' (a part's centroid) or 'board' with 'at_mm' (a point on a board face)")
@@ -662,7 +670,7 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
             if board not in board_by_name:
                 s.fail("board", f"unknown board {board!r}; valid: {', '.join(board_by_name)}")
             sites.append(SiteSpec(name, board=board, side=s.string("side", "top", choices=("top", "bottom")),
-                                  at_mm=s.vector("at_mm", 2)))
+                                  at_mm=s.vector("at_mm", 2), grade=grade))
     return sites
 
 

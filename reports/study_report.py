@@ -21,6 +21,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 
+from imutherm.imu.site_grades import grade_text
 from imutherm.site_table import read_site_table
 
 SCHEME_COLOURS = {"air": "#d62728", "grease": "#1f77b4", "potted": "#2ca02c"}
@@ -156,7 +157,7 @@ def _answer_page(pdf, data: dict) -> None:
     prof = _main_profile(st)
     fig = plt.figure(figsize=A4)
     below = _title(fig, f"Which cooling scheme, and what it does to attitude accuracy: {data['layout']}", textwrap.fill(
-           f"{boards_line(data)}ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; grade {st['grade']}, seeds "
+           f"{boards_line(data)}ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; {grade_text(data)}, seeds "
            f"{data['seeds'][0]}..{data['seeds'][-1]} (bars: mean, whiskers: std over the seeds, the same seeds in "
            f"every scheme); calibrated in the unit (oven -40..70 C with each scheme's self-heating); out-of-range "
            f"policy '{data['out_of_range_policy']}'; {prof} profile, attitude error RMS through the warm-up; "
