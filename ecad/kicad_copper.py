@@ -202,7 +202,8 @@ def _pads(fp, where: str, layers_of, flip, polys: list, caps: list) -> None:
             caps[k] += shapes[1]
 
 
-def measure_coverage(layers, outline, width_mm: float, height_mm: float, cell_mm: float = CELL_MM) -> tuple:
+def measure_coverage(layers, outline, width_mm: float, height_mm: float, cell_mm: float = CELL_MM,
+                     where: str = "the board") -> tuple:
     """(coverage of each layer [-], the raster cell [mm], the board's area [mm^2]): each layer's copper within
     the board (its ``outline`` polylines' closed loops, by the even-odd rule; the rectangle ``width_mm`` x
     ``height_mm`` when they do not close) over the board's area."""
@@ -210,7 +211,7 @@ def measure_coverage(layers, outline, width_mm: float, height_mm: float, cell_mm
     board = raster.empty()
     loops, _ = chain(outline)
     if loops:
-        raster.fill_polygons(board, loops)
+        raster.fill_polygons(board, loops, f"{where}: the outline")
     if not board.any():
         board[:] = True
     area = raster.area(board)
@@ -218,7 +219,7 @@ def measure_coverage(layers, outline, width_mm: float, height_mm: float, cell_mm
     for layer in layers:
         mask = raster.empty()
         for poly in layer.polygons:   # each zone or pad filled on its own: overlapping zones add no holes
-            raster.fill_polygons(mask, [poly])
+            raster.fill_polygons(mask, [poly], f"{where}: a copper shape on {layer.name}")
         raster.fill_capsules(mask, layer.capsules)
         out.append(raster.area(mask & board) / area)
     return tuple(out), raster.cell, area
@@ -241,5 +242,6 @@ def with_coverage(board) -> tuple:
 
     if not board.copper or len(board.copper) != board.copper_layers or board.coverage:
         return board, ""
-    coverage, cell, _ = measure_coverage(board.copper, board.outline, board.width_mm, board.height_mm)
+    coverage, cell, _ = measure_coverage(board.copper, board.outline, board.width_mm, board.height_mm,
+                                         where=board.source)
     return replace(board, coverage=coverage), coverage_note(board.copper, coverage, cell)

@@ -14,8 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: crossings computed at once when a polygon is filled (rows x edges), bounding the memory to tens of MB
+from imutherm import InputError
+
+#: crossings of a polygon's edges with the raster's rows computed at once (bounding the memory to tens of MB)
 _CHUNK = 2_000_000
+#: most crossings of one fill (a board's whole copper layer has a few hundred thousand): beyond, not a board
+MAX_CROSSINGS = 100_000_000
 
 
 @dataclass(frozen=True)
@@ -49,9 +53,11 @@ class Raster:
         return (self.x0 + (np.arange(si.start, si.stop) + 0.5) * self.cell,
                 self.y0 + (np.arange(sj.start, sj.stop) + 0.5) * self.cell)
 
-    def fill_polygons(self, mask: np.ndarray, polygons) -> None:
+    def fill_polygons(self, mask: np.ndarray, polygons, what: str = "a polygon") -> None:
         """Set the cells inside ``polygons`` (each a sequence of (x, y) [mm], closed or not), all of them filled
-        together by the even-odd rule (a polygon inside another is a hole), on ``mask``."""
+        together by the even-odd rule (a polygon inside another is a hole), on ``mask``. Each edge is crossed
+        with the rows it spans only (the work is the crossings, about twice the rows per loop for a real
+        shape); InputError naming ``what`` beyond :data:`MAX_CROSSINGS`."""
         polys = [np.asarray(p, float) for p in polygons if len(p) >= 3]
         if not polys:
             return
@@ -61,26 +67,34 @@ class Raster:
         a, b = a[keep], b[keep]
         if not len(a):
             return
-        sj = self._cols(float(min(a[:, 1].min(), b[:, 1].min())), float(max(a[:, 1].max(), b[:, 1].max())),
-                        self.ny, self.y0)
-        si = self._cols(float(min(a[:, 0].min(), b[:, 0].min())), float(max(a[:, 0].max(), b[:, 0].max())),
-                        self.nx, self.x0)
-        if sj.stop <= sj.start or si.stop <= si.start:
+        lo, hi = np.minimum(a[:, 1], b[:, 1]), np.maximum(a[:, 1], b[:, 1])
+        # rows whose centre line y satisfies lo <= y < hi (the crossing rule (a <= y) != (b <= y))
+        j0 = np.clip(np.ceil((lo - self.y0) / self.cell - 0.5), 0, self.ny).astype(np.int64)
+        j1 = np.clip(np.ceil((hi - self.y0) / self.cell - 0.5), 0, self.ny).astype(np.int64)
+        n = j1 - j0
+        total = int(n.sum())
+        if total > MAX_CROSSINGS:
+            raise InputError(f"{what}: {len(a):,} edges crossing the {self.cell:g} mm raster's rows {total:,} times: "
+                             f"not a board's copper (at most {MAX_CROSSINGS:,})")
+        if not total:
             return
-        xs, ys = self.centres(si, sj)
-        width = si.stop - si.start
-        inside = np.zeros((sj.stop - sj.start, width + 1), np.int32)
-        rows = max(1, _CHUNK // len(a))
-        for r0 in range(0, len(ys), rows):
-            y = ys[r0:r0 + rows, None]
-            cross = (a[:, 1] <= y) != (b[:, 1] <= y)           # (rows, edges): the edge crosses the row's centre line
-            r, e = np.nonzero(cross)
-            t = (y[r, 0] - a[e, 1]) / (b[e, 1] - a[e, 1])
-            x = a[e, 0] + t * (b[e, 0] - a[e, 0])
-            col = np.clip(np.searchsorted(xs, x, side="left"), 0, width)   # first centre right of the crossing
-            np.add.at(inside, (r0 + r, col), 1)
-        parity = (np.cumsum(inside[:, :width], axis=1) % 2).astype(bool)   # crossings left of each centre
-        mask[si, sj] |= parity.T
+        r_min, r_max = int(j0[n > 0].min()), int(j1[n > 0].max())
+        counts = np.zeros((r_max - r_min) * (self.nx + 1), np.int32)
+        ends = np.cumsum(n)
+        start = 0
+        while start < len(a):   # edges in groups of about _CHUNK crossings
+            stop = int(np.searchsorted(ends, (ends[start - 1] if start else 0) + _CHUNK, side="right"))
+            stop = max(stop, start + 1)
+            e = np.repeat(np.arange(start, stop), n[start:stop])
+            first = np.repeat(ends[start:stop] - n[start:stop], n[start:stop])
+            r = j0[e] + (np.arange(len(e)) + (ends[start - 1] if start else 0) - first)
+            y = self.y0 + (r + 0.5) * self.cell
+            x = a[e, 0] + (y - a[e, 1]) / (b[e, 1] - a[e, 1]) * (b[e, 0] - a[e, 0])
+            col = np.clip(np.ceil((x - self.x0) / self.cell - 0.5), 0, self.nx).astype(np.int64)  # first centre >= x
+            counts += np.bincount((r - r_min) * (self.nx + 1) + col, minlength=len(counts)).astype(np.int32)
+            start = stop
+        parity = (np.cumsum(counts.reshape(r_max - r_min, self.nx + 1)[:, :self.nx], axis=1) % 2).astype(bool)
+        mask[:, r_min:r_max] |= parity.T
 
     def fill_capsules(self, mask: np.ndarray, capsules) -> None:
         """Set the cells within distance r of a segment, for each capsule (x0, y0, x1, y1, r) [mm] (a disc: a

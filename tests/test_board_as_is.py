@@ -330,3 +330,22 @@ def test_a_via_material_without_a_via_field_is_refused(tmp_path):
                           'material = "mould_compound"\nvias_material = "pcb_via_field"', 1)
     with pytest.raises(InputError, match="vias_material.*needs vias = true"):
         parse_layout(tomllib.loads(text), "t")
+
+
+def test_a_copper_shape_beyond_any_board_is_refused_in_one_line(tmp_path, monkeypatch):
+    """A zone fill zig-zagging 4,000 times across the board crosses the raster's rows beyond the limit (lowered
+    here to 1e6 to keep the test small; a board's whole copper layer crosses them a few hundred thousand
+    times): refused naming the file and the layer, before the raster is filled."""
+    from imutherm import InputError
+    from imutherm.ecad.kicad_copper import with_coverage
+    from imutherm.geometry import raster
+
+    monkeypatch.setattr(raster, "MAX_CROSSINGS", 1_000_000)
+    pts = [(100 + 40 * k / 4000, 100.0 if k % 2 else 130.0) for k in range(4001)] + [(140, 135), (100, 135)]
+    path = tmp_path / "zigzag.kicad_pcb"
+    path.write_text(kicad_board([part("U1", SOIC, (110, 105, 0))], extra=_zone("In1.Cu", pts)))
+    board = read_board(path)
+    with pytest.raises(InputError) as exc:
+        with_coverage(board)
+    msg = str(exc.value)
+    assert "zigzag.kicad_pcb: a copper shape on In1.Cu" in msg and "not a board's copper" in msg and "\n" not in msg
