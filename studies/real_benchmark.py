@@ -106,7 +106,13 @@ def identity_alignment() -> Alignment:
 
 def prepare(path, *, init_s: float | None = None, skip_s: float = SKIP_S) -> RealRecord:
     """Steps 1-3 of the module docstring for one file (init_s None: :data:`INIT_S` of its layout)."""
-    log = read_reference_log(path)
+    return prepare_log(read_reference_log(path), init_s=init_s, skip_s=skip_s)
+
+
+def prepare_log(log, *, init_s: float | None = None, skip_s: float = SKIP_S, name: str | None = None) -> RealRecord:
+    """:func:`prepare` of a log already read (:class:`~imutherm.imu.reference_log.ReferenceLog`, e.g. a
+    simulated or transformed one: :mod:`imutherm.studies.filter_stress`); name None: the file's stem."""
+    path = log.path
     init_s = INIT_S[log.layout] if init_s is None else float(init_s)
     ts = true_samples(log.t, log.gyro, log.accel)
     dt = float(np.median(np.diff(log.t)[np.diff(log.t) > 0]))
@@ -120,7 +126,7 @@ def prepare(path, *, init_s: float | None = None, skip_s: float = SKIP_S) -> Rea
     else:
         al = estimate_alignment(ts.t, log.quat[ts.idx], ts.gyro, ts.accel)
         keep = (log.t >= log.t[0] + skip_s) & (log.t <= grid[-1]) & ok
-    name = Path(path).name.split(".")[0]
+    name = name or Path(path).name.split(".")[0]
     return RealRecord(name, "broad" if log.layout == "broad" else "repoimu", dt, x[:, :3] @ M.T, x[:, 3:] @ M.T,
                       float(grid[0]), M, log.t[keep], log.quat[keep], al, init_s, ts.n_rows, ts.n_repeats,
                       ts.n_dup_time, ts.step_median, int(np.sum(~ok)))
@@ -230,5 +236,6 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
             "fusion": fusion_range_info(fusion, rec.gyro @ rec.M), "filters": filters}
 
 
-__all__ = ["DATA_DIRS", "DATA_DIR", "RealRecord", "prepare", "data_files", "load_all", "errors", "score", "run",
+__all__ = ["DATA_DIRS", "DATA_DIR", "RealRecord", "prepare", "prepare_log", "data_files", "load_all", "errors",
+           "score", "run",
            "table", "level_rotation", "identity_alignment", "run_reference_log"]
