@@ -109,16 +109,18 @@ def prepare(path, *, init_s: float | None = None, skip_s: float = SKIP_S) -> Rea
     return prepare_log(read_reference_log(path), init_s=init_s, skip_s=skip_s)
 
 
-def prepare_log(log, *, init_s: float | None = None, skip_s: float = SKIP_S, name: str | None = None) -> RealRecord:
+def prepare_log(log, *, init_s: float | None = None, skip_s: float = SKIP_S, name: str | None = None,
+                level: bool = True) -> RealRecord:
     """:func:`prepare` of a log already read (:class:`~imutherm.imu.reference_log.ReferenceLog`, e.g. a
-    simulated or transformed one: :mod:`imutherm.studies.filter_stress`); name None: the file's stem."""
+    simulated or transformed one: :mod:`imutherm.studies.filter_stress`); name None: the file's stem; level False:
+    step 2 skipped (the IMU axes kept, so the filters start in the mounting's attitude, upside down or on a side)."""
     path = log.path
     init_s = INIT_S[log.layout] if init_s is None else float(init_s)
     ts = true_samples(log.t, log.gyro, log.accel)
     dt = float(np.median(np.diff(log.t)[np.diff(log.t) > 0]))
     grid, x = resample_uniform(ts.t, np.hstack([ts.gyro, ts.accel]), dt)
     n0 = int(round(init_s / dt))
-    M = level_rotation(x[:n0, 3:].mean(axis=0))
+    M = level_rotation(x[:n0, 3:].mean(axis=0)) if level else np.eye(3)
     ok = np.all(np.isfinite(log.quat), axis=1)
     if log.aligned:
         al = identity_alignment()

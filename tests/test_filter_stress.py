@@ -42,25 +42,22 @@ def test_own_filters_hold_the_vertical_through_upside_down(tumble):
         assert res[n]["rms_deg"] < 1.5 * res["kf"]["rms_deg"] + 0.2, (n, res[n], res["kf"])
 
 
-def test_unbounded_adaptation_diverges_and_the_monitor_reports_it(tumble):
-    """The cause, shown: with the R bounds opened (1e-6 .. 1e6 x the rest noise) the aekf diverges on the tumble
-    (> 5° RMS) and the NIS monitor fires: its resets are reported (samples inside the record, in the result and
-    the trace), and the run ends nearer the truth than without the monitor. At the defaults: no reset."""
+def test_the_causes_shown_and_the_monitor_reports_a_divergence(tumble):
+    """The causes, shown: with |f| measured as well as the direction (``dir_only=False``) and the R bounds opened
+    (1e-6 .. 1e6 x the rest noise), the aekf of before issue 57, it diverges on the tumble (> 5° RMS; measured 21°)
+    and the NIS monitor fires: its resets are reported (samples inside the record, the same in the result and the
+    trace, each at a window whose mean NIS passed the bound). At the defaults: no reset, < 1.5° RMS."""
     s = platform_settings("handheld", ("aekf",))["aekf"]
     p = AEKFParams(**s, gyro_sample="interval")
     est = run_aekf(tumble.gyro, tumble.accel, tumble.dt, p, init_s=8.0)
     assert len(est.resets) == 0 and _rms(tumble, est)[0] < 1.5
-    wide = AEKFParams(**s, gyro_sample="interval", r_min_x=1e-6, r_max_x=1e6)
-    est, tr = run_aekf(tumble.gyro, tumble.accel, tumble.dt, wide, init_s=8.0, return_trace=True)
-    off = run_aekf(tumble.gyro, tumble.accel, tumble.dt, AEKFParams(**{**wide.__dict__, "nis_window_s": np.inf}),
-                   init_s=8.0)
-    rms_mon, rms_off = _rms(tumble, est)[0], _rms(tumble, off)[0]
-    assert rms_off > 5.0 and len(off.resets) == 0
+    old = AEKFParams(**s, gyro_sample="interval", r_min_x=1e-6, r_max_x=1e6, dir_only=False)
+    est, tr = run_aekf(tumble.gyro, tumble.accel, tumble.dt, old, init_s=8.0, return_trace=True)
+    assert _rms(tumble, est)[0] > 5.0
     assert len(est.resets) >= 1 and np.all((est.resets > 0) & (est.resets < len(tumble.gyro)))
     assert np.array_equal(est.resets, tr.resets)
     k, v = tr.nis
-    assert np.any(v > p.innov_gate) and set(est.resets) <= set(k)
-    assert rms_mon < rms_off
+    assert set(est.resets) <= set(k[v > p.innov_gate])
 
 
 def test_aekf_bounds_and_monitor_refuse_bad_values():

@@ -19,6 +19,9 @@ adaptation laws instead:
   far better than 1°) and the difference, noise of size d H P⁻ Hᵀ, drove R to
   the floor and the filter into rejecting its own rest samples once the block
   mean below made R ten times smaller.
+* **the direction of f, and |f| re-read at rest** (issue 57): the gravity update uses the measured specific
+  force scaled to |g| (``dir_only``), so |f| - g does not tilt the estimate, and at every rest (VQF's rest
+  detector) the |f| reference of the gate is the rest reading of that orientation.
 * **R bounded, divergence monitored** (issue 57): the adapted R stays within ``[r_min_x, r_max_x]`` times the
   accelerometer noise measured on the rest window. Unbounded, it ran away on slow turns through upside down
   and vertical: a correlated attitude error (a degree, normal while turning) read as noise raised R, the
@@ -167,6 +170,12 @@ class AEKFParams:
                                     accelerometer's few-degree error under handheld motion", not "is R right" (the
                                     low-pass mode's measurement error is correlated, so the adapted R flags healthy
                                     runs, and an R that ran away hides a diverged one)
+    dir_only : bool                 no-GNSS: the accelerometer measures the vertical's direction only (the block mean
+                                    or low-passed f scaled to |g| before the innovation, as the kf and VQF
+                                    normalise it). With |f| measured too, |f| - g (a consumer part's 10 mg bias
+                                    moves |f| at rest by 0.3 m/s² between upright and upside down) leaked into the
+                                    tilt through the anisotropic adapted R: 12° off at rest upside down, 17° RMS on
+                                    a simulated tumble (0.75° with the direction, VQF 0.79°)
     nis_window_s : float [s]        NIS monitor: the mean NIS of the quasi-static updates (weight 1) over each window
                                     of this length; above the 99.9 % point of chi-square with 3 dof (``innov_gate``,
                                     the bound of a single update, which correlated updates cannot exceed by chance
@@ -198,6 +207,7 @@ class AEKFParams:
     r_max_x: float = 10.0
     monitor_deg: float = 2.0
     nis_window_s: float = 10.0
+    dir_only: bool = True
 
     def __post_init__(self):
         check_gyro_sample("AEKFParams", self.gyro_sample)
@@ -230,7 +240,8 @@ class AEKFTrace:
     measurement-noise diagonal (unit = m/s^2 without GNSS, m/s with), q_gyro (M,) [(rad/s)^2/Hz] adapted gyro
     noise density² after each measurement (accepted or not), yaw (N,) [rad] heading estimate, bias (N,3) [rad/s]
     gyro-bias estimate; resets (K,) sample index of each reset (NIS monitor or re-level); nis: (window end
-    sample (W,), window mean NIS (W,)) of the NIS monitor; als: the ALS estimates (:class:`imutherm.imu.filters.noise_als.NoiseEstimate`, the window
+    sample (W,), window mean NIS (W,)) of the NIS monitor; als: the ALS estimates
+    (:class:`imutherm.imu.filters.noise_als.NoiseEstimate`, the window
     [start, end) each used; q_gyro set into Q from sample ``end`` on)."""
 
     t_idx: np.ndarray
@@ -246,7 +257,7 @@ class AEKFTrace:
 @njit(cache=True)
 def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_val, adapt_r, r_floor,
                use_gnss, gidx, gvel, p0_yaw, accel_gate, innov_gate, reject_timeout, n_avg, n_hold, lpc, sf2,
-               trap, rest, r_hi, nis_win, nis_hi, r_mon):
+               trap, rest, r_hi, nis_win, nis_hi, r_mon, dir_only):
     n = gyro.shape[0]
     rst = np.zeros(REST_STATE)  # rest detector (rest: a zero-rate update of the bias state at rest)
     ra = dt / (REST_TAU + dt)
@@ -283,7 +294,7 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
     if d > 0.5:
         d = 0.5
     m_max = gidx.shape[0] if use_gnss else n // n_avg + 1
-    resets = np.empty(m_max + 1, np.int64)  # sample index of each reset (NIS monitor or re-level), at most one a measurement
+    resets = np.empty(m_max + 1, np.int64)  # sample of each reset (NIS monitor or re-level), one a measurement at most
     nis_k = np.empty(m_max // max(1, nis_win) + 1, np.int64)  # NIS monitor: window end sample, window mean NIS
     nis_v = np.empty(m_max // max(1, nis_win) + 1)
     n_nis = 0
@@ -336,7 +347,11 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
         if rest and not use_gnss:
             at_rest, _, _, _ = rest_step(rst, 0, gyro[k, 0], gyro[k, 1], gyro[k, 2], accel[k, 0], accel[k, 1],
                                          accel[k, 2], ra, dt)
-            if at_rest:  # zero-rate update: the gyro sample measures the bias, variance q_g / dt per sample
+            if at_rest:  # the |f| reference re-read in this orientation (a biased accelerometer's |f| at rest moves
+                # with the attitude: up to 2 |b_a| between upright and upside down), then the zero-rate update
+                g = math.sqrt(rst[3] * rst[3] + rst[4] * rst[4] + rst[5] * rst[5])
+                gn[2] = g
+                # zero-rate update: the gyro sample measures the bias, variance q_g / dt per sample
                 rz = qg / dt
                 Sz = _hpht(Hz, P)
                 for i in range(3):
@@ -372,6 +387,9 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
             if cnt == 0 and (use_lp or ea < accel_gate):
                 H = np.zeros((3, 9))
                 H[:, 0:3] = -_mm3(C.T, _skew(gn))
+                fn = np.sqrt(fk[0] * fk[0] + fk[1] * fk[1] + fk[2] * fk[2])
+                if dir_only and fn > 0.0:  # the direction only: |f| - g (accelerometer bias and scale factor
+                    fk = fk * (g / fn)     # along the vertical) is no tilt
                 nu = fk + _mv3(C.T, gn)
                 meas = True
         if meas:
@@ -386,7 +404,8 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
             S = HPH.copy()
             for i in range(3):
                 S[i, i] += R[i] / wgt
-            if adapt_r and steady and not fresh and wgt == 1.0:  # Sage-Husa on every measurement, each term clipped at innov_gate S_ii, R bounded
+            if adapt_r and steady and not fresh and wgt == 1.0:  # Sage-Husa, each term clipped at innov_gate S_ii,
+                # R bounded to [r_floor, r_hi]
                 for i in range(3):
                     c = nu[i] * nu[i]
                     cmax = innov_gate * S[i, i]
@@ -544,14 +563,15 @@ def run_aekf(gyro, accel, dt: float, params: AEKFParams = AEKFParams(), *, gnss=
         r_floor, r_hi = params.r_floor, max(params.r_floor, (100.0 * params.gnss_std0) ** 2)
     r_mon = (g_ref * math.tan(math.radians(params.monitor_deg))) ** 2 if gnss is None else 0.0
     nis_win = (int(round(params.nis_window_s / (n_avg * dt))) if math.isfinite(params.nis_window_s) else 0)
-    C, bias, used, t_idx, R, q, resets, nis_k, nis_v = _aekf_loop(gyro, accel, float(dt), dts, C0, b0, g_ref, float(qg0), float(r0),
+    C, bias, used, t_idx, R, q, resets, nis_k, nis_v = _aekf_loop(
+                                            gyro, accel, float(dt), dts, C0, b0, g_ref, float(qg0), float(r0),
                                             params.bias_rw, params.accel_density, params.memory_s,
                                             q_idx, q_val, params.adapt_r, r_floor, gnss is not None,
                                             gidx, gvel, float(np.radians(5.0) ** 2), params.accel_gate,
                                             params.innov_gate, params.reject_timeout_s, n_avg, n0, lpc,
                                             float(params.sf_std ** 2), params.gyro_sample == "point",
                                             bool(params.rest_bias and lpc.shape[0] == 5), float(r_hi), nis_win,
-                                            params.innov_gate, float(r_mon))
+                                            params.innov_gate, float(r_mon), params.dir_only)
     r = C[:, 2, :]  # gravity direction in body axes = third row of C_nb
     roll, pitch = roll_pitch_from_gravity(r)
     yaw = np.arctan2(C[:, 1, 0], C[:, 0, 0])
