@@ -36,6 +36,7 @@ Procedure per file (:func:`prepare`), identical for our filters and the peers:
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,8 +45,9 @@ import numpy as np
 from imutherm.imu.reference_log import (Alignment, estimate_alignment, inclination_error_deg, read_reference_log,
                                         resample_uniform, true_samples)
 
-#: the shared real recordings (relative to the repository's parent folder), one folder per data set
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+#: the shared real recordings (relative to the repository's parent folder, or the folder the environment variable
+#: IMUTHERM_SHARED_DATA names: a git worktree elsewhere), one folder per data set
+SHARED = Path(os.environ.get("IMUTHERM_SHARED_DATA") or Path(__file__).resolve().parents[2] / "shared" / "data")
 DATA_DIRS = {"repoimu": SHARED / "repoimu", "broad": SHARED / "broad-dev"}
 DATA_DIR = DATA_DIRS["repoimu"]
 #: rest window [s] per layout (RepoIMU: released 1.3-1.5 s in; BROAD: 26-46 s at rest first, the --imu-csv default)
@@ -195,6 +197,7 @@ def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
         s = score(rec, e.gravity)
         s["accel_used_fraction"] = float(np.mean(e.accel_used))
         s["runtime_s"] = float(e.runtime_s)
+        s["resets_s"] = None if e.resets is None else [float(k * rec.dt) for k in e.resets]  # divergence monitor
         out[n] = s
     return out
 
@@ -220,8 +223,16 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
 
     rec = prepare(path, init_s=init_s, skip_s=skip_s)
     res = run(names, rec, platform_settings("handheld", names), fusion=fusion)
+    from imutherm.studies.real_settings import load_real_settings
+
+    entries = load_real_settings().entries
+    ref = res.get("vqf", {}).get("rms_deg")
     filters = {n: {"inclination_rms_deg": s["rms_deg"], "inclination_max_deg": s["max_deg"],
-                   "accel_used_fraction": s["accel_used_fraction"], "runtime_s": s["runtime_s"]}
+                   "x_vqf": None if not ref else s["rms_deg"] / ref,
+                   "dev_cv_mean_x_vqf": entries.get(n, {}).get("cv_x_vqf"),
+                   "dev_cv_worst_x_vqf": entries.get(n, {}).get("cv_worst_x_vqf"),
+                   "accel_used_fraction": s["accel_used_fraction"], "runtime_s": s["runtime_s"],
+                   "resets_s": s["resets_s"]}
                for n, s in res.items()}
     al = rec.align
     broad = rec.dataset == "broad"

@@ -67,3 +67,39 @@ def test_aekf_bounds_and_monitor_refuse_bad_values():
                {"r_min_x": float("nan")}):
         with pytest.raises(InputError, match="AEKFParams"):
             AEKFParams(**kw)
+
+
+def test_answers_say_the_worst_case_and_a_divergence(tmp_path, capsys):
+    """``attitude --imu-csv`` on a BROAD-shaped record (a short simulated half turn through upside down) prints
+    each filter's ratio to VQF on the file and its development figures' mean and worst file x VQF; the JSON
+    carries the resets (none here); a divergence is one warning line naming the filter and the times; the
+    printed real-motion lines carry the worst file beside the mean."""
+    h5py = pytest.importorskip("h5py")
+    from imutherm.cli._attitude_csv import _print_divergence
+    from imutherm.cli.attitude import main
+    from imutherm.studies.real_settings import real_motion_lines
+
+    plan = [(10.0, np.zeros(3)), (9.0, np.array([20.0, 0.0, 0.0])), (10.0, np.zeros(3)),
+            (9.0, np.array([0.0, 20.0, 0.0])), (5.0, np.zeros(3))]
+    log = tumble_log(rate_hz=100.0, plan=plan, seed=5)
+    p = tmp_path / "tumble.hdf5"
+    with h5py.File(p, "w") as h:
+        for k, v in (("imu_gyr", log.gyro), ("imu_acc", log.accel), ("opt_quat", log.quat),
+                     ("movement", log.movement)):
+            h.create_dataset(k, data=v)
+        h.attrs["sampling_rate"] = 100.0
+    assert main(["--imu-csv", str(p), "--out", str(tmp_path / "o"), "--no-plot", "--filters", "kf,aekf,gated,vqf",
+                 "--init-s", "8"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    for n in ("kf", "aekf", "gated"):
+        line = next(x for x in out if x.startswith(f"{n} "))
+        assert "x VQF)" in line and "development files (cross-validated): mean" in line and "worst file" in line
+    assert not any("diverged" in x for x in out)
+    import json
+    res = json.loads((tmp_path / "o" / "attitude.json").read_text())
+    assert res["filters"]["aekf"]["resets_s"] == [] and res["filters"]["kf"]["resets_s"] is None
+    _print_divergence("aekf", [12.5, 40.0])
+    warn = capsys.readouterr().out.strip().splitlines()
+    assert len(warn) == 1 and "aekf diverged" in warn[0] and "t = 12.5, 40.0 s" in warn[0]
+    lines = real_motion_lines(["kf", "aekf", "vqf"])
+    assert lines and "worst file" in lines[1]
