@@ -109,14 +109,15 @@ def tumble_plan(rate_dps: float = 10.0, rest_s: float = 60.0) -> list:
 
 def tumble_log(*, rate_hz: float = 100.0, rate_dps: float = 10.0, rest_s: float = 60.0, grade: str = "adis16355",
                seed: int = 0, plan=None, name: str | None = None, gyro_sf: float = 0.0,
-               bias_step_dps: float = 0.0) -> ReferenceLog:
+               bias_step_dps: float = 0.0, accel_bias_x: float = 1.0) -> ReferenceLog:
     """A simulated record of :func:`tumble_plan` (or ``plan``) as a BROAD-like :class:`ReferenceLog`: gyro (N,3)
     [rad/s], accel (N,3) [m/s^2] specific force of pure rotation (no linear acceleration), the true quaternion
     (body -> ENU), ``movement`` every row after the first segment; the sensor errors of ``grade``
     (:func:`grade_noise`), drawn with ``seed``. Gyro samples are the mean rate over the step ending at them
     (interval samples, as the benchmark reads logs). gyro_sf [-]: 1-sigma scale-factor and misalignment error of
     each gyro matrix element (0: none); bias_step_dps [deg/s]: a gyro-bias step of this size on every axis at the
-    record's middle (a temperature or turn-on change the rest window did not see)."""
+    record's middle (a temperature or turn-on change the rest window did not see); accel_bias_x: the grade's
+    accelerometer bias 1-sigma times this (a part worse than the grade, or a calibration off)."""
     if not (math.isfinite(rate_hz) and 10.0 <= rate_hz <= 10000.0):
         raise InputError(f"tumble: rate_hz={rate_hz!r} is invalid; valid: 10-10000 [Hz]")
     plan = tumble_plan(rate_dps, rest_s) if plan is None else plan
@@ -138,7 +139,7 @@ def tumble_log(*, rate_hz: float = 100.0, rate_dps: float = 10.0, rest_s: float 
     gyro = rates @ (np.eye(3) + rng.normal(0.0, gyro_sf, (3, 3))).T if gyro_sf > 0 else rates
     bg[n // 2:] += math.radians(bias_step_dps)
     gyro = gyro + bg + rng.normal(0.0, nz.gyro_density * math.sqrt(rate_hz), (n, 3))
-    accel = f + rng.normal(0.0, nz.accel_bias, 3) + rng.normal(0.0, nz.accel_density * math.sqrt(rate_hz), (n, 3))
+    accel = f + rng.normal(0.0, nz.accel_bias * accel_bias_x, 3) + rng.normal(0.0, nz.accel_density * math.sqrt(rate_hz), (n, 3))
     movement = np.ones(n, bool)
     movement[:int(round(plan[0][0] / dt))] = False
     label = name or f"sim_{grade}_{rate_hz:g}Hz_{rate_dps:g}dps_rest{rest_s:g}s"
@@ -220,6 +221,10 @@ SIM_CASES = (
     ("sim consumer 1 % scale factor, 0.5 deg/s bias step", dict(grade="adis16355", rate_hz=100.0, rate_dps=10.0,
                                                                  rest_s=30.0, seed=4, gyro_sf=0.01,
                                                                  bias_step_dps=0.5)),
+    ("sim industrial, 10x its accelerometer bias (20 mg)", dict(grade="adis16488", rate_hz=200.0, rate_dps=10.0,
+                                                                 rest_s=30.0, seed=5, accel_bias_x=10.0)),
+    ("sim consumer 100 Hz 10 deg/s, 10 min rests (63 min)", dict(grade="adis16355", rate_hz=100.0, rate_dps=10.0,
+                                                                  rest_s=600.0, seed=6)),
 )
 
 #: the transformed development records: (label, BROAD file stem, transformed_log keywords, level)
