@@ -7,7 +7,8 @@ Usage::
 
 Records: simulated slow tumbles (5-20 °/s through upside down, both verticals, on the side, full turns; rests of
 0.5-10 min; 100, 200 and 1000 Hz; the adis16355 consumer and adis16488 industrial grades of imu/grades.py; one with a
-1 % gyro scale-factor / misalignment error and a 0.5 °/s bias step, one with ten times its grade's accelerometer bias) and the three BROAD development trials
+1 % gyro scale-factor / misalignment error and a 0.5 °/s bias step, one with ten times its grade's accelerometer
+bias) and the three BROAD development trials
 transformed (mounted upside down / on a side / nose up and started there, forward-then-reversed twice: 12 min,
 re-cut to 100 and 1000 Hz). Every filter at the handheld settings of ``imutherm attitude --imu-csv``
 (studies/real_settings.toml, tuned on the nine development files). Prints inclination RMS [deg] per record and

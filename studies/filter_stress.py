@@ -139,7 +139,8 @@ def tumble_log(*, rate_hz: float = 100.0, rate_dps: float = 10.0, rest_s: float 
     gyro = rates @ (np.eye(3) + rng.normal(0.0, gyro_sf, (3, 3))).T if gyro_sf > 0 else rates
     bg[n // 2:] += math.radians(bias_step_dps)
     gyro = gyro + bg + rng.normal(0.0, nz.gyro_density * math.sqrt(rate_hz), (n, 3))
-    accel = f + rng.normal(0.0, nz.accel_bias * accel_bias_x, 3) + rng.normal(0.0, nz.accel_density * math.sqrt(rate_hz), (n, 3))
+    accel = (f + rng.normal(0.0, nz.accel_bias * accel_bias_x, 3)
+             + rng.normal(0.0, nz.accel_density * math.sqrt(rate_hz), (n, 3)))
     movement = np.ones(n, bool)
     movement[:int(round(plan[0][0] / dt))] = False
     label = name or f"sim_{grade}_{rate_hz:g}Hz_{rate_dps:g}dps_rest{rest_s:g}s"

@@ -88,7 +88,8 @@ def load_real_settings(path=None) -> RealSettings:
 def real_motion_lines(names, path=None) -> list:
     """A short table of ``names`` on real motion, to print beside a simulated answer: each filter's cross-validated
     mean inclination RMS [deg] over the real development files at its real-motion settings, its ratio to VQF's
-    (the same procedure) and its worst file's ratio to VQF on that file; [] without the settings file. Filters the file does not hold are left out."""
+    (the same procedure) and its worst file's ratio to VQF on that file; [] without the settings file. Filters the
+    file does not hold are left out."""
     try:
         rs = load_real_settings(path)
     except InputError:

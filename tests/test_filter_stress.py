@@ -103,3 +103,35 @@ def test_answers_say_the_worst_case_and_a_divergence(tmp_path, capsys):
     assert len(warn) == 1 and "aekf diverged" in warn[0] and "t = 12.5, 40.0 s" in warn[0]
     lines = real_motion_lines(["kf", "aekf", "vqf"])
     assert lines and "worst file" in lines[1]
+
+
+def test_transformed_logs_are_what_they_say():
+    """Mounting: the accelerometer and gyro turned, the reference with them (the reference's up in the new body
+    axes is the turned one); palindrome: twice the rows per pair, the gyro negated and the rows backwards in the
+    second half; a re-cut rate keeps the gyro's integral (interval samples) to the last sample's share."""
+    from imutherm.studies.filter_stress import MOUNTS, quat_rotate_inv, transformed_log
+
+    plan = [(2.0, np.zeros(3)), (3.0, np.array([30.0, 10.0, 0.0])), (1.0, np.zeros(3))]
+    log = tumble_log(rate_hz=100.0, plan=plan, seed=1, grade="ideal")
+    M = MOUNTS["on_side"]
+    m = transformed_log(log, mount=M)
+    assert np.allclose(m.accel, log.accel @ M.T) and np.allclose(m.gyro, log.gyro @ M.T)
+    up_old = quat_rotate_inv(log.quat, [0.0, 0.0, 1.0])
+    assert np.allclose(quat_rotate_inv(m.quat, [0.0, 0.0, 1.0]), up_old @ M.T, atol=1e-9)
+    p = transformed_log(log, palindrome=1)
+    n = len(log.t)
+    assert len(p.t) == 2 * n - 1 and np.allclose(p.gyro[n:], -log.gyro[-2::-1])
+    assert np.allclose(p.quat[n:], log.quat[-2::-1])
+    r = transformed_log(log, rate_hz=1000.0)
+    assert np.isclose(np.diff(r.t).mean(), 1e-3)
+    assert np.allclose(r.gyro[1:].sum(axis=0) * 1e-3, log.gyro[1:].sum(axis=0) * 0.01,
+                       atol=0.01 * np.abs(log.gyro).max())
+
+
+def test_stress_table_mean_and_worst_file():
+    from imutherm.studies.filter_stress import StressTable, format_stress_table
+
+    t = StressTable(("a", "b"), {"kf": [1.0, 3.0], "vqf": [1.0, 1.0]}, {"kf": 2.0, "vqf": 1.0},
+                    {"kf": 3.0, "vqf": 1.0}, {"kf": "b", "vqf": "a"}, {"kf": [None, None], "vqf": [None, None]})
+    text = format_stress_table(t)
+    assert "| **mean x VQF** | 2.00 | 1.00 |" in text and "| **worst file x VQF** | 3.00 | 1.00 |" in text
