@@ -189,6 +189,8 @@ def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
     from imutherm.studies.attitude_study import GateConfig, run_filters
 
     d, L = _platform()
+    from imutherm.imu.filters.rest_check import rest_disagreement
+
     est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, GateConfig(L=L, init_s=rec.init_s),
                          fusion=fusion or FusionParams(), names=tuple(names), settings=settings or {},
                          gyro_sample="interval")
@@ -198,6 +200,7 @@ def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
         s["accel_used_fraction"] = float(np.mean(e.accel_used))
         s["runtime_s"] = float(e.runtime_s)
         s["resets_s"] = None if e.resets is None else [float(k * rec.dt) for k in e.resets]  # divergence monitor
+        s["rest_off"] = [(rec.t0 + t, a) for t, a in rest_disagreement(rec.gyro, rec.accel, rec.dt, e.gravity)]
         out[n] = s
     return out
 
@@ -232,7 +235,7 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
                    "dev_cv_mean_x_vqf": entries.get(n, {}).get("cv_x_vqf"),
                    "dev_cv_worst_x_vqf": entries.get(n, {}).get("cv_worst_x_vqf"),
                    "accel_used_fraction": s["accel_used_fraction"], "runtime_s": s["runtime_s"],
-                   "resets_s": s["resets_s"]}
+                   "resets_s": s["resets_s"], "rest_off_deg": s["rest_off"]}
                for n, s in res.items()}
     al = rec.align
     broad = rec.dataset == "broad"

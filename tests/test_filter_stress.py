@@ -98,6 +98,7 @@ def test_answers_say_the_worst_case_and_a_divergence(tmp_path, capsys):
     import json
     res = json.loads((tmp_path / "o" / "attitude.json").read_text())
     assert res["filters"]["aekf"]["resets_s"] == [] and res["filters"]["kf"]["resets_s"] is None
+    assert all(res["filters"][n]["rest_off_deg"] == [] for n in ("kf", "aekf", "gated", "vqf"))
     _print_divergence("aekf", [12.5, 40.0])
     warn = capsys.readouterr().out.strip().splitlines()
     assert len(warn) == 1 and "aekf diverged" in warn[0] and "t = 12.5, 40.0 s" in warn[0]
@@ -135,3 +136,19 @@ def test_stress_table_mean_and_worst_file():
                     {"kf": 3.0, "vqf": 1.0}, {"kf": "b", "vqf": "a"}, {"kf": [None, None], "vqf": [None, None]})
     text = format_stress_table(t)
     assert "| **mean x VQF** | 2.00 | 1.00 |" in text and "| **worst file x VQF** | 3.00 | 1.00 |" in text
+
+
+def test_rest_check_flags_a_vertical_off_the_accelerometer_at_rest(tumble):
+    """At rest the accelerometer measures gravity: every own filter's vertical on the tumble stays within 3° of it
+    (nothing flagged), and the same vertical turned by 10° about x is flagged on rest windows (up to 10°: less
+    where the vertical lies near the x axis)."""
+    from imutherm.imu.filters.rest_check import rest_disagreement
+
+    s = platform_settings("handheld", ("aekf",))["aekf"]
+    est = run_aekf(tumble.gyro, tumble.accel, tumble.dt, AEKFParams(**s, gyro_sample="interval"), init_s=8.0)
+    assert rest_disagreement(tumble.gyro, tumble.accel, tumble.dt, est.gravity) == []
+    c, sn = np.cos(np.radians(10.0)), np.sin(np.radians(10.0))
+    off = est.gravity @ np.array([[1, 0, 0], [0, c, -sn], [0, sn, c]]).T
+    flagged = rest_disagreement(tumble.gyro, tumble.accel, tumble.dt, off)
+    assert len(flagged) >= 10 and all(3.0 < a < 10.5 for _, a in flagged)  # 10° x sin(vertical to the x axis)
+    assert max(a for _, a in flagged) > 9.5
