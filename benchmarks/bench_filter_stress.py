@@ -6,11 +6,10 @@ Usage::
     python benchmarks/bench_filter_stress.py [--quick] [--filters a,b,...] [--write]
 
 Records: simulated slow tumbles (5-20 °/s through upside down, both verticals, on the side, full turns; rests of
-0.5-10 min; 100, 200 and 1000 Hz; the adis16355 consumer and adis16488 industrial grades of imu/grades.py; one with a
-1 % gyro scale-factor / misalignment error and a 0.5 °/s bias step, one with ten times its grade's accelerometer
-bias) and the three BROAD development trials
-transformed (mounted upside down / on a side / nose up and started there, forward-then-reversed twice: 12 min,
-re-cut to 100 and 1000 Hz). Every filter at the handheld settings of ``imutherm attitude --imu-csv``
+0.5-10 min; 100-1000 Hz; the adis16355 and adis16488 grades of imu/grades.py and the bmi160 and icm42688p parts of
+its sensor library; one with a 1 % gyro scale-factor / misalignment error and a 0.5 °/s bias step, one with ten
+times its grade's accelerometer bias) and the three BROAD development trials transformed (mounted upside down / on
+a side / nose up and started there, forward-then-reversed twice: 12 min, re-cut to 100 and 1000 Hz). Every filter at the handheld settings of ``imutherm attitude --imu-csv``
 (studies/real_settings.toml, tuned on the nine development files). Prints inclination RMS [deg] per record and
 filter, the aekf's reported NIS resets, each filter's mean x VQF and worst file x VQF. The BROAD records are
 development data (the settings were tuned on these trials, untransformed); the simulated ones were not tuned on.

@@ -224,6 +224,9 @@ SIM_CASES = (
                                                                  bias_step_dps=0.5)),
     ("sim industrial, 10x its accelerometer bias (20 mg)", dict(grade="adis16488", rate_hz=200.0, rate_dps=10.0,
                                                                  rest_s=30.0, seed=5, accel_bias_x=10.0)),
+    ("sim bmi160 (phone-grade part, 25 mg, 3 deg/s bias) 200 Hz", dict(grade="bmi160", rate_hz=200.0,
+                                                                        rate_dps=10.0, rest_s=60.0, seed=7)),
+    ("sim icm42688p 500 Hz 20 deg/s", dict(grade="icm42688p", rate_hz=500.0, rate_dps=20.0, rest_s=60.0, seed=8)),
     ("sim consumer 100 Hz 10 deg/s, 10 min rests (63 min)", dict(grade="adis16355", rate_hz=100.0, rate_dps=10.0,
                                                                   rest_s=600.0, seed=6)),
 )
