@@ -9,9 +9,11 @@ Records: simulated slow tumbles (5-20 °/s through upside down, both verticals, 
 0.5-10 min; 100-1000 Hz; the adis16355 and adis16488 grades of imu/grades.py and the bmi160 and icm42688p parts of
 its sensor library; one with a 1 % gyro scale-factor / misalignment error and a 0.5 °/s bias step, one with ten
 times its grade's accelerometer bias) and the three BROAD development trials transformed (mounted upside down / on
-a side / nose up and started there, forward-then-reversed twice: 12 min, re-cut to 100 and 1000 Hz). Every filter at the handheld settings of ``imutherm attitude --imu-csv``
-(studies/real_settings.toml, tuned on the nine development files). Prints inclination RMS [deg] per record and
-filter, the aekf's reported NIS resets, each filter's mean x VQF and worst file x VQF. The BROAD records are
+a side / nose up and started there, forward-then-reversed twice: 12 min, re-cut to 100 and 1000 Hz). Every
+filter at the handheld settings of ``imutherm attitude --imu-csv`` (studies/real_settings.toml, tuned on the nine
+development files); in a git worktree away from ../shared/data set IMUTHERM_SHARED_DATA to that folder. Prints
+inclination RMS [deg] per record and filter, the aekf's reported NIS resets, each filter's mean x VQF and worst
+file x VQF. The BROAD records are
 development data (the settings were tuned on these trials, untransformed); the simulated ones were not tuned on.
 Data: Laidig, Caruso, Cereatti, Seel, Data 6 (7), 72, 2021, doi:10.3390/data6070072 (BROAD, CC BY 4.0).
 """
