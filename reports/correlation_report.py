@@ -48,6 +48,11 @@ def _headline(res) -> tuple:
         head = f"Found: {n}  {p.name} = {v:.3g} {p.unit}  (95 %: {lo:.3g} to {hi:.3g})"
         return head, ("then " + ", ".join(res.named_effects[1:]) + "; " if len(res.named_effects) > 1 else "") + \
             effect_of(n).words
+    if res.verdict == "ambiguous" and res.explanations:
+        amb = [e for e in res.explanations if e.get("ambiguous")]
+        sub = "; ".join(f"{e['name']} = {e['value']:.3g} {e['unit']} (changes the readings by up to "
+                        f"{e.get('change_K', math.nan):.2f} K, ΔAICc {e['delta_criterion']:.1f})" for e in amb)
+        return "Ambiguous: the data fit " + " or ".join(e["name"] for e in amb) + " equally", sub
     what = {"none": "Nothing to name: the re-tuned model predicts the held-out data within the noise",
             "discrepancy": "No effect named: the model's form is off (discrepancy), no library effect explains it",
             "not_in_library": "No effect named: something outside the library (not_in_library)",
@@ -107,6 +112,8 @@ def first_page_figure(res):
     ax2.set_title("Where the gap went", fontsize=12)
     foot = [f"verdict: {res.verdict}; noise {res.noise_K:.3f} K; known form error "
             + ", ".join(f"{100 * v:.1f} % of the rise ({g})" for g, v in fs.items())]
+    for x in getattr(res, "symptoms", ()):
+        foot.append(f"symptom: {x.words()}")
     if w.get("model") and w["model"] != "corrected":
         foot.append(f"written model: {w['model']} — {w['reason']}")
     for i, line in enumerate(foot):
