@@ -76,7 +76,8 @@ def first_page_figure(res):
             ("corrected\n(physics)", h_phys, "tab:green")]
     if math.isfinite(h_term):
         bars.append(("corrected\n+ form term", h_term, "tab:olive"))
-    ax = fig.add_axes([0.07, 0.14, 0.5, 0.62])
+    tall = 0.56 if getattr(res, "next_experiment", None) else 0.62  # room for the next experiment's sentence
+    ax = fig.add_axes([0.07, 0.14, 0.5, tall])
     names = [b[0] for b in bars]
     vals = [b[1] if math.isfinite(b[1]) else 0.0 for b in bars]
     ax.bar(names, vals, color=[b[2] for b in bars])
@@ -89,7 +90,7 @@ def first_page_figure(res):
                  f"{2 * res.noise_K:.2f} K)", fontsize=12)
     ax.tick_params(labelsize=10)
     # the gap's shares: what the named finding/effects and re-tune explain, what the form term takes, what is left
-    ax2 = fig.add_axes([0.62, 0.14, 0.18, 0.62])
+    ax2 = fig.add_axes([0.62, 0.14, 0.18, tall])
     gap = h_nom if math.isfinite(h_nom) and h_nom > 0 else math.nan
     physics = max(gap - h_phys, 0.0) if math.isfinite(h_phys) else 0.0
     term = max(h_phys - h_term, 0.0) if math.isfinite(h_term) else 0.0
@@ -112,6 +113,10 @@ def first_page_figure(res):
     ax2.set_title("Where the gap went", fontsize=12)
     foot = [f"verdict: {res.verdict}; noise {res.noise_K:.3f} K; known form error "
             + ", ".join(f"{100 * v:.1f} % of the rise ({g})" for g, v in fs.items())]
+    nxt = getattr(res, "next_experiment", None)
+    if nxt:
+        for j, part in enumerate(textwrap.wrap(nxt["in_words"], 120)):
+            fig.text(0.05, 0.835 - 0.025 * j, part, fontsize=11, color="navy", weight="bold")
     for x in getattr(res, "symptoms", ()):
         foot.append(f"symptom: {x.words()}")
     if w.get("model") and w["model"] != "corrected":

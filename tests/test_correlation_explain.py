@@ -93,3 +93,77 @@ def test_a_knob_pushed_to_its_bound_is_a_symptom_not_a_finding():
     assert s.form_off["rms_K"] == pytest.approx(res.physics.rms_K, rel=1e-6) and s.form_off["rms_K"] > res.noise_K
     assert "symptom of the model's form" in s.words() and "symptom" in res.timings["reason"]
     assert result_json(res)["symptoms"][0]["parameter"] == "power_scale"
+
+
+# --------------------------------------------------------------------------- the next experiment, closed loop
+
+#: two regulators side by side on the toy: the same pattern at the board's three test points, different at the
+#: gyro block (the 3.3 V one sits under gyro_x) and in grease
+_TWIN = {"power@reg_5v": {"air": np.array([10.0, 6.0, 3.0, 2.0, 1.5, 1.0]),
+                          "grease": np.array([6.0, 3.0, 1.5, 1.0, 0.8, 0.5])},
+         "power@reg_3v3": {"air": np.array([10.0, 6.0, 3.0, 8.0, 1.5, 1.0]),
+                           "grease": np.array([6.0, 3.0, 1.5, 4.5, 0.8, 0.5])}}
+
+
+def _twin_models():
+    """The toy's models with the two regulators of :data:`_TWIN` (and their knobs) in place of its own patterns."""
+    import _toy_reduced as toy
+    from imutherm.unit import knobs
+
+    class Twin(toy.ToyReduced):
+        def __init__(self, scheme):
+            super().__init__(scheme)
+            self.knobs = {k.name: k for k in [k for k, _ in knobs.RETUNE] + [knobs.effect_knob(n) for n in _TWIN]}
+
+        def gain_tau(self, values):
+            base = {k: v for k, v in values.items() if k not in _TWIN}
+            g, _ = super().gain_tau(base)
+            dT, tau = toy.BASE[self.scheme]
+            for name, pat in _TWIN.items():
+                g = g + pat[self.scheme] * values.get(name, 0.0)
+            return g, tau * (g / dT) ** 0.5
+
+    m = toy.toy_models()
+    from dataclasses import replace
+    return replace(m, roms={k: Twin(k[0]) for k in m.roms}), Twin
+
+
+def _twin_run(Twin, values, rng, scheme, sites, times, power_scale=1.0, name="air.csv", noise_K=0.05):
+    from imutherm.measured import MeasuredRun
+    import _toy_reduced as toy
+    idx = [toy.SITES.index(s) for s in sites]
+    y = Twin(scheme).rise({**values, "power_scale": values.get("power_scale", 1.0) * power_scale}, times)[:, idx]
+    v = 70.0 + y + rng.normal(0.0, noise_K, y.shape)
+    return MeasuredRun(name, scheme, 70.0, power_scale, 0.0, "die", tuple(sites), times, v, tuple(range(len(times))))
+
+
+def test_an_ambiguous_verdict_is_settled_by_the_proposed_experiment(tmp_path):
+    """Closed loop: 0.8 W at the 5 V regulator hidden, measured in air at the three test points only, where the
+    3.3 V regulator reads the same: the verdict is ambiguous between the two, both named with their fitted values;
+    the proposed experiment (the design grid's best separation) is made by the same generator, the file added,
+    correlate run again: the 5 V regulator is named alone. The proposal is in correlation.json and on page 1."""
+    models, Twin = _twin_models()
+    truth = {**NUISANCE, "power@reg_5v": 0.8}
+    rng = np.random.default_rng(11)
+    first = _twin_run(Twin, truth, rng, "air", ("tp1", "tp2", "tp3"), np.linspace(0.0, 1500.0, 40))
+    cands = ("power@reg_5v", "power@reg_3v3")
+    res = correlate([first], models=models, candidates=cands, rerun=False)
+    assert res.verdict == "ambiguous" and set(res.ambiguous_set) == set(cands), res.timings["reason"]
+    amb = {e["name"]: e for e in res.explanations if e.get("ambiguous")}
+    assert set(amb) == set(cands) and amb["power@reg_5v"]["value"] == pytest.approx(0.8, abs=0.1)
+    nxt = res.next_experiment
+    assert nxt is not None and nxt["settles"] and nxt["separation_sigmas"] >= 3.0
+    assert nxt["scheme"] in ("air", "grease") and "gyro_x" in nxt["probes"]  # where the two differ
+    j = result_json(res)
+    assert {k: j["next_experiment"][k] for k in ("scheme", "power_scale", "ambient_C", "duration_s", "probes")} == \
+        {k: nxt[k] for k in ("scheme", "power_scale", "ambient_C", "duration_s", "probes")}
+    assert "separation_K" in j["next_experiment"] and "Next experiment" in res.words
+    from imutherm.reports.correlation_report import first_page_figure
+    fig = first_page_figure(res)
+    assert any("Next experiment" in t.get_text() for t in fig.texts)
+    # the bench runs it (the same generator, the truth), and correlate is run again with the file added
+    t = np.linspace(0.0, nxt["duration_s"], 40)
+    second = _twin_run(Twin, truth, rng, nxt["scheme"], nxt["probes"], t, nxt["power_scale"], name="next.csv")
+    again = correlate([first, second], models=models, candidates=cands, rerun=False)
+    assert again.verdict == "effect" and again.named_effects == ("power@reg_5v",), again.timings["reason"]
+    assert again.after.values["power@reg_5v"] == pytest.approx(0.8, abs=0.1) and again.next_experiment is None

@@ -110,6 +110,9 @@ def result_json(res: CorrelationResult) -> dict:
         "findings": [f.as_dict() for f in res.findings],
         # knobs at a bound the data pull them to: the model's form, not findings (how far off and where)
         "symptoms": [x.as_dict() for x in res.symptoms],
+        # verdict 'ambiguous': the bench design that best separates the candidates (scheme, power_scale, ambient_C,
+        # duration_s, probes, separation_K, separation_sigmas, in_words); null otherwise
+        "next_experiment": res.next_experiment,
         # named effects, findings and ambiguous candidates on one basis (the physics without the term), best first
         "explanations": [{k: v for k, v in e.items() if k != "values"} for e in res.explanations],
         "named_first": (res.findings[0].parameter if res.findings else res.named_effect),

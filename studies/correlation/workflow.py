@@ -22,6 +22,7 @@ from imutherm.studies.plausibility import check_plausible
 from imutherm.studies.written_model import choose as choose_written
 from imutherm.studies.correlation.discrepancy import _disc_curve, form_band
 from imutherm.studies.correlation.explain import explanations as explanations_of
+from imutherm.studies.correlation.next_experiment import next_experiment as next_experiment_of
 from imutherm.studies.correlation.fit import Fit, _fit, _with
 from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, FORM_RETUNE, _Forward, _residuals
 from imutherm.studies.correlation.holdout import SPARSE_READINGS, _held, _heldout_nominal, _masks, _pooled, _test_union
@@ -88,6 +89,9 @@ class CorrelationResult:
     #: one ranked list of the explanations: named effects, findings and ambiguous candidates scored alike
     #: (:mod:`imutherm.studies.correlation.explain`), best first
     explanations: tuple = ()
+    #: verdict 'ambiguous': the bench design that best separates the candidates left
+    #: (:func:`imutherm.studies.correlation.next_experiment.next_experiment`), else None
+    next_experiment: dict | None = None
 
 
 def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | None = "auto",
@@ -163,6 +167,13 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         # model, so the verdict, the words, page 1, updated_model.toml and `parameters` carry the same value
         after, disc = free, None
     expl = explanations_of(sel.fwd, free, found, amb_set, sel.full, sel.folds, sel.ratio0, noise)
+    nxt = None
+    if amb_set and not found:
+        step = next((st for st in reversed(sel.steps) if st["verdict"] == "ambiguous"), None)
+        fits = [f for f in (step["ranking"] if step else ()) if f.effects and f.effects[-1] in amb_set]
+        nxt = next_experiment_of(sel.fwd, [(f.effects[-1], f.values) for f in fits], noise, fscale.fraction)
+        if nxt is not None:
+            say(nxt["in_words"])
     if symptoms:
         reason += "; " + "; ".join(x.words() for x in symptoms)
         say("; ".join(x.words() for x in symptoms))
@@ -186,6 +197,8 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     band = form_band(sel.fwd, after.values, sel.full, named_effects) if sel.sparse_term else None
     if band is not None:
         words += f"; {band['words']}"
+    if nxt is not None:
+        words += f"; {nxt['in_words']}"
     t1 = time.perf_counter()
     rerun_stats = (_rerun(runs, after, disc, models, curves, jobs, say, use_cache, rerun_transient) if rerun
                    else {})
@@ -196,7 +209,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                              {"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
                               "total_s": time.perf_counter() - t0, "reason": reason},
                              words, rerun_stats, named_effects, tuple(sel.steps), dsum, sel.plain, band, found,
-                             written, fscale.summary(), free, symptoms, tuple(expl))
+                             written, fscale.summary(), free, symptoms, tuple(expl), nxt)
 
 
 def _inputs_and_models(runs: tuple, layout, holdout, mesh_size_mm: float, min_cells: int, options, models,
