@@ -61,8 +61,8 @@ def _truth(kind: str, rng) -> tuple:
     if KINDS[kind] is None:
         return nz, None
     v = float(rng.uniform(*KINDS[kind]))
-    if kind.startswith("power@"):
-        v *= rng.choice([-1.0, 1.0]) if kind == "power@processor" else 1.0
+    if kind == "power@processor":  # a missing power leaves the part at least 20 % of its own 0.35 W (the layout's)
+        v = max(v * rng.choice([-1.0, 1.0]), -0.8 * 0.35)
     return {**nz, kind: v}, v
 
 
