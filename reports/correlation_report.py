@@ -50,8 +50,8 @@ def _headline(res) -> tuple:
             effect_of(n).words
     if res.verdict == "ambiguous" and res.explanations:
         amb = [e for e in res.explanations if e.get("ambiguous")]
-        sub = "; ".join(f"{e['name']} = {e['value']:.3g} {e['unit']} (changes the readings by up to "
-                        f"{e.get('change_K', math.nan):.2f} K, ΔAICc {e['delta_criterion']:.1f})" for e in amb)
+        sub = "fitted: " + "; ".join(f"{e['name']} = {e['value']:.3g} {e['unit']} (moves the readings up to "
+                                     f"{e.get('change_K', math.nan):.2f} K)" for e in amb[:3])
         return "Ambiguous: the data fit " + " or ".join(e["name"] for e in amb) + " equally", sub
     what = {"none": "Nothing to name: the re-tuned model predicts the held-out data within the noise",
             "discrepancy": "No effect named: the model's form is off (discrepancy), no library effect explains it",
