@@ -91,6 +91,10 @@ def add_args(parser) -> None:
     u.add_argument("--uncertainty-imu-draws", type=int, default=None, metavar="N",
                    help="draws per scheme also run through the full IMU chain to the residual sensor errors and the "
                         "attitude error, the study's seeds fixed (default min(16, --uncertainty-samples); 0: none)")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="solve every scheme's thermal case again (default: read it from the disk cache when "
+                             "one of the same content is there, and keep it there: layout, scheme, model options, "
+                             "mesh, time settings, code; not the IMU side; $IMUTHERM_CACHE_DIR, $IMUTHERM_CACHE=off)")
     add_progress_argument(parser)
     add_model_arguments(parser)
     add_fitted_model_argument(parser)
@@ -223,7 +227,7 @@ def _end_to_end(args, schemes, config) -> int:
     extra = {"effects": effects} if effects else {}
     res = run_study(layout, schemes, config=config, options=options, jobs=args.jobs,
                     progress=not args.no_progress, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                    **args.time_kwargs, **extra)
+                    use_cache=not args.no_cache, **args.time_kwargs, **extra)
     from imutherm.reports.study_report import write_study_report
 
     unc = _uncertainty(args, res.layout, schemes, options, study=res)

@@ -1,5 +1,6 @@
 """The thermal side of the end-to-end study: one scheme's steady field, power-on transient and self-heating in
-the calibration oven (:func:`thermal_case`), and the order the schemes go to the workers.
+the calibration oven (:func:`thermal_case`), kept in the disk cache under the key of its content
+(:func:`thermal_key`, :func:`stored_thermal_case`), and the order the schemes go to the workers.
 """
 
 from __future__ import annotations
@@ -144,3 +145,51 @@ def longest_first(layout: LayoutSpec, schemes, options: ModelOptions) -> tuple:
         fill = layout.schemes[sch].fill
         return cavity_law_of(options).patches and options.material(fill).name == "air"
     return tuple(sorted(schemes, key=lambda sch: not s2s(sch)))
+
+
+#: the study's own source a thermal case depends on, beside the models' (:data:`imutherm.cache.CODE_VERSION`:
+#: thermal, unit, geometry, layouts, the constants); files read, not imported
+CASE_SOURCES = (("studies", "thermal_study.py"), ("studies", "end_to_end/thermal.py"), ("imutherm", "site_table.py"))
+
+
+def thermal_key(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, **thermal_kwargs) -> str:
+    """The disk-cache key (hex SHA-256, :func:`imutherm.cache.key_of`) of :func:`thermal_case`'s value: the
+    layout's content (not its file's path or time), the scheme, the model options (materials, laws), the oven
+    temperatures, the mesh, time and estimate settings, the sensor-die names and the source of the code that
+    computes it. The IMU side (grade, seeds, profiles, filters) is not in it: a sweep over those re-uses it."""
+    from imutherm.cache import key_of, source_version
+    from imutherm.site_table import SITES
+
+    kw = {k: v for k, v in thermal_kwargs.items() if k != "progress"}
+    chamber = tuple(sorted(float(c) for c in chamber_C))
+    return key_of("thermal_case", replace(layout, path=""), str(scheme), options, chamber, kw, SITES,
+                  source_version(CASE_SOURCES))
+
+
+def cached_thermal_case(key: str | None, layout: LayoutSpec):
+    """(value of :func:`thermal_case` or None, status): the entry under ``key`` in the disk cache
+    (status ``hit``), ``absent``, ``unreadable`` (deleted: to be recomputed) or ``off`` (``key`` None). A hit's
+    geometry carries ``layout`` (the same content, perhaps read from another path)."""
+    from imutherm.cache import load_status
+
+    if key is None:
+        return None, "off"
+    value, status = load_status(key)
+    if status != "hit":
+        return None, status
+    res = value[0]
+    if res.geometry.layout.path != layout.path:
+        res = replace(res, geometry=replace(res.geometry, layout=replace(res.geometry.layout, path=layout.path)))
+    return (res,) + tuple(value[1:]), status
+
+
+def stored_thermal_case(key: str | None, layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C,
+                        progress: bool = False, **thermal_kwargs):
+    """:func:`thermal_case`, its value written to the disk cache under ``key`` (:func:`thermal_key`; None: not
+    written). Run in a worker: the write happens there, beside the other schemes' solves."""
+    from imutherm.cache import store
+
+    out = thermal_case(layout, scheme, options, chamber_C, progress=progress, **thermal_kwargs)
+    if key is not None:
+        store(key, out)
+    return out
