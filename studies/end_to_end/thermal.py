@@ -16,8 +16,8 @@ from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.steady import solve_steady
 
 
-def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | None = None
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | None = None,
+                       preconditioner=None) -> tuple[np.ndarray, np.ndarray]:
     """Sensor-die rise over the chamber [K], (k, 6) in SITES order, at oven temperatures ``chamber_C`` [°C].
 
     The scheme's model is solved steady with the chamber as ambient and fixture
@@ -26,6 +26,8 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
     ``res``'s steady rise that checks itself against the full model, every sensor die within 0.01 K
     (:func:`imutherm.thermal.reduced_steady.reduced_steady`), the full solve when the check fails.
     ``solves``: a list that gets one JSON-ready dict per solved chamber temperature (how it was solved).
+    ``preconditioner``: the scheme's steady solve's (``solve_steady(..., keep=)``: the same conduction), for the
+    reduced model's check instead of a new AMG hierarchy.
     """
     from imutherm.imu.sensor_model import SITES
     from imutherm.thermal.assembly import assemble
@@ -52,7 +54,7 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
         st, how = None, {"chamber_C": float(Tc), "model": "full"}
         if model == "reduced":
             try:
-                st, chk = reduced_steady(problem, asm, known, probes)
+                st, chk = reduced_steady(problem, asm, known, probes, preconditioner=preconditioner)
                 how["check"] = chk.summary()
             except InputError as e:   # e.g. a fixed-temperature face: the full solve
                 how["check"] = {"accepted": False, "reason": str(e)}
@@ -106,23 +108,24 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     from imutherm.studies.thermal_study import mesh_factors, run_scheme
 
     estimate = thermal_kwargs.pop("estimate_mesh_error", False)
-    res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, **thermal_kwargs)
+    kept = {}   # the steady solve's preconditioner: the oven's check and the estimate's coarse level use it too
+    res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, keep=kept, **thermal_kwargs)
     solves = []
     chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
-                                       solves=solves)
+                                       solves=solves, preconditioner=kept.get("preconditioner"))
     if estimate:
-        res = with_mesh_error(res)
+        res = with_mesh_error(res, kept.pop("preconditioner", None))
         factors = mesh_factors(res)   # the oven's rises too: the same mesh, the same conduction
         rise = rise * np.array([factors.get(s, 1.0) for s in SITES])
     release_freed_memory()
     return res, chamber, rise, solves
 
 
-def with_mesh_error(res):
+def with_mesh_error(res, coarse_pc=None):
     """``res`` with its mesh-error estimate and the answer corrected by it
     (:func:`~imutherm.studies.thermal_study.mesh_error`, :func:`~imutherm.studies.thermal_study.mesh_corrected`),
     the refined solve under the workers' lock (one at a time: ~8x the memory of a scheme's solve); ``wall_s``
-    includes it."""
+    includes it. ``coarse_pc``: the steady solve's preconditioner (:func:`~imutherm.studies.thermal_study.mesh_error`)."""
     import contextlib
     import time
 
@@ -132,7 +135,7 @@ def with_mesh_error(res):
     t0 = time.perf_counter()
     release_freed_memory()   # the solves' freed arrays, before the refined solve's (the study's peak)
     with _REFINED_LOCK if _REFINED_LOCK is not None else contextlib.nullcontext():
-        res = mesh_corrected(replace(res, mesh_error=mesh_error(res)))
+        res = mesh_corrected(replace(res, mesh_error=mesh_error(res, coarse_pc=coarse_pc)))
     return replace(res, wall_s=res.wall_s + time.perf_counter() - t0)
 
 
