@@ -92,9 +92,10 @@ def add_args(parser) -> None:
                    help="draws per scheme also run through the full IMU chain to the residual sensor errors and the "
                         "attitude error, the study's seeds fixed (default min(16, --uncertainty-samples); 0: none)")
     parser.add_argument("--no-cache", action="store_true",
-                        help="solve every scheme's thermal case again (default: read it from the disk cache when "
-                             "one of the same content is there, and keep it there: layout, scheme, model options, "
-                             "mesh, time settings, code; not the IMU side; $IMUTHERM_CACHE_DIR, $IMUTHERM_CACHE=off)")
+                        help="solve every scheme's thermal case again and build --uncertainty's reduced models "
+                             "again (default: read them from the disk cache when ones of the same content are "
+                             "there, and keep them there: layout, scheme, model options, mesh, time settings, code; "
+                             "not the IMU side; $IMUTHERM_CACHE_DIR, $IMUTHERM_CACHE=off)")
     add_progress_argument(parser)
     add_model_arguments(parser)
     add_fitted_model_argument(parser)
@@ -278,7 +279,8 @@ def _uncertainty(args, layout, schemes, options, study=None):
                           seed=args.seed if hasattr(args, "seed") else 0, checks=args.uncertainty_checks,
                           t_end=args.t_end or args.t_end_default, mesh_size_mm=args.mesh_size,
                           min_cells=args.min_cells, progress=say, study=study,
-                          imu_draws=args.uncertainty_imu_draws, jobs=getattr(args, "jobs", None))
+                          imu_draws=args.uncertainty_imu_draws, jobs=getattr(args, "jobs", None),
+                          use_cache=not args.no_cache)
     print(f"uncertainty ({len(unc['inputs'])} inputs, {unc['draws']} draws on the reduced models; checked on the "
           f"full FEM: largest site error {unc['max_check_error_K']:.3f} K):" if unc["max_check_error_K"] is not None
           else f"uncertainty ({len(unc['inputs'])} inputs, {unc['draws']} draws, not checked on the full FEM):")

@@ -113,3 +113,23 @@ def test_switched_off_reads_nothing(folder, monkeypatch):
     monkeypatch.setenv(cache.ENABLE_ENV, "0")
     assert run_mod._cache_lookup(load_layout(None), ("potted",), ModelOptions(), CONFIG, KW, True)[1] == {}
 
+
+
+def test_the_uncertainty_models_are_kept(folder, monkeypatch):
+    """``compare --uncertainty``'s reduced models: a second build of the same content reads the first; another
+    input range is another key."""
+    from imutherm.geometry.build import build_geometry
+    from imutherm.studies import uncertainty
+    from imutherm.thermal import reduced
+
+    ins = uncertainty.inputs(build_geometry(None, "potted"))
+    a = uncertainty.build_scheme_model(None, "potted", ins, mesh_size_mm=6, min_cells=1)
+    monkeypatch.setattr(reduced, "build_reduced", _no_solve)
+    b = uncertainty.build_scheme_model(load_layout(None), "potted", ins, mesh_size_mm=6, min_cells=1)
+    x = uncertainty.knob_values(a, uncertainty.nominal_row(ins))
+    assert np.array_equal(a.rom.rise(x, [10.0, np.inf]), b.rom.rise(x, [10.0, np.inf]))
+    wider = tuple(replace(i, hi=i.hi * 1.01) if i is ins[0] else i for i in ins)
+    with pytest.raises(AssertionError, match="thermal solve"):
+        uncertainty.build_scheme_model(None, "potted", wider, mesh_size_mm=6, min_cells=1)
+    with pytest.raises(AssertionError, match="thermal solve"):
+        uncertainty.build_scheme_model(None, "potted", ins, mesh_size_mm=6, min_cells=1, use_cache=False)
