@@ -57,9 +57,6 @@ IGNORED = (
                            "--out-of-range"),
             lambda a: a.thermal_only or a.steady_only, "with --thermal-only or --steady-only",
             "the thermal comparison has no IMU side; drop them or run the end-to-end study"),
-    Ignored(("compare",), ("--no-cache",), lambda a: (a.thermal_only or a.steady_only) and not a.uncertainty,
-            "with --thermal-only or --steady-only (and no --uncertainty)",
-            "only the end-to-end study's thermal cases and --uncertainty's reduced models are cached; drop it"),
     Ignored(("solve",), ("--effect",), lambda a: not a.transient and _signal_effects(a), "without --transient",
             "a signal effect (probe_lag, ambient_drift) changes the transient's site curves, and a steady "
             "solve has none; drop it or add --transient"),

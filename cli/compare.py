@@ -157,7 +157,7 @@ def run(args) -> int:
     check_schemes_side_by_side(solve_bytes, refined_bytes, args.jobs, args.max_memory)
     comp = compare_schemes(layout, schemes, progress=not args.no_progress, jobs=args.jobs,
                            transient=not args.steady_only, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                           options=options,
+                           options=options, use_cache=not args.no_cache,
                            **args.time_kwargs, **({"effects": effects} if effects else {}))
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout

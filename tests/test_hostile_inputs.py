@@ -709,7 +709,6 @@ REFUSED_EARLY = {  # name -> (argv without --out, expected tokens); files from _
     "ignored_uncertainty_imu_thermal": (["compare", "--thermal-only", "--uncertainty", "--uncertainty-imu-draws", "4"],
                                         ["--uncertainty-imu-draws", "with --thermal-only", "no IMU chain"]),
     "ignored_filter_defaults": (["compare", "--thermal-only", "--filter-defaults"], ["--filter-defaults"]),
-    "ignored_no_cache_thermal": (["compare", "--thermal-only", "--no-cache"], ["--no-cache", "with --thermal-only"]),
     "ignored_verify_full_fem": (["sweep", "--set", "environment.ambient_C=20,30", "--surrogate", "none", "--verify",
                                  "3"], ["--verify", "--surrogate none"]),
     "ignored_h": (["sweep", "--set", "environment.ambient_C=20,30", "--h", "5"], ["--h", "--exterior fixed"]),

@@ -133,3 +133,22 @@ def test_the_uncertainty_models_are_kept(folder, monkeypatch):
         uncertainty.build_scheme_model(None, "potted", wider, mesh_size_mm=6, min_cells=1)
     with pytest.raises(AssertionError, match="thermal solve"):
         uncertainty.build_scheme_model(None, "potted", ins, mesh_size_mm=6, min_cells=1, use_cache=False)
+
+
+def test_the_thermal_comparison_is_kept(folder, monkeypatch, capsys):
+    """``compare --thermal-only``: each scheme's result is read back from the cache, in this process (``jobs``
+    1) and in the workers alike."""
+    from imutherm.studies.compare import compare_schemes
+    from imutherm.studies import thermal_study
+
+    kw = dict(mesh_size_mm=6.0, min_cells=1, t_end=300.0, transient_model="reduced")
+    first = compare_schemes(None, ("potted",), jobs=1, **kw)
+    capsys.readouterr()
+    monkeypatch.setattr(thermal_study, "run_scheme", _no_solve)
+    again = compare_schemes(None, ("potted",), jobs=1, **kw)
+    assert "potted: thermal: cached (key " in capsys.readouterr().out
+    assert first.summaries == again.summaries
+    with pytest.raises(AssertionError, match="thermal solve"):
+        compare_schemes(None, ("potted",), jobs=1, use_cache=False, **kw)
+    with pytest.raises(AssertionError, match="thermal solve"):
+        compare_schemes(None, ("potted",), jobs=1, **{**kw, "mesh_size_mm": 5.0})

@@ -180,10 +180,7 @@ def cached_thermal_case(key: str | None, layout: LayoutSpec):
     value, status = load_status(key)
     if status != "hit":
         return None, status
-    res = value[0]
-    if res.geometry.layout.path != layout.path:
-        res = replace(res, geometry=replace(res.geometry, layout=replace(res.geometry.layout, path=layout.path)))
-    return (res,) + tuple(value[1:]), status
+    return (_at_path(value[0], layout),) + tuple(value[1:]), status
 
 
 def stored_thermal_case(key: str | None, layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C,
@@ -196,3 +193,40 @@ def stored_thermal_case(key: str | None, layout: LayoutSpec, scheme: str, option
     if key is not None:
         store(key, out)
     return out
+
+
+def _at_path(res, layout: LayoutSpec):
+    """``res`` (a SchemeResult) with its geometry's layout at ``layout``'s path (a cached result of the same
+    content read from another file)."""
+    if res.geometry.layout.path == layout.path:
+        return res
+    return replace(res, geometry=replace(res.geometry, layout=replace(res.geometry.layout, path=layout.path)))
+
+
+def cached_scheme_run(layout: LayoutSpec, scheme: str, run_kwargs: dict, use_cache: bool = True):
+    """One scheme of the thermal comparison (``compare --thermal-only``): :func:`run_scheme` with ``run_kwargs``
+    (and the mesh-error estimate with the steady solve's preconditioner), or its SchemeResult from the disk cache
+    under the key of its content (as :func:`thermal_key`; ``use_cache`` False or ``$IMUTHERM_CACHE`` off: solved,
+    nothing read or written). A hit prints ``<scheme>: thermal: cached (key ...)``; an entry that cannot be read
+    is recomputed, said in one line."""
+    from imutherm.cache import enabled, key_of, load_status, source_version, store
+    from imutherm.studies.thermal_study import run_scheme
+
+    kw = {k: v for k, v in run_kwargs.items() if k != "progress"}
+    key = None
+    if use_cache and enabled():
+        key = key_of("scheme_run", replace(layout, path=""), str(scheme), kw, source_version(CASE_SOURCES))
+        value, status = load_status(key)
+        if status == "hit":
+            print(f"{scheme}: thermal: cached (key {key[:12]})", flush=True)
+            return _at_path(value, layout)
+        if status == "unreadable":
+            print(f"{scheme}: thermal: the cache entry {key[:12]} could not be read: recomputed", flush=True)
+    estimate = kw.pop("estimate_mesh_error", False)
+    kept = {}
+    res = run_scheme(layout, scheme, keep=kept, progress=run_kwargs.get("progress", False), **kw)
+    if estimate:
+        res = with_mesh_error(res, kept.pop("preconditioner", None))
+    if key is not None:
+        store(key, res)
+    return res
