@@ -140,8 +140,8 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         steady solve on the mesh refined 2x in every direction, 8x the cells) and correct the sites' values and
         curves and the hot spot by it (:func:`mesh_corrected`)
     keep : dict, optional: gets the steady solve's ``"preconditioner"`` (``solve_steady(..., keep=)``), which the
-        reduced transient and the mesh-error estimate here use too, for the caller's later solves of the same
-        unit (the oven's, :func:`imutherm.studies.end_to_end.thermal.thermal_case`)
+        reduced transient and the mesh-error estimate here use too, and the ``"assembly"``, for the caller's later
+        solves of the same unit (the oven's, :func:`imutherm.studies.end_to_end.thermal.thermal_case`)
 
     Returns
     -------
@@ -194,6 +194,8 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     kept = {} if keep is None else keep   # one preconditioner for every solve of this unit's matrix
     steady = solve_steady(problem, probes=probes, assembly=asm, keep=kept)
     pc = kept.get("preconditioner")
+    if keep is not None:
+        keep["assembly"] = asm
     tr = check = None
     if transient:
         final_C = dict(zip(steady.probe_names, (float(v) for v in steady.probe_C)))

@@ -53,3 +53,30 @@ def test_the_shared_preconditioner_gives_the_same_answers():
     assert np.abs(own.answer_error_K - shared.answer_error_K).max() < 2e-3
     plain = run_scheme(load_layout(None), "potted", transient=True, **KW)
     assert np.abs(np.asarray(plain.transient.probe_C) - np.asarray(res.transient.probe_C)).max() < 5e-3
+
+
+def test_the_oven_takes_the_volume_assembly():
+    """The unit at another ambient (the calibration oven) on the same grid: only the boundary is assembled, and
+    the assembly is the one made from scratch, bit for bit."""
+    from dataclasses import replace
+
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.mesh import build_mesh
+    from imutherm.thermal.assembly import assemble
+    from imutherm.unit.model import build_problem
+
+    geo = build_geometry(load_layout(None), "potted")
+    grid = build_mesh(geo, 6.0, 1)
+    asm = assemble(build_problem(geo, grid, ModelOptions()))
+    lay = geo.layout
+    cold = replace(lay, ambient_C=-40.0, mounting=replace(lay.mounting, temperature_C=-40.0))
+    pb = build_problem(replace(geo, layout=cold), grid, ModelOptions())
+    own, shared = assemble(pb), assemble(pb, like=asm)
+    assert shared.K_data is asm.K_data and shared.M_data is asm.M_data
+    for name in ("K_data", "H_data", "M_data", "F_q", "F_bc"):
+        assert np.array_equal(getattr(own, name), getattr(shared, name)), name
+    assert [bc.T_ref for bc in own.nonlinear] == [bc.T_ref for bc in shared.nonlinear]
+    # another material is another volume: assembled from scratch
+    other = build_problem(geo, grid, ModelOptions(cavity_law="effective"))
+    hot = replace(other, k=other.k * 1.5)
+    assert assemble(hot, like=asm).K_data is not asm.K_data

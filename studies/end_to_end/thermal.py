@@ -17,7 +17,7 @@ from imutherm.thermal.steady import solve_steady
 
 
 def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | None = None,
-                       preconditioner=None) -> tuple[np.ndarray, np.ndarray]:
+                       preconditioner=None, assembly=None) -> tuple[np.ndarray, np.ndarray]:
     """Sensor-die rise over the chamber [K], (k, 6) in SITES order, at oven temperatures ``chamber_C`` [°C].
 
     The scheme's model is solved steady with the chamber as ambient and fixture
@@ -27,7 +27,9 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
     (:func:`imutherm.thermal.reduced_steady.reduced_steady`), the full solve when the check fails.
     ``solves``: a list that gets one JSON-ready dict per solved chamber temperature (how it was solved).
     ``preconditioner``: the scheme's steady solve's (``solve_steady(..., keep=)``: the same conduction), for the
-    reduced model's check instead of a new AMG hierarchy.
+    reduced model's check instead of a new AMG hierarchy. ``assembly``: the scheme's own (the same grid and
+    materials): its conduction, heat capacity and volume load are taken, only the oven's boundary is assembled
+    (:func:`imutherm.thermal.assembly.assemble` ``like=``).
     """
     from imutherm.imu.sensor_model import SITES
     from imutherm.thermal.assembly import assemble
@@ -49,7 +51,7 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
             continue
         lay_c = replace(lay, ambient_C=Tc, mounting=replace(lay.mounting, temperature_C=Tc))
         problem = build_problem(replace(geo, layout=lay_c), res.grid, res.options)
-        asm = assemble(problem)
+        asm = assemble(problem, like=assembly)
         known = np.asarray(res.steady.T_C) - lay.ambient_C
         st, how = None, {"chamber_C": float(Tc), "model": "full"}
         if model == "reduced":
@@ -112,7 +114,8 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, keep=kept, **thermal_kwargs)
     solves = []
     chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
-                                       solves=solves, preconditioner=kept.get("preconditioner"))
+                                       solves=solves, preconditioner=kept.get("preconditioner"),
+                                       assembly=kept.pop("assembly", None))   # not kept through the refined solve
     if estimate:
         res = with_mesh_error(res, kept.pop("preconditioner", None))
         factors = mesh_factors(res)   # the oven's rises too: the same mesh, the same conduction
