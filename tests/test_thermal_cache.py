@@ -33,11 +33,12 @@ def _no_solve(*args, **kwargs):
 
 
 def _study(**kw):
-    return run_study(None, ("potted",), config=kw.pop("config", CONFIG), jobs=1, **KW, **kw)
+    return run_study(None, ("potted",), config=kw.pop("config", CONFIG), jobs=kw.pop("jobs", 1), **KW, **kw)
 
 
 def test_a_second_study_solves_nothing(folder, monkeypatch, capsys):
-    first = _study()
+    two = replace(CONFIG, seeds=2)   # two IMU cases: two workers, the thermal case solved and stored in one
+    first = _study(config=two, jobs=2)
     assert len(list(folder.glob("*.pkl"))) == 1
     capsys.readouterr()
     for mod, name in ((thermal_mod, "thermal_case"), (thermal_mod, "solve_steady"),
@@ -59,6 +60,7 @@ def test_a_second_study_solves_nothing(folder, monkeypatch, capsys):
     other = replace(CONFIG, seed0=5, profiles=("flight",), filters=("kf",))
     third = _study(config=other)
     assert np.array_equal(third.schemes["potted"].thermal.steady.T_C, a.thermal.steady.T_C)
+    assert _study(config=two, jobs=2).schemes["potted"].summary == a.summary   # read in the command, not solved
     # switched off: the study solves again (here: refused by the patched solver)
     with pytest.raises(AssertionError, match="thermal solve"):
         _study(use_cache=False)
