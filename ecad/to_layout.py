@@ -26,15 +26,19 @@ from dataclasses import dataclass, field, replace
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Rect
 from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, decide, merged_heat, off_axis
+from imutherm.ecad.heights import estimated_parts, is_estimated, strict_refusal
+from imutherm.ecad.kicad_copper import with_coverage
 from imutherm.ecad.panel import pick_board, unique_references
 from imutherm.ecad.part_bodies import (DIE_FRACTION, MIN_VIAS, SNAP_MM, die_and_pad, overlaps, round_centre, round_mm,
                                       round_size, snap_soft_parts)
 from imutherm.ecad.placement import place_parts
 from imutherm.ecad.standoffs import standoff_rects, standoff_parts
 from imutherm.ecad.toml_writer import NOTE, Inline, Note, dumps
+from imutherm.ecad.via_fields import via_field_entry
 from imutherm.geometry.board_material import DEFAULT_COVERAGE, board_material
 from imutherm.geometry.layout import parse_layout
 from imutherm.geometry.materials import get_material
+from imutherm.geometry.outline import board_loops, outline_area
 from imutherm.site_table import ACCEL_SITES, GYRO_SITES, SITES
 
 try:  # Python >= 3.11
@@ -81,6 +85,7 @@ class ImportOptions:
     grease : tuple of refs or None, the parts the grease scheme moves to the back (None: the dissipators)
     board_name, layout_name : str; prefix : str, put before every component name (``--into``)
     exact : bool, keep every part's exact outline (no snapping of the parts without a die)
+    strict_heights : bool, refuse a part whose height is only estimated (:mod:`imutherm.ecad.heights`)
     """
 
     powers: dict = field(default_factory=dict)
@@ -99,6 +104,7 @@ class ImportOptions:
     housing: HousingOptions = HousingOptions()
     merge_area_mm2: float | None = None
     exact: bool = False
+    strict_heights: bool = False
 
 
 @dataclass(frozen=True)
@@ -191,22 +197,15 @@ def _no_power(board: BoardDesign, decisions: list) -> InputError:
                       f"{likely_dissipators(board)}")
 
 
-def _unknown_heights(board: BoardDesign, missing: list) -> InputError:
-    shown = "; ".join(f"{d.footprint.ref} ({d.footprint.library}, value {d.footprint.value or '?'})" for d in missing[:5])
-    more = f" and {len(missing) - 5} more" if len(missing) > 5 else ""
-    first = missing[0].footprint.ref
-    return InputError(f"{board.source}: no known package class and no height for {shown}{more}: add a Height_mm "
-                      f"field to the footprint in KiCad, or give --height {first}=MM (or --heights FILE with lines "
-                      f"'reference,height_mm')")
-
-
 def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body: Rect, die: bool,
-               power_from_rails: bool, snapped: str = "") -> dict:
-    """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it)."""
+               power_from_rails: bool, snapped: str = "", materials: dict | None = None) -> dict:
+    """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it); a via
+    field's material is added to ``materials`` (the layout's, holding the board's as ``materials["board"]``)."""
     fp = d.footprint
     h = d.height_mm
     entry = {NOTE: (f"{fp.ref} {fp.value} ({fp.library}) at ({fp.x:.3f}, {fp.y:.3f}) mm, {fp.rotation_deg:g} deg, "
-                    f"{fp.side}; {d.reason}\nheight {h:g} mm: {d.height_source}"
+                    f"{fp.side}; {d.reason}\nheight {h:g} mm"
+                    + (" ESTIMATED (no height found)" if is_estimated(d.height_source) else "") + f": {d.height_source}"
                     + (f"\n{snapped}" if snapped else "")),
              "name": name, "board": board_name, "side": fp.side,
              "center_mm": [round_centre(body.centre[0]), round_centre(body.centre[1])],
@@ -216,7 +215,7 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
                              + (f"; rotated {fp.rotation_deg:g} deg: the same area, aligned to the nearest axis"
                                 if off_axis(fp) else "") + ("; edges snapped (see above)" if snapped else "")),
              "material": d.package.material if d.package is not None else "mould_compound",
-             "footprint": fp.library}
+             "footprint": fp.library, "height_source": d.height_source}
     if die:
         (du, dv, dt), db, pad, vias = die_and_pad(board, d, body)
         if pad is not None:
@@ -224,6 +223,9 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
             entry["pad_mm"] = [round_mm(pad[0]), round_mm(pad[1])]
             if vias >= MIN_VIAS:
                 entry["vias"] = Note(True, f"{vias} vias inside the exposed pad")
+                if materials is not None:   # the field's material from the file's vias (ecad/via_fields.py)
+                    mat, table = via_field_entry(board, d, entry["pad_mm"], materials["board"], name)
+                    entry["vias_material"], materials[mat] = mat, table
         entry["die_mm"] = Note([round_mm(du), round_mm(dv), round_mm(dt)], f"assumed: {DIE_FRACTION:g} of the body, as the reference "
                                                           f"unit's dies")
         entry["die_base_mm"] = round_mm(db)
@@ -324,10 +326,7 @@ def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> I
     ``run_scheme(unit.spec, "grease")``.
     """
     board, decisions, keep, regulators, notes = _prepare(board, opts)
-    modelled = [d for d in decisions if d.fate == "modelled"]
-    missing = [d for d in modelled if d.height_mm is None]
-    if missing:
-        raise _unknown_heights(board, missing)
+    notes += _check_heights(board, decisions, opts)
     decisions, bodies = place_parts(board, decisions, keep, set(opts.sites), notes)
     if not any(d.power_W > 0 for d in decisions if d.fate == "modelled") and not regulators:
         raise _no_power(board, decisions)
@@ -342,6 +341,7 @@ def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
     board = pick_board(board, sites=opts.sites, powered=opts.powers)
     _check_refs(board, opts)
     board, renamed = unique_references(board)
+    board, coverage = with_coverage(board)
     rails_refs = _electrical_refs(opts.electrical)
     unknown_rail = sorted(rails_refs - {fp.ref for fp in board.footprints})
     if unknown_rail:
@@ -353,11 +353,26 @@ def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
     regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
     off = {fp.ref: fp.off_board for fp in board.footprints if fp.off_board}
     off = {ref: why for ref, why in off.items() if ref not in {fp.ref for fp in board.footprints if not fp.off_board}}
-    notes = list(board.notes) + ([renamed] if renamed else []) + _field_notes(decisions)
+    notes = list(board.notes) + [n for n in (renamed, coverage) if n] + _field_notes(decisions)
     for what, given in (("--power", opts.powers), ("--height", opts.heights), ("--keep", opts.keep)):
         notes += [f"{what} {ref}: not on the board modelled ({off[ref]}): left out"
                   for ref in sorted(given, key=natural_order) if ref in off]
     return board, decisions, keep, regulators, notes
+
+
+def _check_heights(board: BoardDesign, decisions: list, opts: ImportOptions) -> list:
+    """The note naming the parts whose height is estimated; with ``--strict-heights`` their refusal instead
+    (every such part named: :mod:`imutherm.ecad.heights`)."""
+    estimated = estimated_parts(decisions)
+    if opts.strict_heights and estimated:
+        raise strict_refusal(board.source, estimated)
+    if not estimated:
+        return []
+    parts = ", ".join(f"{d.footprint.ref} {d.height_mm:g} mm" + (" (merged)" if d.fate == "merged" else "")
+                      for d in sorted(estimated, key=lambda d: natural_order(d.footprint.ref)))
+    return [f"ESTIMATED heights of {len(estimated)} part{'s' if len(estimated) > 1 else ''} (no height in the "
+            f"footprint, its name or the package tables; each part's height_source gives the rule): {parts}; "
+            f"--heights-template FILE writes them to fill in, --strict-heights refuses them"]
 
 
 def _field_notes(decisions: list) -> list:
@@ -393,9 +408,10 @@ def _board_material_entry(board: BoardDesign, decisions: list, board_name: str) 
     merged = [d for d in decisions if d.fate == "merged"]
     mass = sum(merged_heat(d)[0] for d in merged)
     heat = sum(merged_heat(d)[1] for d in merged)
-    area = board.width_mm * board.height_mm
-    m = board_material("board", board.thickness_mm, board.copper_um, coverage=DEFAULT_COVERAGE, merged_mass_kg=mass,
-                       merged_heat_capacity_J_K=heat, area_mm2=area,
+    loops = board_loops(board.outline)   # the mesh's board is the outline's (imutherm.geometry.outline)
+    area = outline_area(loops) if loops else board.width_mm * board.height_mm
+    m = board_material("board", board.thickness_mm, board.copper_um, coverage=board.coverage or DEFAULT_COVERAGE,
+                       merged_mass_kg=mass, merged_heat_capacity_J_K=heat, area_mm2=area,
                        note=f"stack-up: {board.stackup_source}; {len(merged)} parts merged")
     # named by its values, so two boards of the same name but other stack-ups never share a name in a process
     digest = hashlib.sha1(repr((m.k_in_plane, m.k_through, m.density, m.specific_heat)).encode()).hexdigest()[:6]
@@ -440,11 +456,11 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
     fixed = hard | {d.footprint.ref for d in modelled if d.power_W > 0 or d.footprint.ref in site_refs}
     exact = dict(bodies)
     bodies, snapped = snap_soft_parts(board, modelled, bodies, fixed, [r for _, r in standoffs_at], opts.exact)
-    components = []
+    components, mats = [], {"board": (mat_name, mat_table)}
     for d in modelled:
         ref = d.footprint.ref
         components.append(_component(board, d, names[ref], opts.board_name, bodies[ref], ref in hard,
-                                     ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
+                                     ref in regulators and ref not in opts.powers, snapped.get(ref, ""), mats))
     if snapped:
         notes.append(snap_note(exact, bodies, snapped))
     doc = {
@@ -460,14 +476,14 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
                     "outer_mm": [round_mm(v) for v in outer], "wall_mm": hs.wall_mm, "base_mm": hs.base_mm,
                     "lid_mm": hs.lid_mm, "material": hs.material},
         "mounting": _mounting(hs),
-        "materials": {mat_name: mat_table},
+        "materials": {mat_name: mat_table, **{k: v for k, v in mats.items() if k != "board"}},
         "boards": [{NOTE: f"{board.format} board {board.source}: {board.width_mm:.3f} x {board.height_mm:.3f} mm "
                           f"(the outline's bounding rectangle), {t:g} mm, {board.copper_layers} copper layers",
                     "name": opts.board_name, "normal": "z", "min_mm": [round_mm(x0), round_mm(y0), round_mm(z0)],
                     "size_mm": [round_mm(board.width_mm), round_mm(board.height_mm), round_mm(t)], "material": mat_name,
                     "source": f"{board.source} ({board.format})",
                     "outline_mm": [[[round_mm(x), round_mm(y)] for x, y in line] for line in board.outline],
-                    "merged_parts": _merged_entries(decisions)}],
+                    **_coverage_entry(board), "merged_parts": _merged_entries(decisions)}],
         "parts": standoffs,
         "components": components,
     }
@@ -522,6 +538,14 @@ def _merged_entries(decisions: list) -> list:
     return out
 
 
+def _coverage_entry(board: BoardDesign) -> dict:
+    """The board's ``copper_coverage`` (measured, front to back) for the layout, {} when not measured."""
+    if not board.coverage:
+        return {}
+    return {"copper_coverage": Note([round(c, 4) for c in board.coverage], "measured from the file's zones, tracks, "
+                                    "vias and pads within the outline, front to back (ecad/kicad_copper.py)")}
+
+
 def _mounting(hs: HousingOptions) -> dict:
     if hs.mounting == "free":
         return {"kind": "free", "face": hs.mounting_face}
@@ -558,6 +582,10 @@ def _header(board: BoardDesign, decisions: list, notes: list) -> str:
              "up, origin at the outline's lower left. Edit freely: this is an ordinary layout file.",
              "merged (mass and heat capacity smeared into the board): " + ", ".join(
                  sorted((d.footprint.ref for d in fates["merged"]), key=natural_order))]
+    estimated = estimated_parts(decisions)
+    if estimated:
+        lines.append("heights ESTIMATED (no height in the footprint, its name or the package tables; "
+                     "imutherm.ecad.heights): " + ", ".join(f"{d.footprint.ref} {d.height_mm:g} mm" for d in estimated))
     for d in sorted(fates["skipped"], key=lambda d: natural_order(d.footprint.ref)):
         lines.append(f"skipped {d.footprint.ref}: {d.reason}")
     return "\n".join(lines)
@@ -597,10 +625,7 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
                          f"{', '.join(str(b.get('name')) for b in boards if isinstance(b, dict))}")
     opts = replace(opts, board_name=board_name, prefix=opts.prefix or f"{board_name}_")
     board, decisions, keep, _, notes = _prepare(board, opts)
-    modelled = [d for d in decisions if d.fate == "modelled"]
-    missing = [d for d in modelled if d.height_mm is None]
-    if missing:
-        raise _unknown_heights(board, missing)
+    notes += _check_heights(board, decisions, opts)
     notes.insert(0, f"{path}: board {board_name!r} replaced; the file is regenerated from its data, so its comments "
                     f"are not carried over")
     decisions, bodies = place_parts(board, decisions, keep, set(opts.sites), notes)
@@ -612,9 +637,10 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
     size = [0.0, 0.0, 0.0]
     size[a0], size[a1], size[axis] = board.width_mm, board.height_mm, board.thickness_mm
     mat_name, mat_table = _board_material_entry(board, decisions, board_name)
+    target.pop("copper_coverage", None)
     target.update(size_mm=[round_mm(v) for v in size], material=mat_name, source=f"{board.source} ({board.format})",
                   outline_mm=[[[round_mm(x), round_mm(y)] for x, y in line] for line in board.outline],
-                  merged_parts=_merged_entries(decisions))
+                  **_coverage_entry(board), merged_parts=_merged_entries(decisions))
     data.setdefault("materials", {})[mat_name] = mat_table
     old = {c.get("name") for c in data.get("components", []) if isinstance(c, dict) and c.get("board") == board_name}
     data["components"] = [c for c in data.get("components", []) if c.get("name") not in old]
@@ -641,10 +667,12 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
     bodies, snapped = snap_soft_parts(board, modelled, bodies, fixed, (), opts.exact)
     if snapped:
         notes.append(snap_note(exact, bodies, snapped))
+    mats = {"board": (mat_name, mat_table)}
     for d in modelled:
         ref = d.footprint.ref
         data["components"].append(_component(board, d, names[ref], board_name, bodies[ref], ref in hard,
-                                             ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
+                                             ref in regulators and ref not in opts.powers, snapped.get(ref, ""), mats))
+    data["materials"].update({k: v for k, v in mats.items() if k != "board"})
     if opts.electrical:
         new = _renamed_electrical(opts.electrical, names)
         data["electrical"] = new["electrical"]

@@ -512,6 +512,14 @@ def _paper_table_page(pdf, data: dict) -> None:
     plt.close(fig)
 
 
+def estimated_height_lines(data: dict) -> list:
+    """The parameters page's lines naming each imported part whose height was estimated, with the rule."""
+    out = []
+    for name, (h, source) in (data.get("estimated_heights") or {}).items():
+        out += textwrap.wrap(f"  height of {name} {h:g} mm ESTIMATED ({source})", 200, subsequent_indent="      ")
+    return out
+
+
 def _parameters_page(pdf, data: dict) -> None:
     fig = plt.figure(figsize=A4)
     _title(fig, "Parameters used and their sources",
@@ -525,6 +533,7 @@ def _parameters_page(pdf, data: dict) -> None:
                                + (f", eps {m['emissivity']:g}" if m.get("emissivity") is not None else "")
                                + f". Source: {m['source']}", 200, subsequent_indent="      ")
     lines += ["", "Powers [W]: " + ", ".join(f"{k} {v:.3f}" for k, v in data["powers_W"].items())]
+    lines += estimated_height_lines(data)
     opts = data["model_options"]
     lines += ["", "Thermal model options: " + ", ".join(f"{k}={v}" for k, v in opts.items() if k != "interfaces")]
     lines += textwrap.wrap("Interfaces: " + "; ".join(f"{i['part_a']}/{i['part_b']} {i['conductance_W_m2K']:.0f} "
