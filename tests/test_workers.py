@@ -70,3 +70,11 @@ def test_the_studies_build_their_pools_here():
             for p in sorted((root / layer).rglob("*.py"))
             if any(w in p.read_text(encoding="utf-8") for w in ("ProcessPoolExecutor(", "get_context("))]
     assert hits == ["imutherm/workers.py"]
+
+
+def test_the_correlations_map_gives_in_two_workers_what_it_gives_in_one():
+    """The correlation's model builds run through :func:`process_pool` (min(jobs, tasks) workers), in order."""
+    from imutherm.studies.correlation.models import _map
+
+    args = [(7, 2), (9, 4), (10, 3)]
+    assert _map(divmod, args, 2) == _map(divmod, args, 1) == [(3, 1), (2, 1), (3, 1)]
