@@ -33,10 +33,6 @@ AL_AL_AIR_JOINT_W_M2K = 1.0 / 2.75e-4
 #: bond line (the grease wets the surface like the oil; its bulk is the bond part itself).
 GREASE_WETTED_JOINT_W_M2K = 1.0 / 0.525e-4
 
-#: radiation laws inside the cavity (``ModelOptions.cavity_law``): their names, registered in
-#: :mod:`imutherm.unit.cavity_laws` with what each can do
-CAVITY_LAWS = tuple(LAWS)
-
 _FACE_ORIENTATION = {"xmin": "vertical", "xmax": "vertical", "ymin": "vertical", "ymax": "vertical",
                      "zmin": "down", "zmax": "up"}
 _MOUNT_FACE = {"bottom": "zmin", "top": "zmax"}
