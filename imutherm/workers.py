@@ -6,7 +6,7 @@ by side, a sweep, the correlation's reduced models, the uncertainty's IMU draws)
 time (the mesh-error estimate's refined solve, ~8x a scheme's memory). In one process, :func:`thread_limit` and
 :func:`one_blas_thread` (the thermal solves' decorator) limit the BLAS and OpenMP threads.
 
-This module imports nothing heavy (no numpy): a spawned worker unpickles its start-up (:func:`_start`) before
+This module imports nothing heavy (no numpy): a spawned worker unpickles its start-up (``_start``) before
 any task, so the thread limits set there are in the environment before numpy / scipy load BLAS and OpenMP.
 
 Examples
