@@ -154,11 +154,12 @@ def load_status(key: str, folder: Path | None = None) -> tuple:
     except OSError:
         return None, "absent"
     head = len(_MAGIC) + 64 + 64
+    payload = memoryview(data)[head:]   # a view: the payload (tens of MB for a thermal case) is not copied
     ok = (len(data) > head and data.startswith(_MAGIC) and data[len(_MAGIC):len(_MAGIC) + 64] == key.encode()
-          and hashlib.sha256(data[head:]).hexdigest().encode() == data[len(_MAGIC) + 64:head])
+          and hashlib.sha256(payload).hexdigest().encode() == data[len(_MAGIC) + 64:head])
     if ok:
         try:
-            value = pickle.loads(data[head:])
+            value = pickle.loads(payload)
         except Exception:   # a checksum-valid entry that does not unpickle (e.g. a class since renamed)
             ok = False
     if not ok:
@@ -176,13 +177,15 @@ def store(key: str, value, folder: Path | None = None) -> Path | None:
 
     Returns the entry's path, or None when the folder cannot be written (the run goes on uncached)."""
     folder = folder or cache_dir()
+    head = len(_MAGIC) + 64 + 64
     buf = io.BytesIO()
+    buf.write(_MAGIC + key.encode() + b"0" * 64)   # the payload's checksum written in below, once known
     pickle.dump(value, buf, protocol=pickle.HIGHEST_PROTOCOL)
-    payload = buf.getvalue()
+    entry = buf.getbuffer()   # the whole entry, not copied
+    entry[head - 64:head] = hashlib.sha256(entry[head:]).hexdigest().encode()
     p = _path(key, folder)
     try:
-        atomic_write_bytes(p, _MAGIC + key.encode() + hashlib.sha256(payload).hexdigest().encode() + payload,
-                           tmp_prefix=_TMP_PREFIX)
+        atomic_write_bytes(p, entry, tmp_prefix=_TMP_PREFIX)
     except OSError:
         return None
     evict(folder)
