@@ -175,12 +175,16 @@ def load_status(key: str, folder: Path | None = None) -> tuple:
 def store(key: str, value, folder: Path | None = None) -> Path | None:
     """Write ``value`` under ``key`` (temporary file + atomic rename), then evict to the size limit.
 
-    Returns the entry's path, or None when the folder cannot be written (the run goes on uncached)."""
+    Returns the entry's path, or None when the folder cannot be written or the value does not pickle (the run
+    goes on uncached)."""
     folder = folder or cache_dir()
     head = len(_MAGIC) + 64 + 64
     buf = io.BytesIO()
     buf.write(_MAGIC + key.encode() + b"0" * 64)   # the payload's checksum written in below, once known
-    pickle.dump(value, buf, protocol=pickle.HIGHEST_PROTOCOL)
+    try:
+        pickle.dump(value, buf, protocol=pickle.HIGHEST_PROTOCOL)
+    except (pickle.PicklingError, TypeError, AttributeError):   # a value that does not pickle: the run goes on
+        return None
     entry = buf.getbuffer()   # the whole entry, not copied
     entry[head - 64:head] = hashlib.sha256(entry[head:]).hexdigest().encode()
     p = _path(key, folder)
