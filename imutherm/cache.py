@@ -2,7 +2,7 @@
 
 A value is stored under the SHA-256 of a canonical form of everything it depends on (:func:`key_of`:
 dataclasses field by field, arrays by their bytes, floats exactly) and of :data:`CODE_VERSION`, a hash of
-the source of the modules that compute the models: a change of the layout, the scheme, the ambient, the
+the source of the modules that compute the models and of the numeric libraries' versions (numpy, scipy, pyamg): a change of the layout, the scheme, the ambient, the
 mesh, the model options, the knob set or the code is a different key, so a stale entry is never read.
 
 * Folder: ``$IMUTHERM_CACHE_DIR`` if set, else the user cache folder (``platformdirs``), ``.../imutherm``.
@@ -67,11 +67,29 @@ def source_version(files) -> str:
     return h.hexdigest()[:16]
 
 
+#: the libraries whose numerics a cached model's numbers depend on (their installed versions join the key)
+NUMERIC_LIBRARIES = ("numpy", "scipy", "pyamg")
+
+
+def _library_versions() -> str:
+    """``name=version`` of :data:`NUMERIC_LIBRARIES` (package metadata: nothing imported)."""
+    from importlib import metadata
+
+    out = []
+    for name in NUMERIC_LIBRARIES:
+        try:
+            out.append(f"{name}={metadata.version(name)}")
+        except metadata.PackageNotFoundError:   # pragma: no cover - every one is a dependency
+            out.append(f"{name}=?")
+    return ",".join(out)
+
+
 def _code_version() -> str:
     """SHA-256 (16 hex) of the source of the modules a cached model depends on (thermal, unit, geometry and
-    layouts, their subfolders included, and the physical constants)."""
-    return source_version([(pkg, "") for pkg in ("thermal", "unit", "geometry", "layouts")]
-                          + [("imutherm", "constants.py")])
+    layouts, their subfolders included, and the physical constants) and of the numeric libraries' versions."""
+    src = source_version([(pkg, "") for pkg in ("thermal", "unit", "geometry", "layouts")]
+                         + [("imutherm", "constants.py")])
+    return hashlib.sha256(f"{src};{_library_versions()}".encode()).hexdigest()[:16]
 
 
 #: the models' code version (changes with any change of their source)
