@@ -168,13 +168,21 @@ def run(args) -> int:
         plot_layout(next(iter(comp.runs.values())).geometry if "grease" not in comp.runs
                     else comp.runs["grease"].geometry, tmp / "layout.png")
         write_compare_report(tmp, tmp / "report.pdf")
-    from imutherm.studies.compare import PAPER, PAPER_TABLE_COLUMNS, paper_table
+    import json
 
-    cols = [c.replace("\n", " ") for c in PAPER_TABLE_COLUMNS]
-    rows = paper_table({"paper": PAPER, "schemes": comp.summaries})
+    from imutherm.studies.compare import thermal_table
+    from imutherm.studies.paper import bench_lines
+
+    written = json.loads((Path(args.out) / "compare.json").read_text())
+    cols, rows = thermal_table(written)
+    cols = [c.replace("\n", " ") for c in cols]
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     for line in [cols] + rows:
         print("  ".join(v.ljust(w) if i in (0, 3) else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths))))
+    if written.get("paper"):
+        print(f"paper: {written['paper']['source']} (the layout's [reference_data])")
+    for line in bench_lines(written.get("reference")):
+        print(line)
     from imutherm.imu.sensor_model import SITES
     from imutherm.thermal.refinement import fmt_error
 

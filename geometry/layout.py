@@ -16,6 +16,7 @@ from pathlib import Path
 from imutherm import InputError
 from imutherm.geometry.electrical import ElectricalSpec, parse_electrical, rail_losses
 from imutherm.geometry.materials import load_library, material_from_table, register_materials
+from imutherm.reference_data import parse_reference
 from imutherm.textio import quote, read_text
 
 try:  # Python >= 3.11
@@ -233,6 +234,8 @@ class LayoutSpec:
     electrical: ElectricalSpec | None = None
     #: the layout's own materials (``[materials.<name>]``), beside the library's
     materials: tuple = ()
+    #: the figures the model is set beside (imutherm.reference_data; None: none, no paper's figures either)
+    reference_data: object = None
 
     def __post_init__(self):
         register_materials(self.materials, self.path)
@@ -343,7 +346,8 @@ class _Table:
 _TOP = {"name": "layout name", "description": "text", "default_scheme": "scheme name",
         "environment": "table", "housing": "table", "mounting": "table", "boards": "array of tables",
         "parts": "array of tables", "components": "array of tables", "sites": "table",
-        "schemes": "table", "electrical": "table", "rails": "array of tables", "materials": "table"}
+        "schemes": "table", "electrical": "table", "rails": "array of tables", "materials": "table",
+        "reference_data": "table"}
 
 
 def _table_array(top: _Table, key: str) -> list:
@@ -417,7 +421,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         top.fail("default_scheme", f"unknown scheme {default!r}; valid: {', '.join(schemes)}")
     return LayoutSpec(top.string("name", Path(path).stem), path, top.string("description", ""), default,
                       ambient, housing, mounting, tuple(boards), tuple(parts), tuple(components),
-                      tuple(sites), schemes, electrical, own)
+                      tuple(sites), schemes, electrical, own, parse_reference(path, data.get("reference_data")))
 
 
 def _parse_materials(path, top) -> tuple:
