@@ -202,8 +202,10 @@ class SchemeSpec:
 
     fill : material of the free cavity space (air, potting compound)
     move_to_back : components moved to the other face of their board
-    bond_material : material bridging moved components to the nearest wall (or None)
+    bond_material : material bridging moved components (and ``bond_in_place``) to the nearest wall (or None)
     max_bond_gap_mm : largest gap a bond may bridge [mm]
+    bond_in_place : components bonded where they are, to the wall their outer face faces (a bottom-side part to
+        the base)
     """
 
     name: str
@@ -212,6 +214,7 @@ class SchemeSpec:
     move_to_back: tuple
     bond_material: str | None
     max_bond_gap_mm: float
+    bond_in_place: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -672,21 +675,23 @@ def _parse_schemes(path, top, mats, components) -> dict:
     schemes = {}
     for name, t in _named_tables(top, "schemes", "[schemes.<name>] tables").items():
         s = _Table(path, f"scheme {quote(name, 60)}", t, {"description": "text", "fill": "material",
-                                                  "move_to_back": "component names",
+                                                  "move_to_back": "component names", "bond_in_place": "component names",
                                                   "bond_material": "material", "max_bond_gap_mm": "mm"})
         if name not in SCHEME_NAMES:
             s.fail(None, f"unknown scheme; valid: {', '.join(SCHEME_NAMES)}")
-        moved = s.get("move_to_back", [])
-        if not isinstance(moved, list):
-            s.fail("move_to_back", f"must be a list of component names, got {moved!r}")
-        for comp in moved:
-            if not isinstance(comp, str):
-                s.fail("move_to_back", f"must be a list of component names (strings), got {comp!r} in {moved!r}")
-            if comp not in comp_by_name:
-                s.fail("move_to_back", f"unknown component {comp!r}; valid: {', '.join(comp_by_name)}")
+        lists = {key: s.get(key, []) for key in ("move_to_back", "bond_in_place")}
+        for key, moved in lists.items():
+            if not isinstance(moved, list):
+                s.fail(key, f"must be a list of component names, got {moved!r}")
+            for comp in moved:
+                if not isinstance(comp, str):
+                    s.fail(key, f"must be a list of component names (strings), got {comp!r} in {moved!r}")
+                if comp not in comp_by_name:
+                    s.fail(key, f"unknown component {comp!r}; valid: {', '.join(comp_by_name)}")
         schemes[name] = SchemeSpec(name, s.string("description", name), s.material("fill", mats),
-                                   tuple(moved), s.material("bond_material", mats, None),
-                                   s.number("max_bond_gap_mm", 2.0, positive=True, bounds=SIZE_BOUNDS))
+                                   tuple(lists["move_to_back"]), s.material("bond_material", mats, None),
+                                   s.number("max_bond_gap_mm", 2.0, positive=True, bounds=SIZE_BOUNDS),
+                                   tuple(lists["bond_in_place"]))
     if not schemes:
         top.fail("schemes", f"at least one scheme is required; valid names: {', '.join(SCHEME_NAMES)}")
     return schemes
