@@ -269,8 +269,8 @@ def _image_pages(pdf, folder: Path, data: dict) -> None:
         if not png.exists():
             continue
         fig = plt.figure(figsize=A4)
-        _title(fig, f"The unit, scheme {name}", s["description"])
-        ax = fig.add_axes([0.02, 0.02, 0.96, 0.86])
+        below = _title(fig, f"The unit, scheme {name}", textwrap.fill(s["description"], 165))
+        ax = fig.add_axes([0.02, 0.02, 0.96, min(0.86, below - 0.03)])
         ax.imshow(plt.imread(png))
         ax.axis("off")
         pdf.savefig(fig)

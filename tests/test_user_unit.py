@@ -245,3 +245,26 @@ def test_the_import_prints_the_exchange_in_its_estimate():
 
     text = _estimate(load_layout("imu_reference"))
     assert "of it the cavity exchange" in text and "patches" in text and "potted" in text
+
+
+def test_a_part_that_cannot_be_bonded_is_said_with_why_and_grease(tmp_path):
+    """The hot part sits over the standoff under a mounting hole: it cannot move to the back. The import's notes and
+    the air scheme's description (the report's page of the unit) say so and name --grease."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from kicad_writer import kicad_board, part
+
+    hole = lambda ref, x, y: part(ref, "MountingHole:MountingHole_3.2mm_M3", (x, y, 0), fab=None,  # noqa: E731
+                                  pads=[("", "np_thru_hole", 0, 0, 3.2, 3.2)], attr=("exclude_from_bom",))
+    parts = [hole("H1", 104, 104), hole("H2", 136, 104), hole("H3", 104, 126), hole("H4", 136, 126),
+             part("U1", "Package_SO:SOIC-8_3.9x4.9mm", (136.0, 126.0, 0), fab=(-2, -2.5, 2, 2.5)),
+             part("U2", "Package_SO:SOIC-8_3.9x4.9mm", (120.0, 115.0, 0), fab=(-2, -2.5, 2, 2.5))]
+    path = tmp_path / "holes.kicad_pcb"
+    path.write_text(kicad_board(parts))
+    r = import_unit(read_board(path), ImportOptions(powers={"U1": (0.3, "t"), "U2": (0.05, "t")}))
+    said = [n for n in r.notes if n.startswith("grease scheme: U1 cannot be bonded")]
+    assert said and "standoff under H4" in said[0] and "--grease" in said[0]
+    assert "grease" not in r.spec.schemes
+    air = r.spec.schemes["air"].description
+    assert "No grease scheme" in air and "U1" in air and "--grease" in air
