@@ -33,7 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 BOARDS = ROOT / "examples" / "boards"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_study import _tree_rss_mb  # noqa: E402
+from bench_study import _tree_memory_mb  # noqa: E402
 
 COMPARE_RATIO, SOLVE_RATIO = 2.0, 3.0
 
@@ -45,7 +45,7 @@ def run(cmd: list, cwd: Path) -> dict:
     proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     peak = 0.0
     while proc.poll() is None:
-        peak = max(peak, _tree_rss_mb(proc.pid))
+        peak = max(peak, _tree_memory_mb(proc.pid)[0])
         time.sleep(0.1)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)

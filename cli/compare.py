@@ -62,7 +62,8 @@ def add_args(parser) -> None:
     parser.add_argument("--steady-only", action="store_true", help="thermal steady states only (implies --thermal-only)")
     parser.add_argument("--thermal-only", action="store_true", help="thermal comparison only, no IMU / attitude")
     g = parser.add_argument_group("IMU and attitude (the end-to-end study)")
-    g.add_argument("--grade", default="adis16355", help="sensor grade (default adis16355)")
+    g.add_argument("--grade", default=None, help="sensor grade (default: the grade the layout's sites name, their "
+                                                 "chip's, e.g. icm42688p; else adis16355; GYRO+ACCEL for two)")
     g.add_argument("--seeds", type=int, default=3, metavar="N",
                    help="units / noise draws, the same in every scheme (default 3)")
     g.add_argument("--seed", type=int, default=0, metavar="N", help="first seed (default 0)")
@@ -203,7 +204,11 @@ def _study_config(args):
         return tuple(v.strip() for v in text.split(",") if v.strip())
 
     filters = {} if args.filters is None else {"filters": names(args.filters)}  # None: the registry's
-    return StudyConfig(grade=args.grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
+    from imutherm.imu.site_grades import study_grade
+
+    grade, lines = study_grade(args.run_model[0], args.grade)  # each site group's grade and its source, printed
+    print("\n".join(lines), flush=True)
+    return StudyConfig(grade=grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
                        profiles=names(args.profiles), tuned=not args.filter_defaults, **filters)
 
 
@@ -224,6 +229,7 @@ def _scheme_files(res, folder) -> None:
 
 
 def _end_to_end(args, schemes, config) -> int:
+    from imutherm.imu.site_grades import grades_summary
     from imutherm.io import write_json
     from imutherm.studies.end_to_end import run_study, study_summary
 
@@ -237,6 +243,7 @@ def _end_to_end(args, schemes, config) -> int:
     unc = _uncertainty(args, res.layout, schemes, options, study=res)
     with atomic_outdir(args.out) as tmp:
         summary = study_summary(res)
+        summary["sensor_grade"] = grades_summary(layout, config.grade)  # named on the report's first page
         if fitted is not None:
             summary["model"] = fitted.summary()
         if unc is not None:

@@ -8,8 +8,10 @@ place in the unit kept), so a unit of several boards is assembled from several f
 
 Powers: a footprint field ``Power_W``, ``--powers FILE`` (CSV ``reference,power_W[,source]``), ``--power
 REF=W``, or ``--electrical FILE`` (the supply and rails, regulators and loads by reference). Heights: the
-package-class table (``imutherm.ecad.packages``), a footprint field ``Height_mm``, ``--heights FILE`` (CSV
-``reference,height_mm[,source]``) or ``--height REF=MM``. Sensor sites: ``--site U3=imu`` (a 6-axis chip: every
+footprint field ``Height_mm``, ``--heights FILE`` (CSV ``reference,height_mm[,source]``) or ``--height REF=MM``,
+else the footprint name's own sizes and the package tables (``imutherm.ecad.heights``), else an estimate by a
+stated rule, listed as ESTIMATED (``--strict-heights`` refuses instead; ``--heights-template FILE`` writes the
+estimated parts to fill in). Sensor sites: ``--site U3=imu`` (a 6-axis chip: every
 gyro and accelerometer site), ``--site U5=gyro``, ``--site U6=accel``, ``--site U7=gyro_z``, ``--site U2=probe``.
 
 Prints what it did (each part's power with the file or field it came from, and every note on what was
@@ -54,8 +56,17 @@ def add_args(parser) -> None:
                         "regulators' losses follow from the supply")
     g.add_argument("--heights", default=None, metavar="FILE", help="CSV reference,height_mm[,source] [mm]")
     g.add_argument("--height", action="append", metavar="REF=MM", help="one part's body height [mm] (repeatable)")
+    g.add_argument("--strict-heights", action="store_true",
+                   help="refuse the board if any part's height would be estimated, listing every such part "
+                        "(by default they are estimated by a stated rule and listed)")
+    g.add_argument("--heights-template", default=None, metavar="FILE",
+                   help="write the parts whose height is estimated to FILE (CSV reference,height_mm,source with "
+                        "each footprint and rule), to fill in and pass back with --heights")
     g.add_argument("--site", action="append", metavar="REF=KIND",
                    help=f"a sensor site on part REF; KIND: {', '.join(SITE_KINDS)} (repeatable)")
+    g.add_argument("--grade", action="append", metavar="[REF=]NAME",
+                   help="the sensor grade of every site (NAME) or of part REF's sites (REF=NAME), instead of the "
+                        "grade of the chip its value or footprint names (imutherm.imu.sensor_library; repeatable)")
     g.add_argument("--keep", action="append", metavar="REF[,REF]",
                    help="model these parts even if small and unpowered (repeatable)")
     g.add_argument("--merge-area", type=float, default=None, metavar="MM2",
@@ -134,13 +145,16 @@ def _options(args):
                              standoff_material=args.standoff_material, mounting=args.mounting,
                              mounting_face=args.mounting_face,
                              contact_conductance_W_m2K=args.mount_conductance, ambient_C=args.ambient)
+    from imutherm.imu.site_grades import parse_grade_options
+
     return ImportOptions(powers=powers, heights=heights, sites=parse_sites(args.site, SITE_KINDS),
+                         grades=parse_grade_options(args.grade),
                          keep=frozenset(parse_refs(args.keep)),
                          electrical=read_electrical(args.electrical) if args.electrical else None,
                          electrical_source=args.electrical or "",
                          grease=parse_refs([args.grease]) if args.grease is not None else None,
                          grease_rule=_grease_rule(), board_name=args.board, layout_name=args.name, housing=housing,
-                         merge_area_mm2=args.merge_area, exact=args.exact)
+                         merge_area_mm2=args.merge_area, exact=args.exact, strict_heights=args.strict_heights)
 
 
 def _grease_rule():
@@ -151,6 +165,7 @@ def _grease_rule():
 
 
 def _print_report(result, out: Path) -> None:
+    from imutherm.ecad.heights import is_estimated
     from imutherm.ecad.to_layout import natural_order
 
     b = result.board
@@ -170,8 +185,9 @@ def _print_report(result, out: Path) -> None:
             origin = re.sub(r" line \d+.*", "", source) if " line " in source else source
             sources[origin][0] += c.power_W
             sources[origin][1] += 1
+        est = " [height ESTIMATED]" if is_estimated(d.height_source) else ""
         print(f"  modelled {fp.ref:<6} {fp.value[:22]:<22} {body.width:5.2f} x {body.height:5.2f} x {d.height_mm:4.2f} mm "
-              f"{fp.side:<6} {power}")
+              f"{fp.side:<6} {power}{est}")
     merged = sorted((d.footprint.ref for d in result.decisions if d.fate == "merged"), key=natural_order)
     if merged:
         print(f"  merged ({len(merged)}, mass and heat capacity smeared into the board): {', '.join(merged)}")
@@ -181,11 +197,27 @@ def _print_report(result, out: Path) -> None:
             by_reason[d.reason].append(d.footprint.ref)
     for reason, refs in by_reason.items():
         print(f"  skipped ({len(refs)}) {', '.join(sorted(refs, key=natural_order))}: {reason}")
+    print(height_counts(result.decisions))
     if sources:
         print(f"powers: {sum(w for w, _ in sources.values()):.3g} W in all: " + "; ".join(
             f"{w:.3g} W from {origin} ({n} part{'s' if n > 1 else ''})" for origin, (w, n) in sources.items()))
     for note in result.notes:
         print(f"note: {note}")
+
+
+def height_counts(decisions) -> str:
+    """One line: how many placed parts took their height from where (``imutherm.ecad.heights``)."""
+    from imutherm.ecad.heights import is_estimated
+
+    counts = defaultdict(int)
+    for d in decisions:
+        if d.fate != "skipped":
+            s = d.height_source
+            counts["ESTIMATED" if is_estimated(s) else "the footprint names" if s.startswith("the footprint name")
+                   else "the user" if re.match(r"(--height|.* line \d+)", s) else "fields or the board file"
+                   if s.startswith("the ") else "the package tables"] += 1
+    return "heights of the modelled and merged parts: " + ", ".join(f"{n} from {k}" if k != "ESTIMATED" else
+                                                                     f"{n} ESTIMATED" for k, n in counts.items())
 
 
 def _estimate(spec) -> str:
@@ -201,9 +233,28 @@ def _estimate(spec) -> str:
     return "estimated mesh at the default --mesh-size: " + "; ".join(parts)
 
 
+def _template_path(args, board_path: Path, out: Path) -> Path | None:
+    """``--heights-template FILE`` checked: a new file (or ``--force``) in an existing folder, not an input
+    or ``--out``."""
+    if args.heights_template is None:
+        return None
+    t = Path(args.heights_template)
+    inputs = [board_path, out] + [Path(p) for p in (args.heights, args.powers, args.electrical) if p]
+    if any(t.resolve() == p.resolve() for p in inputs):
+        raise InputError(f"--heights-template {t}: is an input or --out; give a new file")
+    if t.exists() and (t.is_dir() or not args.force):
+        raise InputError(f"--heights-template {t}: exists; give another file or --force to overwrite it")
+    if not t.parent.exists():
+        raise InputError(f"--heights-template {t}: its folder {t.parent} does not exist")
+    return t
+
+
 def run(args) -> int:
     """Read, decide, check and write (see the module docstring); returns 0."""
+    from dataclasses import replace
+
     from imutherm.cli._common import lock_output_file, pause_for_test
+    from imutherm.ecad.heights import estimated_parts, strict_refusal, template_csv
     from imutherm.ecad.read import read_board
     from imutherm.ecad.to_layout import import_board, replace_board
     from imutherm.io import atomic_write, stale_temporaries
@@ -219,15 +270,24 @@ def run(args) -> int:
     if not out.parent.exists():
         raise InputError(f"--out {out}: its folder {out.parent} does not exist")
     opts = _options(args)
+    template = _template_path(args, board_path, out)
     lock_output_file(out)
     for stale in stale_temporaries(out):   # left by a killed import into the same file (we hold its lock)
         stale.unlink(missing_ok=True)
         print(f"removed {stale.name}, the temporary of an earlier import into {out} that was killed")
     board = read_board(board_path, copper_layers=args.copper_layers)
+    build = replace(opts, strict_heights=opts.strict_heights and template is None)  # the template first
     if args.into:
-        result = replace_board(args.into, args.board, board, opts)
+        result = replace_board(args.into, args.board, board, build)
     else:
-        result = import_board(board, opts)
+        result = import_board(board, build)
+    if template is not None:
+        parts = estimated_parts(result.decisions)
+        atomic_write(template, lambda tmp: Path(tmp).write_text(template_csv(parts), encoding="utf-8"))
+        print(f"wrote {template}: {len(parts)} estimated height{'s' if len(parts) != 1 else ''} to fill in (then "
+              f"import again with --heights {template})")
+        if opts.strict_heights and parts:
+            raise strict_refusal(result.board.source, parts)
     _print_report(result, out)
     print(_estimate(result.spec), flush=True)
     def write(tmp):

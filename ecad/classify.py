@@ -26,12 +26,12 @@ true rotated outline is kept in the drawing's labels, the area in the model).
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Footprint, Rect
+from imutherm.ecad.heights import resolve_height
 from imutherm.ecad.packages import PackageClass, package_class
 from imutherm.ecad.power_fields import power_from_fields
 
@@ -207,7 +207,7 @@ def decide(board: BoardDesign, *, powers: dict, heights: dict, keep: set, merge_
             continue
         package = package_class(fp.library)
         body = body_on_board(fp, body_local(fp, package))
-        height, h_source = _height(fp, package, heights)
+        height, h_source = resolve_height(fp, package, heights, body)
         power, p_source, note = _power(fp, powers)
         if power > 0 or fp.ref in keep:
             why = f"dissipates {power:g} W" if power > 0 else "kept (a site, a rail of the electrical design, or --keep)"
@@ -220,28 +220,6 @@ def decide(board: BoardDesign, *, powers: dict, heights: dict, keep: set, merge_
                                 f"{height if height is not None else '?'} mm, larger than the merge limit",
                                 package, body, height, h_source, 0.0, "", note))
     return out
-
-
-def _height(fp: Footprint, package: PackageClass | None, heights: dict) -> tuple:
-    """(height [mm] or None, source): --height, then the footprint's Height_mm field, the file's, the class."""
-    if fp.ref in heights:
-        return heights[fp.ref]
-    field = next((v for k, v in fp.fields.items() if k.lower() in ("height_mm", "height") and str(v).strip()), None)
-    if field is not None:  # an empty field is no height given
-        try:
-            value = float(str(field).lower().replace("mm", "").strip())
-        except ValueError:
-            raise InputError(f"footprint {fp.ref}: field Height_mm {field!r} is not a number [mm]") from None
-        if not (math.isfinite(value) and 0 < value <= 100):
-            raise InputError(f"footprint {fp.ref}: field Height_mm {value:g} mm is outside 0..100 mm")
-        return value, "the footprint's Height_mm field"
-    if fp.height_mm is not None:
-        return fp.height_mm, "the board file's component height"
-    if package is not None:
-        h = package.height(fp.library)
-        if h is not None:
-            return h, f"{package.name}: {package.source}"
-    return None, ""
 
 
 def _power(fp: Footprint, powers: dict) -> tuple:

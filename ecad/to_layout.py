@@ -27,6 +27,7 @@ from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Rect
 from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, decide, merged_heat, off_axis
 from imutherm.ecad.grease_parts import dissipators, grease_parts
+from imutherm.ecad.heights import estimated_parts, is_estimated, strict_refusal
 from imutherm.ecad.panel import pick_board, unique_references
 from imutherm.ecad.part_bodies import (DIE_FRACTION, MIN_VIAS, SNAP_MM, die_and_pad, overlaps, round_centre, round_mm,
                                       round_size, snap_soft_parts)
@@ -83,6 +84,7 @@ class ImportOptions:
     grease_why : ref -> why the rule chose it (set by :func:`import_board`)
     board_name, layout_name : str; prefix : str, put before every component name (``--into``)
     exact : bool, keep every part's exact outline (no snapping of the parts without a die)
+    strict_heights : bool, refuse a part whose height is only estimated (:mod:`imutherm.ecad.heights`)
     """
 
     powers: dict = field(default_factory=dict)
@@ -90,6 +92,7 @@ class ImportOptions:
     heights: dict = field(default_factory=dict)
     heights_source: str = "--height"
     sites: dict = field(default_factory=dict)
+    grades: dict = field(default_factory=dict)  # --grade: "*" or ref -> sensor grade (imutherm.imu.site_grades)
     keep: frozenset = frozenset()
     electrical: dict | None = None
     electrical_source: str = ""
@@ -102,6 +105,7 @@ class ImportOptions:
     housing: HousingOptions = HousingOptions()
     merge_area_mm2: float | None = None
     exact: bool = False
+    strict_heights: bool = False
 
 
 @dataclass(frozen=True)
@@ -194,22 +198,14 @@ def _no_power(board: BoardDesign, decisions: list) -> InputError:
                       f"{likely_dissipators(board)}")
 
 
-def _unknown_heights(board: BoardDesign, missing: list) -> InputError:
-    shown = "; ".join(f"{d.footprint.ref} ({d.footprint.library}, value {d.footprint.value or '?'})" for d in missing[:5])
-    more = f" and {len(missing) - 5} more" if len(missing) > 5 else ""
-    first = missing[0].footprint.ref
-    return InputError(f"{board.source}: no known package class and no height for {shown}{more}: add a Height_mm "
-                      f"field to the footprint in KiCad, or give --height {first}=MM (or --heights FILE with lines "
-                      f"'reference,height_mm')")
-
-
 def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body: Rect, die: bool,
                power_from_rails: bool, snapped: str = "") -> dict:
     """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it)."""
     fp = d.footprint
     h = d.height_mm
     entry = {NOTE: (f"{fp.ref} {fp.value} ({fp.library}) at ({fp.x:.3f}, {fp.y:.3f}) mm, {fp.rotation_deg:g} deg, "
-                    f"{fp.side}; {d.reason}\nheight {h:g} mm: {d.height_source}"
+                    f"{fp.side}; {d.reason}\nheight {h:g} mm"
+                    + (" ESTIMATED (no height found)" if is_estimated(d.height_source) else "") + f": {d.height_source}"
                     + (f"\n{snapped}" if snapped else "")),
              "name": name, "board": board_name, "side": fp.side,
              "center_mm": [round_centre(body.centre[0]), round_centre(body.centre[1])],
@@ -219,7 +215,7 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
                              + (f"; rotated {fp.rotation_deg:g} deg: the same area, aligned to the nearest axis"
                                 if off_axis(fp) else "") + ("; edges snapped (see above)" if snapped else "")),
              "material": d.package.material if d.package is not None else "mould_compound",
-             "footprint": fp.library}
+             "footprint": fp.library, "height_source": d.height_source}
     if die:
         (du, dv, dt), db, pad, vias = die_and_pad(board, d, body)
         if pad is not None:
@@ -244,14 +240,19 @@ def _has_die(d: Decision, site_refs: set, regulators: set) -> bool:
     return ref in site_refs or ref in regulators or (d.power_W >= DIE_MIN_W and chip)
 
 
-def _sites(opts: ImportOptions, names: dict) -> dict:
+def _sites(opts: ImportOptions, names: dict, board: BoardDesign, notes: list) -> dict:
+    """The ``[sites]`` of the --site parts, each sensor site with its chip's grade (one note line per part)."""
+    from imutherm.imu.site_grades import site_grades
+
+    grades, lines = site_grades(opts.sites, {fp.ref: fp for fp in board.footprints}, opts.grades)
+    notes.extend(lines)
     sites = {}
     for ref, kind in opts.sites.items():
         targets = SITE_KINDS[kind] or (names[ref],)
         for s in targets:
             if s in sites:
                 raise InputError(f"--site: {s} is given twice ({sites[s]['part'][:-4]} and {names[ref]})")
-            sites[s] = Inline({"part": names[ref] + "_die"})
+            sites[s] = Inline({"part": names[ref] + "_die", **({"grade": grades[ref]} if ref in grades else {})})
     return sites
 
 
@@ -293,10 +294,7 @@ def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> I
     ``run_scheme(unit.spec, "grease")``.
     """
     board, decisions, keep, regulators, notes = _prepare(board, opts)
-    modelled = [d for d in decisions if d.fate == "modelled"]
-    missing = [d for d in modelled if d.height_mm is None]
-    if missing:
-        raise _unknown_heights(board, missing)
+    notes += _check_heights(board, decisions, opts)
     decisions, bodies = place_parts(board, decisions, keep, set(opts.sites), notes)
     if not any(d.power_W > 0 for d in decisions if d.fate == "modelled") and not regulators:
         raise _no_power(board, decisions)
@@ -332,6 +330,21 @@ def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
         notes += [f"{what} {ref}: not on the board modelled ({off[ref]}): left out"
                   for ref in sorted(given, key=natural_order) if ref in off]
     return board, decisions, keep, regulators, notes
+
+
+def _check_heights(board: BoardDesign, decisions: list, opts: ImportOptions) -> list:
+    """The note naming the parts whose height is estimated; with ``--strict-heights`` their refusal instead
+    (every such part named: :mod:`imutherm.ecad.heights`)."""
+    estimated = estimated_parts(decisions)
+    if opts.strict_heights and estimated:
+        raise strict_refusal(board.source, estimated)
+    if not estimated:
+        return []
+    parts = ", ".join(f"{d.footprint.ref} {d.height_mm:g} mm" + (" (merged)" if d.fate == "merged" else "")
+                      for d in sorted(estimated, key=lambda d: natural_order(d.footprint.ref)))
+    return [f"ESTIMATED heights of {len(estimated)} part{'s' if len(estimated) > 1 else ''} (no height in the "
+            f"footprint, its name or the package tables; each part's height_source gives the rule): {parts}; "
+            f"--heights-template FILE writes them to fill in, --strict-heights refuses them"]
 
 
 def _field_notes(decisions: list) -> list:
@@ -448,7 +461,7 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
     }
     if opts.electrical:
         doc.update(_renamed_electrical(opts.electrical, names))
-    sites = _sites(opts, names)
+    sites = _sites(opts, names, board, notes)
     if sites:
         doc["sites"] = sites
     else:
@@ -548,6 +561,10 @@ def _header(board: BoardDesign, decisions: list, notes: list) -> str:
              "up, origin at the outline's lower left. Edit freely: this is an ordinary layout file.",
              "merged (mass and heat capacity smeared into the board): " + ", ".join(
                  sorted((d.footprint.ref for d in fates["merged"]), key=natural_order))]
+    estimated = estimated_parts(decisions)
+    if estimated:
+        lines.append("heights ESTIMATED (no height in the footprint, its name or the package tables; "
+                     "imutherm.ecad.heights): " + ", ".join(f"{d.footprint.ref} {d.height_mm:g} mm" for d in estimated))
     for d in sorted(fates["skipped"], key=lambda d: natural_order(d.footprint.ref)):
         lines.append(f"skipped {d.footprint.ref}: {d.reason}")
     return "\n".join(lines)
@@ -587,10 +604,7 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
                          f"{', '.join(str(b.get('name')) for b in boards if isinstance(b, dict))}")
     opts = replace(opts, board_name=board_name, prefix=opts.prefix or f"{board_name}_")
     board, decisions, keep, _, notes = _prepare(board, opts)
-    modelled = [d for d in decisions if d.fate == "modelled"]
-    missing = [d for d in modelled if d.height_mm is None]
-    if missing:
-        raise _unknown_heights(board, missing)
+    notes += _check_heights(board, decisions, opts)
     notes.insert(0, f"{path}: board {board_name!r} replaced; the file is regenerated from its data, so its comments "
                     f"are not carried over")
     decisions, bodies = place_parts(board, decisions, keep, set(opts.sites), notes)
@@ -640,7 +654,7 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
         data["electrical"] = new["electrical"]
         data["rails"] = list(data.get("rails", []) or []) + new["rails"]
     data["sites"] = {k: Inline(v) if isinstance(v, dict) else v for k, v in data.get("sites", {}).items()}
-    data["sites"].update(_sites(opts, names))
+    data["sites"].update(_sites(opts, names, board, notes))
     data[NOTE] = (f"{path} with board {board_name!r} imported from {board.source} ({board.format}) by "
                   f"`imutherm import --into`.\n" + _header(board, decisions, notes))
     text = dumps(data)

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from importlib import resources
 from pathlib import Path
 
 from imutherm import InputError
 from imutherm.geometry.electrical import ElectricalSpec, parse_electrical, rail_losses
+from imutherm.geometry.layout_files import builtin_layouts, default_layout_path, resolve_layout  # noqa: F401
 from imutherm.geometry.materials import load_library, material_from_table, register_materials
 from imutherm.reference_data import parse_reference
 from imutherm.textio import quote, read_text
@@ -47,36 +47,6 @@ MAX_CONDUCTANCE_W_M2K = 1e6
 MAX_LAYOUT_BYTES = 2**20
 #: unknown keys quoted in one message at most
 MAX_LISTED = 10
-
-
-def default_layout_path() -> Path:
-    """Path of the built-in reference layout ``imu_reference.toml``."""
-    return Path(str(resources.files("imutherm.layouts") / "imu_reference.toml"))
-
-
-def builtin_layouts() -> tuple:
-    """Names of the layouts shipped in ``layouts/`` (the package ``imutherm.layouts``) (``imu_reference``, ``imu_cardguide``, ...)."""
-    folder = resources.files("imutherm.layouts")
-    return tuple(sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml")))
-
-
-def resolve_layout(layout: str | Path | None) -> Path:
-    """The layout file meant by ``layout``: a path, or the name of a built-in layout.
-
-    None gives the reference unit. A string that is not an existing file and
-    names no file (no ``.toml`` suffix, no directory part) is looked up among
-    :func:`builtin_layouts`; an unknown name raises InputError listing them.
-    """
-    if layout is None or layout == "":
-        return default_layout_path()
-    path = Path(layout)
-    if path.exists() or path.suffix or len(path.parts) > 1:
-        return path
-    name = str(layout)
-    if name not in builtin_layouts():
-        raise InputError(f"{name}: no such layout file, nor a built-in layout name; "
-                         f"built-in layouts: {', '.join(builtin_layouts())} (or give a path to a .toml file)")
-    return Path(str(resources.files("imutherm.layouts") / f"{name}.toml"))
 
 
 @dataclass(frozen=True)
@@ -166,6 +136,7 @@ class ComponentSpec:
     power_source : str, where ``power_W`` comes from (``layout power_W``, or the electrical design's
         formula for a rail's regulator without an explicit ``power_W``)
     footprint : str or None, the ECAD footprint it was imported from (information only)
+    height_source : str or None, the height's source (``estimated: ...``: :mod:`imutherm.ecad.heights`)
     """
 
     name: str
@@ -183,6 +154,7 @@ class ComponentSpec:
     axis: str | None
     power_source: str = "layout power_W"
     footprint: str | None = None
+    height_source: str | None = None
 
 
 @dataclass(frozen=True)
@@ -194,6 +166,7 @@ class SiteSpec:
     board: str | None = None
     side: str | None = None
     at_mm: tuple | None = None
+    grade: str | None = None  # sensor grade of the site's chip (imutherm.imu.site_grades), None: not named
 
 
 @dataclass(frozen=True)
@@ -604,7 +577,7 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
                    {"name": "str", "board": "board name", "side": "top|bottom", "center_mm": "(u, v)",
                     "size_mm": "(u, v, height)", "material": "name", "die_mm": "(u, v, thickness)",
                     "die_base_mm": "mm", "exposed_pad": "bool", "pad_mm": "(u, v)", "vias": "bool",
-                    "power_W": "W", "axis": "x|y|z", "footprint": "text"})
+                    "power_W": "W", "axis": "x|y|z", "footprint": "text", "height_source": "text"})
         name = c.string("name")
         c.where = f"component {quote(name, 60)}"
         board = c.string("board")
@@ -634,7 +607,8 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
                              size, c.material("material", mats), die, die_base, pad,
                              (pad_mm or (die[:2] if pad else None)), vias,
                              c.number("power_W", None, nonneg=True, bounds=POWER_BOUNDS),
-                             c.string("axis", None, choices=AXES), footprint=c.string("footprint", None))
+                             c.string("axis", None, choices=AXES), footprint=c.string("footprint", None),
+                             height_source=c.string("height_source", None))
         names.claim(name, c.where)
         for sub in ("_die", "_pad", "_vias"):
             names.claim(name + sub, c.where)
@@ -648,7 +622,15 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
     sites = []
     for name, t in _named_tables(top, "sites", "[sites] with name = { ... } lines").items():
         s = _Table(path, f"site {quote(name, 60)}", t, {"part": "part name", "board": "board name",
-                                                "side": "top|bottom", "at_mm": "(u, v)"})
+                                                "side": "top|bottom", "at_mm": "(u, v)", "grade": "sensor grade"})
+        grade = None
+        if "grade" in t:  # the chip's grade (imutherm import writes it), checked against the sensor library
+            from imutherm.imu.site_grades import check_grade
+
+            try:
+                grade = check_grade(s.string("grade"), "grade")
+            except InputError as e:
+                s.fail("grade", str(e)[len("grade: "):])
         if "part" in t:
             extra = [k for k in ("board", "side", "at_mm") if k in t]
             if extra:
@@ -657,7 +639,7 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
             part = s.string("part")
             if part not in names or part == "fill":
                 s.fail("part", f"unknown part {part!r}; valid: {', '.join(sorted(names))}")
-            sites.append(SiteSpec(name, part=part))
+            sites.append(SiteSpec(name, part=part, grade=grade))
         else:
             if "board" not in t:
                 s.fail(None, "needs 'part' (a part's centroid) or 'board' with 'at_mm' (a point on a board face)")
@@ -665,7 +647,7 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
             if board not in board_by_name:
                 s.fail("board", f"unknown board {board!r}; valid: {', '.join(board_by_name)}")
             sites.append(SiteSpec(name, board=board, side=s.string("side", "top", choices=("top", "bottom")),
-                                  at_mm=s.vector("at_mm", 2)))
+                                  at_mm=s.vector("at_mm", 2), grade=grade))
     return sites
 
 

@@ -177,3 +177,9 @@ GRADES: dict[str, dict] = {
         },
     },
 }
+
+# The sensor library (imu/sensor_library.toml): one grade per datasheet chip and the generic consumer grade,
+# converted by the rule of imutherm.imu.sensor_library; the three grades above are unchanged.
+from imutherm.imu.sensor_library import library_grades  # noqa: E402  (after GRADES: it scales from adis16355)
+
+GRADES.update(library_grades(GRADES["adis16355"]))

@@ -217,7 +217,9 @@ def load_grade(name: str) -> SensorGrade:
 
     Parameters
     ----------
-    name : str  one of ``imutherm.imu.grades.GRADES`` (``adis16355``, ``adis16488``, ``ideal``)
+    name : str  one of ``imutherm.imu.grades.GRADES`` (``adis16355``, ``adis16488``, ``ideal``, a sensor-library
+                chip such as ``icm42688p``, ``generic_mems``), or ``GYRO+ACCEL`` (gyros of one, accelerometers of
+                the other; the temperature sensor the gyro chip's)
 
     Raises
     ------
@@ -226,8 +228,15 @@ def load_grade(name: str) -> SensorGrade:
     if isinstance(name, SensorGrade):
         return name
     key = str(name).strip().lower()
+    if "+" in key:  # "GYRO+ACCEL": the gyro sites' chip and the accel sites' chip (a layout with two IMU chips)
+        g, a = (load_grade(k) for k in key.split("+", 1))
+        return replace(g, name=key, description=f"gyros: {g.description}; accelerometers: {a.description}",
+                       sources=g.sources + a.sources, accel=a.accel)
     if key not in GRADES:
-        raise InputError(f"sensor grade: unknown grade {name!r}; valid grades: {', '.join(sorted(GRADES))}")
+        chips = sorted(k for k in GRADES if "chip" in GRADES[k] and k != "generic_mems")
+        classic = [k for k in GRADES if "chip" not in GRADES[k]]
+        raise InputError(f"sensor grade: unknown grade {name!r}; valid grades: {', '.join(classic)}, generic_mems "
+                         f"and the sensor library's chips {', '.join(chips)} (or GYRO+ACCEL)")
     d = GRADES[key]
     return SensorGrade(
         name=key,

@@ -22,6 +22,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 
+from imutherm.imu.site_grades import grade_text
 from imutherm.site_table import read_site_table
 
 SCHEME_COLOURS = {"air": "#d62728", "grease": "#1f77b4", "potted": "#2ca02c"}
@@ -157,7 +158,7 @@ def _answer_page(pdf, data: dict) -> None:
     prof = _main_profile(st)
     fig = plt.figure(figsize=A4)
     below = _title(fig, f"Which cooling scheme, and what it does to attitude accuracy: {data['layout']}", textwrap.fill(
-           f"{boards_line(data)}ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; grade {st['grade']}, seeds "
+           f"{boards_line(data)}ambient {data['ambient_C']:.0f} C, {data['power_W']:.2f} W; {grade_text(data)}, seeds "
            f"{data['seeds'][0]}..{data['seeds'][-1]} (bars: mean, whiskers: std over the seeds, the same seeds in "
            f"every scheme); calibrated in the unit (oven -40..70 C with each scheme's self-heating); out-of-range "
            f"policy '{data['out_of_range_policy']}'; {prof} profile, attitude error RMS through the warm-up; "
@@ -533,6 +534,14 @@ def bench_page(pdf, bench: dict) -> None:
     plt.close(fig)
 
 
+def estimated_height_lines(data: dict) -> list:
+    """The parameters page's lines naming each imported part whose height was estimated, with the rule."""
+    out = []
+    for name, (h, source) in (data.get("estimated_heights") or {}).items():
+        out += textwrap.wrap(f"  height of {name} {h:g} mm ESTIMATED ({source})", 200, subsequent_indent="      ")
+    return out
+
+
 def _parameters_page(pdf, data: dict) -> None:
     fig = plt.figure(figsize=A4)
     _title(fig, "Parameters used and their sources",
@@ -546,6 +555,7 @@ def _parameters_page(pdf, data: dict) -> None:
                                + (f", eps {m['emissivity']:g}" if m.get("emissivity") is not None else "")
                                + f". Source: {m['source']}", 200, subsequent_indent="      ")
     lines += ["", "Powers [W]: " + ", ".join(f"{k} {v:.3f}" for k, v in data["powers_W"].items())]
+    lines += estimated_height_lines(data)
     opts = data["model_options"]
     lines += ["", "Thermal model options: " + ", ".join(f"{k}={v}" for k, v in opts.items() if k != "interfaces")]
     lines += textwrap.wrap("Interfaces: " + "; ".join(f"{i['part_a']}/{i['part_b']} {i['conductance_W_m2K']:.0f} "

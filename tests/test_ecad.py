@@ -354,17 +354,17 @@ def test_bad_placements_refused_in_one_line(tmp_path):
                part("U2", "Package_SO:SOIC-8_3.9x4.9mm", (110.5, 110.5, 0), fab=(-2, -2.5, 2, 2.5)),
                part("U3", "Package_SO:SOIC-8_3.9x4.9mm", (112, 111, 0), side="bottom", fab=(-2, -2.5, 2, 2.5))]
     unknown = [part("U1", "MyLib:MysteryPart", (110, 110, 0), fab=(-2, -2.5, 2, 2.5))]
-    power = lambda parts: ImportOptions(powers={p["ref"]: (0.1, "t") for p in parts})  # noqa: E731
+    power = lambda parts: ImportOptions(powers={p["ref"]: (0.1, "t") for p in parts}, strict_heights=True)  # noqa: E731
     for parts, words in ((outside, "U1 (0.1 W) is skipped: outside the board outline"),
                          (overlap, "parts U1 and U2 overlap on the top side and both dissipate"),
-                         (unknown, "no known package class and no height for U1 (MyLib:MysteryPart")):
+                         (unknown, "--strict-heights: no height found for 1 part: U1 (MyLib:MysteryPart")):
         path = tmp_path / "bad.kicad_pcb"
         path.write_text(kicad_board(parts))
         with pytest.raises(InputError) as exc:
             import_board(read_board(path), power(parts))
         msg = _one_line(exc)
         assert words in msg, msg
-    assert "--height U1=MM" in msg and "Height_mm" in msg   # how to give the height
+    assert "--height REF=MM" in msg and "Height_mm" in msg   # how to give the height
 
 
 def test_no_power_and_unknown_sites_refused_in_one_line(real_boards):
@@ -423,7 +423,7 @@ def test_import_command_bad_input_one_line_and_nothing_written(real_boards, tmp_
     bad_csv = tmp_path / "p.csv"
     bad_csv.write_text("reference,power_W\nU3,lots\n")
     args = {"not_a_board": [str(BOARDS / "drone-fc_powers.csv")],
-            "unknown_height": [board, "--powers", powers],
+            "unknown_height": [board, "--powers", powers, "--strict-heights"],
             "no_power": [board, "--heights", heights],
             "bad_site": [board, "--powers", powers, "--heights", heights, "--site", "U99=imu"],
             "bad_csv": [board, "--powers", str(bad_csv), "--heights", heights]}[case]

@@ -5,55 +5,41 @@ The boards are public open-hardware KiCad files copied unchanged into ``examples
 licences: ``examples/boards/SOURCES.md``): KiCad 5, 7, 8 and 9, 39 to 244 footprints, 2 and 4 copper layers, a
 notched and slotted CubeSat card, edge connectors, duplicate references, do-not-populate parts, mounting holes
 with and without a library name. What a user gives: ``--powers`` (``examples/boards/<board>_powers.csv``, each
-value with its datasheet source) and ``--site``; openuav's regulators by its electrical design.
-
-Heights: until the package-height tables of issue 55 item 1 cover every footprint, the parts those tables do
-not know take their heights from ``tests/data/shared_board_heights.csv`` (as a user's ``--heights`` file);
-once they do, :data:`HEIGHTS_FIXTURE` goes and the boards import with ``--powers`` and ``--site`` alone.
+value with its datasheet source) and ``--site``; openuav's regulators by its electrical design. No heights:
+every part's height comes from its footprint (a Height field), its name or the package tables, else it is
+estimated by the stated rule and listed (:mod:`imutherm.ecad.heights`).
 """
 
 from __future__ import annotations
 
-import csv
 import gzip
 from collections import Counter
 from pathlib import Path
 
 import pytest
 
+from imutherm.ecad.heights import is_estimated
 from imutherm.ecad.read import read_board
 from imutherm.ecad.to_layout import ImportOptions, import_board
 from imutherm.ecad.user_tables import read_electrical, read_value_csv
 from imutherm.geometry.build import build_geometry
 
 BOARDS = Path(__file__).resolve().parents[1] / "examples" / "boards"
-HEIGHTS_FIXTURE = Path(__file__).resolve().parent / "data" / "shared_board_heights.csv"
 SITES = {"cube-main": ("U9", "probe"), "proves-fc-v4c": ("U7", "imu"), "proves-radio-stick": ("U18", "probe"),
          "unl-core-board": ("U5", "imu"), "openuav": ("U3", "imu"), "drone-fc": ("U2", "imu")}
 
 
-def _heights(name: str) -> dict:
-    out = {}
-    if name in ("openuav", "drone-fc"):
-        return read_value_csv(BOARDS / f"{name}_heights.csv", "height_mm")
-    with open(HEIGHTS_FIXTURE, newline="") as fh:
-        for row in csv.reader(line for line in fh if not line.startswith("#")):
-            if row[0].startswith(f"{name}:"):
-                out[row[0].split(":", 1)[1]] = (float(row[1]), row[2])
-    return out
-
-
 @pytest.fixture(scope="module")
 def imported(tmp_path_factory):
-    """{board: ImportResult} of the six boards, each imported with its powers, heights and site."""
+    """{board: ImportResult} of the six boards, each imported with its powers and site alone."""
     folder = tmp_path_factory.mktemp("shared-boards")
     out = {}
     for name, (ref, kind) in SITES.items():
         path = folder / f"{name}.kicad_pcb"
         path.write_bytes(gzip.decompress((BOARDS / f"{name}.kicad_pcb.gz").read_bytes()))
         electrical = read_electrical(BOARDS / "openuav_electrical.toml") if name == "openuav" else None
-        opts = ImportOptions(powers=read_value_csv(BOARDS / f"{name}_powers.csv", "power_W"), heights=_heights(name),
-                             sites={ref: kind}, electrical=electrical)
+        opts = ImportOptions(powers=read_value_csv(BOARDS / f"{name}_powers.csv", "power_W"), sites={ref: kind},
+                             electrical=electrical)
         out[name] = import_board(read_board(path), opts)
     return out
 
@@ -74,6 +60,22 @@ def _notes(result, words: str) -> list:
 FATES = {  # board: (footprints, modelled, merged, skipped)
     "cube-main": (244, 47, 186, 11), "proves-fc-v4c": (151, 31, 93, 27), "proves-radio-stick": (70, 13, 45, 12),
     "unl-core-board": (39, 13, 19, 7), "openuav": (80, 9, 42, 29), "drone-fc": (78, 15, 59, 4)}
+
+
+#: the parts on each board (modelled or merged) whose height no footprint, name or table gives: estimated
+ESTIMATED = {"cube-main": {"U1", "U2", "U3", "U4"}, "proves-fc-v4c": set(), "proves-radio-stick": set(),
+             "unl-core-board": set(), "openuav": set(), "drone-fc": {"D1"}}
+
+
+@pytest.mark.parametrize("name", list(SITES))
+def test_each_shared_board_has_a_height_for_every_part(imported, name):
+    """No heights file: the custom TMC2209-LA footprints (no package in the name) and drone-fc's custom RGB LED
+    are estimated, every other part of the six boards has a found height with its source."""
+    r = imported[name]
+    placed = [d for d in r.decisions if d.fate != "skipped"]
+    assert all(d.height_mm and d.height_source for d in placed)
+    assert {d.footprint.ref for d in placed if is_estimated(d.height_source)} == ESTIMATED[name]
+    assert bool(ESTIMATED[name]) == any(n.startswith("ESTIMATED heights of") for n in r.notes)
 
 
 @pytest.mark.parametrize("name", list(SITES))
@@ -146,13 +148,11 @@ def test_the_import_command_says_which_file_gave_each_power(tmp_path, capsys):
 
     board = tmp_path / "unl-core-board.kicad_pcb"
     board.write_bytes(gzip.decompress((BOARDS / "unl-core-board.kicad_pcb.gz").read_bytes()))
-    heights = tmp_path / "h.csv"
-    rows = "".join(f"{ref},{h}\n" for ref, (h, _) in _heights("unl-core-board").items())
-    heights.write_text("reference,height_mm\n" + rows)
     out = tmp_path / "unit.toml"
     assert import_main([str(board), "--powers", str(BOARDS / "unl-core-board_powers.csv"), "--site", "U5=imu",
-                        "--heights", str(heights), "--out", str(out)]) == 0
+                        "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "modelled U5     BNO055" in text and "0.041 W (unl-core-board_powers.csv line 4: BNO055 in NDOF" in text
     assert "powers: 0.071 W in all: 0.071 W from unl-core-board_powers.csv (3 parts)" in text
     assert "note: J4 at (11.28, 52.38) mm" in text
+    assert "heights of the modelled and merged parts: 32 from the package tables" in text and "ESTIMATED" not in text

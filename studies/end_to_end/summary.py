@@ -238,6 +238,13 @@ def numerical_error_lines(summary: dict) -> list:
     return lines
 
 
+def estimated_heights(layout) -> dict:
+    """{component: [height mm, source]} of the imported parts whose height was estimated (no footprint field,
+    name or package table gave it: :mod:`imutherm.ecad.heights`), for the report's parameters page."""
+    return {c.name: [c.size_mm[2], c.height_source] for c in layout.components
+            if (c.height_source or "").startswith("estimated")}
+
+
 def study_summary(result: StudyResult) -> dict:
     """The ``summary.json`` content (module docstring; every metric ``{mean, std}`` over the seeds)."""
     from imutherm.geometry.materials import get_material
@@ -301,6 +308,7 @@ def study_summary(result: StudyResult) -> dict:
         "power_W": first.total_power_W,
         "boards": [{"name": b.name, "source": b.source, "size_mm": list(b.size_mm), "material": b.material,
                     "merged_parts": len(b.merged_parts)} for b in lay.boards],
+        "estimated_heights": estimated_heights(lay),
         "units": "temperatures degC, rises K, times s, angles deg, accel residuals mg, gyro residuals deg/s; "
                  "every IMU metric is {mean, std} over the seeds (population std)",
         "seeds": list(range(result.config.seed0, result.config.seed0 + result.config.seeds)),
