@@ -119,6 +119,9 @@ def run(args) -> int:
     if args.seed < 0:
         raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")
     layout, options, effects, fitted = run_inputs(args)
+    from imutherm.studies.paper import check_bench
+
+    check_bench(layout)  # a bad bench file of the layout's [reference_data] refused before any solve
     args.run_model = (layout, options, effects, fitted)
     if args.uncertainty:
         from imutherm.studies.uncertainty import UncertainInput, design, imu_draw_rows

@@ -57,6 +57,16 @@ def paper_scheme_figures(paper: dict | None = None) -> dict:
     }
 
 
+def check_bench(layout) -> list:
+    """Read and check every bench file the layout declares (its sites and schemes); InputError naming the file and
+    line on a bad one. Returns the runs."""
+    from imutherm.measured import read_measured
+
+    ref = getattr(layout, "reference_data", None)
+    sites, schemes = [s.name for s in layout.sites], list(layout.schemes)
+    return [read_measured(p, sites=sites, schemes=schemes) for p in (ref.measured if ref is not None else ())]
+
+
 def bench_comparison(layout, curves: dict) -> dict | None:
     """The layout's bench readings (``[reference_data] measured``) beside the model, or None if it declares none.
 
@@ -66,15 +76,11 @@ def bench_comparison(layout, curves: dict) -> dict | None:
     note}]}``, rises over each run's own ambient [K]; readings of a scheme the model did not run are left out
     (said in ``not_compared``).
     """
-    from imutherm.measured import read_measured
-
     ref = getattr(layout, "reference_data", None)
     if ref is None or not ref.measured:
         return None
-    sites = [s.name for s in layout.sites]
     rows, skipped = [], []
-    for path in ref.measured:
-        run = read_measured(path, sites=sites, schemes=list(layout.schemes))
+    for path, run in zip(ref.measured, check_bench(layout)):
         if run.scheme not in curves:
             skipped.append(f"{run.name} (scheme {run.scheme} not run)")
             continue

@@ -268,3 +268,12 @@ def test_a_part_that_cannot_be_bonded_is_said_with_why_and_grease(tmp_path):
     assert "grease" not in r.spec.schemes
     air = r.spec.schemes["air"].description
     assert "No grease scheme" in air and "U1" in air and "--grease" in air
+
+
+def test_a_bad_bench_file_is_refused_before_any_solve(tmp_path, capsys):
+    (tmp_path / "bench_air.csv").write_text("# scheme = air\n# ambient_C = 70\ntime_s,no_such_site\ninf,75\n")
+    layout = _openuav(tmp_path, '\n[reference_data]\nsource = "our bench"\nmeasured = ["bench_air.csv"]\n')
+    assert compare_main([str(layout), *COARSE, "--thermal-only", "--out", str(tmp_path / "out")]) == 2
+    printed = capsys.readouterr()
+    assert "bench_air.csv" in printed.err and "no_such_site" in printed.err
+    assert "s2s cavity law" not in printed.out   # refused before the cost checks and solves
