@@ -14,6 +14,14 @@ an otherwise idle machine: the figures are the machine's.
     python benchmarks/bench_study.py -- --no-mesh-error   # without the mesh-error estimates
     python benchmarks/bench_study.py -- --thermal-only    # the thermal comparison alone (wall, CPU, memory)
     python benchmarks/bench_study.py --write        # and record the answer and the timing (defaults only)
+    python benchmarks/bench_study.py --rerun        # and the same command again: its thermal cases from the cache
+
+The command runs with a fresh, empty disk cache (``IMUTHERM_CACHE_DIR``, :mod:`imutherm.cache`; ``--cache-dir`` to
+keep one), so it solves every thermal case; ``--rerun`` runs it a second time on the same cache (what a user's
+second ``compare`` of an unchanged unit costs). The machine is shared, so the figures are also given as paired
+ratios in the same run: against a fixed single-thread yardstick (:func:`yardstick_s`: sparse matrix-vector
+products, the thermal solves' kernel; timed just before and just after the command, their mean) and against the
+run's own steady solve (the longest scheme's ``timings_s.steady_solve``).
 
 ``--write`` records, each with the date and the commit, (1) the answer the command printed (its table, the
 real-motion lines and the sentences) in ``docs/benchmarks/tables/compare_answer.txt`` and (2) this run's timing
@@ -44,6 +52,48 @@ TABLES = Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "tables"
 ANSWER = TABLES / "compare_answer.txt"
 TIMING = TABLES / "study.txt"
 OVEN = TABLES / "oven_self_heating.txt"
+
+
+def yardstick_s(repeats: int = 3) -> float:
+    """Wall time [s] of a fixed single-thread workload (the fastest of ``repeats``): 200 products of a 7-point
+    Laplacian on a 48^3 grid (110,592 unknowns, the thermal solves' kernel: memory-bound sparse products) with a
+    vector. The yardstick against which the command's time is given as a ratio."""
+    import numpy as np
+    import scipy.sparse as sp
+    from threadpoolctl import threadpool_limits
+
+    n = 48
+    d1 = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
+    eye = sp.identity(n)
+    A = (sp.kron(sp.kron(d1, eye), eye) + sp.kron(sp.kron(eye, d1), eye) + sp.kron(sp.kron(eye, eye), d1)).tocsr()
+    x = np.ones(A.shape[0])
+    best = float("inf")
+    with threadpool_limits(1):
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            y = x
+            for _ in range(200):
+                y = A @ x + 1e-3 * y
+            best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def run_command(cmd: list, env: dict | None = None) -> dict:
+    """Run ``cmd`` (a subprocess, stdout and stderr together) sampling its process tree's memory every 0.2 s:
+    dict(text, returncode, wall_s, cpu_s (user+sys of it and its workers), peak_mb (summed VmRSS), pss_mb)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    peak = peak_pss = 0.0
+    while proc.poll() is None:
+        rss, pss = _tree_memory_mb(proc.pid)
+        peak, peak_pss = max(peak, rss), max(peak_pss, pss)
+        time.sleep(0.2)
+    wall = time.perf_counter() - t0
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)   # the command and its workers (waited for)
+    cpu = ru.ru_utime + ru.ru_stime - before.ru_utime - before.ru_stime
+    return dict(text=proc.stdout.read(), returncode=proc.returncode, wall_s=wall, cpu_s=cpu, peak_mb=peak,
+                pss_mb=peak_pss)
 
 
 def _tree_memory_mb(pid: int) -> tuple:
@@ -208,32 +258,43 @@ def main(argv=None) -> int:
     ap.add_argument("extra", nargs="*", help="arguments passed to imutherm compare (after --)")
     ap.add_argument("--write", action="store_true", help=f"record the printed answer in {ANSWER.name} "
                     "(the command at its defaults only)")
+    ap.add_argument("--rerun", action="store_true",
+                    help="run the command a second time on the same disk cache: its thermal cases read, not solved")
+    ap.add_argument("--cache-dir", default=None, metavar="DIR",
+                    help="the disk cache folder the command uses (default: a fresh, empty one)")
     args = ap.parse_args(argv)
     if args.write and args.extra:
         ap.error("--write records the answer of the defaults: no extra arguments to imutherm compare")
     out = Path(tempfile.mkdtemp(prefix="bench_study_")) / "out"
+    env = dict(os.environ, IMUTHERM_CACHE_DIR=args.cache_dir or tempfile.mkdtemp(prefix="bench_study_cache_"))
+    env.pop("IMUTHERM_CACHE", None)
     cmd = [sys.executable, "-m", "imutherm.cli", "compare", "--no-progress", "--out", str(out)] + args.extra
-    t0 = time.perf_counter()
     load0 = os.getloadavg()[0]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    peak = peak_pss = 0.0
-    while proc.poll() is None:
-        rss, pss = _tree_memory_mb(proc.pid)
-        peak, peak_pss = max(peak, rss), max(peak_pss, pss)
-        time.sleep(0.2)
-    wall = time.perf_counter() - t0
-    ru = resource.getrusage(resource.RUSAGE_CHILDREN)   # the command and its workers (waited for)
-    cpu = ru.ru_utime + ru.ru_stime
-    text = proc.stdout.read()
+    yard0 = yardstick_s()
+    r = run_command(cmd, env)
+    yard1 = yardstick_s()
+    yard = 0.5 * (yard0 + yard1)
+    wall, cpu, peak, peak_pss, text = r["wall_s"], r["cpu_s"], r["peak_mb"], r["pss_mb"], r["text"]
     print(text)
-    if proc.returncode != 0:
-        print(f"imutherm compare failed with status {proc.returncode}")
+    if r["returncode"] != 0:
+        print(f"imutherm compare failed with status {r['returncode']}")
         return 1
     load = f"{load0:.1f} before, {os.getloadavg()[0]:.1f} after"
+    again = None
+    if args.rerun:
+        out2 = out.parent / "out2"
+        again = run_command(cmd[:cmd.index("--out") + 1] + [str(out2)] + cmd[cmd.index("--out") + 2:], env)
+        if again["returncode"] != 0:
+            print(again["text"] + f"\nthe second imutherm compare failed with status {again['returncode']}")
+            return 1
+        load += f", {os.getloadavg()[0]:.1f} after the second run"
+    yard_line = (f"yardstick (fixed single-thread work, {yard0:.3f} s before / {yard1:.3f} s after): the command "
+                 f"{wall / yard:.0f} yardsticks wall, {cpu / yard:.0f} CPU")
     if not (out / "summary.json").exists():   # --thermal-only / --steady-only: the thermal comparison alone
         print(f"\nimutherm compare {' '.join(args.extra)}: {wall:.1f} s wall, peak memory {peak:.0f} MB (process "
               f"tree; {peak_pss:.0f} MB proportional), {os.cpu_count()} CPUs; CPU {cpu:.1f} s (user+sys, all "
               f"processes); load average {load}")
+        print(yard_line)
         return 0
     s = json.loads((out / "summary.json").read_text())
     if args.write:
@@ -254,6 +315,14 @@ def main(argv=None) -> int:
     print(f"\nimutherm compare end to end: {wall:.1f} s wall (study {s['wall_s']:.1f} s), peak memory {peak:.0f} MB "
           f"(process tree; {peak_pss:.0f} MB proportional), {len(s['seeds'])} seeds, {os.cpu_count()} CPUs; CPU {cpu:.1f} s (user+sys, all "
           f"processes); load average {load}")
+    steady = max(sch["thermal"]["timings_s"]["steady_solve"] for sch in s["schemes"].values())
+    print(f"{yard_line}; {wall / steady:.1f} of the run's longest steady solve ({steady:.1f} s)")
+    if again is not None:
+        w2 = again["wall_s"]
+        cached = sum(line.split(": thermal: ")[-1].startswith("cached") for line in again["text"].splitlines())
+        print(f"second run, same cache: {w2:.1f} s wall, CPU {again['cpu_s']:.1f} s, peak {again['peak_mb']:.0f} MB "
+              f"({again['pss_mb']:.0f} MB proportional); {cached} of {len(s['schemes'])} thermal cases from the cache; "
+              f"{w2 / yard:.0f} yardsticks, {w2 / wall:.2f} of the first run, {w2 / steady:.1f} steady solves")
     ok_t, ok_m = wall <= TARGET_S, peak <= TARGET_MB
     print(f"  wall <= {TARGET_S:.0f} s: {'PASS' if ok_t else 'FAIL'}")
     print(f"  peak <= {TARGET_MB:.0f} MB: {'PASS' if ok_m else 'FAIL'}")

@@ -151,7 +151,22 @@ def run(args) -> int:
             score = "no reference"
         print(f"{name:8s} {score}  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  "
               f"runtime {m['runtime_s']:.2f} s")
+        _print_divergence(name, m.get("resets_s"), m.get("rest_off_deg"))
     return 0
+
+
+def _print_divergence(name: str, resets_s, rest_off=None) -> None:
+    """One line when a filter's innovations said it diverged (its monitor reset it; aekf's NIS monitor), one when
+    its vertical was off the accelerometer's at rest (:func:`imutherm.imu.filters.rest_check.rest_disagreement`)."""
+    if rest_off:
+        worst = max(a for _, a in rest_off)
+        print(f"warning: {name} lost the vertical: at rest it was off the accelerometer's by more than 3° on "
+              f"{len(rest_off)} stretch(es) of 5 s (worst {worst:.1f}° at t = "
+              f"{next(t for t, a in rest_off if a == worst):.1f} s); its answer is not to be trusted there")
+    if resets_s:
+        at = ", ".join(f"{t:.1f}" for t in resets_s[:5]) + (", ..." if len(resets_s) > 5 else "")
+        print(f"warning: {name} diverged: its innovations failed the consistency test {len(resets_s)} time(s) and it "
+              f"was reset at t = {at} s; its attitude near those times is not to be trusted")
 
 
 def _print_fusion_range(info: dict) -> None:
@@ -224,7 +239,12 @@ def _run_reference(args) -> int:
     if gyro_range_filters(res["filters"]):
         _print_fusion_range(res["fusion"])
     for name, m in res["filters"].items():
-        print(f"{name:8s} inclination rms {m['inclination_rms_deg']:.3f} deg  max {m['inclination_max_deg']:.2f} deg"
-              f"  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  runtime "
-              f"{m['runtime_s']:.2f} s")
+        here = "" if m["x_vqf"] is None else f" ({m['x_vqf']:.2f}x VQF)"
+        dev = ("" if m["dev_cv_worst_x_vqf"] is None else
+               f"  development files (cross-validated): mean {m['dev_cv_mean_x_vqf']:.2f}x VQF, worst file "
+               f"{m['dev_cv_worst_x_vqf']:.2f}x")
+        print(f"{name:8s} inclination rms {m['inclination_rms_deg']:.3f} deg{here}  max {m['inclination_max_deg']:.2f} "
+              f"deg  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  runtime "
+              f"{m['runtime_s']:.2f} s{dev}")
+        _print_divergence(name, m["resets_s"], m["rest_off_deg"])
     return 0

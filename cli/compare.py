@@ -92,6 +92,11 @@ def add_args(parser) -> None:
     u.add_argument("--uncertainty-imu-draws", type=int, default=None, metavar="N",
                    help="draws per scheme also run through the full IMU chain to the residual sensor errors and the "
                         "attitude error, the study's seeds fixed (default min(16, --uncertainty-samples); 0: none)")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="solve every scheme's thermal case again and build --uncertainty's reduced models "
+                             "again (default: read them from the disk cache when ones of the same content are "
+                             "there, and keep them there: layout, scheme, model options, mesh, time settings, code; "
+                             "not the IMU side; $IMUTHERM_CACHE_DIR, $IMUTHERM_CACHE=off)")
     add_progress_argument(parser)
     add_model_arguments(parser)
     add_fitted_model_argument(parser)
@@ -155,7 +160,7 @@ def run(args) -> int:
     check_schemes_side_by_side(solve_bytes, refined_bytes, args.jobs, args.max_memory)
     comp = compare_schemes(layout, schemes, progress=not args.no_progress, jobs=args.jobs,
                            transient=not args.steady_only, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                           options=options,
+                           options=options, use_cache=not args.no_cache,
                            **args.time_kwargs, **({"effects": effects} if effects else {}))
     from imutherm.reports.compare_report import write_compare_report
     from imutherm.reports.layout_plot import plot_layout
@@ -240,7 +245,7 @@ def _end_to_end(args, schemes, config) -> int:
     extra = {"effects": effects} if effects else {}
     res = run_study(layout, schemes, config=config, options=options, jobs=args.jobs,
                     progress=not args.no_progress, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                    **args.time_kwargs, **extra)
+                    use_cache=not args.no_cache, **args.time_kwargs, **extra)
     from imutherm.reports.study_report import write_study_report
 
     unc = _uncertainty(args, res.layout, schemes, options, study=res)
@@ -292,7 +297,8 @@ def _uncertainty(args, layout, schemes, options, study=None):
                           seed=args.seed if hasattr(args, "seed") else 0, checks=args.uncertainty_checks,
                           t_end=args.t_end or args.t_end_default, mesh_size_mm=args.mesh_size,
                           min_cells=args.min_cells, progress=say, study=study,
-                          imu_draws=args.uncertainty_imu_draws, jobs=getattr(args, "jobs", None))
+                          imu_draws=args.uncertainty_imu_draws, jobs=getattr(args, "jobs", None),
+                          use_cache=not args.no_cache)
     print(f"uncertainty ({len(unc['inputs'])} inputs, {unc['draws']} draws on the reduced models; checked on the "
           f"full FEM: largest site error {unc['max_check_error_K']:.3f} K):" if unc["max_check_error_K"] is not None
           else f"uncertainty ({len(unc['inputs'])} inputs, {unc['draws']} draws, not checked on the full FEM):")

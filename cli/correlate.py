@@ -149,6 +149,10 @@ def run(args) -> int:
     print(f"  {res.words}")
     for f in res.findings:
         print(f"  finding: {f.words()}")
+    for x in res.symptoms:
+        print(f"  symptom: {x.words()}")
+    if res.next_experiment:
+        print(f"  {res.next_experiment['in_words']}")
     if res.written and res.written["model"] != "corrected":
         print(f"  written: {res.written['model']}: {res.written['reason']}")
     print(f"  RMS {data['rms_before_K']:.2f} -> {data['rms_after_K']:.2f} K, max {data['max_before_K']:.2f} -> "

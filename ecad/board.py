@@ -80,7 +80,9 @@ class Footprint:
     fields : dict, the footprint's user fields (``Height_mm``, ``Power_W``, ...), as text
     attributes : tuple of str, the file's attributes (``smd``, ``through_hole``, ``virtual``,
         ``exclude_from_bom``, ``board_only``, ``dnp``, ...)
-    height_mm : float or None [mm], the body height the file states (IDF does; KiCad does not)
+    height_mm : float or None [mm], the body height the file states (IDF does), or the top of the footprint's
+        3D model where that file is on the disk (KiCad, :mod:`imutherm.ecad.models3d`); height_source : str,
+        which ("" : the board file's component height)
     off_board : str, why the footprint is not on the board modelled ("" when it is): outside the outline,
         on another board or the frame of a panel (set by :func:`imutherm.ecad.panel.pick_board`)
     """
@@ -99,6 +101,7 @@ class Footprint:
     attributes: tuple = ()
     height_mm: float | None = None
     off_board: str = ""
+    height_source: str = ""
 
     def to_board(self, px: float, py: float) -> tuple:
         """A point of the footprint frame [mm] in board coordinates [mm]."""
@@ -139,6 +142,10 @@ class BoardDesign:
     vias : tuple of Via
     notes : tuple of str, what the reader found unusual and how it took it (a stack-up far from the usual,
         a panel, ...), printed by ``imutherm import``
+    copper : tuple of :class:`~imutherm.ecad.kicad_copper.CopperLayer`, each copper layer's zones, tracks, vias
+        and pads, front first (empty when the format gives none: IDF)
+    coverage : tuple of float [-], each copper layer's measured coverage within the outline (empty: not
+        measured; set by :func:`imutherm.ecad.kicad_copper.with_coverage`)
     """
 
     source: str
@@ -153,3 +160,5 @@ class BoardDesign:
     footprints: tuple
     vias: tuple = ()
     notes: tuple = ()
+    copper: tuple = ()
+    coverage: tuple = ()

@@ -113,8 +113,8 @@ def resolve_height(fp: Footprint, package: PackageClass | None, heights: dict, b
     value = field_height(fp)
     if value is not None:
         return value, "the footprint's Height_mm field"
-    if fp.height_mm is not None:
-        return fp.height_mm, "the board file's component height"
+    if fp.height_mm is not None:   # IDF's, or the top of the footprint's 3D model on the disk (models3d.py)
+        return fp.height_mm, fp.height_source or "the board file's component height"
     dims = name_dims(fp.library)
     if dims.height_mm is not None and 0 < dims.height_mm <= MAX_HEIGHT_MM:
         return dims.height_mm, f"the footprint name: {dims.height_how}"

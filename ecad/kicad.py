@@ -4,11 +4,12 @@ What is read: the outline (``Edge.Cuts`` lines, arcs, circles, rectangles and po
 footprint), the thickness and copper layers (the ``(stackup)`` section where there is one, else
 ``(general (thickness))`` and the layer table), every footprint (reference, library name, value, side,
 position, rotation, fab and courtyard outlines, pads, user fields such as ``Height_mm`` / ``Power_W``,
-attributes) and the vias. Copper layers are identified by their type in the layer table (``signal``,
-``power``, ``mixed``, ``jumper``) or, where a file gives none, by number (< 32 in KiCad 4-8), never by name:
-KiCad 4/5 let a designer rename them (``C1F`` / ``C4B``), and their files then name the layer so on every pad,
-while KiCad 6-9 write the canonical name and keep the user's as a fourth word of the table. The front copper
-layer is number 0; the back is 31 (KiCad 4-8) or 2 (KiCad 9, which numbers copper layers 0, 2, 4, ...). The
+attributes), the vias and each copper layer's zones, tracks and pads (:mod:`imutherm.ecad.kicad_copper`).
+Copper layers are identified by their type in the layer table (``signal``, ``power``, ``mixed``, ``jumper``) or,
+where a file gives none, by number (< 32 in KiCad 4-8), never by name: KiCad 4/5 let a designer rename them
+(``C1F`` / ``C4B``), and their files then name the layer so on every pad, while KiCad 6-9 write the canonical
+name and keep the user's as a fourth word of the table. The front copper layer is number 0; the back is 31
+(KiCad 4-8) or 2 (KiCad 9, which numbers copper layers 0, 2, 4, ...). The
 stack-up (sublayers included) is read by :mod:`imutherm.ecad.stackup`.
 
 A damaged file is refused in one line naming the item: a number that is not finite or lies outside KiCad's
@@ -25,10 +26,13 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import replace
 from pathlib import Path
 
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Footprint, Pad, Rect, Via
+from imutherm.ecad.kicad_copper import read_copper
+from imutherm.ecad.models3d import footprint_model_height
 from imutherm.ecad.outline_loops import simplified_outline
 from imutherm.ecad.sexpr import child, children, parse_sexpr
 from imutherm.ecad.stackup import read_stackup
@@ -105,16 +109,24 @@ def read_kicad(path: str | Path) -> BoardDesign:
 
     outline = tuple(tuple(flip(x, y) for x, y in line) for line in simplified_outline(outline, where))
     copper_set = set(copper)
-    footprints = tuple(_footprint(fp, where, names, copper_set, front, back, flip)
-                       for fp in children(tree, "footprint") + children(tree, "module"))
+    nodes = children(tree, "footprint") + children(tree, "module")
+    footprints = tuple(_footprint(fp, where, names, copper_set, front, back, flip) for fp in nodes)
+    footprints = tuple(_with_model_height(f, node, path.parent) for f, node in zip(footprints, nodes))
     vias = []
     for v in children(tree, "via"):
         x, y = _xy(v, "at", where, "a via")
         drill = child(v, "drill")
         d = _num(drill[1] if len(drill) > 1 else None, where, "a via's drill") if drill else 0.3
         vias.append(Via(*flip(x, y), d))
+    art = read_copper(tree, where, order, names, [c for _, c in names_of], flip)
     return BoardDesign(where, f"{release} ({int(version)})", box.width, box.height, outline, thickness,
-                       len(copper), copper_um, stack_source, footprints, tuple(vias), notes)
+                       len(copper), copper_um, stack_source, footprints, tuple(vias), notes, art)
+
+
+def _with_model_height(fp: Footprint, node, board_dir: Path) -> Footprint:
+    """The footprint with the height of its 3D model where the model file is on the disk (models3d.py)."""
+    h, source = footprint_model_height(node, board_dir)
+    return fp if h is None else replace(fp, height_mm=h, height_source=source)
 
 
 def _version(tree, where: str) -> float:

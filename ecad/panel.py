@@ -181,7 +181,7 @@ def _crop(board: BoardDesign, mask: np.ndarray, r: float) -> BoardDesign:
     footprints = tuple(replace(fp, x=round(fp.x - box.x0, 6), y=round(fp.y - box.y0, 6)) for fp in board.footprints)
     vias = tuple(replace(v, x=v.x - box.x0, y=v.y - box.y0) for v in board.vias if keep((v.x, v.y)))
     return replace(board, width_mm=box.width, height_mm=box.height, outline=tuple(outline), footprints=footprints,
-                   vias=vias)
+                   vias=vias, copper=tuple(layer.shifted(-box.x0, -box.y0) for layer in board.copper))
 
 
 def unique_references(board: BoardDesign) -> tuple:

@@ -28,15 +28,18 @@ from imutherm.ecad.board import BoardDesign, Rect
 from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, decide, merged_heat, off_axis
 from imutherm.ecad.grease_parts import dissipators, grease_parts
 from imutherm.ecad.heights import estimated_parts, is_estimated, strict_refusal
+from imutherm.ecad.kicad_copper import with_coverage
 from imutherm.ecad.panel import pick_board, unique_references
 from imutherm.ecad.part_bodies import (DIE_FRACTION, MIN_VIAS, SNAP_MM, die_and_pad, overlaps, round_centre, round_mm,
                                       round_size, snap_soft_parts)
 from imutherm.ecad.placement import place_parts
 from imutherm.ecad.standoffs import standoff_rects, standoff_parts
 from imutherm.ecad.toml_writer import NOTE, Inline, Note, dumps
+from imutherm.ecad.via_fields import via_field_entry
 from imutherm.geometry.board_material import DEFAULT_COVERAGE, board_material
 from imutherm.geometry.layout import parse_layout
 from imutherm.geometry.materials import get_material
+from imutherm.geometry.outline import board_loops, outline_area
 from imutherm.site_table import ACCEL_SITES, GYRO_SITES, SITES
 
 try:  # Python >= 3.11
@@ -199,8 +202,9 @@ def _no_power(board: BoardDesign, decisions: list) -> InputError:
 
 
 def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body: Rect, die: bool,
-               power_from_rails: bool, snapped: str = "") -> dict:
-    """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it)."""
+               power_from_rails: bool, snapped: str = "", materials: dict | None = None) -> dict:
+    """The ``[[components]]`` table of one modelled part (with its provenance as the comment above it); a via
+    field's material is added to ``materials`` (the layout's, holding the board's as ``materials["board"]``)."""
     fp = d.footprint
     h = d.height_mm
     entry = {NOTE: (f"{fp.ref} {fp.value} ({fp.library}) at ({fp.x:.3f}, {fp.y:.3f}) mm, {fp.rotation_deg:g} deg, "
@@ -223,6 +227,9 @@ def _component(board: BoardDesign, d: Decision, name: str, board_name: str, body
             entry["pad_mm"] = [round_mm(pad[0]), round_mm(pad[1])]
             if vias >= MIN_VIAS:
                 entry["vias"] = Note(True, f"{vias} vias inside the exposed pad")
+                if materials is not None:   # the field's material from the file's vias (ecad/via_fields.py)
+                    mat, table = via_field_entry(board, d, entry["pad_mm"], materials["board"], name)
+                    entry["vias_material"], materials[mat] = mat, table
         entry["die_mm"] = Note([round_mm(du), round_mm(dv), round_mm(dt)], f"assumed: {DIE_FRACTION:g} of the body, as the reference "
                                                           f"unit's dies")
         entry["die_base_mm"] = round_mm(db)
@@ -314,6 +321,7 @@ def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
     board = pick_board(board, sites=opts.sites, powered=opts.powers)
     _check_refs(board, opts)
     board, renamed = unique_references(board)
+    board, coverage = with_coverage(board)
     rails_refs = _electrical_refs(opts.electrical)
     unknown_rail = sorted(rails_refs - {fp.ref for fp in board.footprints})
     if unknown_rail:
@@ -325,7 +333,7 @@ def _prepare(board: BoardDesign, opts: ImportOptions) -> tuple:
     regulators = {r.get("regulator") for r in (opts.electrical or {}).get("rails", []) or [] if isinstance(r, dict)}
     off = {fp.ref: fp.off_board for fp in board.footprints if fp.off_board}
     off = {ref: why for ref, why in off.items() if ref not in {fp.ref for fp in board.footprints if not fp.off_board}}
-    notes = list(board.notes) + ([renamed] if renamed else []) + _field_notes(decisions)
+    notes = list(board.notes) + [n for n in (renamed, coverage) if n] + _field_notes(decisions)
     for what, given in (("--power", opts.powers), ("--height", opts.heights), ("--keep", opts.keep)):
         notes += [f"{what} {ref}: not on the board modelled ({off[ref]}): left out"
                   for ref in sorted(given, key=natural_order) if ref in off]
@@ -380,9 +388,10 @@ def _board_material_entry(board: BoardDesign, decisions: list, board_name: str) 
     merged = [d for d in decisions if d.fate == "merged"]
     mass = sum(merged_heat(d)[0] for d in merged)
     heat = sum(merged_heat(d)[1] for d in merged)
-    area = board.width_mm * board.height_mm
-    m = board_material("board", board.thickness_mm, board.copper_um, coverage=DEFAULT_COVERAGE, merged_mass_kg=mass,
-                       merged_heat_capacity_J_K=heat, area_mm2=area,
+    loops = board_loops(board.outline)   # the mesh's board is the outline's (imutherm.geometry.outline)
+    area = outline_area(loops) if loops else board.width_mm * board.height_mm
+    m = board_material("board", board.thickness_mm, board.copper_um, coverage=board.coverage or DEFAULT_COVERAGE,
+                       merged_mass_kg=mass, merged_heat_capacity_J_K=heat, area_mm2=area,
                        note=f"stack-up: {board.stackup_source}; {len(merged)} parts merged")
     # named by its values, so two boards of the same name but other stack-ups never share a name in a process
     digest = hashlib.sha1(repr((m.k_in_plane, m.k_through, m.density, m.specific_heat)).encode()).hexdigest()[:6]
@@ -428,11 +437,11 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
     fixed = hard | {d.footprint.ref for d in modelled if d.power_W > 0 or d.footprint.ref in site_refs}
     exact = dict(bodies)
     bodies, snapped = snap_soft_parts(board, modelled, bodies, fixed, [r for _, r in standoffs_at], opts.exact)
-    components = []
+    components, mats = [], {"board": (mat_name, mat_table)}
     for d in modelled:
         ref = d.footprint.ref
         components.append(_component(board, d, names[ref], opts.board_name, bodies[ref], ref in hard,
-                                     ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
+                                     ref in regulators and ref not in opts.powers, snapped.get(ref, ""), mats))
     if snapped:
         notes.append(snap_note(exact, bodies, snapped))
     doc = {
@@ -448,14 +457,14 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
                     "outer_mm": [round_mm(v) for v in outer], "wall_mm": hs.wall_mm, "base_mm": hs.base_mm,
                     "lid_mm": hs.lid_mm, "material": hs.material},
         "mounting": _mounting(hs),
-        "materials": {mat_name: mat_table},
+        "materials": {mat_name: mat_table, **{k: v for k, v in mats.items() if k != "board"}},
         "boards": [{NOTE: f"{board.format} board {board.source}: {board.width_mm:.3f} x {board.height_mm:.3f} mm "
                           f"(the outline's bounding rectangle), {t:g} mm, {board.copper_layers} copper layers",
                     "name": opts.board_name, "normal": "z", "min_mm": [round_mm(x0), round_mm(y0), round_mm(z0)],
                     "size_mm": [round_mm(board.width_mm), round_mm(board.height_mm), round_mm(t)], "material": mat_name,
                     "source": f"{board.source} ({board.format})",
                     "outline_mm": [[[round_mm(x), round_mm(y)] for x, y in line] for line in board.outline],
-                    "merged_parts": _merged_entries(decisions)}],
+                    **_coverage_entry(board), "merged_parts": _merged_entries(decisions)}],
         "parts": standoffs,
         "components": components,
     }
@@ -523,6 +532,14 @@ def _merged_entries(decisions: list) -> list:
                                            round_mm(d.height_mm or MERGED_UNKNOWN_HEIGHT_MM)],
                                "footprint": d.footprint.library}))
     return out
+
+
+def _coverage_entry(board: BoardDesign) -> dict:
+    """The board's ``copper_coverage`` (measured, front to back) for the layout, {} when not measured."""
+    if not board.coverage:
+        return {}
+    return {"copper_coverage": Note([round(c, 4) for c in board.coverage], "measured from the file's zones, tracks, "
+                                    "vias and pads within the outline, front to back (ecad/kicad_copper.py)")}
 
 
 def _mounting(hs: HousingOptions) -> dict:
@@ -616,9 +633,10 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
     size = [0.0, 0.0, 0.0]
     size[a0], size[a1], size[axis] = board.width_mm, board.height_mm, board.thickness_mm
     mat_name, mat_table = _board_material_entry(board, decisions, board_name)
+    target.pop("copper_coverage", None)
     target.update(size_mm=[round_mm(v) for v in size], material=mat_name, source=f"{board.source} ({board.format})",
                   outline_mm=[[[round_mm(x), round_mm(y)] for x, y in line] for line in board.outline],
-                  merged_parts=_merged_entries(decisions))
+                  **_coverage_entry(board), merged_parts=_merged_entries(decisions))
     data.setdefault("materials", {})[mat_name] = mat_table
     old = {c.get("name") for c in data.get("components", []) if isinstance(c, dict) and c.get("board") == board_name}
     data["components"] = [c for c in data.get("components", []) if c.get("name") not in old]
@@ -645,10 +663,12 @@ def replace_board(layout_path: str, board_name: str, board: BoardDesign, opts: I
     bodies, snapped = snap_soft_parts(board, modelled, bodies, fixed, (), opts.exact)
     if snapped:
         notes.append(snap_note(exact, bodies, snapped))
+    mats = {"board": (mat_name, mat_table)}
     for d in modelled:
         ref = d.footprint.ref
         data["components"].append(_component(board, d, names[ref], board_name, bodies[ref], ref in hard,
-                                             ref in regulators and ref not in opts.powers, snapped.get(ref, "")))
+                                             ref in regulators and ref not in opts.powers, snapped.get(ref, ""), mats))
+    data["materials"].update({k: v for k, v in mats.items() if k != "board"})
     if opts.electrical:
         new = _renamed_electrical(opts.electrical, names)
         data["electrical"] = new["electrical"]

@@ -1,7 +1,8 @@
 """A multilayer board's effective orthotropic properties from its stack-up: the rule of mixtures.
 
-A board of thickness t with copper layers of thicknesses t_i, each covering a fraction ``coverage`` of the
-board, holds a copper volume fraction f = coverage * sum(t_i) / t. Heat along the board runs through the
+A board of thickness t with copper layers of thicknesses t_i, layer i covering a fraction c_i of the board
+(one ``coverage`` for all, or each layer's as measured from the board file), holds a copper volume fraction
+f = sum(c_i t_i) / t. Heat along the board runs through the
 copper and the laminate side by side (parallel), across it through them in turn (series)::
 
     k_in_plane = f k_Cu + (1 - f) k_FR4          k_through = 1 / (f / k_Cu + (1 - f) / k_FR4)
@@ -15,6 +16,8 @@ added to the board's mass and heat capacity (``merged_mass_kg``, ``merged_heat_c
 """
 
 from __future__ import annotations
+
+import math
 
 from imutherm import InputError
 from imutherm.geometry.materials import Material
@@ -41,15 +44,19 @@ def board_material(name: str, thickness_mm: float, copper_um, *, coverage: float
     name : str, the material's name
     thickness_mm : float [mm], the board thickness
     copper_um : sequence of float [um], each copper layer's thickness
-    coverage : float [-], the copper coverage of each layer
+    coverage : float [-], the copper coverage of every layer, or a sequence of each layer's [-] (measured)
     merged_mass_kg, merged_heat_capacity_J_K : float [kg], [J/K], of the parts merged into the board
     area_mm2 : float [mm^2], the board's area (needed with merged parts)
     note : str, appended to the source (what was merged)
     """
     copper = [float(t) for t in copper_um]
-    if not copper or thickness_mm <= 0 or not 0 < coverage <= 1:
-        raise InputError(f"board material {name!r}: needs a thickness > 0, copper layers and 0 < coverage <= 1")
-    f = coverage * sum(copper) * 1e-3 / thickness_mm
+    measured = not isinstance(coverage, (int, float))
+    cover = [float(c) for c in coverage] if measured else [float(coverage)] * len(copper)
+    if (not copper or not thickness_mm > 0 or len(cover) != len(copper)
+            or not all(0 <= c <= 1 for c in cover) or not sum(cover) > 0):
+        raise InputError(f"board material {name!r}: needs a thickness > 0, copper layers and a coverage of each "
+                         f"(0..1, not all 0)")
+    f = sum(c * t for c, t in zip(cover, copper)) * 1e-3 / thickness_mm
     if not 0 < f < 1:
         raise InputError(f"board material {name!r}: {len(copper)} copper layers of {sum(copper):g} um in all do not "
                          f"fit a {thickness_mm:g} mm board")
@@ -59,7 +66,8 @@ def board_material(name: str, thickness_mm: float, copper_um, *, coverage: float
     rho = mass_cu + mass_fr4
     c = (mass_cu * COPPER["specific_heat"] + mass_fr4 * FR4["specific_heat"]) / rho
     source = (f"{len(copper)} copper layers ({', '.join(f'{t:g}' for t in copper)} um) in a {thickness_mm:g} mm FR-4 "
-              f"board at {coverage:.0%} coverage: copper volume fraction {f:.4f}; rule of mixtures (in-plane parallel, "
+              f"board at {_coverage_text(cover, measured)}: copper volume fraction {f:.4f}; rule of mixtures "
+              f"(in-plane parallel, "
               f"through series; Lemczyk et al. 1992) with FR-4 k 0.3, rho 1850, c 1100 and Cu k 398, rho 8933, c 385; "
               f"solder-mask emissivity 0.9 (assumed)")
     if merged_mass_kg or merged_heat_capacity_J_K:
@@ -74,3 +82,46 @@ def board_material(name: str, thickness_mm: float, copper_um, *, coverage: float
     if note:
         source += f"; {note}"
     return Material(name, round(k_in, 4), round(k_th, 4), round(rho, 2), round(c, 2), MASK_EMISSIVITY, source)
+
+
+def _coverage_text(cover: list, measured: bool) -> str:
+    if not measured:
+        return f"{cover[0]:.0%} coverage"
+    return f"measured coverage {', '.join(f'{c:.1%}' for c in cover)} (front to back)"
+
+
+#: hole-wall copper of a plated via [um]: 25 um, IPC-6012 class 3's least average (class 1-2: 20 um), the figure
+#: TI's PowerPAD note SLMA002 and the library's ``pcb_via_field`` take (recalled, not checked against the text)
+PLATING_UM = 25.0
+
+
+def via_field_material(name: str, board: Material, drills_mm, area_mm2: float,
+                       plating_um: float = PLATING_UM) -> Material:
+    """The board under an exposed pad with vias: the board's material with the vias' copper barrels in parallel
+    through it.
+
+    Each via of finished hole d (KiCad's drill) has a plated barrel of wall t outside it, a copper ring of area
+    a = pi t (d + t); N vias in a pad of area A are a copper area fraction phi = sum(a) / A, and (unfilled
+    barrels, air inside; the barrels run straight through the board)::
+
+        k_through = phi k_Cu + (1 - phi) k_board_through        k_in_plane = k_board_in_plane
+
+    with rho and c mixed by volume and mass as :func:`board_material` does. Lengths [mm], t [um]."""
+    drills = [float(d) for d in drills_mm]
+    if not drills or not area_mm2 > 0 or not all(d > 0 for d in drills) or not plating_um > 0:
+        raise InputError(f"via field {name!r}: needs vias of drill > 0, a pad area > 0 and a plating > 0")
+    t = plating_um * 1e-3
+    phi = sum(math.pi * t * (d + t) for d in drills) / area_mm2
+    if not 0 < phi < 1:
+        raise InputError(f"via field {name!r}: {len(drills)} vias' barrels ({phi:.0%}) do not fit a "
+                         f"{area_mm2:g} mm^2 pad")
+    k_th = phi * COPPER["k"] + (1 - phi) * board.k_through
+    mass_cu, mass_b = phi * COPPER["density"], (1 - phi) * board.density
+    rho = mass_cu + mass_b
+    c = (mass_cu * COPPER["specific_heat"] + mass_b * board.specific_heat) / rho
+    sizes = sorted(set(round(d, 3) for d in drills))
+    source = (f"{len(drills)} vias of {', '.join(f'{d:g}' for d in sizes)} mm drill under a {area_mm2:.3g} mm^2 pad, "
+              f"{plating_um:g} um barrels (IPC-6012 class 3 average, recalled): copper area fraction {phi:.4f} = "
+              f"sum(pi t (d + t)) / A; through-plane parallel {phi:.4f} x 398 + {1 - phi:.4f} x "
+              f"{board.k_through:g} W/m K; in-plane, rho, c: the board's ({board.name}) with the barrels' copper")
+    return Material(name, board.k_in_plane, round(k_th, 4), round(rho, 2), round(c, 2), board.emissivity, source)

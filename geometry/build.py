@@ -4,7 +4,10 @@
 component packages with their dies and pads, the scheme's bond lines and the
 cavity fill, then checks them: no overlapping solids (a die and pad may sit
 inside their package; the fill takes the free space), every part inside the
-cavity, every component on its board.
+cavity, every component on its board. A board is its rectangle here; a board
+whose true outline (``outline_mm``) has cut-outs, slots or a shaped edge has its
+volume from that outline, and the mesh takes the cells outside it out of the
+board (:mod:`imutherm.geometry.outline`).
 """
 
 from __future__ import annotations
@@ -16,9 +19,10 @@ import numpy as np
 from imutherm import InputError
 from imutherm.geometry.layout import AXES, LayoutSpec, SchemeSpec, load_layout
 from imutherm.geometry.materials import Material, get_material
+from imutherm.geometry.outline import board_loops, cuts_board, outline_area
 
 MM = 1e-3  # [m per mm]
-VIA_FIELD_MATERIAL = "pcb_via_field"  # board material under an exposed pad with thermal vias
+VIA_FIELD_MATERIAL = "pcb_via_field"  # board material under an exposed pad with thermal vias (a layout's default)
 _TOL = 1e-9  # [m] geometric tolerance for touching faces
 
 
@@ -172,7 +176,7 @@ def _component_parts(layout: LayoutSpec, comp, board, side: str) -> list:
                             parent=comp.name))
             if comp.vias:
                 thick = board.size_mm[n]
-                out.append(Part(comp.name + "_vias", "vias", VIA_FIELD_MATERIAL, *box(pu, pv, -thick, 0.0),
+                out.append(Part(comp.name + "_vias", "vias", comp.vias_material, *box(pu, pv, -thick, 0.0),
                                 normal=board.normal, parent=board.name))
         out.append(Part(comp.name + "_die", "die", "silicon",
                         *box(du, dv, comp.die_base_mm, comp.die_base_mm + dt), power_W=comp.power_W,
@@ -277,6 +281,11 @@ def build_geometry(layout: LayoutSpec | str | None = None, scheme: str | None = 
     _check(layout, sch, parts, cavity)
 
     volumes = {p.name: p.box_volume for p in parts}
+    for b in layout.boards:   # a board cut by its true outline: the outline's area (imutherm.geometry.outline)
+        loops = board_loops(b.outline_mm)
+        a0, a1 = _in_plane(b.normal)
+        if loops and cuts_board(loops, b.size_mm[a0], b.size_mm[a1]):
+            volumes[b.name] = outline_area(loops) * b.size_mm[AXES.index(b.normal)] * MM**3
     for p in parts:  # dies and pads are carved out of their package, via fields out of their board
         if p.parent and p.kind in ("die", "pad", "vias"):
             volumes[p.parent] -= volumes[p.name]

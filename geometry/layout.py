@@ -16,6 +16,7 @@ from imutherm import InputError
 from imutherm.geometry.electrical import ElectricalSpec, parse_electrical, rail_losses
 from imutherm.geometry.layout_files import builtin_layouts, default_layout_path, resolve_layout  # noqa: F401
 from imutherm.geometry.materials import load_library, material_from_table, register_materials
+from imutherm.geometry.outline import MAX_OUTLINE_POINTS, coverage_from_table, outline_from_table  # noqa: F401
 from imutherm.reference_data import parse_reference
 from imutherm.textio import quote, read_text
 
@@ -78,9 +79,12 @@ class MountingSpec:
 class BoardSpec:
     """A PCB: global lower corner and size [mm]; ``normal`` is its thin axis.
 
-    The model is the rectangle; an imported board also keeps, for drawings and reports:
-    outline_mm : tuple of polylines or None, the true outline, each a tuple of (u, v) board-local points [mm]
+    The board is the rectangle, less what its true outline leaves out; an imported board also keeps:
+    outline_mm : tuple of polylines or None, the true outline, each a tuple of (u, v) board-local points [mm];
+        where they close into loops, the mesh's board is what the loops fill (cut-outs and slots are the
+        cavity's fill, :mod:`imutherm.geometry.outline`)
     source : str or None, the file the board was imported from (and its format)
+    copper_coverage : tuple of float [-], each copper layer's coverage measured from the file, front to back
     """
 
     name: str
@@ -91,6 +95,7 @@ class BoardSpec:
     outline_mm: tuple | None = None
     source: str | None = None
     merged_parts: tuple = ()
+    copper_coverage: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -131,7 +136,8 @@ class ComponentSpec:
     die_mm : (u, v, thickness) of the die, centred, ``die_base_mm`` above the board face [mm]
     exposed_pad : the die sits on a copper pad / tab soldered to the board
     pad_mm : (u, v) footprint of that pad [mm] (default: the die's)
-    vias : a thermal-via field through the board under the pad
+    vias : a thermal-via field through the board under the pad; vias_material : its material (default the
+        library's ``pcb_via_field``; an import computes one from the file's vias)
     power_W : float [W] dissipated in the die
     power_source : str, where ``power_W`` comes from (``layout power_W``, or the electrical design's
         formula for a rail's regulator without an explicit ``power_W``)
@@ -154,6 +160,7 @@ class ComponentSpec:
     axis: str | None
     power_source: str = "layout power_W"
     footprint: str | None = None
+    vias_material: str = "pcb_via_field"
     height_source: str | None = None
 
 
@@ -491,6 +498,7 @@ def _parse_boards(path, top, mats, names: _Names) -> list:
         b = _Table(path, f"boards[{i}]", t, {"name": "str", "normal": "x|y|z", "min_mm": "3 numbers",
                                               "size_mm": "3 sizes", "material": "name",
                                               "outline_mm": "polylines of (u, v)", "source": "text",
+                                              "copper_coverage": "fractions, front to back",
                                               "merged_parts": "[{ name, side, center_mm, size_mm, footprint }]"})
         b.where = f"board {quote(b.string('name'), 60)}"
         spec = BoardSpec(b.string("name"), b.string("normal", choices=AXES), b.vector("min_mm", 3),
@@ -499,42 +507,17 @@ def _parse_boards(path, top, mats, names: _Names) -> list:
         if spec.size_mm[AXES.index(spec.normal)] != min(spec.size_mm):
             b.fail("size_mm", f"the size along the normal {spec.normal!r} must be the board thickness (smallest size)")
         spec = replace(spec, outline_mm=_outline(b, spec), source=b.string("source", None),
+                       copper_coverage=coverage_from_table(b.get("copper_coverage", None), b.fail),
                        merged_parts=_merged_parts(path, b, spec))
         names.claim(spec.name, b.where)
         boards.append(spec)
     return boards
 
 
-#: most points of a board outline (a real outline with its arcs drawn as polylines has a few hundred)
-MAX_OUTLINE_POINTS = 20000
-
-
 def _outline(b: _Table, board: BoardSpec):
-    """``outline_mm``: polylines of (u, v) board-local points [mm] within the board's rectangle (drawings only)."""
-    value = b.get("outline_mm", None)
-    if value is None:
-        return None
-    if not isinstance(value, list) or not value:
-        b.fail("outline_mm", "must be a non-empty list of polylines, each a list of [u, v] points [mm]")
+    """``outline_mm`` checked (:func:`imutherm.geometry.outline.outline_from_table`)."""
     a0, a1 = (a for a in range(3) if a != AXES.index(board.normal))
-    span = (board.size_mm[a0], board.size_mm[a1])
-    lines, count = [], 0
-    for line in value:
-        if not isinstance(line, list) or len(line) < 2:
-            b.fail("outline_mm", f"each polyline needs at least 2 [u, v] points, got {quote(line, 80)}")
-        pts = []
-        for p in line:
-            if (not isinstance(p, list) or len(p) != 2
-                    or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in p)):
-                b.fail("outline_mm", f"points must be [u, v] pairs of finite numbers [mm], got {quote(p, 80)}")
-            if not all(-1e-3 <= v <= s + 1e-3 for v, s in zip(p, span)):
-                b.fail("outline_mm", f"point {p} lies outside the board (0..{span[0]:g}, 0..{span[1]:g} mm)")
-            pts.append((float(p[0]), float(p[1])))
-        count += len(pts)
-        if count > MAX_OUTLINE_POINTS:
-            b.fail("outline_mm", f"more than {MAX_OUTLINE_POINTS} points")
-        lines.append(tuple(pts))
-    return tuple(lines)
+    return outline_from_table(b.get("outline_mm", None), (board.size_mm[a0], board.size_mm[a1]), b.fail)
 
 
 def _merged_parts(path, b: _Table, board: BoardSpec) -> tuple:
@@ -577,7 +560,8 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
                    {"name": "str", "board": "board name", "side": "top|bottom", "center_mm": "(u, v)",
                     "size_mm": "(u, v, height)", "material": "name", "die_mm": "(u, v, thickness)",
                     "die_base_mm": "mm", "exposed_pad": "bool", "pad_mm": "(u, v)", "vias": "bool",
-                    "power_W": "W", "axis": "x|y|z", "footprint": "text", "height_source": "text"})
+                    "vias_material": "name", "power_W": "W", "axis": "x|y|z", "footprint": "text",
+                    "height_source": "text"})
         name = c.string("name")
         c.where = f"component {quote(name, 60)}"
         board = c.string("board")
@@ -603,11 +587,14 @@ def _parse_components(path, top, mats, names: _Names, boards) -> list:
             c.fail("vias", f"must be true or false, got {vias!r}")
         if vias and not pad:
             c.fail("vias", "a via field sits under an exposed pad: set exposed_pad = true")
+        if "vias_material" in t and not vias:
+            c.fail("vias_material", "needs vias = true")
         spec = ComponentSpec(name, board, c.string("side", choices=("top", "bottom")), c.vector("center_mm", 2),
                              size, c.material("material", mats), die, die_base, pad,
                              (pad_mm or (die[:2] if pad else None)), vias,
                              c.number("power_W", None, nonneg=True, bounds=POWER_BOUNDS),
                              c.string("axis", None, choices=AXES), footprint=c.string("footprint", None),
+                             vias_material=c.material("vias_material", mats, "pcb_via_field"),
                              height_source=c.string("height_source", None))
         names.claim(name, c.where)
         for sub in ("_die", "_pad", "_vias"):

@@ -25,14 +25,23 @@ import numpy as np
 from imutherm import InputError
 from imutherm.geometry.build import MM, Geometry
 from imutherm.geometry.grid import FACE_NAMES, TensorGrid
+from imutherm.geometry.layout import AXES
+from imutherm.geometry.outline import board_loops, cuts_board, edge_lines, outside_cells
 
 DEFAULT_MAX_CELL_MM = 2.0  # [mm] default largest cell edge; the mesh convergence study: docs/benchmarks/reference.md
 DEFAULT_MIN_CELLS = 2      # cells across the thinnest dimension of every part
 BOARD_CELLS_FACTOR = 2     # boards, via fields, standoffs: this many times min_cells across
 _FACTOR_KINDS = ("board", "vias", "box")
-#: [mm] part faces closer than this share one grid line (1 um: no layer of a unit is that thin; faces a CAD
-#: export puts a rounding error apart make no sliver cells)
-LINE_TOL_MM = 1e-3
+#: [mm] part faces closer than this share one grid line (20 um: no layer of a unit is that thin, the thinnest
+#: cells are 50 um; faces a CAD export puts a rounding error apart, or a board's parts placed a few um out of
+#: line, make no sliver cells: cube-main's four stepper drivers 6 um apart made a 6 um row of cells across the
+#: unit and tripled its steady solve's CG iterations)
+LINE_TOL_MM = 0.02
+
+#: [mm] an outline edge's grid line is left out when another line lies closer than this (the cells follow the
+#: edge by their centres instead, at most this far off): a sliver of 5 um across the whole unit took a board's
+#: steady solve from 75 to 274 CG iterations
+EDGE_GAP_MM = 0.25
 
 #: names of the outer faces of the housing, by grid face
 HOUSING_FACE_NAMES = {"xmin": "side_xmin", "xmax": "side_xmax", "ymin": "side_ymin", "ymax": "side_ymax",
@@ -94,7 +103,16 @@ def _face_lines(geometry: Geometry, axis: int) -> np.ndarray:
         pts += [p.lo[axis], p.hi[axis]]
     v = np.unique(np.asarray(pts, float))
     keep = np.concatenate([[True], np.diff(v) >= LINE_TOL_MM * MM])
-    return v[keep]
+    v = v[keep]
+    for board, loops in _cut_boards(geometry):   # a cut-out's or slot's long straight edges
+        n = AXES.index(board.normal)
+        if axis != n:
+            k = [a for a in range(3) if a != n].index(axis)
+            for c in edge_lines(loops, k):   # one near another line would make a sliver of cells across the unit
+                c = (board.min_mm[axis] + c) * MM
+                if np.min(np.abs(v - c)) >= EDGE_GAP_MM * MM:
+                    v = np.insert(v, np.searchsorted(v, c), c)
+    return v
 
 
 def _line_index(lines: np.ndarray, values) -> np.ndarray:
@@ -113,7 +131,32 @@ def _paint(geometry: Geometry, lines: tuple) -> np.ndarray:
         p = parts[i]
         idx = tuple(slice(*_line_index(v, [p.lo[a], p.hi[a]])) for a, v in enumerate(lines))
         cell_part[idx] = i
+    fill = next((i for i, p in enumerate(parts) if p.kind == "fill"), None)
+    index = {p.name: i for i, p in enumerate(parts)}
+    for board, loops in _cut_boards(geometry) if fill is not None else ():
+        i = index[board.name]
+        p = parts[i]
+        idx = tuple(slice(*_line_index(v, [p.lo[a], p.hi[a]])) for a, v in enumerate(lines))
+        n = AXES.index(board.normal)
+        a0, a1 = (a for a in range(3) if a != n)
+        centres = [0.5 * (lines[a][idx[a]] + lines[a][idx[a].start + 1:idx[a].stop + 1]) / MM - board.min_mm[a]
+                   for a in (a0, a1)]
+        out = np.expand_dims(outside_cells(loops, *centres), n)   # (u, v) -> the board's (x, y, z) order
+        block = cell_part[idx]
+        block[(block == i) & out] = fill
     return cell_part
+
+
+def _cut_boards(geometry: Geometry) -> list:
+    """(board spec, closed loops [mm]) of the boards whose true outline takes cells off their rectangle."""
+    out = []
+    for b in geometry.layout.boards:
+        loops = board_loops(b.outline_mm)
+        n = AXES.index(b.normal)
+        a0, a1 = (a for a in range(3) if a != n)
+        if loops and cuts_board(loops, b.size_mm[a0], b.size_mm[a1]):
+            out.append((b, loops))
+    return out
 
 
 def _fill_runs(solid: np.ndarray, widths: np.ndarray, axis: int) -> tuple:

@@ -68,13 +68,49 @@ class ReferenceLog:
 BROAD_KEYS = ("imu_gyr", "imu_acc", "opt_quat", "movement")
 
 
+def _broad_rate(path, rate) -> float:
+    """The ``sampling_rate`` attribute as a positive number [Hz], or a one-line InputError saying what it is."""
+    r = np.asarray(rate)
+    if r.dtype.kind in "SUO":
+        text = r.item() if r.size == 1 else r.tolist()
+        text = text.decode("utf-8", "replace") if isinstance(text, bytes) else text
+        raise InputError(f"{path}: attribute sampling_rate is text ({str(text)[:40]!r}); valid: a number [Hz]")
+    if r.size != 1 or r.dtype.kind not in "fiu":
+        raise InputError(f"{path}: attribute sampling_rate is {r.dtype} of shape {r.shape}; valid: one number [Hz]")
+    v = float(r.reshape(-1)[0])
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(f"{path}: attribute sampling_rate is {v}; valid: a positive number [Hz]")
+    return v
+
+
+def _broad_dataset(h, key, path, cols) -> np.ndarray:
+    """Dataset ``key`` of the open BROAD file ``h`` as a float array (N, cols) (cols None: (N,)); a group, a
+    scalar, text or a wrong shape refused in one line naming the file and the key."""
+    import h5py
+
+    obj = h[key]
+    if not isinstance(obj, h5py.Dataset):
+        raise InputError(f"{path}: '{key}' is a {type(obj).__name__.lower()}, not a dataset; valid: BROAD's "
+                         f"datasets {', '.join(BROAD_KEYS)} at the file's top level")
+    want = "(N,)" if cols is None else f"(N, {cols})"
+    if obj.shape == () or obj.shape is None:
+        raise InputError(f"{path}: '{key}' is a scalar dataset; valid: an array {want}")
+    if obj.dtype.kind not in "fiub":
+        raise InputError(f"{path}: '{key}' holds {obj.dtype} ({'text' if obj.dtype.kind in 'SUO' else 'not numbers'}); "
+                         f"valid: numbers, an array {want}")
+    if (cols is None and len(obj.shape) != 1) or (cols is not None and (len(obj.shape) != 2 or obj.shape[1] != cols)):
+        raise InputError(f"{path}: '{key}' has shape {obj.shape}; valid: {want}")
+    return np.asarray(obj[()], float if obj.dtype.kind != "b" else bool)
+
+
 def read_broad_hdf5(path) -> ReferenceLog:
     """Read a BROAD trial (HDF5; h5py): ``imu_gyr`` [rad/s], ``imu_acc`` [m/s^2] in the IMU frame, ``opt_quat``
     (w, x, y, z; IMU -> ENU, synchronised and aligned to the IMU frame by the data set's authors; NaN where the
     optical system lost the body), ``movement`` (the rows scored) and the attribute ``sampling_rate`` [Hz]; rows
     at t = k / rate. The data set's rows keep a regular time base: the IMU's sample-and-hold repeats are rows
     like any other (:func:`true_samples` finds them). Refused in one line (InputError, naming the file and what
-    is missing) for a file that is not HDF5 or lacks a dataset or the rate."""
+    is wrong) for a file that is not HDF5, lacks a dataset or the rate, or is not shaped like BROAD (a group
+    where a dataset should be, a scalar dataset, text or byte strings, a rate given as text)."""
     import h5py
 
     path = Path(path)
@@ -85,17 +121,17 @@ def read_broad_hdf5(path) -> ReferenceLog:
             if missing or rate is None:
                 raise InputError(f"{path}: not a BROAD trial ({', '.join(missing) or 'sampling_rate'} missing); "
                                  f"valid: HDF5 with datasets {', '.join(BROAD_KEYS)} and attribute sampling_rate")
-            gyro, acc, quat = (np.asarray(h[k][:], float) for k in BROAD_KEYS[:3])
-            movement = np.asarray(h["movement"][:], bool)
+            rate = _broad_rate(path, rate)
+            gyro, acc, quat = (_broad_dataset(h, k, path, c) for k, c in zip(BROAD_KEYS[:3], (3, 3, 4)))
+            movement = _broad_dataset(h, "movement", path, None).astype(bool)
     except OSError as exc:
         raise InputError(f"{path}: cannot be read as HDF5 ({exc})") from None
-    rate = float(rate)
     n = len(gyro)
-    if not (math.isfinite(rate) and rate > 0) or acc.shape != (n, 3) or gyro.shape != (n, 3) \
-            or quat.shape != (n, 4) or movement.shape != (n,):
-        raise InputError(f"{path}: BROAD datasets of unequal length or shape (gyro {gyro.shape}, acc {acc.shape}, "
-                         f"quat {quat.shape}, movement {movement.shape}) or rate {rate}; valid: (N,3), (N,3), (N,4), "
-                         "(N,) and a positive rate [Hz]")
+    if acc.shape != (n, 3) or quat.shape != (n, 4) or movement.shape != (n,):
+        raise InputError(f"{path}: BROAD datasets of unequal length (gyro {gyro.shape}, acc {acc.shape}, "
+                         f"quat {quat.shape}, movement {movement.shape}); valid: (N,3), (N,3), (N,4), (N,)")
+    if n < 2:
+        raise InputError(f"{path}: {n} rows; valid: a BROAD trial of at least 2 rows")
     bad = ~(np.all(np.isfinite(gyro), axis=1) & np.all(np.isfinite(acc), axis=1))
     if np.any(bad):
         raise InputError(f"{path}: row {int(np.argmax(bad))} lacks an IMU value; valid: finite gyro and "

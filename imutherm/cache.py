@@ -6,6 +6,8 @@ the source of the modules that compute the models: a change of the layout, the s
 mesh, the model options, the knob set or the code is a different key, so a stale entry is never read.
 
 * Folder: ``$IMUTHERM_CACHE_DIR`` if set, else the user cache folder (``platformdirs``), ``.../imutherm``.
+* Switch: ``$IMUTHERM_CACHE`` ``0``, ``off``, ``no`` or ``false`` turns the cache off (nothing read or written),
+  as each command's ``--no-cache`` does for one run.
 * Size limit: ``$IMUTHERM_CACHE_MB`` (default :data:`DEFAULT_LIMIT_MB`); after each write the least
   recently used entries (a hit refreshes an entry's time) are removed until the folder fits.
 * Interrupted writes and concurrent runs: a value is written to a temporary file in the same folder and
@@ -39,24 +41,50 @@ _SUFFIX = ".pkl"
 _TMP_PREFIX = ".tmp-"
 
 
-def _code_version() -> str:
-    """SHA-256 (16 hex) of the source of the modules a cached model depends on (thermal, unit, geometry, layouts)."""
-    root = Path(__file__).resolve().parent
+def _package_dir(pkg: str) -> Path:
+    """The folder of the subpackage ``imutherm.<pkg>`` (found, not imported: its ``__init__`` does not run)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec(f"imutherm.{pkg}")
+    if spec is None or not spec.submodule_search_locations:   # pragma: no cover - every subpackage is installed
+        return Path(__file__).resolve().parent.parent / pkg
+    return Path(next(iter(spec.submodule_search_locations))).resolve()
+
+
+def source_version(files) -> str:
+    """SHA-256 (16 hex) of the named source files, each ``(subpackage, path inside it)``, e.g.
+    ``("studies", "thermal_study.py")``; a folder's path (``("unit", "effects")``) takes its ``.py`` and ``.toml``
+    files, recursively. Files are read, never imported (the key of a cached value stays cheap to compute)."""
     h = hashlib.sha256()
-    for pkg in ("thermal", "unit", "geometry", "layouts"):
-        try:
-            import importlib
-            d = Path(importlib.import_module(f"imutherm.{pkg}").__file__).resolve().parent
-        except ImportError:  # pragma: no cover - every subpackage is installed
-            d = root.parent / pkg
-        for f in sorted(d.glob("*.py")) + sorted(d.glob("*.toml")):
-            h.update(f.name.encode())
+    for pkg, rel in files:
+        base = _package_dir(pkg) if pkg != "imutherm" else Path(__file__).resolve().parent
+        target = base / rel if rel else base
+        found = ([target] if target.is_file() else
+                 sorted(f for ext in ("*.py", "*.toml") for f in target.rglob(ext) if "__pycache__" not in f.parts))
+        for f in found:
+            h.update(f"{pkg}/{f.relative_to(base).as_posix()}".encode())
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
 
 
+def _code_version() -> str:
+    """SHA-256 (16 hex) of the source of the modules a cached model depends on (thermal, unit, geometry and
+    layouts, their subfolders included, and the physical constants)."""
+    return source_version([(pkg, "") for pkg in ("thermal", "unit", "geometry", "layouts")]
+                          + [("imutherm", "constants.py")])
+
+
 #: the models' code version (changes with any change of their source)
 CODE_VERSION = _code_version()
+
+
+#: environment variable switching the cache off (``0``, ``off``, ``no``, ``false``; anything else: on)
+ENABLE_ENV = "IMUTHERM_CACHE"
+
+
+def enabled() -> bool:
+    """False when ``$IMUTHERM_CACHE`` switches the cache off (``0``, ``off``, ``no``, ``false``)."""
+    return os.environ.get(ENABLE_ENV, "").strip().lower() not in ("0", "off", "no", "false")
 
 
 def cache_dir() -> Path:
@@ -114,11 +142,17 @@ def _path(key: str, folder: Path) -> Path:
 
 def load(key: str, folder: Path | None = None):
     """The value stored under ``key``, or None (a miss: absent, truncated, corrupted or another key's)."""
+    return load_status(key, folder)[0]
+
+
+def load_status(key: str, folder: Path | None = None) -> tuple:
+    """(value or None, status): status ``hit``, ``absent`` (no entry) or ``unreadable`` (an entry that is
+    truncated, corrupted, another key's or does not unpickle: deleted, so the caller rebuilds it)."""
     p = _path(key, folder or cache_dir())
     try:
         data = p.read_bytes()
     except OSError:
-        return None
+        return None, "absent"
     head = len(_MAGIC) + 64 + 64
     ok = (len(data) > head and data.startswith(_MAGIC) and data[len(_MAGIC):len(_MAGIC) + 64] == key.encode()
           and hashlib.sha256(data[head:]).hexdigest().encode() == data[len(_MAGIC) + 64:head])
@@ -129,12 +163,12 @@ def load(key: str, folder: Path | None = None):
             ok = False
     if not ok:
         _remove(p)
-        return None
+        return None, "unreadable"
     try:
         os.utime(p)   # least recently *used*: a hit refreshes the entry
     except OSError:
         pass
-    return value
+    return value, "hit"
 
 
 def store(key: str, value, folder: Path | None = None) -> Path | None:
@@ -189,16 +223,19 @@ def _remove(p: Path) -> None:
 def cached(kind: str, parts: tuple, build, *, use_cache: bool = True, progress=None):
     """``build()``, or its value stored under the key of (``kind``, ``parts``): (value, hit: bool).
 
-    use_cache False: build, neither read nor write. progress: callable(str) told of a hit.
+    use_cache False (or ``$IMUTHERM_CACHE`` off, :func:`enabled`): build, neither read nor write.
+    progress: callable(str) told of a hit, and of an entry that could not be read (rebuilt).
     """
-    if not use_cache:
+    if not (use_cache and enabled()):
         return build(), False
     key = key_of(kind, *parts)
-    value = load(key)
-    if value is not None:
+    value, status = load_status(key)
+    if status == "hit":
         if progress:
             progress(f"{kind}: from the cache ({cache_dir()})")
         return value, True
+    if status == "unreadable" and progress:
+        progress(f"{kind}: the cache entry {key[:12]} could not be read: recomputed")
     value = build()
     store(key, value)
     return value, False

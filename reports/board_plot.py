@@ -3,7 +3,9 @@
 Two panels in the board's own (u, v) coordinates [mm] (the board file's x, y with y up): the top side, and
 the bottom side seen through the board from the top (not mirrored, so a part lies where it lies in the
 top view). Modelled parts are filled (dies red), parts merged into the board are outlined, the standoffs
-under the board dashed, the model's rectangle dotted behind the true outline; sensor sites are marked.
+under the board dashed; the model's board is shaded: the true outline's area where it closes (cut-outs and
+slots left open, as the mesh has them), the rectangle (dotted) otherwise; sensor sites are marked. Each panel
+names its outer copper layer's measured coverage, the title every layer's.
 """
 
 from __future__ import annotations
@@ -12,10 +14,12 @@ import os
 from collections import defaultdict
 
 import matplotlib.pyplot as plt
+import numpy as np
 from matplotlib.patches import Rectangle
 
 from imutherm.geometry.build import MM, Geometry
 from imutherm.geometry.layout import AXES
+from imutherm.geometry.outline import board_loops, cuts_board, inside
 
 MODELLED, MERGED, DIE, STANDOFF, SITE = "#333333", "#7a9a88", "#c8402a", "#8a7a50", "#ff00aa"
 
@@ -42,8 +46,10 @@ def board_figure(geometry: Geometry, board_name: str):
     sites = defaultdict(list)
     for name, pos in geometry.sites.items():
         sites[tuple(round(float(v), 9) for v in pos)].append(name)
+    shade = _board_shade(board, w, h)
     for ax, side in zip(axes, ("top", "bottom")):
-        ax.add_patch(Rectangle((0, 0), w, h, fc="#2e8b57", alpha=0.18, ec="#2e8b57", ls=":", lw=1.0, zorder=0))
+        ax.add_patch(Rectangle((0, 0), w, h, fc="none", ec="#2e8b57", ls=":", lw=1.0, zorder=0))
+        ax.imshow(shade, extent=(0, w, 0, h), origin="lower", interpolation="nearest", zorder=0)
         for line in board.outline_mm or ():
             us, vs = zip(*line)
             ax.plot(us, vs, color="k", lw=1.3, zorder=1)
@@ -89,19 +95,40 @@ def board_figure(geometry: Geometry, board_name: str):
         ax.set_ylabel("v [mm]")
         n_mod = sum(1 for c in comps.values() if _side(c, lay, geometry) == side)
         n_mer = sum(1 for m in board.merged_parts if m.side == side)
+        cov = board.copper_coverage
+        copper = (f"; {'front' if side == 'top' else 'back'} copper {100 * cov[0 if side == 'top' else -1]:.0f} %"
+                  if cov else "")
         ax.set_title(f"{side} side{' (seen from the top, through the board)' if side == 'bottom' else ''}: "
-                     f"{n_mod} modelled, {n_mer} merged", fontsize=10)
+                     f"{n_mod} modelled, {n_mer} merged{copper}", fontsize=10)
     handles = [Rectangle((0, 0), 1, 1, fc=MODELLED, alpha=0.8, ec="k"), Rectangle((0, 0), 1, 1, fc=DIE),
                Rectangle((0, 0), 1, 1, fc="none", ec=MERGED), Rectangle((0, 0), 1, 1, fc="none", ec=STANDOFF, ls="--"),
-               plt.Line2D([], [], color="k"), Rectangle((0, 0), 1, 1, fc="#2e8b57", alpha=0.18, ec="#2e8b57", ls=":")]
+               plt.Line2D([], [], color="k"), Rectangle((0, 0), 1, 1, fc="#2e8b57", alpha=0.18, ec="none"),
+               Rectangle((0, 0), 1, 1, fc="none", ec="#2e8b57", ls=":")]
     fig.legend(handles, ["modelled part", "die", "merged into the board", "standoff", "true outline",
-                         "the model's board"], loc="lower center", ncol=6, fontsize=8, frameon=False,
-               bbox_to_anchor=(0.5, 0.0))
+                         "the model's board", "its bounding rectangle"], loc="lower center", ncol=7, fontsize=8,
+               frameon=False, bbox_to_anchor=(0.5, 0.0))
     src = board.source or "(no source file)"
+    cov = board.copper_coverage
+    copper = (f"; copper coverage measured, front to back: {', '.join(f'{100 * c:.0f} %' for c in cov)}" if cov
+              else "")
     fig.suptitle(f"{lay.name}: board {board_name!r}, {w:.2f} x {h:.2f} x {board.size_mm[axis]:g} mm, scheme "
-                 f"{geometry.scheme.name!r}\nfrom {src}", fontsize=10)
+                 f"{geometry.scheme.name!r}{copper}\nfrom {src}", fontsize=10)
     fig.tight_layout(rect=(0, 0.06, 1, 0.93))
     return fig
+
+
+def _board_shade(board, w: float, h: float, cell_mm: float = 0.1, max_cells: int = 1500):
+    """An RGBA image over the board's rectangle: the model's board (what its closed outline fills, the
+    rectangle when it does not close) shaded, the rest clear."""
+    cell = max(cell_mm, max(w, h) / max_cells)
+    us = (np.arange(max(1, int(np.ceil(w / cell)))) + 0.5) * cell
+    vs = (np.arange(max(1, int(np.ceil(h / cell)))) + 0.5) * cell
+    loops = board_loops(board.outline_mm)
+    gu, gv = np.meshgrid(us, vs)   # rows along v (the image's y)
+    fill = inside(loops, gu, gv) if loops and cuts_board(loops, w, h) else np.ones(gu.shape, bool)
+    image = np.zeros(gu.shape + (4,))
+    image[fill] = (0.18, 0.545, 0.341, 0.18)   # #2e8b57 at 18 %
+    return image
 
 
 def _side(comp, lay, geometry) -> str:

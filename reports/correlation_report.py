@@ -48,6 +48,11 @@ def _headline(res) -> tuple:
         head = f"Found: {n}  {p.name} = {v:.3g} {p.unit}  (95 %: {lo:.3g} to {hi:.3g})"
         return head, ("then " + ", ".join(res.named_effects[1:]) + "; " if len(res.named_effects) > 1 else "") + \
             effect_of(n).words
+    if res.verdict == "ambiguous" and res.explanations:
+        amb = [e for e in res.explanations if e.get("ambiguous")]
+        sub = "fitted: " + "; ".join(f"{e['name']} = {e['value']:.3g} {e['unit']} (moves the readings up to "
+                                     f"{e.get('change_K', math.nan):.2f} K)" for e in amb[:3])
+        return "Ambiguous: the data fit " + " or ".join(e["name"] for e in amb) + " equally", sub
     what = {"none": "Nothing to name: the re-tuned model predicts the held-out data within the noise",
             "discrepancy": "No effect named: the model's form is off (discrepancy), no library effect explains it",
             "not_in_library": "No effect named: something outside the library (not_in_library)",
@@ -71,7 +76,8 @@ def first_page_figure(res):
             ("corrected\n(physics)", h_phys, "tab:green")]
     if math.isfinite(h_term):
         bars.append(("corrected\n+ form term", h_term, "tab:olive"))
-    ax = fig.add_axes([0.07, 0.14, 0.5, 0.62])
+    tall = 0.56 if getattr(res, "next_experiment", None) else 0.62  # room for the next experiment's sentence
+    ax = fig.add_axes([0.07, 0.14, 0.5, tall])
     names = [b[0] for b in bars]
     vals = [b[1] if math.isfinite(b[1]) else 0.0 for b in bars]
     ax.bar(names, vals, color=[b[2] for b in bars])
@@ -84,7 +90,7 @@ def first_page_figure(res):
                  f"{2 * res.noise_K:.2f} K)", fontsize=12)
     ax.tick_params(labelsize=10)
     # the gap's shares: what the named finding/effects and re-tune explain, what the form term takes, what is left
-    ax2 = fig.add_axes([0.62, 0.14, 0.18, 0.62])
+    ax2 = fig.add_axes([0.62, 0.14, 0.18, tall])
     gap = h_nom if math.isfinite(h_nom) and h_nom > 0 else math.nan
     physics = max(gap - h_phys, 0.0) if math.isfinite(h_phys) else 0.0
     term = max(h_phys - h_term, 0.0) if math.isfinite(h_term) else 0.0
@@ -107,6 +113,12 @@ def first_page_figure(res):
     ax2.set_title("Where the gap went", fontsize=12)
     foot = [f"verdict: {res.verdict}; noise {res.noise_K:.3f} K; known form error "
             + ", ".join(f"{100 * v:.1f} % of the rise ({g})" for g, v in fs.items())]
+    nxt = getattr(res, "next_experiment", None)
+    if nxt:
+        for j, part in enumerate(textwrap.wrap(nxt["in_words"], 120)):
+            fig.text(0.05, 0.835 - 0.025 * j, part, fontsize=11, color="navy", weight="bold")
+    for x in getattr(res, "symptoms", ()):
+        foot.append(f"symptom: {x.words()}")
     if w.get("model") and w["model"] != "corrected":
         foot.append(f"written model: {w['model']} — {w['reason']}")
     for i, line in enumerate(foot):

@@ -20,7 +20,7 @@ from imutherm.io import write_json
 from imutherm.geometry.build import MM
 from imutherm.geometry.layout import AXES, load_layout
 from imutherm.site_table import write_site_table
-from imutherm.studies.thermal_study import SchemeResult, probe_table, result_summary, run_scheme
+from imutherm.studies.thermal_study import SchemeResult, probe_table, result_summary
 
 def paper_thermal(layout) -> dict | None:
     """The thermal figures of the paper ``layout`` declares (``[reference_data] paper_figures``; the reference
@@ -89,13 +89,15 @@ class Comparison:
 
 
 def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progress: bool = False,
-                    jobs: int | None = None, **run_kwargs) -> Comparison:
+                    jobs: int | None = None, use_cache: bool = True, **run_kwargs) -> Comparison:
     """Run every scheme (steady + transient by default) with the same mesh and model options.
 
     jobs : int, worker processes (default: min(2, CPUs), no more than the schemes); 1 solves the schemes one
         after another in this process. With more, they are solved side by side, the longest first, and the
         mesh-error estimates' refined solves (``estimate_mesh_error=True``, ~8x a scheme's memory) one at a
         time, as in the end-to-end study (:func:`imutherm.studies.end_to_end.run_study`).
+    use_cache : read each scheme's result from the disk cache when one of the same content is there, and keep it
+        there (:func:`imutherm.studies.end_to_end.thermal.cached_scheme_run`)
     **run_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme`
     """
     import time
@@ -117,7 +119,7 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
         for s in schemes:
             if progress:
                 print(f"scheme {s}: solving ...", flush=True)
-            runs[s] = run_scheme(layout, s, progress=progress, **run_kwargs)
+            runs[s] = _scheme_task(layout, s, {**run_kwargs, "progress": progress}, use_cache)
         return Comparison(runs, {s: result_summary(r) for s, r in runs.items()})
     if progress:
         print(f"solving {', '.join(schemes)} in {jobs} processes ...", flush=True)
@@ -125,7 +127,7 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
     pool = study_pool(jobs)
     try:
         order = longest_first(layout, schemes, run_kwargs.get("options") or ModelOptions())
-        futs = {pool.submit(_scheme_task, layout, s, run_kwargs): s for s in order}
+        futs = {pool.submit(_scheme_task, layout, s, run_kwargs, use_cache): s for s in order}
         for f in as_completed(futs):
             runs[futs[f]] = f.result()
             if progress:
@@ -137,15 +139,13 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
     return Comparison(runs, {s: result_summary(r) for s, r in runs.items()})
 
 
-def _scheme_task(layout, scheme: str, run_kwargs: dict) -> SchemeResult:
-    """One scheme in a worker of :func:`compare_schemes`: :func:`run_scheme`, then its mesh-error estimate under
-    the workers' lock (:func:`imutherm.studies.end_to_end.thermal.with_mesh_error`)."""
-    from imutherm.studies.end_to_end.thermal import with_mesh_error
+def _scheme_task(layout, scheme: str, run_kwargs: dict, use_cache: bool = True) -> SchemeResult:
+    """One scheme of :func:`compare_schemes` (in a worker or in this process): :func:`run_scheme`, then its
+    mesh-error estimate under the workers' lock, or the result from the disk cache
+    (:func:`imutherm.studies.end_to_end.thermal.cached_scheme_run`)."""
+    from imutherm.studies.end_to_end.thermal import cached_scheme_run
 
-    kw = dict(run_kwargs)
-    estimate = kw.pop("estimate_mesh_error", False)
-    res = run_scheme(layout, scheme, **kw)
-    return with_mesh_error(res) if estimate else res
+    return cached_scheme_run(layout, scheme, run_kwargs, use_cache)
 
 
 def board_plane_map(res: SchemeResult, board: str = "main") -> dict:

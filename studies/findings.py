@@ -11,7 +11,12 @@ housing gives 0.77, *is* what the correlation found (the blind campaign's cases,
 (:func:`imutherm.studies.correlation.verdict`): the model with the knob held at its nominal value (the others
 and the named effects re-fitted) against the model with it free, fitted without the discrepancy term:
 
-- **far**: the nominal value lies outside the fitted value's 95 % interval;
+- **far**: the nominal value lies outside the knob's 95 % **profile** interval
+  (:mod:`imutherm.studies.correlation.profile`: the knob held at each value, everything else re-fitted without
+  the discrepancy term, at a residual floor of the noise and the model's stated form error). Issue 58: the
+  Jacobian interval of a fit where other knobs or the term take over the knob's work spread to the whole source
+  range ([0.02, 0.9] for a cavity emissivity re-tuned to 0.228), so the rule could never fire; the finding's
+  ``ci95`` is the profile interval;
 - **evidence**: ΔAICc >= :data:`~imutherm.studies.correlation.MARGIN_NONE` for the free knob, and it explains
   at least :data:`~imutherm.studies.correlation.EXPLAIN_MIN_NOISE` noise sigmas of RMS;
 - **most of the gap**: the move alone (the nominal model with this knob at its fitted value) takes the RMS at the
@@ -22,7 +27,10 @@ and the named effects re-fitted) against the model with it free, fitted without 
   refit closes 67 % of the gap by the others, the move alone 97 %).
 
 Each finding is flagged ``contradicts_source`` when its value lies outside its source's range
-(:func:`source_range`) or at a bound of the re-tune.
+(:func:`source_range`). A knob that meets the rules **at a bound of the re-tune** is not a finding: the data
+push it past what its source allows, which is the model's form speaking (issue 58: a ``power_scale`` "finding"
+at its bound took a probe lag's place); it is a :class:`Symptom`, reported with how far the re-tuned model is
+off and where (scheme, site, phase; :func:`form_off`).
 """
 
 from __future__ import annotations
@@ -70,6 +78,10 @@ class Finding:
     heldout_fixed_K: float
     heldout_free_K: float
     gap_share: float
+    #: the profile interval's ends that the data do not close (at the re-tune's range): (lo, hi)
+    open_ends: tuple = (False, False)
+    #: the residual level σ [K] of the profile (the fit's, not below the noise and the stated form error)
+    sigma_K: float = math.nan
 
     def words(self) -> str:
         """The finding in one line."""
@@ -88,7 +100,8 @@ class Finding:
                 "contradicts_source": self.contradicts_source, "at_bound": self.at_bound,
                 "delta_criterion": self.delta_criterion, "explained_K": self.explained_K,
                 "heldout_rms_fixed_K": self.heldout_fixed_K, "heldout_rms_K": self.heldout_free_K,
-                "gap_share": self.gap_share, "in_words": self.words()}
+                "gap_share": self.gap_share, "ci95_from": "profile", "ci95_open": list(self.open_ends),
+                "profile_sigma_K": self.sigma_K, "in_words": self.words()}
 
 
 def source_range(name: str) -> tuple:
@@ -110,27 +123,40 @@ def _unit(name: str) -> str:
     return effect_of(name).params[0].unit
 
 
-def findings(fwd, free, full: dict, folds, ratio: float, noise: float, test: dict) -> tuple:
+def findings(fwd, free, full: dict, folds, ratio: float, noise: float, test: dict, band_K: float = math.nan) -> tuple:
     """The :class:`Finding` s of ``free`` (the final model's physics: re-tune and named effects, fitted without
     the discrepancy term, its held-out figures pooled), largest gap share first (see the module docstring);
-    ``test``: the held-out readings (run index -> bool (n, m))."""
+    ``test``: the held-out readings (run index -> bool (n, m)). :func:`explain_knobs` with its symptoms dropped."""
+    return explain_knobs(fwd, free, full, folds, ratio, noise, test, band_K)[0]
+
+
+def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test: dict,
+                  band_K: float = math.nan) -> tuple:
+    """(findings, symptoms) of ``free``: each re-tuned knob whose nominal value lies outside its profile interval
+    (:func:`imutherm.studies.correlation.profile.profile_interval` at the residual floor
+    :func:`~imutherm.studies.correlation.profile.residual_floor_K2` of the noise and ``band_K``, the model's
+    stated form error at the readings [K]) and that meets the evidence and gap-share rules is a :class:`Finding`
+    with that interval, unless it ended at a bound of the re-tune: then it is a :class:`Symptom` of the model's
+    form (:func:`symptom`), never a finding."""
     from imutherm.studies.correlation.fit import _fit
     from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT
     from imutherm.studies.correlation.holdout import _held, _pooled
+    from imutherm.studies.correlation.profile import CHI2_95, profile_interval, residual_floor_K2
     from imutherm.studies.correlation.verdict import EXPLAIN_MIN_NOISE, MARGIN_NONE
     from imutherm.studies.written_model import heldout_rms
 
-    out = []
+    out, sym = [], []
     h_nom = heldout_rms(fwd, fwd.nominal, test)
     gap = h_nom - heldout_rms(fwd, free.values, test)
+    sigma2 = residual_floor_K2(free.cost_K2, free.n, free.k, noise, band_K)
     for name, v in free.values.items():
         if name in free.effects or name not in fwd.nominal or name in FORM_IN_DOUBT:
             continue  # the cavity law's blend is the model's form as a weight (discrepancy section), not a finding
         nom = float(fwd.nominal[name])
-        lo, hi = free.ci.get(name, (math.nan, math.nan))
-        if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= nom <= hi:
-            continue
         fixed = _fit(fwd, free.effects, full, None, ratio, noise, None, free.values, fixed={name: nom})
+        d_nom = ratio * (fixed.cost_K2 - free.cost_K2) / sigma2
+        if not d_nom > CHI2_95:  # the nominal lies within the profile interval: not far
+            continue
         fixed = _held(fixed, _pooled(fwd, free.effects, folds, ratio, noise, None, free.values, {name: nom}))
         dC = fixed.aicc - free.aicc
         expl = math.sqrt(max(fixed.rms_K**2 - free.rms_K**2, 0.0))
@@ -138,12 +164,93 @@ def findings(fwd, free, full: dict, folds, ratio: float, noise: float, test: dic
         alone = heldout_rms(fwd, {**fwd.nominal, name: v}, test)
         share = (h_nom - alone) / gap if math.isfinite(gap) and gap > 0 and math.isfinite(alone) else math.nan
         evidence = (not math.isfinite(dC)) or (dC >= MARGIN_NONE and expl >= EXPLAIN_MIN_NOISE * noise)
+        if name in free.at_bound:
+            if evidence:
+                sym.append(symptom(fwd, free, name, nom, float(dC)))
+            continue
         if not (evidence and math.isfinite(share) and share >= GAP_SHARE and not h1 >= h0):
             continue
+        k = _knob(fwd, name)
+
+        def cost(x, name=name):
+            return _fit(fwd, free.effects, full, None, ratio, noise, None, free.values, fixed={name: x}).cost_K2
+        prof = profile_interval(cost, float(np.clip(v, k.lo, k.hi)), k.lo, k.hi, sigma2, ratio, log=k.log)
+        lo, hi = prof["ci95"]
         s_lo, s_hi, words = source_range(name)
-        at_bound = name in free.at_bound
         outside = bool(np.isfinite(s_lo) and not (s_lo <= v <= s_hi))
         out.append(Finding(name, _unit(name), float(v), (float(lo), float(hi)), nom, (s_lo, s_hi), words,
-                           outside or at_bound, at_bound, float(dC), float(expl), float(h0), float(h1),
-                           float(min(share, 1.0))))
-    return tuple(sorted(out, key=lambda f: -f.gap_share))
+                           outside, False, float(dC), float(expl), float(h0), float(h1),
+                           float(min(share, 1.0)), prof["open"], math.sqrt(sigma2)))
+    return tuple(sorted(out, key=lambda f: -f.gap_share)), tuple(sym)
+
+
+def _knob(fwd, name: str):
+    """The re-tune's :class:`~imutherm.thermal.reduced.Knob` ``name`` (a form knob's from the reduced models)."""
+    k = next((k for k, _ in knobs.RETUNE if k.name == name), None)
+    if k is not None:
+        return k
+    return next(iter(fwd.roms.values())).knobs[name]
+
+
+@dataclass(frozen=True)
+class Symptom:
+    """A re-tuned knob that ended at a bound of its source's range while the data pull it there: a symptom of the
+    model's form, not a finding. ``form_off``: how far the re-tuned physics is off and where ({'rms_K',
+    'fraction_of_rise', 'where': [{'scheme', 'site', 'phase', 'rms_K', 'mean_K'}], largest first})."""
+
+    parameter: str
+    unit: str
+    value: float
+    bound: str
+    nominal: float
+    delta_criterion: float
+    form_off: dict
+
+    def words(self) -> str:
+        u = "" if self.unit == "-" else f" {self.unit}"
+        fo = self.form_off
+        where = ", ".join(f"{w['scheme']} {w['site']} {w['phase']} ({w['mean_K']:+.2f} K)" for w in fo["where"][:3])
+        return (f"{self.parameter} ends at its {self.bound} bound {self.value:.3g}{u} (nominal {self.nominal:.3g}): "
+                f"a symptom of the model's form, not a finding; the re-tuned model is off by {fo['rms_K']:.2f} K RMS "
+                f"({100 * fo['fraction_of_rise']:.1f} % of the rise), most at {where}")
+
+    def as_dict(self) -> dict:
+        return {"parameter": self.parameter, "unit": self.unit, "value": self.value, "bound": self.bound,
+                "nominal": self.nominal, "delta_criterion": self.delta_criterion, "form_off": self.form_off,
+                "in_words": self.words()}
+
+
+def form_off(fwd, values: dict) -> dict:
+    """How far the model at ``values`` is off the measured rises and where: RMS [K], as a fraction of the RMS rise,
+    and the (scheme, site, phase) series by RMS residual, largest first (phase: 'rise' before the site's t63,
+    'plateau' after it)."""
+    where, res, rise = [], [], []
+    for i, run in enumerate(fwd.runs):
+        y = fwd.rise(i, values)
+        r = y - run.rise_K
+        t = run.times_s
+        for j, s in enumerate(run.sites):
+            ok = np.isfinite(r[:, j])
+            if not ok.any():
+                continue
+            res.append(r[ok, j])
+            rise.append(run.rise_K[ok, j])
+            fin = y[np.isfinite(t), j]
+            t63 = float(np.interp(0.632 * fin[-1], fin, t[np.isfinite(t)])) if len(fin) and fin[-1] > 0 else np.inf
+            for phase, sel in (("rise", t <= t63), ("plateau", t > t63)):
+                x = r[sel & ok, j]
+                if len(x):
+                    where.append({"scheme": run.scheme, "site": s, "phase": phase, "file": run.path,
+                                  "rms_K": float(np.sqrt(np.mean(x**2))), "mean_K": float(x.mean())})
+    e, y = np.concatenate(res), np.concatenate(rise)
+    rms = float(np.sqrt(np.mean(e**2)))
+    return {"rms_K": rms, "fraction_of_rise": rms / max(float(np.sqrt(np.mean(y**2))), 1e-12),
+            "where": sorted(where, key=lambda w: -w["rms_K"])[:6]}
+
+
+def symptom(fwd, free, name: str, nominal: float, dC: float) -> Symptom:
+    """The :class:`Symptom` of knob ``name`` at a bound of ``free``."""
+    k = _knob(fwd, name)
+    v = float(free.values[name])
+    bound = "lower" if abs(v - k.lo) <= abs(v - k.hi) else "upper"
+    return Symptom(name, _unit(name), v, bound, nominal, dC, form_off(fwd, free.values))

@@ -155,11 +155,13 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
               min_cells: int = DEFAULT_MIN_CELLS, t_end: float = 1500.0, samples: int = 40,
               noise_K: float = 0.05, offset_K: float = 0.1, nuisance: float = 0.10, value: float | None = None,
               seed: int = 0, options: ModelOptions | None = None, also: dict | None = None,
-              nuisance_all: bool = False) -> HiddenCase:
+              nuisance_all: bool = False, power_scale: float = 1.0) -> HiddenCase:
     """Generate the measured files of one case into ``out_dir`` (see the module docstring).
 
     also : further library model effects hidden beside ``hidden``, name -> value [unit] (two effects at once:
         ``hidden='power@reg_5v', also={'contact@bond': 150.0}``); recorded in ``extra['also']``
+    power_scale : the unit run at this fraction of its nominal power [-] (written in the files' header): a
+        proposed next experiment (:mod:`imutherm.studies.correlation.next_experiment`)
     options : the generator's model laws (default: the library's defaults). A *model-form* case takes laws
         the inversion does not use (:func:`model_form_options`: the other cavity-radiation law), so the
         data differ from the inversion's model in form, not only in mesh and nuisance values.
@@ -200,6 +202,8 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
         lay = replace(layout, ambient_C=amb, mounting=replace(layout.mounting, temperature_C=amb))
         geo = build_geometry(lay, scheme)
         values = dict(nz)
+        if power_scale != 1.0:
+            values["power_scale"] = float(power_scale)
         is_model = (hidden not in ("none", *OUT_OF_LIBRARY_KINDS, *FINDING_KINDS)
                     and EFFECTS[hidden.split("@")[0]].kind == "model")
         if is_model and knobs.applicable(hidden, geo):  # a bond contact exists only where there is a bond line
@@ -237,7 +241,8 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
                 rise = full_rise(variant, grid, probes, times, sig, ambient_cycle=cyc)
         meas = amb + rise + rng.normal(0.0, noise_K, rise.shape) + rng.uniform(-offset_K, offset_K, len(sites))
         path = out_dir / f"{scheme}_{amb:g}C.csv"
-        write_measured(path, {"scheme": scheme, "ambient_C": amb}, sites, times, meas)
+        meta = {"scheme": scheme, "ambient_C": amb, **({"power_scale": power_scale} if power_scale != 1.0 else {})}
+        write_measured(path, meta, sites, times, meas)
         files.append(str(path))
     if also:
         extra = {**extra, "also": {k: float(x) for k, x in also.items()}}

@@ -36,6 +36,7 @@ Procedure per file (:func:`prepare`), identical for our filters and the peers:
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,8 +45,9 @@ import numpy as np
 from imutherm.imu.reference_log import (Alignment, estimate_alignment, inclination_error_deg, read_reference_log,
                                         resample_uniform, true_samples)
 
-#: the shared real recordings (relative to the repository's parent folder), one folder per data set
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+#: the shared real recordings (relative to the repository's parent folder, or the folder the environment variable
+#: IMUTHERM_SHARED_DATA names: a git worktree elsewhere), one folder per data set
+SHARED = Path(os.environ.get("IMUTHERM_SHARED_DATA") or Path(__file__).resolve().parents[2] / "shared" / "data")
 DATA_DIRS = {"repoimu": SHARED / "repoimu", "broad": SHARED / "broad-dev"}
 DATA_DIR = DATA_DIRS["repoimu"]
 #: rest window [s] per layout (RepoIMU: released 1.3-1.5 s in; BROAD: 26-46 s at rest first, the --imu-csv default)
@@ -106,13 +108,21 @@ def identity_alignment() -> Alignment:
 
 def prepare(path, *, init_s: float | None = None, skip_s: float = SKIP_S) -> RealRecord:
     """Steps 1-3 of the module docstring for one file (init_s None: :data:`INIT_S` of its layout)."""
-    log = read_reference_log(path)
+    return prepare_log(read_reference_log(path), init_s=init_s, skip_s=skip_s)
+
+
+def prepare_log(log, *, init_s: float | None = None, skip_s: float = SKIP_S, name: str | None = None,
+                level: bool = True) -> RealRecord:
+    """:func:`prepare` of a log already read (:class:`~imutherm.imu.reference_log.ReferenceLog`, e.g. a
+    simulated or transformed one: :mod:`imutherm.studies.filter_stress`); name None: the file's stem; level False:
+    step 2 skipped (the IMU axes kept, so the filters start in the mounting's attitude, upside down or on a side)."""
+    path = log.path
     init_s = INIT_S[log.layout] if init_s is None else float(init_s)
     ts = true_samples(log.t, log.gyro, log.accel)
     dt = float(np.median(np.diff(log.t)[np.diff(log.t) > 0]))
     grid, x = resample_uniform(ts.t, np.hstack([ts.gyro, ts.accel]), dt)
     n0 = int(round(init_s / dt))
-    M = level_rotation(x[:n0, 3:].mean(axis=0))
+    M = level_rotation(x[:n0, 3:].mean(axis=0)) if level else np.eye(3)
     ok = np.all(np.isfinite(log.quat), axis=1)
     if log.aligned:
         al = identity_alignment()
@@ -120,7 +130,7 @@ def prepare(path, *, init_s: float | None = None, skip_s: float = SKIP_S) -> Rea
     else:
         al = estimate_alignment(ts.t, log.quat[ts.idx], ts.gyro, ts.accel)
         keep = (log.t >= log.t[0] + skip_s) & (log.t <= grid[-1]) & ok
-    name = Path(path).name.split(".")[0]
+    name = name or Path(path).name.split(".")[0]
     return RealRecord(name, "broad" if log.layout == "broad" else "repoimu", dt, x[:, :3] @ M.T, x[:, 3:] @ M.T,
                       float(grid[0]), M, log.t[keep], log.quat[keep], al, init_s, ts.n_rows, ts.n_repeats,
                       ts.n_dup_time, ts.step_median, int(np.sum(~ok)))
@@ -179,6 +189,8 @@ def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
     from imutherm.studies.attitude_study import GateConfig, run_filters
 
     d, L = _platform()
+    from imutherm.imu.filters.rest_check import rest_disagreement
+
     est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, GateConfig(L=L, init_s=rec.init_s),
                          fusion=fusion or FusionParams(), names=tuple(names), settings=settings or {},
                          gyro_sample="interval")
@@ -187,6 +199,8 @@ def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
         s = score(rec, e.gravity)
         s["accel_used_fraction"] = float(np.mean(e.accel_used))
         s["runtime_s"] = float(e.runtime_s)
+        s["resets_s"] = None if e.resets is None else [float(k * rec.dt) for k in e.resets]  # divergence monitor
+        s["rest_off"] = [(rec.t0 + t, a) for t, a in rest_disagreement(rec.gyro, rec.accel, rec.dt, e.gravity)]
         out[n] = s
     return out
 
@@ -212,8 +226,16 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
 
     rec = prepare(path, init_s=init_s, skip_s=skip_s)
     res = run(names, rec, platform_settings("handheld", names), fusion=fusion)
+    from imutherm.studies.real_settings import load_real_settings
+
+    entries = load_real_settings().entries
+    ref = res.get("vqf", {}).get("rms_deg")
     filters = {n: {"inclination_rms_deg": s["rms_deg"], "inclination_max_deg": s["max_deg"],
-                   "accel_used_fraction": s["accel_used_fraction"], "runtime_s": s["runtime_s"]}
+                   "x_vqf": None if not ref else s["rms_deg"] / ref,
+                   "dev_cv_mean_x_vqf": entries.get(n, {}).get("cv_x_vqf"),
+                   "dev_cv_worst_x_vqf": entries.get(n, {}).get("cv_worst_x_vqf"),
+                   "accel_used_fraction": s["accel_used_fraction"], "runtime_s": s["runtime_s"],
+                   "resets_s": s["resets_s"], "rest_off_deg": s["rest_off"]}
                for n, s in res.items()}
     al = rec.align
     broad = rec.dataset == "broad"
@@ -230,5 +252,6 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
             "fusion": fusion_range_info(fusion, rec.gyro @ rec.M), "filters": filters}
 
 
-__all__ = ["DATA_DIRS", "DATA_DIR", "RealRecord", "prepare", "data_files", "load_all", "errors", "score", "run",
+__all__ = ["DATA_DIRS", "DATA_DIR", "RealRecord", "prepare", "prepare_log", "data_files", "load_all", "errors",
+           "score", "run",
            "table", "level_rotation", "identity_alignment", "run_reference_log"]

@@ -87,8 +87,9 @@ def load_real_settings(path=None) -> RealSettings:
 
 def real_motion_lines(names, path=None) -> list:
     """A short table of ``names`` on real motion, to print beside a simulated answer: each filter's cross-validated
-    mean inclination RMS [deg] over the real development files at its real-motion settings and its ratio to VQF's
-    (the same procedure); [] without the settings file. Filters the file does not hold are left out."""
+    mean inclination RMS [deg] over the real development files at its real-motion settings, its ratio to VQF's
+    (the same procedure) and its worst file's ratio to VQF on that file; [] without the settings file. Filters the
+    file does not hold are left out."""
     try:
         rs = load_real_settings(path)
     except InputError:
@@ -98,7 +99,12 @@ def real_motion_lines(names, path=None) -> list:
 
     ref = reference_filter()  # the peer the others are set against
     vq = e.get(ref, {}).get("cv_mean")
-    cells = [f"{n} {e[n]['cv_mean']:.2f}" + (f" ({e[n]['cv_mean'] / vq:.2f}x {ref})" if vq and n != ref else "")
+    def worst(n):  # the worst file's ratio to VQF on that file (cross-validated), beside the mean's
+        w = e[n].get("cv_worst_x_vqf")
+        return f", worst file {w:.2f}x" if w is not None else ""
+
+    cells = [f"{n} {e[n]['cv_mean']:.2f}" + (f" ({e[n]['cv_mean'] / vq:.2f}x {ref}{worst(n)})" if vq and n != ref
+                                              else "")
              for n in names if n in e and "cv_mean" in e[n]]
     if not cells:
         return []

@@ -232,6 +232,10 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
             m = {k: None for k in ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")}
         m["accel_used_fraction"] = float(np.mean(e.accel_used))
         m["runtime_s"] = e.runtime_s
+        m["resets_s"] = None if e.resets is None else [float(k * log.dt) for k in e.resets]  # divergence monitor
+        from imutherm.imu.filters.rest_check import rest_disagreement
+
+        m["rest_off_deg"] = rest_disagreement(log.gyro, log.accel, log.dt, e.gravity)  # [(t [s], angle [deg])]
         m["time_steps"] = "uniform" if steps is None else ("true" if REGISTRY[n].varying_dt else "median")
         if align_info is not None:
             m["alignment"] = align_info

@@ -108,7 +108,7 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
                time_scheme: str = "trbdf2", tol_K: float | None = None, dt: float | None = None,
                dt_max: float | None = None, theta: float = 1.0, until_settled: bool = False, save_times=None,
                progress: bool = False, effects=(), transient_model: str = "full",
-               estimate_mesh_error: bool = False) -> SchemeResult:
+               estimate_mesh_error: bool = False, keep: dict | None = None) -> SchemeResult:
     """Solve one cooling scheme of a layout.
 
     Parameters
@@ -139,6 +139,9 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     estimate_mesh_error : bool, also estimate the steady answer's discretisation error (:func:`mesh_error`: one
         steady solve on the mesh refined 2x in every direction, 8x the cells) and correct the sites' values and
         curves and the hot spot by it (:func:`mesh_corrected`)
+    keep : dict, optional: gets the steady solve's ``"preconditioner"`` (``solve_steady(..., keep=)``), which the
+        reduced transient and the mesh-error estimate here use too, and the ``"assembly"``, for the caller's later
+        solves of the same unit (the oven's, :func:`imutherm.studies.end_to_end.thermal.thermal_case`)
 
     Returns
     -------
@@ -188,12 +191,17 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         problem = build_problem(geometry, grid, options)
     probes = dict(geometry.sites)
     asm = assemble(problem)  # shared by the steady and the transient solve
-    steady = solve_steady(problem, probes=probes, assembly=asm)
+    kept = {} if keep is None else keep   # one preconditioner for every solve of this unit's matrix
+    steady = solve_steady(problem, probes=probes, assembly=asm, keep=kept)
+    pc = kept.get("preconditioner")
+    if keep is not None:
+        keep["assembly"] = asm
     tr = check = None
     if transient:
         final_C = dict(zip(steady.probe_names, (float(v) for v in steady.probe_C)))
         if transient_model == "reduced" and steps is None and time_scheme == "trbdf2":
-            tr, check = _reduced_transient(problem, asm, steady, probes, t_end, until_settled, save_times, progress)
+            tr, check = _reduced_transient(problem, asm, steady, probes, t_end, until_settled, save_times, progress,
+                                           pc)
     if transient and tr is None:
         kw = dict(scheme=time_scheme, save_times=save_times, probes=probes, progress=progress, assembly=asm,
                   settle_C=final_C if until_settled else None, rtol=STUDY_CG_RTOL)
@@ -213,16 +221,17 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     if estimate_mesh_error:
         if progress:
             print("  mesh error: the steady solve on the mesh refined 2x ...", flush=True)
-        res = mesh_corrected(replace(res, mesh_error=mesh_error(res), wall_s=time.perf_counter() - start))
+        res = mesh_corrected(replace(res, mesh_error=mesh_error(res, coarse_pc=pc), wall_s=time.perf_counter() - start))
     return res
 
 
-def _reduced_transient(problem, asm, steady, probes, t_end, settle, save_times, progress):
+def _reduced_transient(problem, asm, steady, probes, t_end, settle, save_times, progress, pc=None):
     """(TransientResult or None, ReducedCheck or None): the checked reduced transient; None: run the full FEM
     (the check failed, or the model is one the reduced model does not cover: the reason is printed)."""
     from imutherm.thermal.reduced_transient import reduced_power_on
     try:
-        tr, check = reduced_power_on(problem, asm, steady, probes, t_end, settle=settle, save_times=save_times)
+        tr, check = reduced_power_on(problem, asm, steady, probes, t_end, settle=settle, save_times=save_times,
+                                     preconditioner=pc)
     except InputError as e:   # e.g. a fixed-temperature face, a fixture away from ambient
         if progress:
             print(f"  reduced transient not applicable ({e}): full FEM", flush=True)
@@ -234,14 +243,15 @@ def _reduced_transient(problem, asm, steady, probes, t_end, settle, save_times, 
     return tr, check
 
 
-def mesh_error(res: SchemeResult, ratio: int = 2):
+def mesh_error(res: SchemeResult, ratio: int = 2, coarse_pc=None):
     """The discretisation error of ``res``'s steady answer at its sites and hot spot
     (:class:`~imutherm.thermal.refinement.RefinementEstimate`): the same problem on ``res.grid`` with every
     interval split in ``ratio`` parts (:func:`~imutherm.geometry.mesh.refine_grid`), solved from the prolonged
     steady field, Richardson's extrapolation of the two. The refined problem has the same parts, laws and
     boundary (model effects included) and the same s2s exchange (patches and view factors of the coarse grid,
     :meth:`~imutherm.thermal.cavity_radiation.CavityExchange.refined`): the difference is the conduction's
-    discretisation alone."""
+    discretisation alone. ``coarse_pc``: the steady solve's preconditioner
+    (:func:`~imutherm.thermal.refinement.refined_steady`), else the coarse level is set up again."""
     from imutherm.geometry.mesh import prolongation, refine_grid
     from imutherm.thermal.refinement import refined_steady
     from imutherm.unit.model import cavity_exchange_law
@@ -257,7 +267,7 @@ def mesh_error(res: SchemeResult, ratio: int = 2):
     probes = {n: res.geometry.sites[n] for n in st.probe_names if n in res.geometry.sites}
     coarse = [float(v) for n, v in zip(st.probe_names, st.probe_C) if n in probes]
     return refined_steady(fine_problem, coarse_problem, st.T_C, prolongation(res.grid, fine), probes, coarse,
-                          float(np.max(st.T_C)), ratio=ratio)
+                          float(np.max(st.T_C)), ratio=ratio, coarse_pc=coarse_pc)
 
 
 def mesh_factors(res: SchemeResult) -> dict:

@@ -230,8 +230,11 @@ def knob_values(sm: SchemeModel, row) -> dict:
 
 
 def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=None, min_cells=None,
-                       progress=None) -> SchemeModel:
-    """The reduced model of ``scheme`` over the inputs ``ins`` (each knob over the input's range)."""
+                       progress=None, use_cache: bool = True) -> SchemeModel:
+    """The reduced model of ``scheme`` over the inputs ``ins`` (each knob over the input's range), kept in the disk
+    cache (:mod:`imutherm.cache`) under the key of what it depends on: the layout's content (not its path), the
+    scheme, the options, the mesh, the knobs and their ranges, the sites and the model code (``use_cache``
+    False: built, neither read nor written)."""
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
     from imutherm.site_table import ACCEL_SITES, GYRO_SITES
@@ -239,8 +242,11 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     from imutherm.unit.model import ModelOptions
     from imutherm.thermal.reduced import Knob, build_reduced
 
+    from imutherm.geometry.layout import LayoutSpec, load_layout
+
     t0 = time.perf_counter()
     options = options or ModelOptions()
+    layout = layout if isinstance(layout, LayoutSpec) else load_layout(layout)
     geo = build_geometry(layout, scheme)
     grid = build_mesh(geo, DEFAULT_MAX_CELL_MM if mesh_size_mm is None else mesh_size_mm,
                       DEFAULT_MIN_CELLS if min_cells is None else min_cells)
@@ -262,8 +268,16 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     sites = tuple(s for s in GYRO_SITES + ACCEL_SITES if s in geo.sites)
     if progress:
         progress(f"uncertainty: reduced model of {scheme} ({len(rom_knobs)} knobs, {grid.n_nodes} unknowns)")
-    rom = build_reduced(lambda v: knobs.variant(geo, options, v), grid, rom_knobs, {s: geo.sites[s] for s in sites},
-                        pairs=pairs, load_directions=True)
+    from imutherm.cache import cached
+
+    probes = {s: geo.sites[s] for s in sites}
+    parts = (replace(layout, path=""), scheme, options, grid.shape,
+             float(DEFAULT_MAX_CELL_MM if mesh_size_mm is None else mesh_size_mm),
+             int(DEFAULT_MIN_CELLS if min_cells is None else min_cells), rom_knobs, pairs, probes, "load_directions")
+    rom, _ = cached("uncertainty_model", parts,
+                    lambda: build_reduced(lambda v: knobs.variant(geo, options, v), grid, rom_knobs, probes,
+                                          pairs=pairs, load_directions=True),
+                    use_cache=use_cache, progress=progress)
     return SchemeModel(scheme, geo, grid, options, rom, tuple(ins), tuple(applicable), sites,
                        time.perf_counter() - t0)
 
@@ -357,12 +371,14 @@ def imu_draw_rows(n_draws, samples: int, n_inputs: int) -> np.ndarray:
 
 def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAMPLES, seed: int = 0,
                     checks: int = DEFAULT_CHECKS, t_end: float = 2400.0, mesh_size_mm=None, min_cells=None,
-                    progress=None, study=None, imu_draws: int | None = None, jobs: int | None = 1) -> dict:
+                    progress=None, study=None, imu_draws: int | None = None, jobs: int | None = 1,
+                    use_cache: bool = True) -> dict:
     """Propagate :func:`inputs` through each scheme's reduced model; the result is JSON-ready.
 
     ``study``: the nominal end-to-end study (:class:`~imutherm.studies.end_to_end.StudyResult`) of the same
     layout, schemes and options: with it, ``imu_draws`` of the draws (:func:`imu_draw_rows`) also run through
-    the full IMU chain (:mod:`imutherm.studies.uncertainty_imu`) in ``jobs`` processes.
+    the full IMU chain (:mod:`imutherm.studies.uncertainty_imu`) in ``jobs`` processes. ``use_cache``: the
+    schemes' reduced models read from and kept in the disk cache (:func:`build_scheme_model`).
 
     Returns {"inputs": [...], "notes": [...], "samples", "draws", "seed", "stats": {"<output>:<scheme>" or
     "diff_<output>:<a>-<b>": :func:`statistics`}, "checks": {scheme: [check_point ...]}, "max_check_error_K",
@@ -398,7 +414,7 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
     rng = np.random.default_rng(seed)
     for scheme in schemes:
         sm = build_scheme_model(layout, scheme, ins, options=options, mesh_size_mm=mesh_size_mm,
-                                min_cells=min_cells, progress=say)
+                                min_cells=min_cells, progress=say, use_cache=use_cache)
         applicable[scheme] = list(sm.applicable)
         t1 = time.perf_counter()
         per[scheme] = scheme_outputs(sm, X, t_end)

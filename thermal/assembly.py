@@ -414,7 +414,7 @@ def pattern_of(node_shape: tuple) -> Pattern:
 
 
 def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool = True,
-             cache_pattern: bool = True, merge_linear: bool = False) -> Assembly:
+             cache_pattern: bool = True, merge_linear: bool = False, like: Assembly | None = None) -> Assembly:
     """Assemble stiffness, heat capacity, boundary matrices and loads of ``problem``.
 
     Parameters
@@ -431,6 +431,10 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
         True: the linear laws' matrix is added into ``K_data`` (which then holds K + H) and ``H_data`` is empty:
         a steady operator of a one-off large grid with one data array instead of two (on the reference unit's 2x
         refined mesh, 1.5e6 nodes: 304 MB less).
+    like : Assembly, optional
+        An assembly of a problem on the same grid with the same conductivity, heat capacity and heat sources
+        (checked; else ignored): its conduction, heat capacity and volume load are taken (shared, not copied)
+        and only the boundary is assembled, e.g. the unit in the calibration oven at another ambient.
 
     Returns
     -------
@@ -439,6 +443,10 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
     """
     g = problem.grid
     shape = tuple(s + 1 for s in g.shape)
+    if _same_volume(like, problem, mass, lumped_mass, merge_linear):
+        pattern, K_data, M_data, F_q = like.pattern, like.K_data, like.M_data if mass else None, like.F_q
+        H_data = np.zeros(pattern.nnz)
+        return _with_boundary(problem, pattern, K_data, H_data, M_data, F_q, lumped_mass, merge_linear)
     pattern = pattern_of(shape) if cache_pattern else Pattern(shape)
     K_data = _volume_data(pattern, g, *_stiffness_terms(problem))
     H_data = K_data if merge_linear else np.zeros(pattern.nnz)   # merged: the linear laws added into K's data
@@ -447,6 +455,27 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
         M_data = pattern.data(mass_stencil(problem, lumped=True)) if lumped_mass else _volume_data(
             pattern, g, [problem.rho_c.reshape(g.shape) * g.cell_volumes()], [M_REF])
     F_q = volume_load(problem)
+    return _with_boundary(problem, pattern, K_data, H_data, M_data, F_q, lumped_mass, merge_linear)
+
+
+def _same_volume(like, problem: ThermalProblem, mass: bool, lumped_mass: bool, merge_linear: bool) -> bool:
+    """True when ``like`` (an Assembly or None) has this problem's volume parts: the same grid, conductivity,
+    heat capacity (when ``mass``) and heat sources, its conduction not merged with a boundary's."""
+    if like is None or merge_linear or like.H_data is like.K_data or len(like.H_data) != len(like.K_data):
+        return False
+    a, g = like.problem, problem.grid
+    if mass and (like.M_data is None or like.lumped_mass != lumped_mass):
+        return False
+    same_grid = a.grid is g or (a.grid.shape == g.shape and all(
+        np.array_equal(u, v) for u, v in zip((a.grid.xs, a.grid.ys, a.grid.zs), (g.xs, g.ys, g.zs))))
+    return (same_grid and np.array_equal(a.k, problem.k) and np.array_equal(a.q, problem.q)
+            and (not mass or np.array_equal(a.rho_c, problem.rho_c)))
+
+
+def _with_boundary(problem, pattern, K_data, H_data, M_data, F_q, lumped_mass: bool, merge_linear: bool) -> Assembly:
+    """The Assembly of ``problem`` from its volume parts: the boundary laws' matrix and load, the nonlinear,
+    flux and fixed-temperature conditions and the interior exchanges added (:func:`assemble`)."""
+    g = problem.grid
     F_bc = np.zeros(g.n_nodes)
     linear, nonlinear, fluxes, dirichlet = [], [], [], []
     fcs = faces(g)

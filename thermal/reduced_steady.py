@@ -100,13 +100,15 @@ def _reduced_newton(red: _Reduced, y: np.ndarray, scale_K: float, max_iter: int 
 
 
 def reduced_steady(problem, asm, known_rise, probes, *, tol_K: float | None = None,
-                   max_rounds: int = MAX_ROUNDS):
+                   max_rounds: int = MAX_ROUNDS, preconditioner=None):
     """The steady field of ``problem`` on a checked reduced model (module docstring).
 
     problem, asm : the full model and its assembly (with its heat capacity: the basis is M-orthonormal)
     known_rise : (n,) [K] a steady rise field of the same unit under other surroundings (the start of the basis)
     probes : dict name -> point [m] (the sites the check reads)
     tol_K : float [K] (default :data:`CHECK_TOL_K`); max_rounds : enrichments before giving up
+    preconditioner : for the check's CG (e.g. the known field's steady solve's, ``solve_steady(..., keep=)``: the
+        same conduction, other boundary slopes); default a new AMG hierarchy of the check's Newton matrix
 
     Returns (SteadyResult or None, ReducedSteadyCheck): None when the check failed (run the full solve).
     """
@@ -124,7 +126,7 @@ def reduced_steady(problem, asm, known_rise, probes, *, tol_K: float | None = No
     exchanges = [bc.law for bc in asm.nonlinear if isinstance(bc.law, CavityExchange)]
     no_fixed = np.zeros(asm.n, bool)
     cols = [x0, np.ones(asm.n)]
-    pc, solves, its = None, 0, 0
+    pc, solves, its = preconditioner, 0, 0
     timings = {"reduced": 0.0, "check": 0.0}
     T_start = amb + x0
     for rnd in range(1, max_rounds + 2):

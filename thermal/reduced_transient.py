@@ -116,9 +116,9 @@ class _Solver:
     the large shifts (A + s M, s >= :data:`SHIFTED_PC_FROM`) one of sparse(A) + :data:`SHIFTED_PC_S` M, built
     at its first use."""
 
-    def __init__(self, A, M=None):
+    def __init__(self, A, M=None, pc=None):
         self.A, self.M = A, M
-        self.pc = amg_preconditioner(sparse_part(A))
+        self.pc = pc if pc is not None else amg_preconditioner(sparse_part(A))
         self.pc_shifted = None
         self.solves = self.its = 0
 
@@ -273,7 +273,7 @@ def _settle_index(curves, final, fraction) -> int | None:
 @one_blas_thread
 def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle: bool = False,
                      save_times=None, tol_K: float | None = None, t95_rel: float | None = None,
-                     order: int = KRYLOV_ORDER, max_rounds: int = 2):
+                     order: int = KRYLOV_ORDER, max_rounds: int = 2, preconditioner=None):
     """The power-on transient from the ambient on a checked reduced model (module docstring).
 
     problem, asm : the full model and its assembly; steady : its SteadyResult (the field the secant is
@@ -282,7 +282,9 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
     full run's ``settle_C``; save_times : [s] times whose whole field is kept.
     tol_K : float [K], t95_rel : float [-], the check's acceptance (:class:`ReducedCheck`; default
     :data:`CHECK_TOL_K`, :data:`CHECK_T95_REL`); order : Krylov vectors of the first basis; max_rounds :
-    enrichments of the basis by the error fields before giving up.
+    enrichments of the basis by the error fields before giving up. preconditioner : the steady solve's
+    (``solve_steady(..., keep=)``), used for the unshifted solves instead of a hierarchy of the secant operator
+    (the same matrix but the nonlinear laws' slopes: one setup less, the basis the same to the solves' tolerance).
 
     Returns (TransientResult or None, ReducedCheck): None when the check failed (run the full FEM).
     """
@@ -294,7 +296,7 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
     P = probe_matrix(problem.grid, np.array([probes[n] for n in names]))
     A, _ = linearised(asm, np.asarray(steady.T_C))
     M = asm.M
-    lin = _Solver(A, M)
+    lin = _Solver(A, M, preconditioner)
     x_ss = np.asarray(steady.T_C) - amb
     # the initial slope's direction (the power over the lumped heat capacity: what the first seconds heat)
     cols = [x_ss, np.ones(asm.n), asm.F_q / np.maximum(np.asarray(M.sum(axis=1)).ravel(), 1e-300)]

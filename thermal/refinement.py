@@ -195,7 +195,7 @@ def _newton_matrix(asm, D, T):
 @one_blas_thread
 def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: dict, coarse_probe_C,
                    coarse_max_C: float, *, ratio: int = REFINEMENT_RATIO, order: float = MESH_ERROR_ORDER,
-                   max_newton: int = 4) -> RefinementEstimate:
+                   max_newton: int = 4, coarse_pc=None) -> RefinementEstimate:
     """The estimate of the coarse answer's error from the steady solve of ``fine_problem`` (``coarse_problem`` on
     its refined grid), started from ``prolong @ coarse_T_C`` (exact on the nested grid: the Newton steps only
     carry the discretisation's correction, so one does on the reference unit).
@@ -206,7 +206,9 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
     step leaves a residual above that tolerance (reference unit, default mesh: none; the second step it took
     with a relative tolerance moved no site by more than 3e-4 K).
     probes : dict name -> (x, y, z) [m]; coarse_probe_C : (m,) [°C] their coarse values; coarse_max_C : [°C] the
-    coarse field's maximum (the hot spot).
+    coarse field's maximum (the hot spot). coarse_pc : the coarse solve's own preconditioner
+    (``solve_steady(..., keep=)``: a Newton matrix of the same problem), used for the coarse level instead of
+    assembling the coarse problem again and building a hierarchy of its Newton matrix at ``coarse_T_C``.
     """
     import scipy.sparse.linalg as spla
 
@@ -219,10 +221,11 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
 
     t0, c0 = time.perf_counter(), time.process_time()
     Tc = np.asarray(coarse_T_C, float)
-    asm_c = assemble(coarse_problem, mass=False)
-    Dc = _Dirichlet(asm_c, asm_c.dirichlet_values(None)[0])
-    coarse_pc = amg_preconditioner(_newton_matrix(asm_c, Dc, Tc))
-    del asm_c
+    if coarse_pc is None:
+        asm_c = assemble(coarse_problem, mass=False)
+        Dc = _Dirichlet(asm_c, asm_c.dirichlet_values(None)[0])
+        coarse_pc = amg_preconditioner(_newton_matrix(asm_c, Dc, Tc))
+        del asm_c
     asm = assemble(fine_problem, mass=False, cache_pattern=False, merge_linear=True)   # K_data: K + H
     dnodes, dvals = asm.dirichlet_values(None)
     D = _Dirichlet(asm, dnodes)

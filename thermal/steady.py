@@ -85,7 +85,7 @@ def _check_diverging(problem, T, amb: float, it: int) -> None:
 @one_blas_thread
 def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 50, solver: str = "auto",
                  probes=None, initial_C=None, assembly: Assembly | None = None,
-                 rtol: float | None = None) -> SteadyResult:
+                 rtol: float | None = None, keep: dict | None = None) -> SteadyResult:
     """Steady temperature field of ``problem``.
 
     Parameters
@@ -106,6 +106,10 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
         Relative residual of the inner CG solves (AMG path); default 1e-10 for a
         linear problem (one solve); for a nonlinear one the tightest the Newton steps'
         forcing goes (default 1e-4; the first step at 1e-2, :data:`FORCING_MAX`).
+    keep : dict, optional
+        Given, it gets ``"preconditioner"``: the linear solves' preconditioner (the AMG V-cycle, or the LU, of
+        a Newton matrix of this solve), for the solves of nearby matrices that follow (the reduced transient's
+        basis, the oven's reduced steady check, the mesh-error estimate's coarse level) instead of a new setup.
 
     Returns
     -------
@@ -172,6 +176,8 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
         return r, N, J
 
     T, it, lin_its = _newton(problem, asm, D, L, lin, residual, T, tol, max_iter)
+    if keep is not None:
+        keep["preconditioner"] = lin.pc
     r, N, _ = residual(T)
     LT = L @ T
     scale = np.linalg.norm(F[free]) + np.linalg.norm(np.asarray(N + 0 * T)[free]) + np.linalg.norm(LT[free])

@@ -19,6 +19,18 @@ adaptation laws instead:
   far better than 1°) and the difference, noise of size d H P⁻ Hᵀ, drove R to
   the floor and the filter into rejecting its own rest samples once the block
   mean below made R ten times smaller.
+* **the direction of f, and |f| re-read at rest** (issue 57): the gravity update uses the measured specific
+  force scaled to |g| (``dir_only``), so |f| - g does not tilt the estimate, and at every rest (VQF's rest
+  detector) the |f| reference of the gate is the rest reading of that orientation.
+* **R bounded, divergence monitored** (issue 57): the adapted R stays within ``[r_min_x, r_max_x]`` times the
+  accelerometer noise measured on the rest window. Unbounded, it ran away on slow turns through upside down
+  and vertical: a correlated attitude error (a degree, normal while turning) read as noise raised R, the
+  accelerometer was trusted less, the error grew (a simulated 5-20 °/s tumble, :mod:`imutherm.studies.filter_stress`:
+  18° inclination RMS, 72° peak; bounded 0.7°, VQF 0.6°), while on other axes R fell to its 1e-8 floor.
+  In the low-pass mode a **NIS monitor** (windowed mean of νᵀ S_m⁻¹ ν over the quasi-static updates, S_m with
+  the accelerometer allowed ``monitor_deg`` of error) declares divergence above the chi-square bound, re-levels
+  the attitude on the measured vertical, resets P's attitude block and R, and reports the sample
+  (``AttitudeEstimate.resets``); the block-mean mode keeps its own chi-square gate and re-level (reported too).
 * **Q: autocovariance least squares** (Odelson, Rajamani, Rawlings, Automatica 42, 2006;
   :mod:`imutherm.imu.filters.noise_als`): on every stretch of rest (SHOE detector, Skog et al. 2010) of at
   least ``als_window_s``, the gyro white-noise density² ``q_g`` is re-estimated from the autocovariances of
@@ -88,6 +100,7 @@ P0 yaw (5°)²); initial bias the rest-window mean rate.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, replace
 
@@ -100,6 +113,8 @@ from imutherm.imu.filters.noise_als import NoiseEstimate, als_noise, stationary_
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, initial_bias,
                                         initial_quat, lever_arm_accel, sample_steps)
 from imutherm.imu.filters.inertial_lp import REST_STATE, REST_TAU, rest_step
+from imutherm.imu.filters.aekf_math import (_align_rotation, _hpht, _joseph_update, _mm3, _mv3,  # noqa: F401
+                                            _mm, _orthonormalise, _propagate, _rotvec_dcm, _skew)
 
 
 @dataclass(frozen=True)
@@ -144,6 +159,29 @@ class AEKFParams:
                                     :func:`~imutherm.imu.filters.inertial_lp.rest_step`) each gyro sample updates the
                                     bias state as a zero-rate measurement (ZARU; Groves 2013, §15.3), variance the
                                     gyro noise density² / dt
+    r_min_x, r_max_x : float [-]    no-GNSS: bounds of the adapted R, these multiples of the accelerometer noise
+                                    measured on the rest window (its block means), never below ``r_floor`` (with
+                                    GNSS: r_floor to (100 gnss_std0)²). Unbounded, the adaptation ran
+                                    away on slow turns through upside down (issue 57: the innovation of a correlated
+                                    attitude error read as noise, R raised, the accelerometer trusted less, the error
+                                    grown: 18° RMS on a simulated tumble, 0.6° bounded)
+    monitor_deg : float [deg]       NIS monitor: the innovations are tested against S = H P Hᵀ + (g tan
+                                    monitor_deg)² I, not the adapted R: "is the vertical off by more than the
+                                    accelerometer's few-degree error under handheld motion", not "is R right" (the
+                                    low-pass mode's measurement error is correlated, so the adapted R flags healthy
+                                    runs, and an R that ran away hides a diverged one)
+    dir_only : bool                 no-GNSS: the accelerometer measures the vertical's direction only (the block mean
+                                    or low-passed f scaled to |g| before the innovation, as the kf and VQF
+                                    normalise it). With |f| measured too, |f| - g (a consumer part's 10 mg bias
+                                    moves |f| at rest by 0.3 m/s² between upright and upside down) leaked into the
+                                    tilt through the anisotropic adapted R: 12° off at rest upside down, 17° RMS on
+                                    a simulated tumble (0.75° with the direction, VQF 0.79°)
+    nis_window_s : float [s]        NIS monitor: the mean NIS of the quasi-static updates (weight 1) over each window
+                                    of this length; above the 99.9 % point of chi-square with 3 dof (``innov_gate``,
+                                    the bound of a single update, which correlated updates cannot exceed by chance
+                                    more often) the filter has diverged: attitude covariance reset to (10°)² and R to
+                                    its start, the sample reported (:attr:`AEKFTrace.resets`,
+                                    ``AttitudeEstimate.resets``); inf: no monitor
     """
 
     memory_s: float = 5.0
@@ -165,9 +203,22 @@ class AEKFParams:
     sf_std: float = 0.0
     gyro_sample: str = "point"
     rest_bias: bool = True
+    r_min_x: float = 0.1
+    r_max_x: float = 10.0
+    monitor_deg: float = 2.0
+    nis_window_s: float = 10.0
+    dir_only: bool = True
 
     def __post_init__(self):
         check_gyro_sample("AEKFParams", self.gyro_sample)
+        for name in ("r_min_x", "r_max_x", "monitor_deg", "nis_window_s"):
+            v = getattr(self, name)
+            if not (v > 0) or math.isnan(v) or (name == "monitor_deg" and v >= 90.0):
+                raise InputError(f"AEKFParams: {name}={v!r} is invalid; valid: a positive number (monitor_deg < 90, "
+                                 "nis_window_s inf: no monitor)")
+        if not self.r_min_x <= 1.0 <= self.r_max_x:
+            raise InputError(f"AEKFParams: r_min_x={self.r_min_x!r}, r_max_x={self.r_max_x!r} are invalid; valid: "
+                             "r_min_x <= 1 <= r_max_x")
         for name in ("memory_s", "gnss_std0", "bias_rw", "accel_density", "r_floor", "accel_gate", "innov_gate",
                      "reject_timeout_s", "als_window_s", "accel_avg_s"):
             v = getattr(self, name)
@@ -188,7 +239,9 @@ class AEKFTrace:
     """Adaptation history of one run: t_idx (M,) sample index of each update, R (M,3) [unit^2] adapted
     measurement-noise diagonal (unit = m/s^2 without GNSS, m/s with), q_gyro (M,) [(rad/s)^2/Hz] adapted gyro
     noise density² after each measurement (accepted or not), yaw (N,) [rad] heading estimate, bias (N,3) [rad/s]
-    gyro-bias estimate; als: the ALS estimates (:class:`imutherm.imu.filters.noise_als.NoiseEstimate`, the window
+    gyro-bias estimate; resets (K,) sample index of each reset (NIS monitor or re-level); nis: (window end
+    sample (W,), window mean NIS (W,)) of the NIS monitor; als: the ALS estimates
+    (:class:`imutherm.imu.filters.noise_als.NoiseEstimate`, the window
     [start, end) each used; q_gyro set into Q from sample ``end`` on)."""
 
     t_idx: np.ndarray
@@ -197,137 +250,14 @@ class AEKFTrace:
     yaw: np.ndarray
     bias: np.ndarray
     als: tuple = ()
-
-
-@njit(cache=True)
-def _skew(v):
-    m = np.zeros((3, 3))
-    m[0, 1], m[0, 2], m[1, 0], m[1, 2], m[2, 0], m[2, 1] = -v[2], v[1], v[2], -v[0], -v[1], v[0]
-    return m
-
-
-@njit(cache=True)
-def _rotvec_dcm(a):
-    """exp([a×]) (3,3) for a rotation vector a [rad]."""
-    th = np.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-    K = _skew(a)
-    if th < 1e-12:
-        return np.eye(3) + K
-    return np.eye(3) + np.sin(th) / th * K + (1.0 - np.cos(th)) / (th * th) * _mm3(K, K)
-
-
-@njit(cache=True)
-def _mm3(A, B):
-    """A @ B for 3x3 matrices, written out (numba's @ calls BLAS: ~1 us of overhead per call)."""
-    out = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return out
-
-
-@njit(cache=True)
-def _mv3(A, x):
-    """A @ x for a 3x3 matrix and a 3-vector, written out."""
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = A[i, 0] * x[0] + A[i, 1] * x[1] + A[i, 2] * x[2]
-    return out
-
-
-@njit(cache=True)
-def _orthonormalise(C):
-    u, s, vt = np.linalg.svd(C)
-    return u @ vt
-
-
-@njit(cache=True)
-def _propagate(P, C, S, h, G, Hp):
-    """P <- Phi P Phi^T in place, Phi = I + F h, for the error state (attitude, velocity, gyro bias) whose
-    F has two non-zero blocks: F[0:3, 6:9] = -C (bias into attitude), F[3:6, 0:3] = -S (S = [C f x],
-    attitude into velocity). Phi P Phi^T = P + h (F P + (F P)^T) + h^2 F P F^T for a symmetric P, with
-    F P and F P F^T formed from those blocks alone (the dense 9x9 products cost ~2 us per sample).
-    G (6, 9), Hp (6, 6): work space."""
-    for i in range(3):
-        for j in range(9):
-            a = 0.0
-            b = 0.0
-            for m in range(3):
-                a += C[i, m] * P[6 + m, j]
-                b += S[i, m] * P[m, j]
-            G[i, j] = -a          # (F P)[i, j], i < 3
-            G[3 + i, j] = -b      # (F P)[3 + i, j]
-    for c in range(6):            # (F P F^T)[r, c] = sum_m F[r, m] (F P)[c, m]
-        for i in range(3):
-            a = 0.0
-            b = 0.0
-            for m in range(3):
-                a += C[i, m] * G[c, 6 + m]
-                b += S[i, m] * G[c, m]
-            Hp[i, c] = -a
-            Hp[3 + i, c] = -b
-    for r in range(9):
-        for c in range(r, 9):
-            x = P[r, c]
-            if r < 6:
-                x += h * G[r, c]
-            if c < 6:
-                x += h * G[c, r] + h * h * Hp[r, c]
-            P[r, c] = x
-            P[c, r] = x
-
-
-@njit(cache=True)
-def _mm(A, B, transpose_b=False):
-    """A @ B (or A @ B.T) written out: numba's @ on these small matrices calls BLAS, ~1 us of overhead a
-    product, more than the product itself."""
-    n, l = A.shape
-    m = B.shape[0] if transpose_b else B.shape[1]
-    out = np.zeros((n, m))
-    for i in range(n):
-        for j in range(m):
-            a = 0.0
-            for k in range(l):
-                a += A[i, k] * (B[j, k] if transpose_b else B[k, j])
-            out[i, j] = a
-    return out
-
-
-@njit(cache=True)
-def _hpht(H, P):
-    """H P H^T (3, 3) for H (3, 9), P (9, 9)."""
-    return _mm(_mm(H, P), H, True)
-
-
-@njit(cache=True)
-def _joseph_update(P, H, Sinv, r, nu, I9):
-    """The Kalman update in Joseph form, P <- (I - K H) P (I - K H)^T + K diag(r) K^T (symmetrised) in
-    place, K = P H^T S^-1; returns the state correction K nu (9,). H (3, 9), Sinv (3, 3), r (3,) the
-    measurement variances, nu (3,) the innovation. Written out (:func:`_mm`)."""
-    K = _mm(_mm(P, H, True), Sinv)
-    dx = np.zeros(9)
-    for i in range(9):
-        dx[i] = K[i, 0] * nu[0] + K[i, 1] * nu[1] + K[i, 2] * nu[2]
-    IKH = I9 - _mm(K, H)
-    T = _mm(IKH, P)
-    for i in range(9):
-        for j in range(i, 9):
-            a = K[i, 0] * r[0] * K[j, 0] + K[i, 1] * r[1] * K[j, 1] + K[i, 2] * r[2] * K[j, 2]
-            c = 0.0
-            e = 0.0
-            for m in range(9):
-                c += T[i, m] * IKH[j, m]
-                e += T[j, m] * IKH[i, m]
-            x = 0.5 * (c + e) + a
-            P[i, j] = x
-            P[j, i] = x
-    return dx
+    resets: np.ndarray | None = None
+    nis: tuple = ()
 
 
 @njit(cache=True)
 def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_idx, q_val, adapt_r, r_floor,
                use_gnss, gidx, gvel, p0_yaw, accel_gate, innov_gate, reject_timeout, n_avg, n_hold, lpc, sf2,
-               trap, rest):
+               trap, rest, r_hi, nis_win, nis_hi, r_mon, dir_only):
     n = gyro.shape[0]
     rst = np.zeros(REST_STATE)  # rest detector (rest: a zero-rate update of the bias state at rest)
     ra = dt / (REST_TAU + dt)
@@ -348,8 +278,13 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
         P[i, i] = (0.05 * np.pi / 180.0) ** 2
     gn = np.array([0.0, 0.0, g])
     qg = qg0
-    R = np.full(3, r0)
-    Cv = np.zeros(3)
+    R = np.full(3, min(max(r0, r_floor), r_hi))
+    r_start = R[0]
+    Cv = np.zeros(3)  # Sage-Husa fading means of ν νᵀ and H P⁻ Hᵀ (diagonals)
+    Hm = np.zeros(3)
+    nis_s = 0.0  # NIS monitor: sum and count of the window's quasi-static updates
+    nis_n = 0
+    n_reset = 0
     n_per = 1
     if use_gnss and gidx.shape[0] > 1:
         n_per = gidx[1] - gidx[0]
@@ -358,8 +293,11 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
     d = n_per * dt / memory_s  # fading weight per update: b = 1 - d
     if d > 0.5:
         d = 0.5
-    Hm = np.zeros(3)
     m_max = gidx.shape[0] if use_gnss else n // n_avg + 1
+    resets = np.empty(m_max + 1, np.int64)  # sample of each reset (NIS monitor or re-level), one a measurement at most
+    nis_k = np.empty(m_max // max(1, nis_win) + 1, np.int64)  # NIS monitor: window end sample, window mean NIS
+    nis_v = np.empty(m_max // max(1, nis_win) + 1)
+    n_nis = 0
     fsum = np.zeros(3)  # no-GNSS: sum of the block's specific force, in the current body frame
     use_lp = lpc.shape[0] == 5 and not use_gnss
     lps = np.zeros((4, 3))  # low-pass state (x1, x2, y1, y2) in the current body frame (inertial low-pass mode)
@@ -409,7 +347,11 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
         if rest and not use_gnss:
             at_rest, _, _, _ = rest_step(rst, 0, gyro[k, 0], gyro[k, 1], gyro[k, 2], accel[k, 0], accel[k, 1],
                                          accel[k, 2], ra, dt)
-            if at_rest:  # zero-rate update: the gyro sample measures the bias, variance q_g / dt per sample
+            if at_rest:  # the |f| reference re-read in this orientation (a biased accelerometer's |f| at rest moves
+                # with the attitude: up to 2 |b_a| between upright and upside down), then the zero-rate update
+                g = math.sqrt(rst[3] * rst[3] + rst[4] * rst[4] + rst[5] * rst[5])
+                gn[2] = g
+                # zero-rate update: the gyro sample measures the bias, variance q_g / dt per sample
                 rz = qg / dt
                 Sz = _hpht(Hz, P)
                 for i in range(3):
@@ -445,6 +387,9 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
             if cnt == 0 and (use_lp or ea < accel_gate):
                 H = np.zeros((3, 9))
                 H[:, 0:3] = -_mm3(C.T, _skew(gn))
+                fn = np.sqrt(fk[0] * fk[0] + fk[1] * fk[1] + fk[2] * fk[2])
+                if dir_only and fn > 0.0:  # the direction only: |f| - g (accelerometer bias and scale factor
+                    fk = fk * (g / fn)     # along the vertical) is no tilt
                 nu = fk + _mv3(C.T, gn)
                 meas = True
         if meas:
@@ -459,17 +404,51 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
             S = HPH.copy()
             for i in range(3):
                 S[i, i] += R[i] / wgt
-            if adapt_r and steady and not fresh and wgt == 1.0:  # Sage-Husa on every measurement, each term clipped at innov_gate S_ii
+            if adapt_r and steady and not fresh and wgt == 1.0:  # Sage-Husa, each term clipped at innov_gate S_ii,
+                # R bounded to [r_floor, r_hi]
                 for i in range(3):
                     c = nu[i] * nu[i]
                     cmax = innov_gate * S[i, i]
                     Cv[i] = (1.0 - d) * Cv[i] + d * (c if c < cmax else cmax)
                     Hm[i] = (1.0 - d) * Hm[i] + d * HPH[i, i]
                     ri = Cv[i] - Hm[i]
-                    R[i] = ri if ri > r_floor else r_floor
+                    R[i] = r_floor if ri < r_floor else (r_hi if ri > r_hi else ri)
+            nis = nu @ np.linalg.solve(S, nu)
+            if use_lp and wgt == 1.0 and not fresh and nis_win > 0:  # NIS monitor on the quasi-static updates
+                Sm = HPH.copy()
+                for i in range(3):
+                    Sm[i, i] += r_mon
+                nis_s += nu @ np.linalg.solve(Sm, nu)
+                nis_n += 1
+                if nis_n == nis_win:
+                    nis_k[n_nis] = k
+                    nis_v[n_nis] = nis_s / nis_n
+                    n_nis += 1
+                    if nis_s / nis_n > nis_hi:  # diverged: re-level on the measured vertical, P and R reset, reported
+                        if not use_gnss:
+                            C = _mm3(C, _align_rotation(C[2], -fk).T)
+                            H[:, 0:3] = -_mm3(C.T, _skew(gn))
+                            nu = fk + _mv3(C.T, gn)
+                        for i in range(3):
+                            for j in range(9):
+                                P[i, j] = 0.0
+                                P[j, i] = 0.0
+                        P[0, 0] = P[1, 1] = (10.0 * np.pi / 180.0) ** 2
+                        P[2, 2] = p0_yaw
+                        R[:] = r_start
+                        HPH = _hpht(H, P)
+                        S = HPH.copy()
+                        for i in range(3):
+                            S[i, i] += R[i] / wgt
+                        nis = nu @ np.linalg.solve(S, nu)
+                        if n_reset < resets.shape[0]:
+                            resets[n_reset] = k
+                            n_reset += 1
+                        rej_t = 0.0
+                    nis_s = 0.0
+                    nis_n = 0
             accept = True
             if not use_gnss and not use_lp:  # innovation test (chi-square, 3 dof); re-level after reject_timeout
-                nis = nu @ np.linalg.solve(S, nu)
                 if nis > innov_gate:
                     rej_t += n_per * dt
                     if rej_t < reject_timeout:
@@ -486,6 +465,9 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                         for i in range(3):
                             S[i, i] += R[i] / wgt
                         rej_t = 0.0
+                        if n_reset < resets.shape[0]:
+                            resets[n_reset] = k
+                            n_reset += 1
                 else:
                     rej_t = 0.0
             if accept:
@@ -493,6 +475,7 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                 C = _mm3(_rotvec_dcm(dx[0:3]), C)
                 v = v + dx[3:6]
                 b = b + dx[6:9]
+
                 if wgt >= 0.5:
                     for j in range(k - n_per + 1 if not use_gnss else k, k + 1):
                         used[j] = True
@@ -502,7 +485,7 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
             m += 1
         out_C[k] = C
         out_b[k] = b
-    return out_C, out_b, used, t_idx[:m], R_hist[:m], q_hist[:m]
+    return out_C, out_b, used, t_idx[:m], R_hist[:m], q_hist[:m], resets[:n_reset], nis_k[:n_nis], nis_v[:n_nis]
 
 
 def _als_schedule(gyro, accel, dt, params: AEKFParams, b0, qg0, n0) -> tuple:
@@ -573,20 +556,30 @@ def run_aekf(gyro, accel, dt: float, params: AEKFParams = AEKFParams(), *, gnss=
         lpc = np.zeros(0)
     q_idx = np.array([e.end for e in als], np.int64)
     q_val = np.array([e.q_gyro for e in als], float)
-    C, bias, used, t_idx, R, q = _aekf_loop(gyro, accel, float(dt), dts, C0, b0, g_ref, float(qg0), float(r0),
+    if gnss is None:  # bounds about the accelerometer's noise measured on the rest window's blocks
+        r_ref = float(np.mean(np.std(rest_blocks, axis=0))) ** 2
+        r_floor, r_hi = max(params.r_floor, params.r_min_x * r_ref), max(params.r_floor, params.r_max_x * r_ref)
+    else:  # GNSS: the receiver's velocity noise up to 100 times its stated std
+        r_floor, r_hi = params.r_floor, max(params.r_floor, (100.0 * params.gnss_std0) ** 2)
+    r_mon = (g_ref * math.tan(math.radians(params.monitor_deg))) ** 2 if gnss is None else 0.0
+    nis_win = (int(round(params.nis_window_s / (n_avg * dt))) if math.isfinite(params.nis_window_s) else 0)
+    C, bias, used, t_idx, R, q, resets, nis_k, nis_v = _aekf_loop(
+                                            gyro, accel, float(dt), dts, C0, b0, g_ref, float(qg0), float(r0),
                                             params.bias_rw, params.accel_density, params.memory_s,
-                                            q_idx, q_val, params.adapt_r, params.r_floor, gnss is not None,
+                                            q_idx, q_val, params.adapt_r, r_floor, gnss is not None,
                                             gidx, gvel, float(np.radians(5.0) ** 2), params.accel_gate,
                                             params.innov_gate, params.reject_timeout_s, n_avg, n0, lpc,
                                             float(params.sf_std ** 2), params.gyro_sample == "point",
-                                            bool(params.rest_bias and lpc.shape[0] == 5))
+                                            bool(params.rest_bias and lpc.shape[0] == 5), float(r_hi), nis_win,
+                                            params.innov_gate, float(r_mon), params.dir_only)
     r = C[:, 2, :]  # gravity direction in body axes = third row of C_nb
     roll, pitch = roll_pitch_from_gravity(r)
     yaw = np.arctan2(C[:, 1, 0], C[:, 0, 0])
     label = name or ("aekf" if gnss is None else "aekf_gnss")
-    est = AttitudeEstimate(label, roll, pitch, r, used, time.perf_counter() - t0, yaw=yaw)
+    est = AttitudeEstimate(label, roll, pitch, r, used, time.perf_counter() - t0, yaw=yaw, resets=resets)
     if return_trace:
-        return est, AEKFTrace(t_idx=t_idx, R=R, q_gyro=q, yaw=yaw, bias=bias, als=als)
+        return est, AEKFTrace(t_idx=t_idx, R=R, q_gyro=q, yaw=yaw, bias=bias, als=als, resets=resets,
+                              nis=(nis_k, nis_v))
     return est
 
 

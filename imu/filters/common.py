@@ -20,6 +20,8 @@ class AttitudeEstimate:
     accel_used : (N,) bool      True where the accelerometer corrected the estimate
     runtime_s : float [s]       wall time of the run
     yaw : (N,) [rad] | None     heading estimate where the filter has one (aekf, aekf_gnss)
+    resets : (K,) int | None    sample index of each reset the filter made after its innovations said it had
+                                diverged (aekf's NIS monitor and re-level); None: the filter has no such monitor
     """
 
     name: str
@@ -29,6 +31,7 @@ class AttitudeEstimate:
     accel_used: np.ndarray
     runtime_s: float
     yaw: np.ndarray | None = None
+    resets: np.ndarray | None = None
 
 
 def estimate_from_gravity(name, r, used, runtime_s) -> AttitudeEstimate:

@@ -65,6 +65,8 @@ def _toml_value(v) -> str:
 
 def result_json(res: CorrelationResult) -> dict:
     """The ``correlation.json`` content."""
+    profiled = {x.parameter for x in res.findings}
+
     def params(f: Fit):
         out = {}
         for name, v in f.values.items():
@@ -72,6 +74,7 @@ def result_json(res: CorrelationResult) -> dict:
             unit = k.unit if k is not None else effect_of(name).params[0].unit
             form = name in FORM_KNOBS and name not in res.named_effects and name not in f.effects
             out[name] = {"value": v, "unit": unit, "ci95": list(f.ci.get(name, (None, None))),
+                         "ci95_from": "profile" if name in profiled and f is res.after else "jacobian",
                          "kind": "retune" if k is not None or form else "effect",
                          "source": knobs.RETUNE_SOURCES.get(name) or (FORM_KNOBS[name] if form else
                                                                   effect_of(name).params[0].source),
@@ -105,6 +108,13 @@ def result_json(res: CorrelationResult) -> dict:
         # re-tuned parameters that moved far and explain most of the gap, the largest share first; the first thing
         # named is the first finding if there is one, else the first library effect
         "findings": [f.as_dict() for f in res.findings],
+        # knobs at a bound the data pull them to: the model's form, not findings (how far off and where)
+        "symptoms": [x.as_dict() for x in res.symptoms],
+        # verdict 'ambiguous': the bench design that best separates the candidates (scheme, power_scale, ambient_C,
+        # duration_s, probes, separation_K, separation_sigmas, in_words); null otherwise
+        "next_experiment": res.next_experiment,
+        # named effects, findings and ambiguous candidates on one basis (the physics without the term), best first
+        "explanations": [{k: v for k, v in e.items() if k != "values"} for e in res.explanations],
         "named_first": (res.findings[0].parameter if res.findings else res.named_effect),
         "written_model": ({k: v for k, v in res.written.items() if k != "values"} if res.written else None),
         "form_scale": res.form_scale,

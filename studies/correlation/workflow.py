@@ -17,11 +17,13 @@ from imutherm.unit import knobs
 from imutherm.unit.effects import EFFECTS, effect_of, signal_effect_names
 from imutherm.studies import form_error
 from imutherm.unit.model import ModelOptions
-from imutherm.studies.findings import findings as findings_of
+from imutherm.studies.findings import explain_knobs
 from imutherm.studies.plausibility import check_plausible
 from imutherm.studies.written_model import choose as choose_written
 from imutherm.studies.correlation.discrepancy import _disc_curve, form_band
-from imutherm.studies.correlation.fit import Fit, _fit
+from imutherm.studies.correlation.explain import explanations as explanations_of
+from imutherm.studies.correlation.next_experiment import next_experiment as next_experiment_of
+from imutherm.studies.correlation.fit import Fit, _fit, _with
 from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, FORM_RETUNE, _Forward, _residuals
 from imutherm.studies.correlation.holdout import SPARSE_READINGS, _held, _heldout_nominal, _masks, _pooled, _test_union
 from imutherm.studies.correlation.models import Models, _map, build_models, check_inputs, refuse_duplicates, rerun_full
@@ -81,6 +83,15 @@ class CorrelationResult:
     #: the corrected model's physics alone: its effects and the re-tune fitted without the discrepancy term, with
     #: pooled held-out figures (``after`` itself where no term was fitted); its intervals are the findings'
     physics: Fit | None = None
+    #: re-tuned knobs that ended at a bound while the data pull them there: symptoms of the model's form, never
+    #: findings (:class:`imutherm.studies.findings.Symptom`: how far the form is off and where)
+    symptoms: tuple = ()
+    #: one ranked list of the explanations: named effects, findings and ambiguous candidates scored alike
+    #: (:mod:`imutherm.studies.correlation.explain`), best first
+    explanations: tuple = ()
+    #: verdict 'ambiguous': the bench design that best separates the candidates left
+    #: (:func:`imutherm.studies.correlation.next_experiment.next_experiment`), else None
+    next_experiment: dict | None = None
 
 
 def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | None = "auto",
@@ -150,7 +161,22 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         reason += f" ({sel.disc_note})"
     if sel.term_check and v == "none":  # the term was asked and is not needed: the re-tuned model stands as it is
         after, none_fit, disc = sel.plain, sel.plain, None
-    free, found, written = _physics(sel, after, disc, noise, nominal)
+    free, found, symptoms, written = _physics(sel, after, disc, noise, nominal, fscale)
+    if found:
+        # a knob that explains the data is the explanation: the physics it was found in (no term) is the corrected
+        # model, so the verdict, the words, page 1, updated_model.toml and `parameters` carry the same value
+        after, disc = free, None
+    expl = explanations_of(sel.fwd, free, found, amb_set, sel.full, sel.folds, sel.ratio0, noise)
+    nxt = None
+    if amb_set and not found:
+        step = next((st for st in reversed(sel.steps) if st["verdict"] == "ambiguous"), None)
+        fits = [f for f in (step["ranking"] if step else ()) if f.effects and f.effects[-1] in amb_set]
+        nxt = next_experiment_of(sel.fwd, [(f.effects[-1], f.values) for f in fits], noise, fscale.fraction)
+        if nxt is not None:
+            say(nxt["in_words"])
+    if symptoms:
+        reason += "; " + "; ".join(x.words() for x in symptoms)
+        say("; ".join(x.words() for x in symptoms))
     if found:
         fw = "; ".join(f.words() for f in found)
         if v == "effect":
@@ -164,12 +190,15 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     curves = _curves(sel.fwd, runs, nominal, after, disc)
     before = {"rms_K": float(np.sqrt(np.mean(before_res**2))), "max_K": float(np.abs(before_res).max()),
               "heldout_rms_K": _heldout_nominal(sel.fwd, sel.folds, nominal)}
-    words = "; ".join([f.words() for f in found] + [effect_words(n, after.values) for n in named_effects]) or reason
+    words = "; ".join([f.words() for f in found] + [effect_words(n, after.values) for n in named_effects]
+                      + [x.words() for x in symptoms]) or reason
     if dsum is not None and dsum["supported"]:
         words += f"; {dsum['words']}"
     band = form_band(sel.fwd, after.values, sel.full, named_effects) if sel.sparse_term else None
     if band is not None:
         words += f"; {band['words']}"
+    if nxt is not None:
+        words += f"; {nxt['in_words']}"
     t1 = time.perf_counter()
     rerun_stats = (_rerun(runs, after, disc, models, curves, jobs, say, use_cache, rerun_transient) if rerun
                    else {})
@@ -180,7 +209,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
                              {"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
                               "total_s": time.perf_counter() - t0, "reason": reason},
                              words, rerun_stats, named_effects, tuple(sel.steps), dsum, sel.plain, band, found,
-                             written, fscale.summary(), free)
+                             written, fscale.summary(), free, symptoms, tuple(expl), nxt)
 
 
 def _inputs_and_models(runs: tuple, layout, holdout, mesh_size_mm: float, min_cells: int, options, models,
@@ -368,9 +397,11 @@ def _decide(sel: _Selection, noise: float, say) -> tuple:
     return "none", None, (), "no candidate effect applies", named_effects
 
 
-def _physics(sel: _Selection, after: Fit, disc, noise: float, nominal: dict) -> tuple:
-    """(the corrected physics without the term, findings, the model to write): the re-tune's far moves and
-    the written model, both on the physics without the discrepancy term."""
+def _physics(sel: _Selection, after: Fit, disc, noise: float, nominal: dict, fscale) -> tuple:
+    """(the corrected physics without the term, findings, symptoms, the model to write): the re-tune's far moves
+    (profile intervals at the noise and the known form error ``fscale``; knobs at a bound are symptoms) and the
+    written model, both on the physics without the discrepancy term. With findings the physics is the model
+    written (no worse than the nominal model, else the nominal), and the findings' intervals are its ``ci``."""
     fwd, full, folds, ratio0 = sel.fwd, sel.full, sel.folds, sel.ratio0
     with threadpool_limits(1):
         free = after
@@ -378,9 +409,14 @@ def _physics(sel: _Selection, after: Fit, disc, noise: float, nominal: dict) -> 
             free = _held(_fit(fwd, after.effects, full, None, ratio0, noise, None, after.values),
                          _pooled(fwd, after.effects, folds, ratio0, noise, None, after.values))
         held_out = _test_union(folds) if folds[0][1] is not None else full
-        found = findings_of(fwd, free, full, folds, ratio0, noise, held_out)
-        written = choose_written(fwd, nominal, after.values, free.values if disc is not None else None, held_out)
-    return free, found, written
+        band = form_error.band_K(fwd, fscale, free.values, full)
+        found, symptoms = explain_knobs(fwd, free, full, folds, ratio0, noise, held_out, band)
+        if found:
+            free = _with(free, ci={**free.ci, **{f.parameter: f.ci95 for f in found}})
+            written = choose_written(fwd, nominal, free.values, None, held_out)
+        else:
+            written = choose_written(fwd, nominal, after.values, free.values if disc is not None else None, held_out)
+    return free, found, symptoms, written
 
 
 def _curves(fwd: _Forward, runs: tuple, nominal: dict, after: Fit, disc) -> dict:

@@ -1,10 +1,11 @@
-"""The end-to-end study of every scheme (:func:`run_study`): thermal cases in worker processes, each scheme's
-IMU cases queued as soon as its thermal result is in.
+"""The end-to-end study of every scheme (:func:`run_study`): thermal cases in worker processes (or from the disk
+cache, keyed by their content), each scheme's IMU cases queued as soon as its thermal result is in.
 """
 
 from __future__ import annotations
 
 import time
+from itertools import chain
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
@@ -14,7 +15,8 @@ from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.unit.model import ModelOptions
 from imutherm.studies.end_to_end.config import SchemeStudy, StudyConfig, StudyResult
 from imutherm.studies.end_to_end.imu import bare_calibration, imu_case, reduce_cases
-from imutherm.studies.end_to_end.thermal import _one_blas_thread, longest_first, site_curves, thermal_case
+from imutherm.studies.end_to_end.thermal import (_one_blas_thread, cached_thermal_case, longest_first, site_curves,
+                                                 stored_thermal_case, thermal_key)
 
 
 def _imu_jobs(pool, config: StudyConfig, seeds, bare, args):
@@ -25,7 +27,7 @@ def _imu_jobs(pool, config: StudyConfig, seeds, bare, args):
 
 def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: StudyConfig = StudyConfig(),
               options: ModelOptions | None = None, jobs: int | None = None, progress: bool = False,
-              **thermal_kwargs) -> StudyResult:
+              use_cache: bool = True, **thermal_kwargs) -> StudyResult:
     """The end-to-end study of every scheme (module docstring).
 
     Parameters
@@ -39,6 +41,11 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
         (:func:`longest_first`), and each scheme's IMU cases (one per seed) are queued as soon as its thermal
         result is in, whichever finishes first.
     progress : bool, print one line per stage
+    use_cache : bool, read each scheme's thermal case from the disk cache (:mod:`imutherm.cache`) when one of the
+        same content is there (:func:`~imutherm.studies.end_to_end.thermal.thermal_key`: layout, scheme,
+        options, mesh, time and estimate settings, oven temperatures, code; not the IMU side) and keep the
+        computed ones there; a hit prints ``<scheme>: thermal: cached (key ...)`` (whatever ``progress``) and
+        solves nothing. ``$IMUTHERM_CACHE=off`` turns it off too
     **thermal_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme` (mesh_size_mm, min_cells,
         transient time settings); the transient is always run. ``estimate_mesh_error=True``: each scheme's
         steady answer also gets its discretisation error (:func:`~imutherm.studies.thermal_study.mesh_error`,
@@ -52,7 +59,7 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     pool = study_pool(jobs)
     try:
         pending, thermal = _thermal_then_imu(pool, jobs, layout, schemes, options, config, seeds, progress,
-                                             thermal_kwargs)
+                                             thermal_kwargs, use_cache)
         out = {}
         for sch in schemes:
             cases = [c if isinstance(c, dict) else c.result() for c in pending[sch]]
@@ -98,44 +105,72 @@ def study_pool(jobs: int):
                                initargs=(ctx.Lock(),))
 
 
+def _cache_lookup(layout, schemes, options, config: StudyConfig, thermal_kwargs: dict, use_cache: bool) -> tuple:
+    """(scheme -> cache key or None, scheme -> thermal case found in the disk cache); one line printed per hit
+    and per entry that could not be read (recomputed)."""
+    from imutherm.cache import enabled
+
+    on = use_cache and enabled()
+    keys = {sch: thermal_key(layout, sch, options, config.chamber_C, **thermal_kwargs) if on else None
+            for sch in schemes}
+    found = {}
+    for sch in schemes:
+        value, status = cached_thermal_case(keys[sch], layout)
+        if status == "hit":
+            found[sch] = value
+            print(f"{sch}: thermal: cached (key {keys[sch][:12]})", flush=True)
+        elif status == "unreadable":
+            print(f"{sch}: thermal: the cache entry {keys[sch][:12]} could not be read: recomputed", flush=True)
+    return keys, found
+
+
 def _thermal_then_imu(pool, jobs: int, layout, schemes, options, config: StudyConfig, seeds, progress: bool,
-                      thermal_kwargs: dict) -> tuple:
+                      thermal_kwargs: dict, use_cache: bool = True) -> tuple:
     """(scheme -> its IMU cases (results, or futures on ``pool``), scheme -> (SchemeResult, chamber, rise, oven
-    solves)): each scheme's thermal case, in order of completion, its IMU cases queued as soon as it is in."""
+    solves)): each scheme's thermal case (from the disk cache, or solved and stored there), in order of
+    completion, its IMU cases queued as soon as it is in."""
     from imutherm.imu.sensor_model import SITES
 
+    keys, found = _cache_lookup(layout, schemes, options, config, thermal_kwargs, use_cache)
+    todo = [sch for sch in schemes if sch not in found]
     need_bare = "bare" in config.calibrations
     if pool is None:
         thermal_futs = None
         bare = {s: bare_calibration(config.grade, s) if need_bare else None for s in seeds}
     else:
-        if progress:
-            print(f"thermal (steady, power-on transient, oven self-heating) of {', '.join(schemes)} "
+        if progress and todo:
+            print(f"thermal (steady, power-on transient, oven self-heating) of {', '.join(todo)} "
                   f"in {jobs} processes ...", flush=True)
-        thermal_futs = {pool.submit(thermal_case, layout, sch, options, config.chamber_C, **thermal_kwargs): sch
-                        for sch in longest_first(layout, schemes, options)}
+        thermal_futs = {pool.submit(stored_thermal_case, keys[sch], layout, sch, options, config.chamber_C,
+                                    **thermal_kwargs): sch
+                        for sch in longest_first(layout, todo, options)}
         bare_futs = {s: pool.submit(bare_calibration, config.grade, s) if need_bare else None for s in seeds}
-        bare = None
+        bare = None   # the bare-sensor calibrations' results, collected with the first scheme's thermal case
     pending, thermal = {}, {}
-    # in order of completion: each scheme's IMU cases are queued as soon as its thermal result is in
-    for item in (schemes if pool is None else as_completed(thermal_futs)):
-        if thermal_futs is None:
+    # in order of completion: each scheme's IMU cases are queued as soon as its thermal result is in (the
+    # cached ones first)
+    order = chain([sch for sch in schemes if sch in found], todo if pool is None else as_completed(thermal_futs))
+    for item in order:
+        if isinstance(item, str) and item in found:
+            sch = item
+            res, chamber, rise, oven = found[sch]
+        elif thermal_futs is None:
             sch = item
             if progress:
                 print(f"scheme {sch}: thermal (steady, power-on transient, oven self-heating) ...", flush=True)
-            res, chamber, rise, oven = thermal_case(layout, sch, options, config.chamber_C, progress=progress,
-                                                    **thermal_kwargs)
+            res, chamber, rise, oven = stored_thermal_case(keys[sch], layout, sch, options, config.chamber_C,
+                                                           progress=progress, **thermal_kwargs)
         else:
             sch = thermal_futs[item]
             res, chamber, rise, oven = item.result()
-            if bare is None:
-                bare = {s: f.result() if f is not None else None for s, f in bare_futs.items()}
+        if bare is None:
+            bare = {s: f.result() if f is not None else None for s, f in bare_futs.items()}
         t, T = site_curves(res)
         idx = [res.steady.probe_names.index(s) for s in SITES]
         steady_T = np.asarray(res.steady.probe_C)[idx]
         if progress:
-            print(f"scheme {sch}: thermal done ({res.wall_s:.0f} s); IMU and attitude, {len(seeds)} seeds ...",
-                  flush=True)
+            done = "from the cache" if sch in found else f"done ({res.wall_s:.0f} s)"
+            print(f"scheme {sch}: thermal {done}; IMU and attitude, {len(seeds)} seeds ...", flush=True)
         pending[sch] = _imu_jobs(pool, config, seeds, bare, (t, T, steady_T, chamber, rise))
         thermal[sch] = (res, chamber, rise, oven)
     return pending, thermal

@@ -1,5 +1,6 @@
 """The thermal side of the end-to-end study: one scheme's steady field, power-on transient and self-heating in
-the calibration oven (:func:`thermal_case`), and the order the schemes go to the workers.
+the calibration oven (:func:`thermal_case`), kept in the disk cache under the key of its content
+(:func:`thermal_key`, :func:`stored_thermal_case`), and the order the schemes go to the workers.
 """
 
 from __future__ import annotations
@@ -15,8 +16,8 @@ from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.steady import solve_steady
 
 
-def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | None = None
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | None = None,
+                       preconditioner=None, assembly=None) -> tuple[np.ndarray, np.ndarray]:
     """Sensor-die rise over the chamber [K], (k, 6) in SITES order, at oven temperatures ``chamber_C`` [°C].
 
     The scheme's model is solved steady with the chamber as ambient and fixture
@@ -25,6 +26,10 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
     ``res``'s steady rise that checks itself against the full model, every sensor die within 0.01 K
     (:func:`imutherm.thermal.reduced_steady.reduced_steady`), the full solve when the check fails.
     ``solves``: a list that gets one JSON-ready dict per solved chamber temperature (how it was solved).
+    ``preconditioner``: the scheme's steady solve's (``solve_steady(..., keep=)``: the same conduction), for the
+    reduced model's check instead of a new AMG hierarchy. ``assembly``: the scheme's own (the same grid and
+    materials): its conduction, heat capacity and volume load are taken, only the oven's boundary is assembled
+    (:func:`imutherm.thermal.assembly.assemble` ``like=``).
     """
     from imutherm.imu.sensor_model import SITES
     from imutherm.thermal.assembly import assemble
@@ -46,12 +51,12 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
             continue
         lay_c = replace(lay, ambient_C=Tc, mounting=replace(lay.mounting, temperature_C=Tc))
         problem = build_problem(replace(geo, layout=lay_c), res.grid, res.options)
-        asm = assemble(problem)
+        asm = assemble(problem, like=assembly)
         known = np.asarray(res.steady.T_C) - lay.ambient_C
         st, how = None, {"chamber_C": float(Tc), "model": "full"}
         if model == "reduced":
             try:
-                st, chk = reduced_steady(problem, asm, known, probes)
+                st, chk = reduced_steady(problem, asm, known, probes, preconditioner=preconditioner)
                 how["check"] = chk.summary()
             except InputError as e:   # e.g. a fixed-temperature face: the full solve
                 how["check"] = {"accepted": False, "reason": str(e)}
@@ -105,23 +110,25 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     from imutherm.studies.thermal_study import mesh_factors, run_scheme
 
     estimate = thermal_kwargs.pop("estimate_mesh_error", False)
-    res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, **thermal_kwargs)
+    kept = {}   # the steady solve's preconditioner: the oven's check and the estimate's coarse level use it too
+    res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, keep=kept, **thermal_kwargs)
     solves = []
     chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
-                                       solves=solves)
+                                       solves=solves, preconditioner=kept.get("preconditioner"),
+                                       assembly=kept.pop("assembly", None))   # not kept through the refined solve
     if estimate:
-        res = with_mesh_error(res)
+        res = with_mesh_error(res, kept.pop("preconditioner", None))
         factors = mesh_factors(res)   # the oven's rises too: the same mesh, the same conduction
         rise = rise * np.array([factors.get(s, 1.0) for s in SITES])
     release_freed_memory()
     return res, chamber, rise, solves
 
 
-def with_mesh_error(res):
+def with_mesh_error(res, coarse_pc=None):
     """``res`` with its mesh-error estimate and the answer corrected by it
     (:func:`~imutherm.studies.thermal_study.mesh_error`, :func:`~imutherm.studies.thermal_study.mesh_corrected`),
     the refined solve under the workers' lock (one at a time: ~8x the memory of a scheme's solve); ``wall_s``
-    includes it."""
+    includes it. ``coarse_pc``: the steady solve's preconditioner (:func:`~imutherm.studies.thermal_study.mesh_error`)."""
     import contextlib
     import time
 
@@ -131,7 +138,7 @@ def with_mesh_error(res):
     t0 = time.perf_counter()
     release_freed_memory()   # the solves' freed arrays, before the refined solve's (the study's peak)
     with _REFINED_LOCK if _REFINED_LOCK is not None else contextlib.nullcontext():
-        res = mesh_corrected(replace(res, mesh_error=mesh_error(res)))
+        res = mesh_corrected(replace(res, mesh_error=mesh_error(res, coarse_pc=coarse_pc)))
     return replace(res, wall_s=res.wall_s + time.perf_counter() - t0)
 
 
@@ -144,3 +151,85 @@ def longest_first(layout: LayoutSpec, schemes, options: ModelOptions) -> tuple:
         fill = layout.schemes[sch].fill
         return cavity_law_of(options).patches and options.material(fill).name == "air"
     return tuple(sorted(schemes, key=lambda sch: not s2s(sch)))
+
+
+#: the study's own source a thermal case depends on, beside the models' (:data:`imutherm.cache.CODE_VERSION`:
+#: thermal, unit, geometry, layouts, the constants); files read, not imported
+CASE_SOURCES = (("studies", "thermal_study.py"), ("studies", "end_to_end/thermal.py"), ("imutherm", "site_table.py"))
+
+
+def thermal_key(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, **thermal_kwargs) -> str:
+    """The disk-cache key (hex SHA-256, :func:`imutherm.cache.key_of`) of :func:`thermal_case`'s value: the
+    layout's content (not its file's path or time), the scheme, the model options (materials, laws), the oven
+    temperatures, the mesh, time and estimate settings, the sensor-die names and the source of the code that
+    computes it. The IMU side (grade, seeds, profiles, filters) is not in it: a sweep over those re-uses it."""
+    from imutherm.cache import key_of, source_version
+    from imutherm.site_table import SITES
+
+    kw = {k: v for k, v in thermal_kwargs.items() if k != "progress"}
+    chamber = tuple(sorted(float(c) for c in chamber_C))
+    return key_of("thermal_case", replace(layout, path=""), str(scheme), options, chamber, kw, SITES,
+                  source_version(CASE_SOURCES))
+
+
+def cached_thermal_case(key: str | None, layout: LayoutSpec):
+    """(value of :func:`thermal_case` or None, status): the entry under ``key`` in the disk cache
+    (status ``hit``), ``absent``, ``unreadable`` (deleted: to be recomputed) or ``off`` (``key`` None). A hit's
+    geometry carries ``layout`` (the same content, perhaps read from another path)."""
+    from imutherm.cache import load_status
+
+    if key is None:
+        return None, "off"
+    value, status = load_status(key)
+    if status != "hit":
+        return None, status
+    return (_at_path(value[0], layout),) + tuple(value[1:]), status
+
+
+def stored_thermal_case(key: str | None, layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C,
+                        progress: bool = False, **thermal_kwargs):
+    """:func:`thermal_case`, its value written to the disk cache under ``key`` (:func:`thermal_key`; None: not
+    written). Run in a worker: the write happens there, beside the other schemes' solves."""
+    from imutherm.cache import store
+
+    out = thermal_case(layout, scheme, options, chamber_C, progress=progress, **thermal_kwargs)
+    if key is not None:
+        store(key, out)
+    return out
+
+
+def _at_path(res, layout: LayoutSpec):
+    """``res`` (a SchemeResult) with its geometry's layout at ``layout``'s path (a cached result of the same
+    content read from another file)."""
+    if res.geometry.layout.path == layout.path:
+        return res
+    return replace(res, geometry=replace(res.geometry, layout=replace(res.geometry.layout, path=layout.path)))
+
+
+def cached_scheme_run(layout: LayoutSpec, scheme: str, run_kwargs: dict, use_cache: bool = True):
+    """One scheme of the thermal comparison (``compare --thermal-only``): :func:`run_scheme` with ``run_kwargs``
+    (and the mesh-error estimate with the steady solve's preconditioner), or its SchemeResult from the disk cache
+    under the key of its content (as :func:`thermal_key`; ``use_cache`` False or ``$IMUTHERM_CACHE`` off: solved,
+    nothing read or written). A hit prints ``<scheme>: thermal: cached (key ...)``; an entry that cannot be read
+    is recomputed, said in one line."""
+    from imutherm.cache import enabled, key_of, load_status, source_version, store
+    from imutherm.studies.thermal_study import run_scheme
+
+    kw = {k: v for k, v in run_kwargs.items() if k != "progress"}
+    key = None
+    if use_cache and enabled():
+        key = key_of("scheme_run", replace(layout, path=""), str(scheme), kw, source_version(CASE_SOURCES))
+        value, status = load_status(key)
+        if status == "hit":
+            print(f"{scheme}: thermal: cached (key {key[:12]})", flush=True)
+            return _at_path(value, layout)
+        if status == "unreadable":
+            print(f"{scheme}: thermal: the cache entry {key[:12]} could not be read: recomputed", flush=True)
+    estimate = kw.pop("estimate_mesh_error", False)
+    kept = {}
+    res = run_scheme(layout, scheme, keep=kept, progress=run_kwargs.get("progress", False), **kw)
+    if estimate:
+        res = with_mesh_error(res, kept.pop("preconditioner", None))
+    if key is not None:
+        store(key, res)
+    return res
