@@ -90,8 +90,8 @@ def main() -> int:
                 r = run_measured([sys.executable, "-m", "imutherm.cli", "compare", *target, "--no-progress",
                                   *args.extra, "--out", str(out)], folder)
                 runs[which].append(r)
-                print(f"{which:<9} pair {i}: {r['wall_s']:6.1f} s wall, {r['cpu_s']:6.1f} CPU-s, {r['peak_mb']:5.0f} MB "
-                      f"peak (load {os.getloadavg()[0]:.2f})")
+                print(f"{which:<9} pair {i}: {r['wall_s']:6.1f} s wall, {r['cpu_s']:6.1f} CPU-s, "
+                      f"{r['peak_mb']:5.0f} MB peak (load {os.getloadavg()[0]:.2f})")
     ok = True
     for key, label in (("wall_s", "wall time"), ("cpu_s", "CPU seconds"), ("peak_mb", "peak memory")):
         ref = sum(r[key] for r in runs["reference"]) / args.pairs

@@ -212,7 +212,7 @@ def test_the_grease_scheme_bonds_the_parts_that_set_the_hot_spot_and_the_sensor(
     assert r.spec.schemes["grease"].move_to_back == ("D1",) and r.spec.schemes["grease"].bond_in_place == ()
 
 
-# ------------------------------------------------------------------ item 4: the memory estimate with the cavity exchange
+# ------------------------------------------------------------ item 4: the memory estimate with the cavity exchange
 def test_the_import_memory_estimate_holds_the_cavity_exchange_within_30_percent(tmp_path):
     """drone-fc (not among the boards the constants were measured on), the air scheme at a coarse mesh with 3 mm
     cavity patches, so the s2s exchange is a good part of the peak: the estimate against the peak resident memory of

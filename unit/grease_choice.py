@@ -4,12 +4,12 @@
 
 The rule (issue 56): solve the unit's air scheme to its steady state on a coarse mesh, linearise the model there
 (:func:`imutherm.thermal.small_signal.tangent_operator`: conduction, the face laws' slopes; the cavity's radiation
-by the effective law, :data:`RANK_CAVITY_LAW`) and solve it once per powered part at that part's power. Each solve is that part's share of the rise
-everywhere [K]; their sum is the linearised rise. A part is bonded when it supplies at least :data:`SHARE` of the
+by the effective law, :data:`RANK_CAVITY_LAW`) and solve it once per powered part at that part's power. Each
+solve is that part's share of the rise everywhere [K]; their sum is the linearised rise. A part is bonded when it supplies at least :data:`SHARE` of the
 rise at the hot spot or at a sensor site, whatever its share of the power; the sensors themselves are not moved
 (their placement and axes are the design's). The hot spot is the air scheme's hottest node.
 
-Cost: one coarse steady solve and one linear solve per powered part (~1-4 s on a 70-80-footprint board).
+Cost: one coarse steady solve and one linear solve per powered part (1-4 CPU-s on a 70-80-footprint board).
 """
 
 from __future__ import annotations
@@ -58,7 +58,8 @@ class Influence:
                 continue
             why = []
             if hot_total > 0 and self.at_hot_spot[i] >= SHARE * hot_total:
-                why.append(f"{self.at_hot_spot[i] / hot_total:.0%} of the hot spot's rise ({self.at_hot_spot[i]:.2f} K)")
+                c = self.at_hot_spot[i]
+                why.append(f"{c / hot_total:.0%} of the hot spot's rise ({c:.2f} K)")
             shares = {s: (v[i] / v.sum(), v[i]) for s, v in self.at_sites.items() if v.sum() > 0}
             if shares:
                 site, (f, c) = max(shares.items(), key=lambda kv: kv[1][0])
