@@ -192,6 +192,8 @@ def run(args) -> int:
         print(f"paper: {written['paper']['source']} (the layout's [reference_data])")
     for line in bench_lines(written.get("reference")):
         print(line)
+    for line in _left_out(written["schemes"], "scheme_description"):
+        print(line)
     from imutherm.imu.sensor_model import SITES
     from imutherm.thermal.refinement import fmt_error
 
@@ -203,6 +205,11 @@ def run(args) -> int:
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png"
           + (" uncertainty.json uncertainty.pdf" if unc is not None else ""))
     return 0
+
+
+def _left_out(schemes: dict, key: str) -> list:
+    """An imported unit's scheme whose description says a part could not be bonded (and names --grease)."""
+    return [f"{name} scheme: {s[key]}" for name, s in schemes.items() if "--grease" in (s.get(key) or "")]
 
 
 def _study_config(args):
@@ -362,6 +369,8 @@ def print_answer(summary: dict) -> None:
         print(line)
     for name, s in summary["schemes"].items():
         print(s["answer"])
+    for line in _left_out(summary["schemes"], "description"):
+        print(line)
     from imutherm.studies.end_to_end.summary import numerical_error_lines
 
     for line in numerical_error_lines(summary):

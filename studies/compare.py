@@ -63,8 +63,8 @@ def thermal_table(data: dict) -> tuple[list[str], list[list[str]]]:
         sim = (paper or {}).get("simulated_max_rise_K", {}).get(s, float("nan"))
         rows.append([s, f"{r.get('steady_max_rise_K', r['max_rise_K']):.1f}", f"{sim:.0f}", r["hottest_part"]]
                     + [f"{sites[t]['rise_K']:.1f}" if t in sites else "-" for t in ("tp1", "tp2", "tp3")]
-                    + [f"{r['gyro_spread_K']:.2f}", f"{r['accel_spread_K']:.2f}",
-                       "-" if t95 is None else f"{t95:.0f}", "-" if settle is None else f"{settle:.0f}",
+                    + ["-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("gyro_spread_K", "accel_spread_K")]
+                    + ["-" if t95 is None else f"{t95:.0f}", "-" if settle is None else f"{settle:.0f}",
                        f"{r['energy_balance_rel_error']:.0e}"])
     keep = [i for i in range(len(TABLE_COLUMNS)) if paper is not None or i not in _PAPER_COLUMNS]
     return [TABLE_COLUMNS[i] for i in keep], [[row[i] for i in keep] for row in rows]

@@ -249,7 +249,7 @@ def test_the_import_prints_the_exchange_in_its_estimate():
     assert "of it the cavity exchange" in text and "patches" in text and "potted" in text
 
 
-def test_a_part_that_cannot_be_bonded_is_said_with_why_and_grease(tmp_path):
+def test_a_part_that_cannot_be_bonded_is_said_with_why_and_grease(tmp_path, capsys):
     """The hot part sits over the standoff under a mounting hole: it cannot move to the back. The import's notes and
     the air scheme's description (the report's page of the unit) say so and name --grease."""
     import sys
@@ -270,6 +270,13 @@ def test_a_part_that_cannot_be_bonded_is_said_with_why_and_grease(tmp_path):
     assert "grease" not in r.spec.schemes
     air = r.spec.schemes["air"].description
     assert "No grease scheme" in air and "U1" in air and "--grease" in air
+    # and compare's printout says it too
+    layout = tmp_path / "holes.toml"
+    layout.write_text(r.text)
+    assert compare_main([str(layout), "--steady-only", "--schemes", "air", "--mesh-size", "6", "--min-cells", "1",
+                         "--no-progress", "--no-mesh-error", "--jobs", "1", "--out", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out
+    assert "air scheme: " in printed and "U1 cannot be bonded" in printed and "--grease" in printed
 
 
 def test_a_bad_bench_file_is_refused_before_any_solve(tmp_path, capsys):
