@@ -145,10 +145,10 @@ def _options(args):
                              standoff_material=args.standoff_material, mounting=args.mounting,
                              mounting_face=args.mounting_face,
                              contact_conductance_W_m2K=args.mount_conductance, ambient_C=args.ambient)
-    from imutherm.imu.site_grades import parse_grade_options
+    from imutherm.imu.site_grades import parse_grade_options, site_grades
 
     return ImportOptions(powers=powers, heights=heights, sites=parse_sites(args.site, SITE_KINDS),
-                         grades=parse_grade_options(args.grade),
+                         grades=parse_grade_options(args.grade), grade_rule=site_grades,
                          keep=frozenset(parse_refs(args.keep)),
                          electrical=read_electrical(args.electrical) if args.electrical else None,
                          electrical_source=args.electrical or "",

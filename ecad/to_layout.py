@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from imutherm import InputError
@@ -79,6 +80,8 @@ class ImportOptions:
 
     powers : ref -> power [W] (``--powers FILE``, ``--power REF=W``); heights : ref -> height [mm]
     sites : ref -> kind (:data:`SITE_KINDS`); keep : refs modelled whatever their size
+    grades : "*" or ref -> sensor grade (``--grade``); grade_rule : the chip -> grade rule (the CLI passes
+    :func:`imutherm.imu.site_grades.site_grades`; None: the sites name no grade)
     electrical : dict or None, an ``[electrical]`` table and its ``[[rails]]`` (``--electrical FILE``)
     grease : tuple of refs or None, the parts the grease scheme bonds to the base, top-side ones moved to the back
         (None: ``grease_rule``'s choice, or without one :func:`imutherm.ecad.grease_parts.dissipators`)
@@ -96,6 +99,10 @@ class ImportOptions:
     heights_source: str = "--height"
     sites: dict = field(default_factory=dict)
     grades: dict = field(default_factory=dict)  # --grade: "*" or ref -> sensor grade (imutherm.imu.site_grades)
+    #: the sensor-grade rule, (sites, footprints, grades) -> (ref -> grade, lines): the import's is
+    #: imutherm.imu.site_grades.site_grades (a chip's grade from its value or footprint), passed in by the
+    #: caller because the ecad layer imports nothing of imu; None: the sites name no grade (the study's default)
+    grade_rule: Callable | None = None
     keep: frozenset = frozenset()
     electrical: dict | None = None
     electrical_source: str = ""
@@ -249,9 +256,8 @@ def _has_die(d: Decision, site_refs: set, regulators: set) -> bool:
 
 def _sites(opts: ImportOptions, names: dict, board: BoardDesign, notes: list) -> dict:
     """The ``[sites]`` of the --site parts, each sensor site with its chip's grade (one note line per part)."""
-    from imutherm.imu.site_grades import site_grades
-
-    grades, lines = site_grades(opts.sites, {fp.ref: fp for fp in board.footprints}, opts.grades)
+    grades, lines = ({}, []) if opts.grade_rule is None else \
+        opts.grade_rule(opts.sites, {fp.ref: fp for fp in board.footprints}, opts.grades)
     notes.extend(lines)
     sites = {}
     for ref, kind in opts.sites.items():

@@ -9,6 +9,7 @@ checks that need the built parts (overlaps, parts outside the cavity) are in
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -611,13 +612,10 @@ def _parse_sites(path, top, names: _Names, boards) -> list:
         s = _Table(path, f"site {quote(name, 60)}", t, {"part": "part name", "board": "board name",
                                                 "side": "top|bottom", "at_mm": "(u, v)", "grade": "sensor grade"})
         grade = None
-        if "grade" in t:  # the chip's grade (imutherm import writes it), checked against the sensor library
-            from imutherm.imu.site_grades import check_grade
-
-            try:
-                grade = check_grade(s.string("grade"), "grade")
-            except InputError as e:
-                s.fail("grade", str(e)[len("grade: "):])
+        if "grade" in t:  # the chip's grade (imutherm import writes it); its name is checked against the sensor
+            grade = s.string("grade").strip().lower()  # library where the study takes it (imu.site_grades)
+            if not re.fullmatch(r"[a-z0-9_]+(\+[a-z0-9_]+)?", grade):
+                s.fail("grade", f"{grade!r} is not a grade name (a sensor-library key, or GYRO+ACCEL)")
         if "part" in t:
             extra = [k for k in ("board", "side", "at_mm") if k in t]
             if extra:

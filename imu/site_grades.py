@@ -72,8 +72,16 @@ def site_grades(sites: dict, footprints: dict, overrides: dict) -> tuple[dict, l
 
 
 def layout_grades(layout) -> dict:
-    """site name -> grade of a layout's sensor sites that name one."""
-    return {s.name: s.grade for s in layout.sites if getattr(s, "grade", None)}
+    """site name -> grade of a layout's sensor sites that name one, each checked against the sensor library
+    (one-line InputError naming the site: the layout's reader checks only the name's form)."""
+    out = {}
+    for s in layout.sites:
+        if getattr(s, "grade", None):
+            try:
+                out[s.name] = check_grade(s.grade, "grade")
+            except InputError as e:
+                raise InputError(f"site {s.name!r}: field 'grade': {str(e)[len('grade: '):]}") from None
+    return out
 
 
 def study_grade(layout, requested: str | None) -> tuple[str, list]:

@@ -193,7 +193,7 @@ def _import(tmp_path, name, ref, **kw):
     el = read_electrical(BOARDS / "openuav_electrical.toml") if name == "openuav" else None
     opts = ImportOptions(powers=read_value_csv(BOARDS / f"{name}_powers.csv", "power_W"),
                          heights=read_value_csv(BOARDS / f"{name}_heights.csv", "height_mm"),
-                         sites={ref: "imu"}, electrical=el, **kw)
+                         sites={ref: "imu"}, electrical=el, grade_rule=SG.site_grades, **kw)
     return import_board(read_board(path), opts)
 
 
@@ -276,7 +276,9 @@ def test_layout_site_grade_checked():
     assert load_grade(grade).accel == load_grade("adxl355").accel
     bad = text.replace('gyro_x = { part = "gyro_x_die" }', 'gyro_x = { part = "gyro_x_die", grade = "xyz" }')
     with pytest.raises(InputError, match="site 'gyro_x': field 'grade': unknown grade 'xyz'; valid"):
-        check_layout_text(bad, "bad.toml")
+        SG.study_grade(check_layout_text(bad, "bad.toml"), None)  # the layout reads the name, the study checks it
+    with pytest.raises(InputError, match="site 'gyro_x': field 'grade': 'x y' is not a grade name"):
+        check_layout_text(bad.replace('"xyz"', '"x y"'), "bad.toml")
 
 
 def test_compare_prints_the_grade_and_the_report_names_it(capsys):
