@@ -218,6 +218,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1, help="interleaved runs of each command (medians reported)")
     ap.add_argument("--skip-compare", action="store_true", help="only the imports and the steady solves")
     args = ap.parse_args(argv)
+    os.environ["IMUTHERM_CACHE"] = "off"   # every repeat solves: none read from the disk cache (imutherm.cache)
     work = Path(tempfile.mkdtemp(prefix="bench_import_"))
     imu = [sys.executable, "-m", "imutherm.cli"]
     for name in ("openuav", "drone-fc"):

@@ -30,6 +30,7 @@ def _cpu() -> float:
 
 
 def main() -> int:
+    os.environ["IMUTHERM_CACHE"] = "off"   # the models built and the cases solved, not read from the disk cache
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--samples", type=int, default=256)
     p.add_argument("--checks", type=int, default=2)

@@ -221,7 +221,8 @@ def _study_config(args):
     filters = {} if args.filters is None else {"filters": names(args.filters)}  # None: the registry's
     from imutherm.imu.site_grades import study_grade
 
-    grade, lines = study_grade(args.run_model[0], args.grade)  # each site group's grade and its source, printed
+    model = getattr(args, "run_model", None) or run_inputs(args)  # (layout, options, effects, fitted)
+    grade, lines = study_grade(model[0], args.grade)  # each site group's grade and its source, printed
     print("\n".join(lines), flush=True)
     return StudyConfig(grade=grade, seeds=args.seeds, seed0=args.seed, out_of_range=args.out_of_range,
                        profiles=names(args.profiles), tuned=not args.filter_defaults, **filters)

@@ -2,7 +2,7 @@
 
 A value is stored under the SHA-256 of a canonical form of everything it depends on (:func:`key_of`:
 dataclasses field by field, arrays by their bytes, floats exactly) and of :data:`CODE_VERSION`, a hash of
-the source of the modules that compute the models: a change of the layout, the scheme, the ambient, the
+the source of the modules that compute the models and of the numeric libraries' versions (numpy, scipy, pyamg): a change of the layout, the scheme, the ambient, the
 mesh, the model options, the knob set or the code is a different key, so a stale entry is never read.
 
 * Folder: ``$IMUTHERM_CACHE_DIR`` if set, else the user cache folder (``platformdirs``), ``.../imutherm``.
@@ -67,11 +67,29 @@ def source_version(files) -> str:
     return h.hexdigest()[:16]
 
 
+#: the libraries whose numerics a cached model's numbers depend on (their installed versions join the key)
+NUMERIC_LIBRARIES = ("numpy", "scipy", "pyamg")
+
+
+def _library_versions() -> str:
+    """``name=version`` of :data:`NUMERIC_LIBRARIES` (package metadata: nothing imported)."""
+    from importlib import metadata
+
+    out = []
+    for name in NUMERIC_LIBRARIES:
+        try:
+            out.append(f"{name}={metadata.version(name)}")
+        except metadata.PackageNotFoundError:   # pragma: no cover - every one is a dependency
+            out.append(f"{name}=?")
+    return ",".join(out)
+
+
 def _code_version() -> str:
     """SHA-256 (16 hex) of the source of the modules a cached model depends on (thermal, unit, geometry and
-    layouts, their subfolders included, and the physical constants)."""
-    return source_version([(pkg, "") for pkg in ("thermal", "unit", "geometry", "layouts")]
-                          + [("imutherm", "constants.py")])
+    layouts, their subfolders included, and the physical constants) and of the numeric libraries' versions."""
+    src = source_version([(pkg, "") for pkg in ("thermal", "unit", "geometry", "layouts")]
+                         + [("imutherm", "constants.py")])
+    return hashlib.sha256(f"{src};{_library_versions()}".encode()).hexdigest()[:16]
 
 
 #: the models' code version (changes with any change of their source)
@@ -154,11 +172,12 @@ def load_status(key: str, folder: Path | None = None) -> tuple:
     except OSError:
         return None, "absent"
     head = len(_MAGIC) + 64 + 64
+    payload = memoryview(data)[head:]   # a view: the payload (tens of MB for a thermal case) is not copied
     ok = (len(data) > head and data.startswith(_MAGIC) and data[len(_MAGIC):len(_MAGIC) + 64] == key.encode()
-          and hashlib.sha256(data[head:]).hexdigest().encode() == data[len(_MAGIC) + 64:head])
+          and hashlib.sha256(payload).hexdigest().encode() == data[len(_MAGIC) + 64:head])
     if ok:
         try:
-            value = pickle.loads(data[head:])
+            value = pickle.loads(payload)
         except Exception:   # a checksum-valid entry that does not unpickle (e.g. a class since renamed)
             ok = False
     if not ok:
@@ -174,15 +193,21 @@ def load_status(key: str, folder: Path | None = None) -> tuple:
 def store(key: str, value, folder: Path | None = None) -> Path | None:
     """Write ``value`` under ``key`` (temporary file + atomic rename), then evict to the size limit.
 
-    Returns the entry's path, or None when the folder cannot be written (the run goes on uncached)."""
+    Returns the entry's path, or None when the folder cannot be written or the value does not pickle (the run
+    goes on uncached)."""
     folder = folder or cache_dir()
+    head = len(_MAGIC) + 64 + 64
     buf = io.BytesIO()
-    pickle.dump(value, buf, protocol=pickle.HIGHEST_PROTOCOL)
-    payload = buf.getvalue()
+    buf.write(_MAGIC + key.encode() + b"0" * 64)   # the payload's checksum written in below, once known
+    try:
+        pickle.dump(value, buf, protocol=pickle.HIGHEST_PROTOCOL)
+    except (pickle.PicklingError, TypeError, AttributeError):   # a value that does not pickle: the run goes on
+        return None
+    entry = buf.getbuffer()   # the whole entry, not copied
+    entry[head - 64:head] = hashlib.sha256(entry[head:]).hexdigest().encode()
     p = _path(key, folder)
     try:
-        atomic_write_bytes(p, _MAGIC + key.encode() + hashlib.sha256(payload).hexdigest().encode() + payload,
-                           tmp_prefix=_TMP_PREFIX)
+        atomic_write_bytes(p, entry, tmp_prefix=_TMP_PREFIX)
     except OSError:
         return None
     evict(folder)

@@ -154,3 +154,8 @@ def test_the_thermal_comparison_is_kept(folder, monkeypatch, capsys):
         compare_schemes(None, ("potted",), jobs=1, use_cache=False, **kw)
     with pytest.raises(AssertionError, match="thermal solve"):
         compare_schemes(None, ("potted",), jobs=1, **{**kw, "mesh_size_mm": 5.0})
+
+
+def test_a_value_that_does_not_pickle_is_not_stored(folder):
+    assert cache.store("0" * 64, lambda: 1) is None and not list(folder.glob("*.pkl"))
+    assert cache.cached("m", (1,), lambda: (lambda: 2))[1] is False

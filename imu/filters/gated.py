@@ -84,6 +84,11 @@ class GatedParams:
                             decimation filter outputs and every peer assumes; recorded logs)
     rest_bias : bool        low-pass mode: the bias follows the low-passed gyro while the unit is at rest
                             (VQF's rest detector, :func:`~imutherm.imu.filters.inertial_lp.rest_step`)
+    g_at_rest : bool        low-pass mode with ``rest_bias``: the |f| reference g re-read at every rest (the
+                            rest detector's low-passed |f|): a biased accelerometer reads another |f| at rest in
+                            another orientation, and the |f| weight (σa / e_a)² starved the correction there
+                            (issue 57: on a simulated icm42688p tumble gated's vertical sat > 3° off the
+                            accelerometer's on 16 windows of rest; none with it)
     """
 
     thresholds: GateThresholds | None
@@ -96,6 +101,7 @@ class GatedParams:
     tau_acc: float = 0.0
     gyro_sample: str = "point"
     rest_bias: bool = True
+    g_at_rest: bool = True
 
     def __post_init__(self):
         check_gyro_sample("GatedParams", self.gyro_sample)
@@ -417,15 +423,16 @@ def run_ungated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None
 
 # --------------------------------------------------------------------------- inertial low-pass mode
 #: layout of the state vector of :func:`_lp_core`: q (4), bias (3), low-pass of f_I (12), of ω_I (12), previous
-#: low-passed ω_I (3), previous gyro (3), started flag (1), strapdown frame q_I (4), rest detector (8)
-_LP_STATE = 42 + REST_STATE
+#: low-passed ω_I (3), previous gyro (3), started flag (1), strapdown frame q_I (4), rest detector (8), the |f|
+#: reference re-read at rest (1; 0: not yet, params.g)
+_LP_STATE = 43 + REST_STATE
 
 
 @njit(cache=True)
-def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0):
+def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0, g_rest):
     """Liu et al. 2012 strapdown with the accelerometer low-passed in a strapdown frame and a soft gate.
 
-    gyro, accel (N,3) raw samples; S (50,) state (see :data:`_LP_STATE`), updated in place. Per sample: the rate
+    gyro, accel (N,3) raw samples; S (51,) state (see :data:`_LP_STATE`), updated in place. Per sample: the rate
     ω̄ = (ω_{k-1} + ω_k)/2 - b (``trap``: point samples) or ω_k - b (interval samples); the strapdown frame q_I
     (the gyro alone, bias-corrected, never corrected by the accelerometer: VQF's almost-inertial frame, so the
     low-pass stays outside the correction loop and any tau_acc is stable); f_I = C(q_I) f and ω_I = C(q_I) (ω - b)
@@ -444,6 +451,8 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0):
     w, x, y, z = S[0], S[1], S[2], S[3]
     bx, by, bz = S[4], S[5], S[6]
     qw, qx, qy, qz = S[38], S[39], S[40], S[41]
+    if g_rest and S[42 + REST_STATE] > 0.0:  # the |f| reference read at an earlier rest
+        g = S[42 + REST_STATE]
     ra = dt0 / (REST_TAU + dt0)
     for k in range(n):
         dt = dts[k]
@@ -455,6 +464,10 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0):
         if rest:
             at_rest, lgx, lgy, lgz = rest_step(S, 42, gx, gy, gz, fx, fy, fz, ra, dt0)
             if at_rest:
+                if g_rest:  # the |f| reference re-read in this orientation (issue 57: a biased accelerometer's
+                    # |f| at rest moves with the attitude, and the |f| weight then starved the correction at rest)
+                    g = math.sqrt(S[45] * S[45] + S[46] * S[46] + S[47] * S[47])
+                    S[42 + REST_STATE] = g
                 kr = dt / REST_BIAS_TAU
                 bx, by, bz = bx + kr * (lgx - bx), by + kr * (lgy - by), bz + kr * (lgz - bz)
         if trap:
@@ -581,7 +594,7 @@ def run_lp_core(gyro, accel, dt, params: "GatedParams", S, steps=None):
                     sample_steps(steps, len(gyro), dt),
                     float(params.kp), float(params.ki), float(params.g), float(sa), float(sw), float(swd),
                     butter2_coeffs(params.tau_acc, dt), S, params.gyro_sample == "point", bool(params.rest_bias),
-                    float(dt))
+                    float(dt), bool(params.g_at_rest))
 
 
 # --------------------------------------------------------------------------- the registry's entries
