@@ -124,6 +124,9 @@ def run(args) -> int:
     if args.seed < 0:
         raise InputError(f"--seed must be an integer >= 0 (numpy seeds are non-negative), got {args.seed}")
     layout, options, effects, fitted = run_inputs(args)
+    from imutherm.studies.paper import check_bench
+
+    check_bench(layout)  # a bad bench file of the layout's [reference_data] refused before any solve
     args.run_model = (layout, options, effects, fitted)
     if args.uncertainty:
         from imutherm.studies.uncertainty import UncertainInput, design, imu_draw_rows
@@ -174,13 +177,23 @@ def run(args) -> int:
         plot_layout(next(iter(comp.runs.values())).geometry if "grease" not in comp.runs
                     else comp.runs["grease"].geometry, tmp / "layout.png")
         write_compare_report(tmp, tmp / "report.pdf")
-    from imutherm.studies.compare import PAPER, PAPER_TABLE_COLUMNS, paper_table
+    import json
 
-    cols = [c.replace("\n", " ") for c in PAPER_TABLE_COLUMNS]
-    rows = paper_table({"paper": PAPER, "schemes": comp.summaries})
+    from imutherm.studies.compare import thermal_table
+    from imutherm.studies.paper import bench_lines
+
+    written = json.loads((Path(args.out) / "compare.json").read_text())
+    cols, rows = thermal_table(written)
+    cols = [c.replace("\n", " ") for c in cols]
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     for line in [cols] + rows:
         print("  ".join(v.ljust(w) if i in (0, 3) else v.rjust(w) for i, (v, w) in enumerate(zip(line, widths))))
+    if written.get("paper"):
+        print(f"paper: {written['paper']['source']} (the layout's [reference_data])")
+    for line in bench_lines(written.get("reference")):
+        print(line)
+    for line in _left_out(written["schemes"], "scheme_description"):
+        print(line)
     from imutherm.imu.sensor_model import SITES
     from imutherm.thermal.refinement import fmt_error
 
@@ -192,6 +205,11 @@ def run(args) -> int:
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png"
           + (" uncertainty.json uncertainty.pdf" if unc is not None else ""))
     return 0
+
+
+def _left_out(schemes: dict, key: str) -> list:
+    """An imported unit's scheme whose description says a part could not be bonded (and names --grease)."""
+    return [f"{name} scheme: {s[key]}" for name, s in schemes.items() if "--grease" in (s.get(key) or "")]
 
 
 def _study_config(args):
@@ -352,6 +370,8 @@ def print_answer(summary: dict) -> None:
         print(line)
     for name, s in summary["schemes"].items():
         print(s["answer"])
+    for line in _left_out(summary["schemes"], "description"):
+        print(line)
     from imutherm.studies.end_to_end.summary import numerical_error_lines
 
     for line in numerical_error_lines(summary):

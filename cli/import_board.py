@@ -76,8 +76,9 @@ def add_args(parser) -> None:
                    help="keep every modelled part's exact outline (by default a part without a die has its edges "
                         "snapped by up to 1 mm to its neighbours' lines, so it adds few mesh lines)")
     g.add_argument("--grease", default=None, metavar="REF[,REF]",
-                   help="the parts the grease scheme moves to the back and bonds to the base (default: the "
-                        "dissipators above 10 %% of the power and 0.05 W)")
+                   help="the parts the grease scheme bonds to the base, top-side ones moved to the back, bottom-side "
+                        "ones where they are (default: the parts supplying 20 %% or more of the hot spot's or a "
+                        "sensor site's rise in a coarse steady solve of the air scheme, whatever their power)")
     d = HousingOptions()
     h = parser.add_argument_group("the unit around a single board (lengths [mm])")
     h.add_argument("--clearance", type=float, default=d.clearance_mm, metavar="MM",
@@ -153,8 +154,15 @@ def _options(args):
                          electrical=read_electrical(args.electrical) if args.electrical else None,
                          electrical_source=args.electrical or "",
                          grease=parse_refs([args.grease]) if args.grease is not None else None,
-                         board_name=args.board, layout_name=args.name, housing=housing,
+                         grease_rule=_grease_rule(), board_name=args.board, layout_name=args.name, housing=housing,
                          merge_area_mm2=args.merge_area, exact=args.exact, strict_heights=args.strict_heights)
+
+
+def _grease_rule():
+    """The grease scheme's choice by the thermal model: the parts that set the hot spot and the sensors' rise."""
+    from imutherm.unit.grease_choice import choose
+
+    return choose
 
 
 def _print_report(result, out: Path) -> None:
@@ -214,15 +222,15 @@ def height_counts(decisions) -> str:
 
 
 def _estimate(spec) -> str:
-    from imutherm.budget import fmt_bytes, thermal_cost
-    from imutherm.geometry.build import build_geometry
-    from imutherm.geometry.mesh import grid_shape
+    from imutherm.budget import fmt_bytes
+    from imutherm.studies.cost import solve_memory
 
     parts = []
-    for scheme in spec.schemes:
-        shape = grid_shape(build_geometry(spec, scheme))
-        cost = thermal_cost(scheme, shape)
-        parts.append(f"{scheme} {cost.cells:,} cells (~{fmt_bytes(cost.memory_bytes)} to solve)")
+    for scheme in spec.schemes:  # the mesh's and the cavity's radiation exchange's (s2s), which lives beside it
+        m = solve_memory(spec, scheme)
+        parts.append(f"{scheme} {m['cells']:,} cells (~{fmt_bytes(m['bytes'])} to solve"
+                     + (f", ~{fmt_bytes(m['exchange_bytes'])} of it the cavity exchange, {m['patches']:,} patches)"
+                        if m["patches"] else ")"))
     return "estimated mesh at the default --mesh-size: " + "; ".join(parts)
 
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field, replace
 from imutherm import InputError
 from imutherm.ecad.board import BoardDesign, Rect
 from imutherm.ecad.classify import MERGED_UNKNOWN_HEIGHT_MM, Decision, decide, merged_heat, off_axis
+from imutherm.ecad.grease_parts import dissipators, grease_parts
 from imutherm.ecad.heights import estimated_parts, is_estimated, strict_refusal
 from imutherm.ecad.kicad_copper import with_coverage
 from imutherm.ecad.panel import pick_board, unique_references
@@ -49,9 +50,6 @@ except ModuleNotFoundError:  # pragma: no cover
 
 #: what ``--site REF=KIND`` accepts: the sensor sites it gives (a probe is a plain temperature output)
 SITE_KINDS = {"imu": SITES, "gyro": GYRO_SITES, "accel": ACCEL_SITES, **{s: (s,) for s in SITES}, "probe": ()}
-#: power [W] above which a part is a dissipator the grease scheme bonds to the base: 10 % of the board's
-#: total, and at least this (the reference unit's grease scheme moves its 0.24-0.9 W chips, not its 0.04 W ADC)
-GREASE_MIN_W = 0.05
 #: bond gap limit of the grease scheme [mm], as the reference unit's (the paper's "millimetre-order gap")
 MAX_BOND_GAP_MM = 2.0
 #: least power [W] of a chip that gets a die of its own (sites and regulators always do): below it the power is
@@ -85,7 +83,11 @@ class ImportOptions:
     grades : "*" or ref -> sensor grade (``--grade``); grade_rule : the chip -> grade rule (the CLI passes
     :func:`imutherm.imu.site_grades.site_grades`; None: the sites name no grade)
     electrical : dict or None, an ``[electrical]`` table and its ``[[rails]]`` (``--electrical FILE``)
-    grease : tuple of refs or None, the parts the grease scheme moves to the back (None: the dissipators)
+    grease : tuple of refs or None, the parts the grease scheme bonds to the base, top-side ones moved to the back
+        (None: ``grease_rule``'s choice, or without one :func:`imutherm.ecad.grease_parts.dissipators`)
+    grease_rule : callable (air-only LayoutSpec, names, sites) -> ({ref: why}, notes) or None; ``imutherm import``
+        passes :func:`imutherm.unit.grease_choice.choose`: the parts that set the hot spot and the sensor temperatures
+    grease_why : ref -> why the rule chose it (set by :func:`import_board`)
     board_name, layout_name : str; prefix : str, put before every component name (``--into``)
     exact : bool, keep every part's exact outline (no snapping of the parts without a die)
     strict_heights : bool, refuse a part whose height is only estimated (:mod:`imutherm.ecad.heights`)
@@ -105,6 +107,8 @@ class ImportOptions:
     electrical: dict | None = None
     electrical_source: str = ""
     grease: tuple | None = None
+    grease_rule: object = None
+    grease_why: dict = field(default_factory=dict)
     board_name: str = "main"
     layout_name: str | None = None
     prefix: str = ""
@@ -265,35 +269,6 @@ def _sites(opts: ImportOptions, names: dict, board: BoardDesign, notes: list) ->
     return sites
 
 
-def _grease_parts(decisions: list, opts: ImportOptions, standoffs: list, notes: list) -> list:
-    """The top-side parts the grease scheme moves to the back (where their footprint is free there: no part,
-    no standoff)."""
-    modelled = [d for d in decisions if d.fate == "modelled"]
-    total = sum(d.power_W for d in modelled)
-    if opts.grease is not None:
-        chosen = [d for d in modelled if d.footprint.ref in opts.grease]
-        missing = set(opts.grease) - {d.footprint.ref for d in chosen}
-        if missing:
-            raise InputError(f"--grease: {', '.join(sorted(missing))} is not a modelled part (merged or skipped)")
-    else:
-        chosen = [d for d in modelled if d.power_W >= max(GREASE_MIN_W, 0.1 * total)]
-    out = []
-    for d in chosen:
-        if d.footprint.side != "top":
-            notes.append(f"grease scheme: {d.footprint.ref} is on the bottom already; the scheme moves top-side parts "
-                         f"to the back (bond it by hand if it faces the base)")
-            continue
-        clash = [o.footprint.ref for o in decisions if o.fate in ("modelled", "merged") and o.footprint.side == "bottom"
-                 and overlaps(o.body, d.body)] + [f"the standoff under {ref}" for ref, r in standoffs
-                                                  if overlaps(r, d.body)]
-        if clash:
-            notes.append(f"grease scheme: {d.footprint.ref} stays on top: its back-side footprint holds "
-                         f"{', '.join(clash[:4])}")
-            continue
-        out.append(d)
-    return out
-
-
 def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> ImportResult:
     """A single-board unit around ``board`` (see the module docstring); InputError on any problem.
 
@@ -337,6 +312,11 @@ def import_board(board: BoardDesign, opts: ImportOptions = ImportOptions()) -> I
     if not any(d.power_W > 0 for d in decisions if d.fate == "modelled") and not regulators:
         raise _no_power(board, decisions)
     names = _names(decisions, opts.prefix, notes)
+    if opts.grease is None and opts.grease_rule is not None:  # e.g. imutherm.unit.grease_choice.choose
+        air = _single_board_layout(board, decisions, names, replace(opts, grease=()), regulators, [], bodies)[1]
+        chosen, told = opts.grease_rule(air, names, opts.sites)
+        notes += told
+        opts = replace(opts, grease=tuple(chosen), grease_why=chosen)
     layout, spec = _single_board_layout(board, decisions, names, opts, regulators, notes, bodies)
     return ImportResult(board, tuple(decisions), layout, spec, tuple(notes), names)
 
@@ -435,7 +415,8 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
     modelled = [d for d in decisions if d.fate == "modelled"]
     site_refs = set(opts.sites)
     standoffs_at = standoff_rects(board, decisions, notes)
-    moved = _grease_parts(decisions, opts, standoffs_at, notes)
+    moved = grease_parts(decisions, opts, standoffs_at, notes,
+                         dissipators(decisions) if opts.grease is None else opts.grease)
     placed = [d for d in decisions if d.fate in ("modelled", "merged")]
     top_h = max([d.height_mm or 0.0 for d in placed if d.footprint.side == "top"], default=0.0)
     bottom_h = max([d.height_mm or 0.0 for d in placed if d.footprint.side == "bottom"]
@@ -446,7 +427,7 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
         gap = standoff - d.height_mm
         if gap > MAX_BOND_GAP_MM + 1e-9:
             notes.append(f"grease scheme: {d.footprint.ref} would sit {gap:.2f} mm from the base (more than "
-                         f"{MAX_BOND_GAP_MM:g} mm of grease): left on top")
+                         f"{MAX_BOND_GAP_MM:g} mm of grease): not bonded (--grease REF,... bonds others)")
         else:
             keep_moved.append(d)
     moved = keep_moved
@@ -504,13 +485,28 @@ def _single_board_layout(board, decisions, names, opts, regulators, notes, bodie
     schemes = {"air": {"description": "every part on the board as designed; heat leaves through the air, the "
                                       "standoffs and the housing", "fill": "air"}}
     if moved:
-        schemes["grease"] = {"description": "the dissipators moved to the back of the board and bonded to the base "
-                                            "with silicone grease (the reference unit's scheme 2)",
-                             "fill": "air", "move_to_back": [names[d.footprint.ref] for d in moved],
+        top = [names[d.footprint.ref] for d in moved if d.footprint.side == "top"]
+        kept = [names[d.footprint.ref] for d in moved if d.footprint.side != "top"]
+        why = "; ".join(f"{d.footprint.ref}: {opts.grease_why[d.footprint.ref]}" for d in moved
+                        if d.footprint.ref in opts.grease_why)
+        left = [n.split(": ", 1)[1] for n in notes if n.startswith("grease scheme: ") and "--grease" in n
+                and "the parts chosen" not in n]
+        schemes["grease"] = {"description": ("the parts that set the hot spot and the sensor temperatures bonded to "
+                                             "the base with silicone grease" if opts.grease_why else
+                                             "the parts given by --grease bonded to the base with silicone grease")
+                                            + (f", {', '.join(top)} moved to the back" if top else "")
+                                            + (f", {', '.join(kept)} where they are (bottom side)" if kept else "")
+                                            + (f" ({why})" if why else "") + (f". {' '.join(left)}" if left else ""),
+                             "fill": "air", **({"move_to_back": top} if top else {}),
+                             **({"bond_in_place": kept} if kept else {}),
                              "bond_material": "silicone_grease",
                              "max_bond_gap_mm": Note(MAX_BOND_GAP_MM, "the reference unit's limit")}
     else:
-        notes.append("no grease scheme: no dissipator could move to the back of the board (see the notes above)")
+        left = [n.split(": ", 1)[1] for n in notes if n.startswith("grease scheme: ") and "--grease" in n
+                and "the parts chosen" not in n]
+        notes.append("no grease scheme: no part could be bonded to the base" + (f" ({' '.join(left)})" if left else
+                     "") + "; --grease REF,... names the parts to bond")
+        schemes["air"]["description"] += ". No grease scheme: " + notes[-1].split(": ", 1)[1]
     schemes["potted"] = {"description": "the free interior potted", "fill": "potting_compound"}
     doc["schemes"] = schemes
     text = dumps(doc)

@@ -276,7 +276,7 @@ def build_geometry(layout: LayoutSpec | str | None = None, scheme: str | None = 
             side = "bottom" if side == "top" else "top"
         comp_parts = _component_parts(layout, c, boards[c.board], side)
         parts += comp_parts
-        if c.name in sch.move_to_back and sch.bond_material:
+        if (c.name in sch.move_to_back or c.name in sch.bond_in_place) and sch.bond_material:
             parts.append(_bond(layout, sch, comp_parts[0], boards[c.board], side, cavity))
     _check(layout, sch, parts, cavity)
 

@@ -11,13 +11,14 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, replace
-from importlib import resources
 from pathlib import Path
 
 from imutherm import InputError
 from imutherm.geometry.electrical import ElectricalSpec, parse_electrical, rail_losses
+from imutherm.geometry.layout_files import builtin_layouts, default_layout_path, resolve_layout  # noqa: F401
 from imutherm.geometry.materials import load_library, material_from_table, register_materials
 from imutherm.geometry.outline import MAX_OUTLINE_POINTS, coverage_from_table, outline_from_table  # noqa: F401
+from imutherm.reference_data import parse_reference
 from imutherm.textio import quote, read_text
 
 try:  # Python >= 3.11
@@ -48,36 +49,6 @@ MAX_CONDUCTANCE_W_M2K = 1e6
 MAX_LAYOUT_BYTES = 2**20
 #: unknown keys quoted in one message at most
 MAX_LISTED = 10
-
-
-def default_layout_path() -> Path:
-    """Path of the built-in reference layout ``imu_reference.toml``."""
-    return Path(str(resources.files("imutherm.layouts") / "imu_reference.toml"))
-
-
-def builtin_layouts() -> tuple:
-    """Names of the layouts shipped in ``layouts/`` (the package ``imutherm.layouts``) (``imu_reference``, ``imu_cardguide``, ...)."""
-    folder = resources.files("imutherm.layouts")
-    return tuple(sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml")))
-
-
-def resolve_layout(layout: str | Path | None) -> Path:
-    """The layout file meant by ``layout``: a path, or the name of a built-in layout.
-
-    None gives the reference unit. A string that is not an existing file and
-    names no file (no ``.toml`` suffix, no directory part) is looked up among
-    :func:`builtin_layouts`; an unknown name raises InputError listing them.
-    """
-    if layout is None or layout == "":
-        return default_layout_path()
-    path = Path(layout)
-    if path.exists() or path.suffix or len(path.parts) > 1:
-        return path
-    name = str(layout)
-    if name not in builtin_layouts():
-        raise InputError(f"{name}: no such layout file, nor a built-in layout name; "
-                         f"built-in layouts: {', '.join(builtin_layouts())} (or give a path to a .toml file)")
-    return Path(str(resources.files("imutherm.layouts") / f"{name}.toml"))
 
 
 @dataclass(frozen=True)
@@ -212,8 +183,10 @@ class SchemeSpec:
 
     fill : material of the free cavity space (air, potting compound)
     move_to_back : components moved to the other face of their board
-    bond_material : material bridging moved components to the nearest wall (or None)
+    bond_material : material bridging moved components (and ``bond_in_place``) to the nearest wall (or None)
     max_bond_gap_mm : largest gap a bond may bridge [mm]
+    bond_in_place : components bonded where they are, to the wall their outer face faces (a bottom-side part to
+        the base)
     """
 
     name: str
@@ -222,6 +195,7 @@ class SchemeSpec:
     move_to_back: tuple
     bond_material: str | None
     max_bond_gap_mm: float
+    bond_in_place: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -244,6 +218,8 @@ class LayoutSpec:
     electrical: ElectricalSpec | None = None
     #: the layout's own materials (``[materials.<name>]``), beside the library's
     materials: tuple = ()
+    #: the figures the model is set beside (imutherm.reference_data; None: none, no paper's figures either)
+    reference_data: object = None
 
     def __post_init__(self):
         register_materials(self.materials, self.path)
@@ -354,7 +330,8 @@ class _Table:
 _TOP = {"name": "layout name", "description": "text", "default_scheme": "scheme name",
         "environment": "table", "housing": "table", "mounting": "table", "boards": "array of tables",
         "parts": "array of tables", "components": "array of tables", "sites": "table",
-        "schemes": "table", "electrical": "table", "rails": "array of tables", "materials": "table"}
+        "schemes": "table", "electrical": "table", "rails": "array of tables", "materials": "table",
+        "reference_data": "table"}
 
 
 def _table_array(top: _Table, key: str) -> list:
@@ -428,7 +405,7 @@ def parse_layout(data: dict, path: str = "<layout>") -> LayoutSpec:
         top.fail("default_scheme", f"unknown scheme {default!r}; valid: {', '.join(schemes)}")
     return LayoutSpec(top.string("name", Path(path).stem), path, top.string("description", ""), default,
                       ambient, housing, mounting, tuple(boards), tuple(parts), tuple(components),
-                      tuple(sites), schemes, electrical, own)
+                      tuple(sites), schemes, electrical, own, parse_reference(path, data.get("reference_data")))
 
 
 def _parse_materials(path, top) -> tuple:
@@ -665,21 +642,23 @@ def _parse_schemes(path, top, mats, components) -> dict:
     schemes = {}
     for name, t in _named_tables(top, "schemes", "[schemes.<name>] tables").items():
         s = _Table(path, f"scheme {quote(name, 60)}", t, {"description": "text", "fill": "material",
-                                                  "move_to_back": "component names",
+                                                  "move_to_back": "component names", "bond_in_place": "component names",
                                                   "bond_material": "material", "max_bond_gap_mm": "mm"})
         if name not in SCHEME_NAMES:
             s.fail(None, f"unknown scheme; valid: {', '.join(SCHEME_NAMES)}")
-        moved = s.get("move_to_back", [])
-        if not isinstance(moved, list):
-            s.fail("move_to_back", f"must be a list of component names, got {moved!r}")
-        for comp in moved:
-            if not isinstance(comp, str):
-                s.fail("move_to_back", f"must be a list of component names (strings), got {comp!r} in {moved!r}")
-            if comp not in comp_by_name:
-                s.fail("move_to_back", f"unknown component {comp!r}; valid: {', '.join(comp_by_name)}")
+        lists = {key: s.get(key, []) for key in ("move_to_back", "bond_in_place")}
+        for key, moved in lists.items():
+            if not isinstance(moved, list):
+                s.fail(key, f"must be a list of component names, got {moved!r}")
+            for comp in moved:
+                if not isinstance(comp, str):
+                    s.fail(key, f"must be a list of component names (strings), got {comp!r} in {moved!r}")
+                if comp not in comp_by_name:
+                    s.fail(key, f"unknown component {comp!r}; valid: {', '.join(comp_by_name)}")
         schemes[name] = SchemeSpec(name, s.string("description", name), s.material("fill", mats),
-                                   tuple(moved), s.material("bond_material", mats, None),
-                                   s.number("max_bond_gap_mm", 2.0, positive=True, bounds=SIZE_BOUNDS))
+                                   tuple(lists["move_to_back"]), s.material("bond_material", mats, None),
+                                   s.number("max_bond_gap_mm", 2.0, positive=True, bounds=SIZE_BOUNDS),
+                                   tuple(lists["bond_in_place"]))
     if not schemes:
         top.fail("schemes", f"at least one scheme is required; valid names: {', '.join(SCHEME_NAMES)}")
     return schemes

@@ -1,4 +1,4 @@
-"""``report.pdf``: the three-scheme thermal comparison, drawn from the files of ``write_comparison``."""
+"""``report.pdf``: the thermal comparison of the schemes, drawn from the files of ``write_comparison``."""
 
 from __future__ import annotations
 
@@ -23,13 +23,15 @@ def _read_probes(path: Path) -> tuple:
 
 def _table_page(pdf, data: dict) -> None:
     fig = plt.figure(figsize=(11.7, 8.3))
-    fig.text(0.05, 0.94, "imutherm: three cooling schemes of the MEMS attitude unit", fontsize=16, weight="bold")
+    fig.text(0.05, 0.94, "imutherm: the cooling schemes of the unit", fontsize=16, weight="bold")
     any_s = next(iter(data["schemes"].values()))
+    paper = data.get("paper")
     fig.text(0.05, 0.90, f"layout {any_s['layout']}, ambient {any_s['ambient_C']:.0f} C, power {any_s['power_W']:.3f} W, "
-             f"mesh {any_s['mesh']['nodes']} nodes; rises in K over ambient; paper = Liu et al. 2012", fontsize=10)
-    from imutherm.studies.compare import PAPER_TABLE_COLUMNS, paper_table
+             f"mesh {any_s['mesh']['nodes']} nodes; rises in K over ambient"
+             + (f"; paper = {paper['source']}" if paper else ""), fontsize=10)
+    from imutherm.studies.compare import thermal_table
 
-    cols, rows = list(PAPER_TABLE_COLUMNS), paper_table(data)
+    cols, rows = thermal_table(data)
     ax = fig.add_axes([0.03, 0.55, 0.94, 0.3])
     ax.axis("off")
     tab = ax.table(cellText=rows, colLabels=cols, loc="center", cellLoc="center")
@@ -55,8 +57,9 @@ def _rise_page(pdf, data: dict) -> None:
     x = np.arange(len(schemes))
     a.bar(x - 0.2, [data["schemes"][s]["max_rise_K"] for s in schemes], 0.4, label="imutherm",
           color=[SCHEME_COLOURS.get(s, "grey") for s in schemes])
-    a.bar(x + 0.2, [data["paper"]["simulated_max_rise_K"].get(s, np.nan) for s in schemes], 0.4,
-          label="paper (simulated)", color="white", edgecolor="k", hatch="//")
+    if data.get("paper"):  # only for a layout that declares the paper's figures (the reference unit)
+        a.bar(x + 0.2, [data["paper"]["simulated_max_rise_K"].get(s, np.nan) for s in schemes], 0.4,
+              label="paper (simulated)", color="white", edgecolor="k", hatch="//")
     a.set_xticks(x, schemes)
     a.set_ylabel("maximum rise over ambient [K]")
     a.set_title("hot spot")
@@ -125,6 +128,10 @@ def write_compare_report(folder: str | os.PathLike, path: str | os.PathLike) -> 
         if any(r["mode"] == "transient" for r in data["schemes"].values()):
             _transient_page(pdf, folder, data)
         _map_page(pdf, folder, data)
+        if data.get("reference"):  # the bench readings the layout declares, beside the model
+            from imutherm.reports.study_report import bench_page
+
+            bench_page(pdf, data["reference"])
         if (folder / "layout.png").exists():
             fig = plt.figure(figsize=(11.7, 4.6))
             ax = fig.add_axes([0, 0, 1, 1])

@@ -4,9 +4,10 @@ A design-review document, A4 landscape: the answer (attitude error per scheme,
 compensation and filter) on page 1 as a figure with the seed spread, its table on page 2, then the
 bare-calibration comparison and
 the swing, the unit and each scheme pictured, temperature maps on one colour
-scale, site curves, rise and settle time against the paper, residual sensor
-errors and attitude error over the warm-up, the paper-vs-model table with
-every difference explained, and the parameters with their sources.
+scale, site curves, residual sensor errors and attitude error over the warm-up, the reference data the
+layout declares beside the model (the reference unit: rise and settle time against the paper, the
+paper-vs-model table with every difference explained; a user's unit: their bench readings; an imported
+unit: none), and the parameters with their sources.
 """
 
 from __future__ import annotations
@@ -269,8 +270,8 @@ def _image_pages(pdf, folder: Path, data: dict) -> None:
         if not png.exists():
             continue
         fig = plt.figure(figsize=A4)
-        _title(fig, f"The unit, scheme {name}", s["description"])
-        ax = fig.add_axes([0.02, 0.02, 0.96, 0.86])
+        below = _title(fig, f"The unit, scheme {name}", textwrap.fill(s["description"], 165))
+        ax = fig.add_axes([0.02, 0.02, 0.96, min(0.86, below - 0.03)])
         ax.imshow(plt.imread(png))
         ax.axis("off")
         pdf.savefig(fig)
@@ -512,6 +513,27 @@ def _paper_table_page(pdf, data: dict) -> None:
     plt.close(fig)
 
 
+def bench_page(pdf, bench: dict) -> None:
+    """The bench readings a layout declares (``[reference_data] measured``) beside the model, one row each."""
+    rows = [[r["file"], r["scheme"], r["site"], "steady" if r["time_s"] is None else f"{r['time_s']:g}",
+             r.get("probe", "die"), f"{r['measured_K']:.2f}", f"{r['model_K']:.2f}", f"{r['difference_K']:+.2f}",
+             textwrap.fill(r["note"], 60)] for r in bench["rows"]]
+    d = np.array([r["difference_K"] for r in bench["rows"]]) if bench["rows"] else np.zeros(0)
+    fig = plt.figure(figsize=A4)
+    _title(fig, "Your reference data beside this model", textwrap.fill(
+        f"{bench['source']} ({', '.join(bench['files'])}); rises over each run's ambient [K]; model: this study's "
+        "site curve at the reading's time (steady: its settled value)"
+        + (f"; RMS difference {np.sqrt(np.mean(d ** 2)):.2f} K, mean {d.mean():+.2f} K over {d.size} readings"
+           if d.size else "; no reading of a scheme this study ran")
+        + ("; not compared: " + ", ".join(bench["not_compared"]) if bench.get("not_compared") else ""), 165))
+    ax = fig.add_axes([0.02, 0.02, 0.96, 0.84])
+    _table(ax, rows[:40], ["file", "scheme", "site", "time [s]", "probe", "measured\n[K]", "model\n[K]",
+                           "model -\nmeasured [K]", "note"], fontsize=6.6, col_widths=[0.12, 0.06, 0.07, 0.06, 0.06,
+                                                                                  0.07, 0.07, 0.08, 0.41])
+    pdf.savefig(fig)
+    plt.close(fig)
+
+
 def estimated_height_lines(data: dict) -> list:
     """The parameters page's lines naming each imported part whose height was estimated, with the rule."""
     out = []
@@ -543,7 +565,7 @@ def _parameters_page(pdf, data: dict) -> None:
     st = data["study"]
     lines += ["", "IMU study: " + ", ".join(f"{k}={v}" for k, v in st.items())]
     lines += ["  sensor grade: imu/grades.py (datasheet values tagged [DS], assumed ones [ASSUMED]); "
-              "calibration rig: Liu et al. 2012 two-step procedure, imu/calibration.py"]
+              "calibration rig: the two-step oven procedure of imu/calibration.py (its source named there)"]
     lines += ["  mesh: " + ", ".join(f"{s} {m['nodes']} nodes" for s, m in data["mesh"].items())
               + f"; study wall time {data['wall_s']:.0f} s"]
     fig.text(0.03, 0.9, "\n".join(lines), fontsize=6.8, va="top", family="monospace")
@@ -571,9 +593,13 @@ def write_study_report(folder: str | os.PathLike, path: str | os.PathLike, *, fi
         _image_pages(pdf, folder, data)
         _map_page(pdf, folder, data)
         _curves_page(pdf, folder, data)
-        _paper_bars_page(pdf, data)
+        if data.get("paper"):  # only for a layout that declares the paper's figures (the reference unit)
+            _paper_bars_page(pdf, data)
         _readings_page(pdf, folder, data)
         _residual_page(pdf, folder, data)
         _attitude_page(pdf, folder, data)
-        _paper_table_page(pdf, data)
+        if data.get("paper"):
+            _paper_table_page(pdf, data)
+        if data.get("reference"):  # the user's bench readings the layout declares
+            bench_page(pdf, data["reference"])
         _parameters_page(pdf, data)

@@ -1,9 +1,10 @@
-"""The main job: the three cooling schemes of the paper side by side (steady + power-on transient).
+"""The main job: the cooling schemes of a layout side by side (steady + power-on transient).
 
 ``compare_schemes`` runs :func:`imutherm.studies.thermal_study.run_scheme` for
 each scheme and collects what the comparison report needs: the summary of each
 run, the site curves, and a temperature map in the main board's mid-plane.
-``write_comparison`` writes the result files the report is drawn from.
+``write_comparison`` writes the result files the report is drawn from, with the reference data the layout
+declares (the paper's figures for the reference unit; a user's bench readings; none for an imported unit).
 """
 
 from __future__ import annotations
@@ -20,13 +21,17 @@ from imutherm.geometry.layout import load_layout
 from imutherm.site_table import write_site_table
 from imutherm.studies.thermal_study import SchemeResult, board_plane_map, probe_table, result_summary
 
-def _paper() -> dict:
-    """The paper's thermal figures (Liu et al. 2012) in the shape the thermal comparison files use."""
-    from imutherm.studies.paper import load_paper
+def paper_thermal(layout) -> dict | None:
+    """The thermal figures of the paper ``layout`` declares (``[reference_data] paper_figures``; the reference
+    unit: Liu et al. 2012) in the shape the thermal comparison files use, or None: a layout that declares no
+    paper (an imported unit) is set beside none."""
+    from imutherm.studies.paper import layout_paper
 
-    th = load_paper()["thermal"]
-    sim, meas = th["simulated"], th["measured"]
-    return {"source": load_paper()["source"],
+    p = layout_paper(layout)
+    if p is None:
+        return None
+    sim, meas = p["thermal"]["simulated"], p["thermal"]["measured"]
+    return {"source": p["source"],
             "simulated_max_rise_K": {"air": sim["scheme1_air_max_rise_K"], "grease": sim["scheme2_grease_max_rise_K"],
                                      "potted": sim["scheme3_potted_max_rise_K"]},
             "measured": {"air": {"rise_K_at_least": meas["no_grease_rise_K_at_least"],
@@ -34,35 +39,44 @@ def _paper() -> dict:
                          "grease": {"rise_K_at_most": meas["grease_rise_K_at_most"], "steady_s": meas["grease_steady_s"]}}}
 
 
-#: the paper's numbers (Liu et al. 2012), read from studies/paper_targets.toml
-PAPER = _paper()
+#: column labels of the thermal comparison table (line breaks where the report wraps them); the two paper
+#: columns only for a layout that declares the paper's figures
+TABLE_COLUMNS = ("scheme", "steady max\nrise [K]", "paper sim.\n[K]", "hottest part", "tp1\n[K]", "tp2\n[K]",
+                 "tp3\n[K]", "gyro\nspread [K]", "accel\nspread [K]", "t95 tp1\n[s]", "paper meas.\nsettle [s]",
+                 "energy\nbalance")
+_PAPER_COLUMNS = (2, 10)
 
 
-#: column labels of the paper-vs-model table (line breaks where the report wraps them)
-PAPER_TABLE_COLUMNS = ("scheme", "steady max\nrise [K]", "paper sim.\n[K]", "hottest part", "tp1\n[K]", "tp2\n[K]",
-                       "tp3\n[K]", "gyro\nspread [K]", "accel\nspread [K]", "t95 tp1\n[s]", "paper meas.\nsettle [s]",
-                       "energy\nbalance")
+def thermal_table(data: dict) -> tuple[list[str], list[list[str]]]:
+    """(columns, rows) of the thermal comparison, one formatted row per scheme, built once for ``imutherm compare
+    --thermal-only`` and its report; the paper's columns only where ``data`` has the paper's figures.
 
-
-def paper_table(data: dict) -> list[list[str]]:
-    """The paper-vs-model table of the thermal comparison, one formatted row per scheme (columns
-    :data:`PAPER_TABLE_COLUMNS`), built once for ``imutherm compare --thermal-only`` and its report.
-
-    ``data``: the ``compare.json`` content, ``{"paper": PAPER, "schemes": {scheme: result_summary}}``.
+    ``data``: the ``compare.json`` content, ``{"paper": figures or absent, "schemes": {scheme: result_summary}}``.
     """
-    paper, rows = data["paper"], []
+    paper, rows = data.get("paper"), []
     for s, r in data["schemes"].items():
-        meas = paper["measured"].get(s, {})
+        meas = (paper or {}).get("measured", {}).get(s, {})
         settle = meas.get("near_steady_s", meas.get("steady_s"))
         sites = r["sites"]
         t95 = sites.get("tp1", {}).get("t95_s")
-        rows.append([s, f"{r.get('steady_max_rise_K', r['max_rise_K']):.1f}",
-                     f"{paper['simulated_max_rise_K'].get(s, float('nan')):.0f}", r["hottest_part"]]
+        sim = (paper or {}).get("simulated_max_rise_K", {}).get(s, float("nan"))
+        rows.append([s, f"{r.get('steady_max_rise_K', r['max_rise_K']):.1f}", f"{sim:.0f}", r["hottest_part"]]
                     + [f"{sites[t]['rise_K']:.1f}" if t in sites else "-" for t in ("tp1", "tp2", "tp3")]
-                    + [f"{r['gyro_spread_K']:.2f}", f"{r['accel_spread_K']:.2f}",
-                       "-" if t95 is None else f"{t95:.0f}", "-" if settle is None else f"{settle:.0f}",
+                    + ["-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("gyro_spread_K", "accel_spread_K")]
+                    + ["-" if t95 is None else f"{t95:.0f}", "-" if settle is None else f"{settle:.0f}",
                        f"{r['energy_balance_rel_error']:.0e}"])
-    return rows
+    keep = [i for i in range(len(TABLE_COLUMNS)) if paper is not None or i not in _PAPER_COLUMNS]
+    return [TABLE_COLUMNS[i] for i in keep], [[row[i] for i in keep] for row in rows]
+
+
+def model_curves(runs: dict) -> dict:
+    """scheme -> (site names, times [s], temperatures [degC]) of each run's sites (its power-on transient, or
+    one steady row at ``inf``), as :func:`imutherm.studies.paper.bench_comparison` takes them."""
+    out = {}
+    for s, res in runs.items():
+        header, rows = probe_table(res)
+        out[s] = (header[1:], rows[:, 0], rows[:, 1:])
+    return out
 
 
 @dataclass(frozen=True)
@@ -135,8 +149,13 @@ def _scheme_task(layout, scheme: str, run_kwargs: dict, use_cache: bool = True) 
 def write_comparison(comp: Comparison, out: str | os.PathLike, model: dict | None = None) -> None:
     """``compare.json``, ``probes_<scheme>.csv`` and ``map_<scheme>.npz`` in ``out``; ``model``: the fitted
     model the comparison ran on (:meth:`imutherm.studies.fitted_model.FittedModel.summary`), if any."""
+    from imutherm.studies.paper import bench_comparison
+
     out = Path(out)
-    write_json(out / "compare.json", {"paper": PAPER, "schemes": comp.summaries,
+    layout = next(iter(comp.runs.values())).geometry.layout
+    paper, bench = paper_thermal(layout), bench_comparison(layout, model_curves(comp.runs))
+    write_json(out / "compare.json", {**({"paper": paper} if paper is not None else {}), "schemes": comp.summaries,
+                                      **({"reference": bench} if bench is not None else {}),
                                       **({"model": model} if model is not None else {})})
     for s, res in comp.runs.items():
         header, rows = probe_table(res)

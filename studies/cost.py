@@ -189,3 +189,39 @@ def check_study_cost(config, schemes: int, jobs: int | None, max_memory: int | N
         raise InputError(f"{what}, estimated ~{fmt_bytes(memory)} of memory on {workers} worker process(es) "
                          f"(--jobs {jobs}), more than {src} {fmt_bytes(limit)}; use a smaller --jobs")
     return work
+
+
+#: the expected (not bounding) peak of one steady solve, for the import's estimate: the process with its libraries
+#: [bytes], per unknown of the mesh [bytes] and per pair of s2s cavity patches [bytes]. Measured with
+#: /usr/bin/time (peak RSS) of ``imutherm solve --scheme air`` on examples/boards/openuav (2026-12-07, load 8 on 2
+#: cores): 124.8 MiB at 22,800 unknowns without cavity radiation (2.29 kB per unknown above 75 MiB, budget.py's
+#: interpreter and libraries), 229 MiB at the default 66,300 unknowns with 602 patches (2.2 kB), 137.6 MiB with
+#: 564 patches at 22,800 unknowns (+12.8 MiB: 42 bytes per pair). Held out: 1,527 patches (2.5 mm) at 22,800
+#: unknowns, 193 MiB measured, 218 MiB by these (+13 %). The budget's own constants (imutherm.budget:
+#: 100 MiB + 3 kB per unknown + 64 MiB + 56 bytes per pair) bound the run and refuse it; these say what it takes
+PEAK_BASE_BYTES = 75 * 2**20
+PEAK_BYTES_PER_UNKNOWN = 2300.0
+PEAK_BYTES_PER_PATCH_PAIR = 42.0
+
+
+def solve_memory(layout, scheme: str, mesh_size_mm: float | None = None, min_cells: int | None = None,
+                 options=None) -> dict:
+    """Expected peak memory [bytes] of one steady solve of ``scheme``: the mesh's and the s2s cavity exchange's
+    (its dense patch-pair arrays, beside the mesh's), by the measured constants above. ``{"cells", "unknowns",
+    "patches", "mesh_bytes", "exchange_bytes", "bytes"}``; the default mesh and model unless given. Builds the
+    mesh to count the cavity's patches (no n^2 array exists yet)."""
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, grid_shape
+    from imutherm.unit.model import ModelOptions, s2s_patches
+
+    mesh_size_mm = DEFAULT_MAX_CELL_MM if mesh_size_mm is None else mesh_size_mm
+    min_cells = DEFAULT_MIN_CELLS if min_cells is None else min_cells
+    geometry = build_geometry(layout, scheme)
+    options = options or ModelOptions()
+    nx, ny, nz = grid_shape(geometry, mesh_size_mm, min_cells)
+    unknowns = (nx + 1) * (ny + 1) * (nz + 1)
+    n = s2s_patches(geometry, options, mesh_size_mm, min_cells)
+    mesh = PEAK_BASE_BYTES + PEAK_BYTES_PER_UNKNOWN * unknowns
+    exchange = PEAK_BYTES_PER_PATCH_PAIR * float(n) ** 2
+    return {"cells": nx * ny * nz, "unknowns": unknowns, "patches": n, "mesh_bytes": mesh, "exchange_bytes": exchange,
+            "bytes": mesh + exchange}

@@ -1,4 +1,5 @@
-"""What the end-to-end study says and writes: the answer sentences, the comparison with the paper, the
+"""What the end-to-end study says and writes: the answer sentences, the comparison with the reference data the
+layout declares (the paper's for the reference unit, a user's bench readings, or none), the
 numerical-error statement, ``summary.json`` and each scheme's files.
 """
 
@@ -95,12 +96,13 @@ def answer_sentences(schemes: dict, config: StudyConfig) -> dict:
     return out
 
 
-def paper_comparison(schemes: dict, config: StudyConfig) -> list:
-    """Rows ``{quantity, paper, model, difference}``: the paper's figures beside ours, each explained."""
+def paper_comparison(schemes: dict, config: StudyConfig, paper: dict | None = None) -> list:
+    """Rows ``{quantity, paper, model, difference}``: the paper's figures (default: Liu et al. 2012) beside ours,
+    each explained; for a layout that declares them (:func:`imutherm.studies.paper.layout_paper`)."""
     from imutherm.studies.paper import load_paper, paper_scheme_figures
 
-    pf = paper_scheme_figures()
-    paper = load_paper()
+    paper = paper or load_paper()
+    pf = paper_scheme_figures(paper)
     rows = []
     for name, s in schemes.items():
         p = pf.get(name, {})
@@ -247,7 +249,8 @@ def study_summary(result: StudyResult) -> dict:
     """The ``summary.json`` content (module docstring; every metric ``{mean, std}`` over the seeds)."""
     from imutherm.geometry.materials import get_material
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.paper import load_paper
+    from imutherm.studies.compare import model_curves
+    from imutherm.studies.paper import bench_comparison, layout_paper
     from imutherm.studies.thermal_study import _options_dict
 
     lay = result.layout
@@ -295,6 +298,10 @@ def study_summary(result: StudyResult) -> dict:
     for name, text in answers.items():
         schemes[name]["answer"] = text
     mats = sorted({p.material for st in result.schemes.values() for p in st.thermal.geometry.parts})
+    # the reference data the layout declares, and only that: the paper's figures for the paper's unit, a user's
+    # bench readings for theirs, nothing for an imported unit
+    paper = layout_paper(lay)
+    bench = bench_comparison(lay, model_curves({n: st.thermal for n, st in result.schemes.items()}))
     first = next(iter(result.schemes.values())).thermal.geometry
     return {
         "layout": lay.name, "layout_path": str(lay.path), "ambient_C": lay.ambient_C,
@@ -311,14 +318,16 @@ def study_summary(result: StudyResult) -> dict:
         "phases": {"warmup": "motion starts at power-on; die temperatures follow the power-on transient",
                    "steady": "die temperatures at the steady state of the scheme"},
         "calibrations": {"unit": "assembled unit in an oven -40..70 C chamber, sensor self-heating from the "
-                                 "thermal model (the paper's procedure); each scheme its own",
+                                 "thermal model (the two-step procedure of imu/calibration.py); each scheme its own",
                          "bare": "the same sensors calibrated on their own over -40..70 C die temperature"},
         "model_options": _options_dict(result.options),
         "materials": {m: asdict(get_material(m)) for m in mats},
         "powers_W": {p.name: p.power_W for p in first.parts if p.power_W},
         "mesh": {name: st.summary["mesh"] for name, st in result.schemes.items()},
         "schemes": schemes,
-        "paper": {"figures": load_paper(), "comparison": paper_comparison(schemes, result.config)},
+        **({"paper": {"figures": paper, "comparison": paper_comparison(schemes, result.config, paper)}}
+           if paper is not None else {}),
+        **({"reference": bench} if bench is not None else {}),
         "wall_s": result.wall_s,
     }
 
