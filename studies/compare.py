@@ -19,7 +19,8 @@ from imutherm import InputError
 from imutherm.io import write_json
 from imutherm.geometry.layout import load_layout
 from imutherm.site_table import write_site_table
-from imutherm.studies.thermal_study import SchemeResult, board_plane_map, probe_table, result_summary
+from imutherm.studies.thermal_study import (SchemeResult, board_plane_map, model_curves, probe_table,
+                                            result_summary)
 
 def paper_thermal(layout) -> dict | None:
     """The thermal figures of the paper ``layout`` declares (``[reference_data] paper_figures``; the reference
@@ -67,16 +68,6 @@ def thermal_table(data: dict) -> tuple[list[str], list[list[str]]]:
                        f"{r['energy_balance_rel_error']:.0e}"])
     keep = [i for i in range(len(TABLE_COLUMNS)) if paper is not None or i not in _PAPER_COLUMNS]
     return [TABLE_COLUMNS[i] for i in keep], [[row[i] for i in keep] for row in rows]
-
-
-def model_curves(runs: dict) -> dict:
-    """scheme -> (site names, times [s], temperatures [degC]) of each run's sites (its power-on transient, or
-    one steady row at ``inf``), as :func:`imutherm.studies.paper.bench_comparison` takes them."""
-    out = {}
-    for s, res in runs.items():
-        header, rows = probe_table(res)
-        out[s] = (header[1:], rows[:, 0], rows[:, 1:])
-    return out
 
 
 @dataclass(frozen=True)

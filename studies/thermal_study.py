@@ -464,3 +464,13 @@ def probe_table(res: SchemeResult) -> tuple:
         data = np.asarray(res.steady.probe_C)[None, :]
         names = res.steady.probe_names
     return ["time_s"] + list(names), np.column_stack([t, data])
+
+
+def model_curves(runs: dict) -> dict:
+    """scheme -> (site names, times [s], temperatures [degC]) of each run's sites (its power-on transient, or
+    one steady row at ``inf``), as :func:`imutherm.studies.paper.bench_comparison` takes them."""
+    out = {}
+    for s, res in runs.items():
+        header, rows = probe_table(res)
+        out[s] = (header[1:], rows[:, 0], rows[:, 1:])
+    return out

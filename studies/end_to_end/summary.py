@@ -249,7 +249,7 @@ def study_summary(result: StudyResult) -> dict:
     """The ``summary.json`` content (module docstring; every metric ``{mean, std}`` over the seeds)."""
     from imutherm.geometry.materials import get_material
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.compare import model_curves
+    from imutherm.studies.thermal_study import model_curves
     from imutherm.studies.paper import bench_comparison, layout_paper
     from imutherm.studies.thermal_study import _options_dict
 
