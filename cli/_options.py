@@ -72,15 +72,16 @@ def check_cavity_cost(geometry, args, what: str, other_bytes: float = 0.0, worke
     print the exchange's estimate and refuse it (:func:`imutherm.budget.check_s2s_cost`) beyond its time
     limit or, ``workers`` at once beside ``other_bytes``, beyond ``--max-memory``. Returns the patch count."""
     from imutherm.budget import check_s2s_cost, fmt_bytes
-    from imutherm.unit.model import s2s_patches
+    from imutherm.unit.model import s2s_patch_choice
 
     options = model_options(args)
-    n = s2s_patches(geometry, options, args.mesh_size, args.min_cells)
+    choice = s2s_patch_choice(geometry, options, args.mesh_size, args.min_cells)
+    n = 0 if choice is None else choice.patches.n
     if n:
         mem, sec = check_s2s_cost(what, n, options.cavity_rays, args.max_memory and args.max_memory / workers,
                                   other_bytes)
-        print(f"{what}: s2s cavity law, {n:,} patches of {options.cavity_patch_mm:g} mm: estimated ~{fmt_bytes(mem)} "
-              f"and ~{sec:.0f} s of CPU for the exchange", flush=True)
+        print(f"{what}: s2s cavity law, {choice.words()}: estimated ~{fmt_bytes(mem)} and ~{sec:.0f} s of CPU for "
+              "the exchange", flush=True)
     return n
 
 
@@ -96,12 +97,13 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--mount-conductance", type=float, default=None, metavar="W/m2K",
                    help="contact conductance to the mounting fixture [W/m^2 K] (default: the layout's)")
     g.add_argument("--no-cavity-radiation", action="store_true", help="switch off radiation across the cavity air")
-    from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM
+    from imutherm.thermal.cavity_radiation import AUTO_MAX_PATCH_MM, AUTO_MAX_PATCHES, DEFAULT_PATCH_MM
     from imutherm.unit.cavity_laws import CAVITY_LAWS, DEFAULT_CAVITY_LAW  # registered before the parser is built
     g.add_argument("--cavity-law", choices=tuple(CAVITY_LAWS), default=DEFAULT_CAVITY_LAW,
                    help=cavity_law_help(CAVITY_LAWS, DEFAULT_CAVITY_LAW))
-    g.add_argument("--cavity-patch-mm", type=float, default=DEFAULT_PATCH_MM, metavar="MM",
-                   help=f"patch edge of --cavity-law s2s [mm] (default {DEFAULT_PATCH_MM:g})")
+    g.add_argument("--cavity-patch-mm", type=float, default=None, metavar="MM",
+                   help=f"patch edge of --cavity-law s2s [mm], exactly (default: {DEFAULT_PATCH_MM:g} mm, coarsened up to "
+                        f"{AUTO_MAX_PATCH_MM:g} mm in a large housing to keep near {AUTO_MAX_PATCHES:,} patches)")
 
 
 def cavity_law_help(laws: dict, default: str) -> str:
@@ -113,12 +115,14 @@ def cavity_law_help(laws: dict, default: str) -> str:
 
 def model_options(args):
     """The :class:`imutherm.unit.model.ModelOptions` of the options of :func:`add_model_arguments`."""
+    from imutherm.thermal.cavity_radiation import AUTO_MAX_PATCHES, DEFAULT_PATCH_MM
     from imutherm.unit.model import ModelOptions
 
     return ModelOptions(exterior=args.exterior, h_fixed_W_m2K=args.h, radiation=not args.no_radiation,
                         emissivity=args.emissivity, mounting_conductance_W_m2K=args.mount_conductance,
                         cavity_radiation=not args.no_cavity_radiation, cavity_law=args.cavity_law,
-                        cavity_patch_mm=args.cavity_patch_mm)
+                        cavity_patch_mm=DEFAULT_PATCH_MM if args.cavity_patch_mm is None else args.cavity_patch_mm,
+                        cavity_max_patches=AUTO_MAX_PATCHES if args.cavity_patch_mm is None else None)
 
 
 def add_fitted_model_argument(parser: argparse.ArgumentParser) -> None:

@@ -117,7 +117,7 @@ def model_form_options(inversion: ModelOptions | None = None, kind: str = "cavit
     if kind == "discretisation":
         if not cavity_law(inv.cavity_law).patches:
             raise InputError("model_form_options: the 'discretisation' path needs an s2s inversion")
-        return inv.with_(cavity_patch_mm=FORM_PATCH_MM, cavity_rays=FORM_RAYS)
+        return inv.with_(cavity_patch_mm=FORM_PATCH_MM, cavity_max_patches=None, cavity_rays=FORM_RAYS)
     if kind == "layered":
         return inv.with_(contact_layers=True)
     raise InputError(f"model_form_options: unknown kind {kind!r}; valid: {', '.join(MODEL_FORMS)}")

@@ -205,6 +205,67 @@ def find_patches(grid: TensorGrid, air: np.ndarray, patch_mm: float = DEFAULT_PA
                    fc_patch=patch_of_fc, fc_axis=fc["axis"], fc_plane=fc["plane"], fc_u=fc["u"], fc_v=fc["v"])
 
 
+#: the patch-edge rule (:func:`choose_patch_mm`, the CLI's default): most patches the s2s law exchanges between
+#: before its patch edge grows. The dense exchange costs ~n^2 memory and n^2..n^3 time (:mod:`imutherm.budget`);
+#: this keeps it near the reference unit's (1,262 patches of 5 mm at the default mesh), so a larger housing's
+#: exchange costs about what the reference's does instead of 5.4^2 times more (cube-main, 150 x 120 mm board)
+AUTO_MAX_PATCHES = 1600
+#: the coarsest patch edge the rule chooses [mm]: the convergence study's coarsest (docs/benchmarks/cavity_radiation.md,
+#: reference unit, air scheme: tp1 24.067 K at 10 mm, 24.075 K at 5 mm, 24.073 K at 2.5 mm patches); beyond it the
+#: patch count is left above the target and the cost limits of :func:`imutherm.budget.check_s2s_cost` apply
+AUTO_MAX_PATCH_MM = 10.0
+
+
+@dataclass(frozen=True)
+class PatchChoice:
+    """The patch edge chosen for one cavity (:func:`choose_patch_mm`).
+
+    patch_mm : [mm] the edge used; requested_mm : [mm] the edge asked for (the finest the rule uses)
+    patches : the :class:`Patches` at ``patch_mm``; max_patches : the rule's target (None: no rule)
+    area_m2 : [m^2] the cavity's bounding faces (all regions)
+    """
+
+    patch_mm: float
+    requested_mm: float
+    patches: Patches
+    max_patches: int | None
+    area_m2: float
+
+    @property
+    def coarsened(self) -> bool:
+        return self.patch_mm > self.requested_mm
+
+    def words(self) -> str:
+        """One line: the edge, the count and the cavity's area, and why the edge is not the one asked for."""
+        s = (f"cavity patches of {self.patch_mm:g} mm ({self.patches.n:,} patches) for this housing's "
+             f"{self.area_m2:.3g} m2 of cavity faces")
+        if self.coarsened:
+            over = self.patches.n > self.max_patches
+            s += (f" (coarsened from {self.requested_mm:g} mm to keep near {self.max_patches:,} patches"
+                  + (f"; more than the rule's {self.max_patches:,} at its coarsest edge" if over else "")
+                  + "; the reference unit's rises move < 0.01 K from 5 to 10 mm patches; --cavity-patch-mm sets the "
+                  "edge exactly)")
+        return s
+
+
+def choose_patch_mm(grid: TensorGrid, air: np.ndarray, patch_mm: float = DEFAULT_PATCH_MM,
+                    max_patches: int | None = AUTO_MAX_PATCHES) -> PatchChoice:
+    """The patch edge [mm] of the cavity ``air`` of ``grid``: ``patch_mm`` if that gives at most ``max_patches``
+    patches (or ``max_patches`` is None), else the finest edge on a 0.5 mm ladder above it, up to
+    :data:`AUTO_MAX_PATCH_MM` (never below ``patch_mm``), that does. The count falls about as the edge squared
+    (a patch never gets smaller than its mesh faces), so the first try is ``patch_mm * sqrt(n / max_patches)``."""
+    if max_patches is not None and not (isinstance(max_patches, (int, np.integer)) and max_patches >= 1):
+        raise InputError(f"cavity radiation: the most patches must be an integer >= 1 or None, got {max_patches!r}")
+    pat = find_patches(grid, air, patch_mm)
+    area = float(pat.area.sum())
+    edge, top = float(patch_mm), max(float(patch_mm), AUTO_MAX_PATCH_MM)
+    while max_patches is not None and pat.n > max_patches and edge < top:
+        edge = min(top, max(edge + 0.5, np.ceil(2.0 * edge * np.sqrt(pat.n / max_patches)) / 2.0))
+        pat = find_patches(grid, air, edge)
+    return PatchChoice(patch_mm=edge, requested_mm=float(patch_mm), patches=pat, max_patches=max_patches,
+                       area_m2=area)
+
+
 @dataclass(frozen=True)
 class ViewFactors:
     """View factors between the patches of one grid.
@@ -540,14 +601,16 @@ def refined_patches(patches: Patches, fine: TensorGrid, factor: int) -> Patches:
 
 def cavity_exchange(grid: TensorGrid, air: np.ndarray, emissivity_by_part, *, patch_mm: float = DEFAULT_PATCH_MM,
                     rays: int = DEFAULT_RAYS, rng: np.random.Generator | None = None,
-                    view: ViewFactors | None = None) -> CavityExchange:
+                    view: ViewFactors | None = None, patches: Patches | None = None) -> CavityExchange:
     """The exchange law of the air cells ``air`` of ``grid``.
 
     emissivity_by_part : sequence, emissivity [-] of each part of ``grid.part_names`` (used where it bounds air)
     patch_mm : float [mm] patch edge; rays : int rays per patch; rng : Generator for the rays (default seed 0)
     view : ViewFactors computed before for the same grid, air and patch size (they do not depend on emissivity)
+    patches : Patches found before for the same grid, air and patch size (:func:`choose_patch_mm`'s)
     """
-    patches = find_patches(grid, air, patch_mm)
+    if patches is None:
+        patches = find_patches(grid, air, patch_mm)
     if view is None:
         from imutherm.budget import check_s2s_cost
 

@@ -82,6 +82,9 @@ class ModelOptions:
     cavity_wall_emissivity : float or None [-], emissivity of the housing's and the lid's inner faces
         (``s2s`` law; wins over ``cavity_surface_emissivity`` there); None: as the other surfaces
     cavity_patch_mm : float [mm], patch edge of the ``s2s`` law
+    cavity_max_patches : int or None, with the ``s2s`` law: the patch edge grows from ``cavity_patch_mm`` (up to
+        10 mm) until the cavity has at most this many patches (:func:`~imutherm.thermal.cavity_radiation.
+        choose_patch_mm`; the CLI's default unless ``--cavity-patch-mm`` is given); None: ``cavity_patch_mm`` exactly
     cavity_rays : int, rays per patch of the ``s2s`` view factors (seeded, reproducible)
     interfaces : tuple of Interface, contact conductances between named parts
     bond_contact_W_m2K : float or None [W/m^2 K], contact conductance on both faces
@@ -114,6 +117,7 @@ class ModelOptions:
     cavity_surface_emissivity: float | None = None
     cavity_wall_emissivity: float | None = None
     cavity_patch_mm: float = DEFAULT_PATCH_MM
+    cavity_max_patches: int | None = None
     cavity_rays: int = DEFAULT_RAYS
     interfaces: tuple = field(default_factory=lambda: (
         Interface("housing", "lid", AL_AL_AIR_JOINT_W_M2K, "screwed lid, Al/Al with air: Incropera Table 3.1b"),))
@@ -150,6 +154,10 @@ class ModelOptions:
         if not (np.isfinite(self.cavity_patch_mm) and self.cavity_patch_mm > 0):
             raise InputError(f"model option 'cavity_patch_mm' must be a finite number > 0 [mm], "
                              f"got {self.cavity_patch_mm!r}")
+        if self.cavity_max_patches is not None and not (
+                isinstance(self.cavity_max_patches, (int, np.integer)) and self.cavity_max_patches >= 1):
+            raise InputError(f"model option 'cavity_max_patches' must be an integer >= 1 or None (the patch edge "
+                             f"exactly), got {self.cavity_max_patches!r}")
         if not (isinstance(self.cavity_rays, (int, np.integer)) and self.cavity_rays >= 16):
             raise InputError(f"model option 'cavity_rays' must be an integer >= 16, got {self.cavity_rays!r}")
         for name in ("emissivity", "cavity_emissivity", "cavity_surface_emissivity", "cavity_wall_emissivity"):
@@ -384,21 +392,52 @@ def build_problem(geometry: Geometry, grid: TensorGrid, options: ModelOptions | 
                           exchanges)
 
 
-def s2s_patches(geometry: Geometry, options: ModelOptions, mesh_size_mm: float, min_cells: int) -> int:
-    """Patches [-] the ``s2s`` cavity law of ``options`` would exchange between on this mesh (0: no s2s law,
-    or the cavity is not air), counted from the mesh and the faces bounding the air before any view factor
-    or dense array exists (builds the mesh: call it after its own cost was checked)."""
+def s2s_patch_choice(geometry: Geometry, options: ModelOptions, mesh_size_mm: float, min_cells: int):
+    """The patches (:class:`~imutherm.thermal.cavity_radiation.PatchChoice`: edge, count, the cavity's area) the
+    ``s2s`` cavity law of ``options`` would exchange between on this mesh (None: no s2s law, or the cavity is
+    not air), from the mesh and the faces bounding the air before any view factor or dense array exists
+    (builds the mesh: call it after its own cost was checked)."""
     from imutherm.geometry.mesh import build_mesh
-    from imutherm.thermal.cavity_radiation import find_patches
 
     if not cavity_law_of(options).patches:
-        return 0
+        return None
     fill = next((p for p in geometry.parts if p.name == "fill"), None)
     if fill is None or options.material(fill.material).name != "air":
-        return 0
+        return None
     grid = build_mesh(geometry, mesh_size_mm, min_cells)
     air = grid.cell_part == grid.part_names.index("fill")
-    return int(find_patches(grid, air, options.cavity_patch_mm).n) if air.any() else 0
+    return _patch_choice(grid, air, options) if air.any() else None
+
+
+def s2s_patches(geometry: Geometry, options: ModelOptions, mesh_size_mm: float, min_cells: int) -> int:
+    """Patches [-] the ``s2s`` cavity law of ``options`` would exchange between on this mesh (0: none);
+    :func:`s2s_patch_choice`'s count."""
+    choice = s2s_patch_choice(geometry, options, mesh_size_mm, min_cells)
+    return 0 if choice is None else int(choice.patches.n)
+
+
+_CHOICE_CACHE: dict = {}
+
+
+def _grid_key(grid: TensorGrid, air) -> str:
+    import hashlib
+
+    h = hashlib.sha1()
+    for a in (grid.xs, grid.ys, grid.zs, grid.cell_part, air):
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+def _patch_choice(grid: TensorGrid, air, options: ModelOptions, key: str | None = None):
+    """:func:`~imutherm.thermal.cavity_radiation.choose_patch_mm` of ``options``, the last few kept."""
+    from imutherm.thermal.cavity_radiation import choose_patch_mm
+
+    ckey = (key or _grid_key(grid, air), float(options.cavity_patch_mm), options.cavity_max_patches)
+    if ckey not in _CHOICE_CACHE:
+        if len(_CHOICE_CACHE) >= 4:
+            _CHOICE_CACHE.pop(next(iter(_CHOICE_CACHE)))
+        _CHOICE_CACHE[ckey] = choose_patch_mm(grid, air, options.cavity_patch_mm, options.cavity_max_patches)
+    return _CHOICE_CACHE[ckey]
 
 
 _VIEW_CACHE: dict = {}
@@ -416,8 +455,6 @@ def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOpti
     (a correlation re-solves the same mesh with other emissivities or conductances), and so are the last
     few laws (the same view factors and emissivities: the same exchange matrix; laws are not changed after).
     """
-    import hashlib
-
     from imutherm.thermal.cavity_radiation import DEFAULT_INTERIOR_EMISSIVITY, cavity_exchange
 
     air = grid.cell_part == grid.part_names.index("fill")
@@ -429,15 +466,15 @@ def cavity_exchange_law(geometry: Geometry, grid: TensorGrid, options: ModelOpti
     if options.cavity_wall_emissivity is not None:
         eps = [options.cavity_wall_emissivity if p.kind in ("housing", "lid") else e
                for p, e in zip(geometry.parts, eps)]
-    h = hashlib.sha1()
-    for a in (grid.xs, grid.ys, grid.zs, grid.cell_part, air):
-        h.update(np.ascontiguousarray(a).tobytes())
-    key = (h.hexdigest(), float(options.cavity_patch_mm), int(options.cavity_rays))
+    gkey = _grid_key(grid, air)
+    choice = _patch_choice(grid, air, options, gkey)
+    key = (gkey, float(choice.patch_mm), int(options.cavity_rays))
     law_key = key + (tuple(float(e) for e in eps),)
     if law_key in _LAW_CACHE:  # the same enclosure and emissivities: the same radiosity solve (read-only law)
         return _LAW_CACHE[law_key]
-    law = cavity_exchange(grid, air, eps, patch_mm=options.cavity_patch_mm, rays=options.cavity_rays,
-                          rng=np.random.default_rng(0), view=_VIEW_CACHE.get(key))
+    law = cavity_exchange(grid, air, eps, patch_mm=choice.patch_mm, rays=options.cavity_rays,
+                          rng=np.random.default_rng(0), view=_VIEW_CACHE.get(key), patches=choice.patches)
+    law.choice = choice   # the patch edge and why (the printout's "cavity patches of N mm" line)
     if len(_LAW_CACHE) >= 8:
         _LAW_CACHE.pop(next(iter(_LAW_CACHE)))
     _LAW_CACHE[law_key] = law
