@@ -37,7 +37,7 @@ except ModuleNotFoundError:  # pragma: no cover
 #: the model switches ``[model]`` may carry (the CLI's model options)
 OPTION_FIELDS = {"exterior": str, "h_fixed_W_m2K": float, "radiation": bool, "emissivity": float,
                  "mounting_conductance_W_m2K": float, "cavity_radiation": bool, "cavity_law": str,
-                 "cavity_patch_mm": float}
+                 "cavity_patch_mm": float, "cavity_max_patches": int}
 MAX_MODEL_BYTES = 2**16
 
 
