@@ -151,7 +151,9 @@ def run_inputs(args) -> tuple:
     base = cli
     if fitted.options:
         base = ModelOptions(**fitted.options)
-        if cli != ModelOptions() and cli != base:
+        from imutherm.thermal.cavity_radiation import AUTO_MAX_PATCHES
+
+        if cli != ModelOptions(cavity_max_patches=AUTO_MAX_PATCHES) and cli != base:   # the command line's defaults
             raise InputError(f"--model {args.model}: it was fitted with the model switches "
                              f"{', '.join(f'{k}={v}' for k, v in fitted.options.items())}; the command line's "
                              f"differ: drop them (or edit [model] in the file)")
