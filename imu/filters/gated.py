@@ -603,17 +603,30 @@ def _gyro_sample(p, x):  # the record's gyro sample convention into our filters'
     return replace(p, gyro_sample=x.gyro_sample)
 
 
+def gate_design(x) -> GatedParams:
+    """``gated``'s params on the record ``x`` (FilterInputs): the rest window's thresholds and |f| reference
+    with the gains of its GateConfig (``kp_lp`` in the low-pass mode, ``tau_acc`` > 0)."""
+    g = x.gate
+    return GatedParams(x.thresholds, kp=g.kp_lp if g.tau_acc > 0 else g.kp, ki=g.ki, tau=g.tau, hold_s=g.hold_s,
+                       g=x.g_ref, recover_s=g.recover_s, tau_acc=g.tau_acc)
+
+
+def ungated_design(x) -> GatedParams:
+    """``ungated``'s params on ``x``: ``gated``'s with the plain seed gain ``kp`` of the GateConfig."""
+    return replace(gate_design(x), kp=x.gate.kp)
+
+
 def _run_gated_spec(x, p):
-    return run_gated(x.gyro, x.accel, x.dt, _gyro_sample(p or x.gated, x), init_s=x.init_s, steps=x.steps)
+    return run_gated(x.gyro, x.accel, x.dt, _gyro_sample(p or gate_design(x), x), init_s=x.init_s, steps=x.steps)
 
 
 def _run_ungated_spec(x, p):
-    return run_ungated(x.gyro, x.accel, x.dt, _gyro_sample(p or x.ungated or x.gated, x), init_s=x.init_s,
+    return run_ungated(x.gyro, x.accel, x.dt, _gyro_sample(p or ungated_design(x), x), init_s=x.init_s,
                        steps=x.steps)
 
 
 register(FilterSpec("gated", _run_gated_spec, GatedParams, "ours",
-                    "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue", base=lambda x: x.gated,
+                    "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue", base=gate_design,
                     in_study=True, in_sweep=True, varying_dt=True, rank=10,
                     tuning=(Tuned("tau_acc", 1.0, 31.6, (0.1, 1000.0), "tau_acc [s]; 0 = Liu et al. 2012's per-sample "
                                   "gate", off=(0.0,)),
@@ -621,7 +634,7 @@ register(FilterSpec("gated", _run_gated_spec, GatedParams, "ours",
                                                                    "low-pass mode)"))))
 register(FilterSpec("ungated", _run_ungated_spec, GatedParams, "ours",
                     "Liu et al. 2012 update with the gate always open (baseline)", "tab:gray",
-                    base=lambda x: x.ungated or x.gated, in_study=True, varying_dt=True, linestyle=":", rank=30,
+                    base=ungated_design, in_study=True, varying_dt=True, linestyle=":", rank=30,
                     tuning=(Tuned("kp", 1e-3, 1.0, (1e-4, 10.0), "kp [1/s], ki [1/s^2] = kp^2 / 30 along Liu et al. "
                                                                  "2012's ratio (0.3, 0.003), the gate always open",
                                   derived={"ki": lambda kp: kp * kp / 30.0}),)))

@@ -468,15 +468,20 @@ def run_kf_lp_core(gyro, accel, dt, params: "KFParams", S, steps=None):
 
 # --------------------------------------------------------------------------- the registry's entry
 
+def kf_design(x) -> KFParams:
+    """``kf``'s design params on the record ``x`` (FilterInputs): ``x.design['kf']``, else the defaults."""
+    return x.design.get("kf") or KFParams()
+
+
 def _run_kf_spec(x, p):  # the design KFParams plus the rest window's |f| reference and gate level
-    p = replace(p or x.kf, gyro_sample=x.gyro_sample)
+    p = replace(p or kf_design(x), gyro_sample=x.gyro_sample)
     return run_kf(x.gyro, x.accel, x.dt, kf_params_from_rest(x.gyro, x.accel, x.dt, x.init_s, p), init_s=x.init_s,
                   steps=x.steps)
 
 
 register(FilterSpec("kf", _run_kf_spec, KFParams, "ours",
                     "the horizontal-attitude KF paper's gravity-direction KF; KFParams", "tab:green",
-                    base=lambda x: x.kf, in_study=True, in_sweep=True, varying_dt=True, linestyle="--", rank=20,
+                    base=kf_design, in_study=True, in_sweep=True, varying_dt=True, linestyle="--", rank=20,
                     tuning=(Tuned("tau_acc", 1.0, 3.16, (0.1, 1000.0), "tau_acc [s]; 0 = the KF paper's window mean "
                                                                        "and gate 1", off=(0.0,)),
                             Tuned("q", 1e-7, 3.16e-4, (1e-10, 0.1), "q [rad^2/s] the process noise of the gravity "
