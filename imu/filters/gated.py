@@ -57,7 +57,7 @@ from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, ch
                                          initial_bias, initial_quat, sample_steps, step_rates)
 from imutherm.imu.filters.quat_step import gravity_error, gravity_error_jit, quat_step, quat_step_jit
 from imutherm.imu.filters.inertial_lp import REST_BIAS_TAU, REST_STATE, REST_TAU, butter2_coeffs, lp3, lp3_init, rest_step
-from imutherm.imu.filters.gate import (GateThresholds, _lp, gate_noise_level, gate_signals, gate_thresholds,
+from imutherm.imu.filters.gate import (GateThresholds, lowpass, gate_noise_level, gate_signals, gate_thresholds,
                                       lowpass_alpha, rest_reference)
 
 
@@ -371,7 +371,7 @@ def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, 
                         gyro_sample=params.gyro_sample)
     else:
         e_a, _, e_wd = gate_signals(gyro, accel, dt, params.tau, params.g)
-        lpw = _lp(gyro, lowpass_alpha(dt, params.tau))
+        lpw = lowpass(gyro, lowpass_alpha(dt, params.tau))
         ok_aw = (e_a < th.sigma_a) & (e_wd < th.sigma_wdot)
         r, gate = _loop(gyro, accel, None, dts, params.kp, params.ki, q0, bias0,
                         (lpw, ok_aw, th.sigma_w, _hold_samples(params.hold_s, dt),
