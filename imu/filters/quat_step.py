@@ -6,6 +6,9 @@ same arithmetic in the same order as the copies it replaces).
 ``m`` (unit, body axes) and the estimate's ``r = C(q)ᵀ [0, 0, 1]``; :func:`quat_step` the step
 ``q ⊗ exp(h)`` with ``h = ω dt / 2`` [rad], renormalised (sin(|h|)/|h| by its Taylor terms below
 |h|² = 1e-24).
+
+numba's cache is keyed on the calling kernel's own file: after an edit here, touch ``gated.py`` and
+``gravity_kf.py`` (or clear their ``__pycache__``) so that their cached kernels are compiled again.
 """
 
 from __future__ import annotations
