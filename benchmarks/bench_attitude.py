@@ -129,7 +129,8 @@ def speed(names, duration: float = 3600.0) -> None:
     from imutherm.imu.calibration import calibrate_unit
     from imutherm.imu.compensation import compensate
     from imutherm.imu.sensor_model import draw_unit, simulate_imu
-    from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, run_filters
+    from imutherm.imu.filters.run import run_filters
+    from imutherm.imu.motion import DEFAULT_LEVER_ARM
 
     d = DEFAULT_LEVER_ARM["flight"]
     tr = motion.flight_profile(duration, 100.0, lever_arm=d)

@@ -30,9 +30,9 @@ import numpy as np
 
 from imutherm.imu.calibration import calibrate_unit
 from imutherm.imu.compensation import compensate, out_of_range_mask
-from imutherm.imu.motion import make_profile
+from imutherm.imu.filters.run import run_filters
+from imutherm.imu.motion import DEFAULT_LEVER_ARM, make_profile
 from imutherm.imu.sensor_model import G0, SITES, draw_unit, simulate_imu
-from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, run_filters
 from imutherm.studies.filter_settings import load_settings
 
 OUT = Path(os.environ.get("IMUTHERM_EXAMPLES_OUT", tempfile.gettempdir())) / "imutherm-examples" / "api_imu"

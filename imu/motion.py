@@ -45,6 +45,11 @@ from imutherm.imu.attitude_math import G0, euler_to_quat, quat_to_dcm
 
 PROFILES = ("static", "swing", "shake", "flight", "vehicle", "handheld")
 
+#: default sensor lever arm from the rotation centre [m], per profile; vehicle: 0.5 m ahead of and 0.3 m
+#: above the reference point [ASSUMED, a dashboard mount]; handheld: 8 cm from the wrist [ASSUMED]
+DEFAULT_LEVER_ARM = {"static": (0.0, 0.0, 0.0), "swing": (0.0, 0.03, 0.05), "shake": (0.0, 0.0, 0.0),
+                     "flight": (0.3, 0.0, 0.05), "vehicle": (0.5, 0.0, -0.3), "handheld": (0.08, 0.0, 0.0)}
+
 
 # --------------------------------------------------------------------------- jets
 class Jet:

@@ -7,18 +7,8 @@ and pitch errors to RMS and maximum per phase (``overall``, ``stable``,
 ``manoeuvre``). Each metric is reported as ``{"mean": ..., "std": ...}`` over
 the seeds (population std, ddof=0); ``None`` where a phase has no samples.
 
-Gate parameters of Liu et al.'s filter (defaults of :class:`GateConfig`),
-chosen from the physics of the flight profile, not fitted to one run:
-
-* ``xi_a = 3.7e-4 m/s^2``: the |f| error of a horizontal acceleration that tilts
-  the apparent vertical by 0.5° (``g (1/cos 0.5° - 1)``), half of the paper's
-  1° stable-flight budget.
-* ``xi_w = 0.1 m/s^2``: centripetal / tangential error worth about 0.6° of tilt.
-* ``L = 1146 m``: radius of a standard-rate (3 °/s) turn at the 60 m/s cruise speed.
-* ``d``: the installation lever arm (the trajectory's, assumed known).
-* ``kp = 0.3 1/s`` (3 s time constant: fast recovery after a manoeuvre, tilt
-  noise from 3.5 mg accelerometer noise below 0.02°), ``ki = 0.003 1/s^2``
-  (gyro-bias loop, ~20 s), gate low-pass ``tau = 0.1 s``.
+The gate parameters (:class:`GateConfig`) and the filter runner (:func:`run_filters`) live in
+:mod:`imutherm.imu.filters.run`; this module re-exports them.
 """
 
 from __future__ import annotations
@@ -32,44 +22,16 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
-from imutherm.imu.filters import FusionParams, GatedParams, KFParams, default_thresholds
+from imutherm.imu.filters import FusionParams, KFParams
+from imutherm.imu.filters import run as filters_run
+from imutherm.imu.filters.run import GateConfig
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
-from imutherm.imu.filters.gate import rest_reference
-from imutherm.imu.filters.common import lever_arm_accel
 from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
+from imutherm.imu.motion import DEFAULT_LEVER_ARM
 
 SEGMENTS = ("overall", "stable", "manoeuvre")
 METRICS = ("roll_rms_deg", "pitch_rms_deg", "roll_max_deg", "pitch_max_deg")
 COMPENSATIONS = ("none", "conventional", "improved")
-
-#: default sensor lever arm from the rotation centre [m], per profile; vehicle: 0.5 m ahead of and 0.3 m
-#: above the reference point [ASSUMED, a dashboard mount]; handheld: 8 cm from the wrist [ASSUMED]
-DEFAULT_LEVER_ARM = {"static": (0.0, 0.0, 0.0), "swing": (0.0, 0.03, 0.05), "shake": (0.0, 0.0, 0.0),
-                     "flight": (0.3, 0.0, 0.05), "vehicle": (0.5, 0.0, -0.3), "handheld": (0.08, 0.0, 0.0)}
-
-
-@dataclass(frozen=True)
-class GateConfig:
-    """Design parameters of Liu et al.'s gated filter (see the module docstring).
-
-    xi_a [m/s^2], xi_w [m/s^2], L [m], kp [1/s], ki [1/s^2], tau [s], hold_s [s],
-    init_s [s] steady initial window used for leveling, the bias, the |f| reference and the R(·) widening,
-    recover_s [s] the gate's recovery time (see :mod:`imutherm.imu.filters.gated`), tau_acc [s] the
-    inertial-frame low-pass of the accelerometer (VQF's tauAcc; 0: Liu et al. 2012's per-sample gate), kp_lp [1/s]
-    the gated filter's kp in that mode (``ungated`` keeps kp: it is the plain seed update).
-    """
-
-    xi_a: float = 3.7e-4
-    xi_w: float = 0.1
-    L: float = 1146.0
-    kp: float = 0.3
-    ki: float = 0.003
-    tau: float = 0.1
-    hold_s: float = 0.0
-    init_s: float = 8.0
-    recover_s: float = 30.0
-    tau_acc: float = 0.0
-    kp_lp: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -223,80 +185,14 @@ def _spread(values):
 
 
 def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig(),
-                fusion: FusionParams = FusionParams(), kf: KFParams = KFParams(), names=None, params=None,
-                gnss=None, lever_comp: bool = False, settings=None, steps=None, gyro_sample: str = "point"):
-    """Run the named filters on one record; returns ({name: AttitudeEstimate}, thresholds).
-
-    gyro (N,3) [rad/s], accel (N,3) [m/s^2], dt [s], lever_arm (3,) [m]. The first ``gate.init_s`` [s]
-    must be at rest: the gyro bias, the |f| reference of the gates (the accelerometer's own rest reading,
-    not nominal g) and the gates' noise widening are measured there (:func:`rest_reference`,
-    :func:`~imutherm.imu.filters.gravity_kf.kf_params_from_rest`). ``fusion.gyroscope_range``: the sensor's full
-    scale [deg/s] (None or 0: not declared, the peer's over-range recovery off; never the data's peak).
-    ``names``: registered filters (:mod:`imutherm.imu.filters.registry`; None: every one that applies, those
-    needing GNSS fixes only with ``gnss``); ``params`` {name: its params object, the registry's ``params_cls``}
-    (default: what the registry's ``base`` derives from the record, else the class defaults; ``kf``: the
-    design KFParams, to which its runner adds the rest-window levels). ``gnss``
-    (:class:`imutherm.imu.gnss.GnssVelocity`) feeds ``aekf_gnss``, which needs it.
-    ``aekf`` removes the accelerometer's lever-arm term itself; ``lever_comp=True`` removes it
-    (:func:`imutherm.imu.filters.common.lever_arm_accel`) for every gravity-referenced filter (all but
-    ``aekf_gnss``), so that they are compared on the same information.
-    ``settings`` {name: {field: value}} (the tuned settings, :mod:`imutherm.studies.filter_settings`) replaces
-    fields of what each filter runs with (``params[name]``, else its registry default on this record:
-    ``gated`` / ``ungated`` their GatedParams after the rest window set the thresholds, ``kf`` its KFParams
-    before the rest-window levels are added).
-    ``steps`` (N,) [s]: the true step ending at each sample of an irregular record (None: ``dt`` throughout);
-    the filters whose registry entry says ``varying_dt`` integrate over it, the others (VQF) run at ``dt``.
-    ``gyro_sample`` ('point' | 'interval', :data:`imutherm.imu.filters.common.GYRO_SAMPLES`): what a gyro sample
-    is (the simulated sensor's: 'point'; a recorded log's: 'interval'), passed to our filters.
-
-    Examples
-    --------
-    A turntable swing of ±80° in roll (10 s at rest first), an uncompensated unit at 25 °C, three filters;
-    the roll and pitch RMS errors [°]:
-
-    >>> import numpy as np
-    >>> from imutherm.imu.motion import make_profile
-    >>> from imutherm.imu.sensor_model import draw_unit, simulate_imu
-    >>> from imutherm.studies.attitude_study import run_filters
-    >>> traj = make_profile("swing", duration=60.0, rate_hz=100.0)
-    >>> unit = draw_unit("adis16355", np.random.default_rng(0))
-    >>> raw = simulate_imu(unit, traj.t, traj.omega_b, traj.f_b, np.full((traj.t.size, 6), 25.0),
-    ...                    np.random.default_rng(1))
-    >>> estimates, _ = run_filters(raw.gyro, raw.accel, 0.01, traj.lever_arm, names=("gated", "kf", "vqf"))
-    >>> for name, e in estimates.items():
-    ...     rms = [np.degrees(np.sqrt(np.mean((a - b) ** 2))) for a, b in ((e.roll, traj.roll), (e.pitch, traj.pitch))]
-    ...     print(f"{name:5s} roll {rms[0]:.2f} pitch {rms[1]:.2f}")
-    gated roll 0.67 pitch 0.49
-    kf    roll 1.18 pitch 0.41
-    vqf   roll 0.65 pitch 0.59
-    """
-    from imutherm.imu.filters.registry import REGISTRY, FilterInputs, filter_names
-
-    params = {} if params is None else dict(params)
-    settings = {} if settings is None else settings
-    names = filter_names(gnss=gnss is not None) if names is None else tuple(names)
-    init_s = gate.init_s
-    g_ref, bias0 = rest_reference(gyro, accel, dt, init_s)
-    accel_raw, aekf_lever = accel, lever_arm
-    if lever_comp:
-        accel = accel - lever_arm_accel(gyro, dt, lever_arm, bias0)
-        aekf_lever = None
-    th = default_thresholds(gyro, accel, dt, xi_a=gate.xi_a, xi_w=gate.xi_w, d=lever_arm, L=gate.L,
-                            tau=gate.tau, init_s=init_s, g=g_ref, bias=bias0)
-    gp = GatedParams(th, kp=gate.kp_lp if gate.tau_acc > 0 else gate.kp, ki=gate.ki, tau=gate.tau,
-                     hold_s=gate.hold_s, g=g_ref, recover_s=gate.recover_s, tau_acc=gate.tau_acc)
-    unknown = [n for n in names if n not in REGISTRY]
-    if unknown:
-        raise InputError(f"filters: {unknown} unknown; valid: {', '.join(REGISTRY)}")
-    if gnss is None and any(REGISTRY[n].needs_gnss for n in names):
-        raise InputError("filter aekf_gnss: needs GNSS velocity fixes (gnss=...); valid: run it from the attitude "
-                         "study, which simulates them")
-    x = FilterInputs(gyro, accel, accel_raw, dt, init_s, gp, kf, fusion, lever_arm=aekf_lever, gnss=gnss,
-                     ungated=replace(gp, kp=gate.kp), steps=steps, gyro_sample=gyro_sample)
-    for n, vals in settings.items():
-        if n in names:
-            params[n] = replace(params.get(n) or REGISTRY[n].params(x), **vals)
-    return {n: REGISTRY[n].run(x, params.get(n)) for n in names}, th
+                fusion: FusionParams | None = None, kf: KFParams | None = None, design=None, **kwargs):
+    """:func:`imutherm.imu.filters.run.run_filters` (where it lives), with ``fusion`` / ``kf`` taken as those
+    filters' ``design`` entries, as before; returns ({name: AttitudeEstimate}, thresholds)."""
+    design = {} if design is None else dict(design)
+    for name, p in (("fusion", fusion), ("kf", kf)):
+        if p is not None:
+            design.setdefault(name, p)
+    return filters_run.run_filters(gyro, accel, dt, lever_arm, gate, design=design, **kwargs)
 
 
 def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", temperature_C: float | None = None,
@@ -374,8 +270,8 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
         if cal is not None and s == seed0:
             tdesc["extrapolated_fraction"] = float(out_of_range_mask(raw.temp_C, cal).mean())
         fixes = simulate_gnss(traj, np.random.default_rng([s, 0x6E55]), gnss) if needs_gnss else None
-        est, th = run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names, gnss=fixes, fusion=fusion,
-                              settings=tuned)
+        est, th = filters_run.run_filters(samp.gyro, samp.accel, dt, d, gate_run, names=names, gnss=fixes,
+                                          design={"fusion": fusion}, settings=tuned)
         for n, e in est.items():
             per[n].append(error_metrics(e.roll - dr.ref_roll, e.pitch - dr.ref_pitch, masks))
             runtimes[n].append(e.runtime_s)

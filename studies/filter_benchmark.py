@@ -33,7 +33,8 @@ from imutherm.imu import motion
 from imutherm.imu.attitude_math import wrap_angle
 from imutherm.imu.filters import FusionParams
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
-from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, run_filters
+from imutherm.imu.filters.run import GateConfig, run_filters
+from imutherm.imu.motion import DEFAULT_LEVER_ARM
 
 #: training (profile, seeds) and held-out (profile, seeds) sets of the benchmark
 TRAIN = (("flight", (100, 101)), ("shake", (100, 101)))
@@ -125,8 +126,8 @@ def run_one(name: str, rec: Record, values: dict | None = None):
     """AttitudeEstimate of filter ``name`` on ``rec`` with ``values`` {field: value} of its registry
     ``params_cls`` (as the settings file names them; None: its defaults on this record)."""
     est, _ = run_filters(rec.gyro, rec.accel, rec.dt, rec.lever_arm, GateConfig(init_s=rec.init_s, L=rec.turn_radius),
-                         fusion=FusionParams(gyroscope_range=rec.gyro_range_dps), names=(name,), gnss=rec.gnss,
-                         lever_comp=rec.lever_comp, settings=None if values is None else {name: values})
+                         design={"fusion": FusionParams(gyroscope_range=rec.gyro_range_dps)}, names=(name,),
+                         gnss=rec.gnss, lever_comp=rec.lever_comp, settings=None if values is None else {name: values})
     return est[name]
 
 

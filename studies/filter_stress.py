@@ -281,7 +281,7 @@ class StressTable:
 def stress_table(records, names=STRESS_FILTERS) -> StressTable:
     """Run ``names`` (with VQF) at the handheld settings of ``imutherm attitude --imu-csv`` on ``records``
     [(label, RealRecord)] and tabulate (:class:`StressTable`)."""
-    from imutherm.studies.attitude_study import GateConfig, run_filters
+    from imutherm.imu.filters.run import GateConfig, run_filters
     from imutherm.studies.real_benchmark import score
     from imutherm.studies.recorded import PLATFORMS, platform_settings
     from imutherm.imu.filters import FusionParams
@@ -292,8 +292,8 @@ def stress_table(records, names=STRESS_FILTERS) -> StressTable:
     d, L = PLATFORMS["handheld"]
     for _, rec in records:
         est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, GateConfig(L=L, init_s=rec.init_s),
-                             fusion=FusionParams(), names=names, settings=platform_settings("handheld", names),
-                             gyro_sample="interval")
+                             design={"fusion": FusionParams()}, names=names,
+                             settings=platform_settings("handheld", names), gyro_sample="interval")
         for n in names:
             rms[n].append(score(rec, est[n].gravity)["rms_deg"])
             r = est[n].resets

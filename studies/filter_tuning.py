@@ -146,7 +146,9 @@ def tuning_samples(profile: str, seed: int):
     from imutherm.imu.compensation import compensate
     from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
     from imutherm.imu.sensor_model import draw_unit, load_grade, simulate_imu
-    from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, leveling_window_s
+    from imutherm.imu.filters.run import GateConfig
+    from imutherm.imu.motion import DEFAULT_LEVER_ARM
+    from imutherm.studies.attitude_study import leveling_window_s
 
     g = load_grade(GRADE)
     d = DEFAULT_LEVER_ARM[profile]
@@ -173,7 +175,7 @@ def tune(profiles=PROFILES, seeds=SEEDS, filters=None, log=print) -> dict:
     """The study's settings: {profile: {filter: :func:`tune_filter` result}} (filters None: every one with
     axes, :func:`~imutherm.imu.filters.registry.tuned_filters`)."""
     from imutherm.imu.filters.registry import tuned_filters
-    from imutherm.studies.attitude_study import run_filters
+    from imutherm.imu.filters.run import run_filters
 
     filters = tuned_filters() if filters is None else filters
     out = {}
@@ -185,7 +187,8 @@ def tune(profiles=PROFILES, seeds=SEEDS, filters=None, log=print) -> dict:
                 vals = []
                 for traj, samp, d, gate, fusion in runs:
                     est, _ = run_filters(samp.gyro, samp.accel, float(traj.t[1] - traj.t[0]), d, gate,
-                                         fusion=fusion, names=(name,), settings=None if pt is None else {name: pt})
+                                         design={"fusion": fusion}, names=(name,),
+                                         settings=None if pt is None else {name: pt})
                     vals.append(score(traj, est[name]))
                 return float(np.mean(vals))
 

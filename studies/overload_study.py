@@ -60,7 +60,9 @@ def run_overload_study(grade: str = "adis16355", seed: int = 0, *, rig: Overload
     from imutherm.imu.gnss import simulate_gnss
     from imutherm.imu.sensor_model import draw_unit, load_grade, simulate_imu
     from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
-    from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM, GateConfig, leveling_window_s, run_filters
+    from imutherm.imu.filters.run import GateConfig, run_filters
+    from imutherm.imu.motion import DEFAULT_LEVER_ARM
+    from imutherm.studies.attitude_study import leveling_window_s
 
     from imutherm.imu.filters.registry import filter_names
 
@@ -85,7 +87,7 @@ def run_overload_study(grade: str = "adis16355", seed: int = 0, *, rig: Overload
         for label, smp in (("without", raw), ("with", compensate_overload(raw, cal_dyn.joint))):
             c = compensate(smp, cal, "improved")
             est, _ = run_filters(c.gyro, c.accel, 1.0 / g.sample_rate_hz, DEFAULT_LEVER_ARM["shake"], gate,
-                                 names=filters, gnss=fixes, fusion=fusion)
+                                 names=filters, gnss=fixes, design={"fusion": fusion})
             for n, e in est.items():
                 r = np.degrees(wrap_angle(e.roll - traj.roll))
                 p = np.degrees(wrap_angle(e.pitch - traj.pitch))

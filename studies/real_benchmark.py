@@ -186,13 +186,13 @@ def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
     of the library defaults (None: every filter at its defaults; :func:`imutherm.studies.recorded.platform_settings`
     gives a platform's), and score each: {name: score dict + accel_used_fraction, runtime_s}."""
     from imutherm.imu.filters import FusionParams
-    from imutherm.studies.attitude_study import GateConfig, run_filters
+    from imutherm.imu.filters.run import GateConfig, run_filters
 
     d, L = _platform()
     from imutherm.imu.filters.rest_check import rest_disagreement
 
     est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, GateConfig(L=L, init_s=rec.init_s),
-                         fusion=fusion or FusionParams(), names=tuple(names), settings=settings or {},
+                         design={"fusion": fusion or FusionParams()}, names=tuple(names), settings=settings or {},
                          gyro_sample="interval")
     out = {}
     for n, e in est.items():

@@ -15,7 +15,8 @@ import numpy as np
 
 from imutherm import InputError
 from imutherm.imu.attitude_math import roll_pitch_from_gravity
-from imutherm.studies.attitude_study import GateConfig, error_metrics, run_filters
+from imutherm.imu.filters.run import GateConfig, run_filters
+from imutherm.studies.attitude_study import error_metrics
 
 #: platform defaults of the gate design inputs: lever arm d (3,) [m] and turn radius L [m].
 #: handheld: no lever arm (the rotation centre of hand and body motion moves between wrist, elbow and shoulder, so
@@ -193,7 +194,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
     steps = true_steps(log)
     est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, names=tuple(names),
                          settings=platform_settings(platform, names), steps=steps, gyro_sample=log.gyro_sample,
-                         **({} if fusion is None else {"fusion": fusion}))
+                         design={"fusion": fusion})
     metrics = {}
     series = {"t": log.t}
     if log.has_reference:

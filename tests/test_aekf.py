@@ -204,15 +204,15 @@ def test_written_out_products_equal_the_dense_formulas():
     rng = np.random.default_rng(7)
     X = rng.normal(size=(9, 9))
     P0 = X @ X.T * 1e-3
-    C = aekf._rotvec_dcm(rng.normal(size=3))
-    S = aekf._skew(rng.normal(size=3) * 9.8)
+    C = aekf.rotvec_dcm(rng.normal(size=3))
+    S = aekf.skew(rng.normal(size=3) * 9.8)
     h = 0.01
     F = np.zeros((9, 9))
     F[0:3, 6:9] = -C
     F[3:6, 0:3] = -S
     Phi = np.eye(9) + F * h
     P = P0.copy()
-    aekf._propagate(P, C, S, h, np.empty((6, 9)), np.empty((6, 6)))
+    aekf.propagate_cov(P, C, S, h, np.empty((6, 9)), np.empty((6, 6)))
     assert np.allclose(P, Phi @ P0 @ Phi.T, rtol=0, atol=1e-15 * np.abs(P0).max())
     assert np.array_equal(P, P.T)
     H = np.zeros((3, 9))
@@ -220,11 +220,11 @@ def test_written_out_products_equal_the_dense_formulas():
     r = np.array([1e-3, 2e-3, 3e-3])
     nu = rng.normal(size=3) * 0.01
     Sm = H @ P0 @ H.T + np.diag(r)
-    assert np.allclose(aekf._hpht(H, P0), H @ P0 @ H.T, rtol=1e-13)
+    assert np.allclose(aekf.hpht(H, P0), H @ P0 @ H.T, rtol=1e-13)
     K = P0 @ H.T @ np.linalg.inv(Sm)
     IKH = np.eye(9) - K @ H
     ref = IKH @ P0 @ IKH.T + K @ np.diag(r) @ K.T
     P = P0.copy()
-    dx = aekf._joseph_update(P, H, np.linalg.inv(Sm), r, nu, np.eye(9))
+    dx = aekf.joseph_update(P, H, np.linalg.inv(Sm), r, nu, np.eye(9))
     assert np.allclose(dx, K @ nu, rtol=1e-12)
     assert np.allclose(P, 0.5 * (ref + ref.T), rtol=0, atol=1e-14 * np.abs(P0).max())

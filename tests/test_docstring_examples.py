@@ -33,7 +33,7 @@ MAIN = (
     "imutherm.imu.sensor_model.simulate_imu",
     "imutherm.imu.calibration.calibrate_unit",
     "imutherm.imu.compensation.compensate",
-    "imutherm.studies.attitude_study.run_filters",
+    "imutherm.imu.filters.run.run_filters",
 )
 
 

@@ -18,7 +18,7 @@ def _gyro_only(x, p):
     """Liu et al. 2012's update with the gains scaled by ``p.kp`` / 0.3 (default kp 0: gyro integration from the
     leveling; a filter only a test registers)."""
     p = p or GatedParams(None, kp=0.0, ki=0.0)
-    return run_ungated(x.gyro, x.accel, x.dt, replace(x.gated, kp=p.kp, ki=p.ki), init_s=x.init_s)
+    return run_ungated(x.gyro, x.accel, x.dt, replace(x.default("gated"), kp=p.kp, ki=p.ki), init_s=x.init_s)
 
 
 @pytest.fixture

@@ -143,9 +143,9 @@ def test_study_runs_each_filter_at_the_file_value(spy):
     seen, install = spy
     file = fs.load_settings().profiles["swing"]
     install("vqf", lambda x, p: p)
-    install("gated", lambda x, p: p or x.gated)
-    install("kf", lambda x, p: p or x.kf)
-    install("ungated", lambda x, p: p or x.ungated)
+    install("gated", lambda x, p: p or x.default("gated"))
+    install("kf", lambda x, p: p or x.default("kf"))
+    install("ungated", lambda x, p: p or x.default("ungated"))
     _swing_case(("gated", "kf", "ungated", "vqf"))
     for name in ("vqf", "gated", "kf", "ungated"):
         assert seen[name], name
@@ -235,7 +235,7 @@ def test_the_attitude_command_runs_the_tuned_settings_of_its_profile(spy, tmp_pa
     from imutherm.cli import attitude as cli
 
     seen, install = spy
-    install("kf", lambda x, p: p or x.kf)
+    install("kf", lambda x, p: p or x.default("kf"))
     install("vqf", lambda x, p: p)
     file = fs.load_settings().profiles["swing"]
     assert cli.main(["--profile", "swing", "--duration", "40", "--filters", "kf,vqf", "--no-plot",

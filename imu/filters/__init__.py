@@ -19,7 +19,8 @@ aekf_gnss  (numba loop, GNSS velocity)     --                    run_aekf
 =========  ==============================  ====================  ===============
 
 and the peers ``vqf``, ``madgwick``, ``mahony``, ``ekf``: batch runners only
-(:mod:`imutherm.imu.filters.peers`).
+(:mod:`imutherm.imu.filters.peers`). :func:`imutherm.imu.filters.run.run_filters` runs any of them on one record
+(:class:`~imutherm.imu.filters.registry.FilterInputs`, from which each filter reads what it needs).
 """
 
 from imutherm.imu.filters.aekf import AEKFParams, AEKFTrace, run_aekf

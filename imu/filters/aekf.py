@@ -113,8 +113,8 @@ from imutherm.imu.filters.noise_als import NoiseEstimate, als_noise, stationary_
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, initial_bias,
                                         initial_quat, lever_arm_accel, sample_steps)
 from imutherm.imu.filters.inertial_lp import REST_STATE, REST_TAU, rest_step
-from imutherm.imu.filters.aekf_math import (_align_rotation, _hpht, _joseph_update, _mm3, _mv3,  # noqa: F401
-                                            _mm, _orthonormalise, _propagate, _rotvec_dcm, _skew)
+from imutherm.imu.filters.aekf_math import (align_rotation, hpht, joseph_update, mm3, mv3,  # noqa: F401
+                                            mat_mul, orthonormalise, propagate_cov, rotvec_dcm, skew)
 
 
 @dataclass(frozen=True)
@@ -318,7 +318,7 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
     last_m = -1
     qj = 0
     I9 = np.eye(9)
-    G = np.empty((6, 9))   # F P's non-zero rows (_propagate's work space)
+    G = np.empty((6, 9))   # F P's non-zero rows (propagate_cov's work space)
     Hp = np.empty((6, 6))  # F P F^T's non-zero block
     for k in range(n):
         if qj < q_idx.shape[0] and q_idx[qj] == k:  # an ALS estimate of the gyro noise is ready
@@ -328,22 +328,22 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
             h = dts[k]  # the step from sample k-1 to k (dt: the design step of the blocks, memory and timers)
             w = (0.5 * (gyro[k - 1] + gyro[k]) if trap else gyro[k]) - b
             f = 0.5 * (accel[k - 1] + accel[k])
-            Cf = _mv3(C, f)
-            Rk = _rotvec_dcm(w * h)
-            C = _mm3(C, Rk)
+            Cf = mv3(C, f)
+            Rk = rotvec_dcm(w * h)
+            C = mm3(C, Rk)
             if not use_gnss:
-                fsum = _mv3(Rk.T, fsum)  # a nav-fixed vector seen from the rotated body
+                fsum = mv3(Rk.T, fsum)  # a nav-fixed vector seen from the rotated body
                 if use_lp:
                     for i in range(4):
-                        lps[i] = _mv3(Rk.T, lps[i])
+                        lps[i] = mv3(Rk.T, lps[i])
             v = v + (Cf + gn) * h
-            _propagate(P, C, _skew(Cf), h, G, Hp)
+            propagate_cov(P, C, skew(Cf), h, G, Hp)
             for i in range(3):
                 P[i, i] += (qg + sf2 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2])) * h
                 P[3 + i, 3 + i] += qa * qa * h
                 P[6 + i, 6 + i] += rbw * rbw * h
         if k % 50 == 0:
-            C = _orthonormalise(C)
+            C = orthonormalise(C)
         if rest and not use_gnss:
             at_rest, _, _, _ = rest_step(rst, 0, gyro[k, 0], gyro[k, 1], gyro[k, 2], accel[k, 0], accel[k, 1],
                                          accel[k, 2], ra, dt)
@@ -353,11 +353,11 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                 gn[2] = g
                 # zero-rate update: the gyro sample measures the bias, variance q_g / dt per sample
                 rz = qg / dt
-                Sz = _hpht(Hz, P)
+                Sz = hpht(Hz, P)
                 for i in range(3):
                     Sz[i, i] += rz
-                dx = _joseph_update(P, Hz, np.linalg.inv(Sz), np.full(3, rz), gyro[k] - b, I9)
-                C = _mm3(_rotvec_dcm(dx[0:3]), C)
+                dx = joseph_update(P, Hz, np.linalg.inv(Sz), np.full(3, rz), gyro[k] - b, I9)
+                C = mm3(rotvec_dcm(dx[0:3]), C)
                 b = b + dx[6:9]
         meas = False
         if use_gnss:
@@ -386,14 +386,14 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                 wgt = 1.0 if ea < accel_gate else (accel_gate / ea) ** 2
             if cnt == 0 and (use_lp or ea < accel_gate):
                 H = np.zeros((3, 9))
-                H[:, 0:3] = -_mm3(C.T, _skew(gn))
+                H[:, 0:3] = -mm3(C.T, skew(gn))
                 fn = np.sqrt(fk[0] * fk[0] + fk[1] * fk[1] + fk[2] * fk[2])
                 if dir_only and fn > 0.0:  # the direction only: |f| - g (accelerometer bias and scale factor
                     fk = fk * (g / fn)     # along the vertical) is no tilt
-                nu = fk + _mv3(C.T, gn)
+                nu = fk + mv3(C.T, gn)
                 meas = True
         if meas:
-            HPH = _hpht(H, P)
+            HPH = hpht(H, P)
             if fresh and k >= n_hold:  # R is held over the rest window (started from its measured noise)
                 for i in range(3):
                     Cv[i] = R[i] + HPH[i, i]
@@ -426,9 +426,9 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                     n_nis += 1
                     if nis_s / nis_n > nis_hi:  # diverged: re-level on the measured vertical, P and R reset, reported
                         if not use_gnss:
-                            C = _mm3(C, _align_rotation(C[2], -fk).T)
-                            H[:, 0:3] = -_mm3(C.T, _skew(gn))
-                            nu = fk + _mv3(C.T, gn)
+                            C = mm3(C, align_rotation(C[2], -fk).T)
+                            H[:, 0:3] = -mm3(C.T, skew(gn))
+                            nu = fk + mv3(C.T, gn)
                         for i in range(3):
                             for j in range(9):
                                 P[i, j] = 0.0
@@ -436,7 +436,7 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                         P[0, 0] = P[1, 1] = (10.0 * np.pi / 180.0) ** 2
                         P[2, 2] = p0_yaw
                         R[:] = r_start
-                        HPH = _hpht(H, P)
+                        HPH = hpht(H, P)
                         S = HPH.copy()
                         for i in range(3):
                             S[i, i] += R[i] / wgt
@@ -460,7 +460,7 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                                 P[j, i] = 0.0
                         P[0, 0] = P[1, 1] = (10.0 * np.pi / 180.0) ** 2
                         P[2, 2] = p0_yaw
-                        HPH = _hpht(H, P)
+                        HPH = hpht(H, P)
                         S = HPH.copy()
                         for i in range(3):
                             S[i, i] += R[i] / wgt
@@ -471,8 +471,8 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                 else:
                     rej_t = 0.0
             if accept:
-                dx = _joseph_update(P, H, np.linalg.inv(S), R / wgt, nu, I9)
-                C = _mm3(_rotvec_dcm(dx[0:3]), C)
+                dx = joseph_update(P, H, np.linalg.inv(S), R / wgt, nu, I9)
+                C = mm3(rotvec_dcm(dx[0:3]), C)
                 v = v + dx[3:6]
                 b = b + dx[6:9]
 

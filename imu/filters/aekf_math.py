@@ -9,24 +9,24 @@ from imutherm.lazy_jit import njit
 
 
 @njit(cache=True)
-def _skew(v):
+def skew(v):
     m = np.zeros((3, 3))
     m[0, 1], m[0, 2], m[1, 0], m[1, 2], m[2, 0], m[2, 1] = -v[2], v[1], v[2], -v[0], -v[1], v[0]
     return m
 
 
 @njit(cache=True)
-def _rotvec_dcm(a):
+def rotvec_dcm(a):
     """exp([a×]) (3,3) for a rotation vector a [rad]."""
     th = np.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-    K = _skew(a)
+    K = skew(a)
     if th < 1e-12:
         return np.eye(3) + K
-    return np.eye(3) + np.sin(th) / th * K + (1.0 - np.cos(th)) / (th * th) * _mm3(K, K)
+    return np.eye(3) + np.sin(th) / th * K + (1.0 - np.cos(th)) / (th * th) * mm3(K, K)
 
 
 @njit(cache=True)
-def _mm3(A, B):
+def mm3(A, B):
     """A @ B for 3x3 matrices, written out (numba's @ calls BLAS: ~1 us of overhead per call)."""
     out = np.empty((3, 3))
     for i in range(3):
@@ -36,7 +36,7 @@ def _mm3(A, B):
 
 
 @njit(cache=True)
-def _mv3(A, x):
+def mv3(A, x):
     """A @ x for a 3x3 matrix and a 3-vector, written out."""
     out = np.empty(3)
     for i in range(3):
@@ -45,7 +45,7 @@ def _mv3(A, x):
 
 
 @njit(cache=True)
-def _align_rotation(a, b):
+def align_rotation(a, b):
     """The smallest rotation (3,3) taking the direction of a (3,) to that of b (3,) (a half turn about an axis
     perpendicular to a when they are opposite)."""
     a = a / np.sqrt(a @ a)
@@ -58,18 +58,18 @@ def _align_rotation(a, b):
         u = np.cross(a, np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
         u = u / np.sqrt(u @ u)
         return 2.0 * np.outer(u, u) - np.eye(3)
-    K = _skew(v)
-    return np.eye(3) + K + _mm3(K, K) / (1.0 + c)
+    K = skew(v)
+    return np.eye(3) + K + mm3(K, K) / (1.0 + c)
 
 
 @njit(cache=True)
-def _orthonormalise(C):
+def orthonormalise(C):
     u, s, vt = np.linalg.svd(C)
     return u @ vt
 
 
 @njit(cache=True)
-def _propagate(P, C, S, h, G, Hp):
+def propagate_cov(P, C, S, h, G, Hp):
     """P <- Phi P Phi^T in place, Phi = I + F h, for the error state (attitude, velocity, gyro bias) whose
     F has two non-zero blocks: F[0:3, 6:9] = -C (bias into attitude), F[3:6, 0:3] = -S (S = [C f x],
     attitude into velocity). Phi P Phi^T = P + h (F P + (F P)^T) + h^2 F P F^T for a symmetric P, with
@@ -105,7 +105,7 @@ def _propagate(P, C, S, h, G, Hp):
 
 
 @njit(cache=True)
-def _mm(A, B, transpose_b=False):
+def mat_mul(A, B, transpose_b=False):
     """A @ B (or A @ B.T) written out: numba's @ on these small matrices calls BLAS, ~1 us of overhead a
     product, more than the product itself."""
     n, l = A.shape
@@ -121,22 +121,22 @@ def _mm(A, B, transpose_b=False):
 
 
 @njit(cache=True)
-def _hpht(H, P):
+def hpht(H, P):
     """H P H^T (3, 3) for H (3, 9), P (9, 9)."""
-    return _mm(_mm(H, P), H, True)
+    return mat_mul(mat_mul(H, P), H, True)
 
 
 @njit(cache=True)
-def _joseph_update(P, H, Sinv, r, nu, I9):
+def joseph_update(P, H, Sinv, r, nu, I9):
     """The Kalman update in Joseph form, P <- (I - K H) P (I - K H)^T + K diag(r) K^T (symmetrised) in
     place, K = P H^T S^-1; returns the state correction K nu (9,). H (3, 9), Sinv (3, 3), r (3,) the
-    measurement variances, nu (3,) the innovation. Written out (:func:`_mm`)."""
-    K = _mm(_mm(P, H, True), Sinv)
+    measurement variances, nu (3,) the innovation. Written out (:func:`mat_mul`)."""
+    K = mat_mul(mat_mul(P, H, True), Sinv)
     dx = np.zeros(9)
     for i in range(9):
         dx[i] = K[i, 0] * nu[0] + K[i, 1] * nu[1] + K[i, 2] * nu[2]
-    IKH = I9 - _mm(K, H)
-    T = _mm(IKH, P)
+    IKH = I9 - mat_mul(K, H)
+    T = mat_mul(IKH, P)
     for i in range(9):
         for j in range(i, 9):
             a = K[i, 0] * r[0] * K[j, 0] + K[i, 1] * r[1] * K[j, 1] + K[i, 2] * r[2] * K[j, 2]

@@ -198,9 +198,15 @@ def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams(), *,
 
 # --------------------------------------------------------------------------- the registry's entry
 
-register(FilterSpec("fusion", lambda x, p: run_fusion(x.gyro, x.accel, x.dt, p or x.fusion, steps=x.steps),
+def fusion_design(x) -> FusionParams:
+    """``fusion``'s params on the record ``x`` (FilterInputs): ``x.design['fusion']`` (the sensor's declared
+    gyro range), else the defaults."""
+    return x.design.get("fusion") or FusionParams()
+
+
+register(FilterSpec("fusion", lambda x, p: run_fusion(x.gyro, x.accel, x.dt, p or fusion_design(x), steps=x.steps),
                     FusionParams, "peer", "x-io Fusion (imufusion) README recommended settings", "tab:red",
-                    base=lambda x: x.fusion, in_study=True, varying_dt=True, linestyle="-.", rank=40, gyro_range=True,
+                    base=fusion_design, in_study=True, varying_dt=True, linestyle="-.", rank=40, gyro_range=True,
                     tuning=(Tuned("gain", 3.16e-3, 1.0, (1e-4, 10.0), "gain [-] of x-io Fusion"),
                             Tuned("rejection_timeout", 3.16, 1000.0, (0.1, 1e4), "acceleration-rejection timeout "
                                                                                  "[s]"))))

@@ -113,7 +113,7 @@ def lowpass_alpha(dt: float, tau: float) -> float:
     return dt / (tau + dt)
 
 
-def _lp(x, alpha):
+def lowpass(x, alpha):
     """First-order low-pass along axis 0 started at x[0] (y_0 = x_0)."""
     x = np.asarray(x, float)
     beta = 1.0 - alpha
@@ -134,8 +134,8 @@ def gate_signals(gyro, accel, dt: float, tau: float, g: float = G0, bias=(0.0, 0
     accel = np.asarray(accel, float)
     alpha = lowpass_alpha(dt, tau)
     fn = np.sqrt(accel[:, 0] * accel[:, 0] + accel[:, 1] * accel[:, 1] + accel[:, 2] * accel[:, 2])
-    e_a = np.abs(_lp(fn, alpha) - g)
-    w = _lp(gyro, alpha)
+    e_a = np.abs(lowpass(fn, alpha) - g)
+    w = lowpass(gyro, alpha)
     wc = w - np.asarray(bias, float)
     e_w = np.sqrt(wc[:, 0] * wc[:, 0] + wc[:, 1] * wc[:, 1] + wc[:, 2] * wc[:, 2])
     wd = np.zeros_like(w)

@@ -55,8 +55,9 @@ from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, estimate_from_gravity,
                                          initial_bias, initial_quat, sample_steps, step_rates)
+from imutherm.imu.filters.quat_step import gravity_error, gravity_error_jit, quat_step, quat_step_jit
 from imutherm.imu.filters.inertial_lp import REST_BIAS_TAU, REST_STATE, REST_TAU, butter2_coeffs, lp3, lp3_init, rest_step
-from imutherm.imu.filters.gate import (GateThresholds, _lp, gate_noise_level, gate_signals, gate_thresholds,
+from imutherm.imu.filters.gate import (GateThresholds, lowpass, gate_noise_level, gate_signals, gate_thresholds,
                                       lowpass_alpha, rest_reference)
 
 
@@ -171,32 +172,14 @@ def _update(q, b, wbx, wby, wbz, fx, fy, fz, is_open, kp, ki, dt):
     if is_open:
         fn = math.sqrt(fx * fx + fy * fy + fz * fz)
         mx, my, mz = -fx / fn, -fy / fn, -fz / fn
-        rx = 2 * (x * z - w * y)
-        ry = 2 * (y * z + w * x)
-        rz = 1 - 2 * (x * x + y * y)
-        ex = my * rz - mz * ry
-        ey = mz * rx - mx * rz
-        ez = mx * ry - my * rx
+        ex, ey, ez = gravity_error(w, x, y, z, mx, my, mz)
         wx += kp * ex
         wy += kp * ey
         wz += kp * ez
         bx -= ki * ex * dt
         by -= ki * ey * dt
         bz -= ki * ez * dt
-    hx, hy, hz = 0.5 * dt * wx, 0.5 * dt * wy, 0.5 * dt * wz
-    n2 = hx * hx + hy * hy + hz * hz
-    if n2 > 1e-24:
-        nn = math.sqrt(n2)
-        s = math.sin(nn) / nn
-        c = math.cos(nn)
-    else:
-        s = 1.0 - n2 / 6.0
-        c = 1.0 - n2 / 2.0
-    dx, dy, dz = hx * s, hy * s, hz * s
-    w, x, y, z = (w * c - x * dx - y * dy - z * dz, w * dx + x * c + y * dz - z * dy,
-                  w * dy - x * dz + y * c + z * dx, w * dz + x * dy - y * dx + z * c)
-    inv = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
-    return (w * inv, x * inv, y * inv, z * inv), (bx, by, bz)
+    return quat_step(w, x, y, z, 0.5 * dt * wx, 0.5 * dt * wy, 0.5 * dt * wz), (bx, by, bz)
 
 
 def gated_step(state: GatedState, gyro, accel, dt: float, params: GatedParams) -> GatedState:
@@ -330,32 +313,14 @@ def _loop_core(wbar, m, gate_in, use_rate, lpw, ok_aw, sig_w, n_hold, n_rec, dts
             gl[k] = run > n_hold or quiet > n_rec
         if gl[k]:
             mx, my, mz = m[k, 0], m[k, 1], m[k, 2]
-            rx = 2 * (x * z - w * y)
-            ry = 2 * (y * z + w * x)
-            rz = 1 - 2 * (x * x + y * y)
-            ex = my * rz - mz * ry
-            ey = mz * rx - mx * rz
-            ez = mx * ry - my * rx
+            ex, ey, ez = gravity_error_jit(w, x, y, z, mx, my, mz)
             wx += kp * ex
             wy += kp * ey
             wz += kp * ez
             bx -= ki * ex * dt
             by -= ki * ey * dt
             bz -= ki * ez * dt
-        hx, hy, hz = hdt * wx, hdt * wy, hdt * wz
-        n2 = hx * hx + hy * hy + hz * hz
-        if n2 > 1e-24:
-            nn = math.sqrt(n2)
-            s = math.sin(nn) / nn
-            c = math.cos(nn)
-        else:
-            s = 1.0 - n2 / 6.0
-            c = 1.0 - n2 / 2.0
-        dx, dy, dz = hx * s, hy * s, hz * s
-        w, x, y, z = (w * c - x * dx - y * dy - z * dz, w * dx + x * c + y * dz - z * dy,
-                      w * dy - x * dz + y * c + z * dx, w * dz + x * dy - y * dx + z * c)
-        inv = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
-        w, x, y, z = w * inv, x * inv, y * inv, z * inv
+        w, x, y, z = quat_step_jit(w, x, y, z, hdt * wx, hdt * wy, hdt * wz)
         out[k, 0] = 2 * (x * z - w * y)
         out[k, 1] = 2 * (y * z + w * x)
         out[k, 2] = 1 - 2 * (x * x + y * y)
@@ -406,7 +371,7 @@ def run_gated(gyro, accel, dt: float, params: GatedParams, q0=None, bias0=None, 
                         gyro_sample=params.gyro_sample)
     else:
         e_a, _, e_wd = gate_signals(gyro, accel, dt, params.tau, params.g)
-        lpw = _lp(gyro, lowpass_alpha(dt, params.tau))
+        lpw = lowpass(gyro, lowpass_alpha(dt, params.tau))
         ok_aw = (e_a < th.sigma_a) & (e_wd < th.sigma_wdot)
         r, gate = _loop(gyro, accel, None, dts, params.kp, params.ki, q0, bias0,
                         (lpw, ok_aw, th.sigma_w, _hold_samples(params.hold_s, dt),
@@ -476,20 +441,7 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0, g_
             wx, wy, wz = gx - bx, gy - by, gz - bz
         S[34], S[35], S[36] = gx, gy, gz
         # strapdown frame q_I <- q_I ⊗ exp(ω̄ dt / 2) (the gyro alone)
-        hx, hy, hz = hdt * wx, hdt * wy, hdt * wz
-        n2 = hx * hx + hy * hy + hz * hz
-        if n2 > 1e-24:
-            nn = math.sqrt(n2)
-            sh = math.sin(nn) / nn
-            ch = math.cos(nn)
-        else:
-            sh = 1.0 - n2 / 6.0
-            ch = 1.0 - n2 / 2.0
-        dx, dy, dz = hx * sh, hy * sh, hz * sh
-        qw, qx, qy, qz = (qw * ch - qx * dx - qy * dy - qz * dz, qw * dx + qx * ch + qy * dz - qz * dy,
-                          qw * dy - qx * dz + qy * ch + qz * dx, qw * dz + qx * dy - qy * dx + qz * ch)
-        inv = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-        qw, qx, qy, qz = qw * inv, qx * inv, qy * inv, qz * inv
+        qw, qx, qy, qz = quat_step_jit(qw, qx, qy, qz, hdt * wx, hdt * wy, hdt * wz)
         c00, c01, c02 = 1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy)
         c10, c11, c12 = 2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx)
         c20, c21, c22 = 2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)
@@ -524,10 +476,7 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0, g_
         mn = math.sqrt(mbx * mbx + mby * mby + mbz * mbz)
         if mn > 0.0 and q_w > 0.0:
             mx, my, mz = -mbx / mn, -mby / mn, -mbz / mn
-            rx, ry, rz = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
-            ex = my * rz - mz * ry
-            ey = mz * rx - mx * rz
-            ez = mx * ry - my * rx
+            ex, ey, ez = gravity_error_jit(w, x, y, z, mx, my, mz)
             kpw, kiw = kp * q_w, ki * q_w
             wx += kpw * ex
             wy += kpw * ey
@@ -535,20 +484,7 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0, g_
             bx -= kiw * ex * dt
             by -= kiw * ey * dt
             bz -= kiw * ez * dt
-        hx, hy, hz = hdt * wx, hdt * wy, hdt * wz
-        n2 = hx * hx + hy * hy + hz * hz
-        if n2 > 1e-24:
-            nn = math.sqrt(n2)
-            sh = math.sin(nn) / nn
-            ch = math.cos(nn)
-        else:
-            sh = 1.0 - n2 / 6.0
-            ch = 1.0 - n2 / 2.0
-        dx, dy, dz = hx * sh, hy * sh, hz * sh
-        w, x, y, z = (w * ch - x * dx - y * dy - z * dz, w * dx + x * ch + y * dz - z * dy,
-                      w * dy - x * dz + y * ch + z * dx, w * dz + x * dy - y * dx + z * ch)
-        inv = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
-        w, x, y, z = w * inv, x * inv, y * inv, z * inv
+        w, x, y, z = quat_step_jit(w, x, y, z, hdt * wx, hdt * wy, hdt * wz)
         out[k, 0] = 2 * (x * z - w * y)
         out[k, 1] = 2 * (y * z + w * x)
         out[k, 2] = 1 - 2 * (x * x + y * y)
@@ -603,17 +539,30 @@ def _gyro_sample(p, x):  # the record's gyro sample convention into our filters'
     return replace(p, gyro_sample=x.gyro_sample)
 
 
+def gate_design(x) -> GatedParams:
+    """``gated``'s params on the record ``x`` (FilterInputs): the rest window's thresholds and |f| reference
+    with the gains of its GateConfig (``kp_lp`` in the low-pass mode, ``tau_acc`` > 0)."""
+    g = x.gate
+    return GatedParams(x.thresholds, kp=g.kp_lp if g.tau_acc > 0 else g.kp, ki=g.ki, tau=g.tau, hold_s=g.hold_s,
+                       g=x.g_ref, recover_s=g.recover_s, tau_acc=g.tau_acc)
+
+
+def ungated_design(x) -> GatedParams:
+    """``ungated``'s params on ``x``: ``gated``'s with the plain seed gain ``kp`` of the GateConfig."""
+    return replace(gate_design(x), kp=x.gate.kp)
+
+
 def _run_gated_spec(x, p):
-    return run_gated(x.gyro, x.accel, x.dt, _gyro_sample(p or x.gated, x), init_s=x.init_s, steps=x.steps)
+    return run_gated(x.gyro, x.accel, x.dt, _gyro_sample(p or gate_design(x), x), init_s=x.init_s, steps=x.steps)
 
 
 def _run_ungated_spec(x, p):
-    return run_ungated(x.gyro, x.accel, x.dt, _gyro_sample(p or x.ungated or x.gated, x), init_s=x.init_s,
+    return run_ungated(x.gyro, x.accel, x.dt, _gyro_sample(p or ungated_design(x), x), init_s=x.init_s,
                        steps=x.steps)
 
 
 register(FilterSpec("gated", _run_gated_spec, GatedParams, "ours",
-                    "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue", base=lambda x: x.gated,
+                    "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue", base=gate_design,
                     in_study=True, in_sweep=True, varying_dt=True, rank=10,
                     tuning=(Tuned("tau_acc", 1.0, 31.6, (0.1, 1000.0), "tau_acc [s]; 0 = Liu et al. 2012's per-sample "
                                   "gate", off=(0.0,)),
@@ -621,7 +570,7 @@ register(FilterSpec("gated", _run_gated_spec, GatedParams, "ours",
                                                                    "low-pass mode)"))))
 register(FilterSpec("ungated", _run_ungated_spec, GatedParams, "ours",
                     "Liu et al. 2012 update with the gate always open (baseline)", "tab:gray",
-                    base=lambda x: x.ungated or x.gated, in_study=True, varying_dt=True, linestyle=":", rank=30,
+                    base=ungated_design, in_study=True, varying_dt=True, linestyle=":", rank=30,
                     tuning=(Tuned("kp", 1e-3, 1.0, (1e-4, 10.0), "kp [1/s], ki [1/s^2] = kp^2 / 30 along Liu et al. "
                                                                  "2012's ratio (0.3, 0.003), the gate always open",
                                   derived={"ki": lambda kp: kp * kp / 30.0}),)))

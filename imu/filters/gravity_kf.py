@@ -47,6 +47,7 @@ from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, estimate_from_gravity,
                                          initial_bias, initial_quat, sample_steps, step_rates)
+from imutherm.imu.filters.quat_step import quat_step_jit
 from imutherm.imu.filters.inertial_lp import REST_BIAS_TAU, REST_STATE, REST_TAU, lp3, lp3_init, rest_step
 
 
@@ -395,20 +396,7 @@ def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, 
                       rz * cc + s * cz + c1 * dot * az)
         p = p + q * h + sf2 * h * (wx * wx + wy * wy + wz * wz)
         # strapdown frame q_I <- q_I ⊗ exp(ω dt / 2)
-        hx, hy, hz = 0.5 * h * wx, 0.5 * h * wy, 0.5 * h * wz
-        n2 = hx * hx + hy * hy + hz * hz
-        if n2 > 1e-24:
-            nn = math.sqrt(n2)
-            sh = math.sin(nn) / nn
-            ch = math.cos(nn)
-        else:
-            sh = 1.0 - n2 / 6.0
-            ch = 1.0 - n2 / 2.0
-        dx, dy, dz = hx * sh, hy * sh, hz * sh
-        qw, qx, qy, qz = (qw * ch - qx * dx - qy * dy - qz * dz, qw * dx + qx * ch + qy * dz - qz * dy,
-                          qw * dy - qx * dz + qy * ch + qz * dx, qw * dz + qx * dy - qy * dx + qz * ch)
-        inv = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-        qw, qx, qy, qz = qw * inv, qx * inv, qy * inv, qz * inv
+        qw, qx, qy, qz = quat_step_jit(qw, qx, qy, qz, 0.5 * h * wx, 0.5 * h * wy, 0.5 * h * wz)
         c00, c01, c02 = 1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy)
         c10, c11, c12 = 2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx)
         c20, c21, c22 = 2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)
@@ -468,15 +456,20 @@ def run_kf_lp_core(gyro, accel, dt, params: "KFParams", S, steps=None):
 
 # --------------------------------------------------------------------------- the registry's entry
 
+def kf_design(x) -> KFParams:
+    """``kf``'s design params on the record ``x`` (FilterInputs): ``x.design['kf']``, else the defaults."""
+    return x.design.get("kf") or KFParams()
+
+
 def _run_kf_spec(x, p):  # the design KFParams plus the rest window's |f| reference and gate level
-    p = replace(p or x.kf, gyro_sample=x.gyro_sample)
+    p = replace(p or kf_design(x), gyro_sample=x.gyro_sample)
     return run_kf(x.gyro, x.accel, x.dt, kf_params_from_rest(x.gyro, x.accel, x.dt, x.init_s, p), init_s=x.init_s,
                   steps=x.steps)
 
 
 register(FilterSpec("kf", _run_kf_spec, KFParams, "ours",
                     "the horizontal-attitude KF paper's gravity-direction KF; KFParams", "tab:green",
-                    base=lambda x: x.kf, in_study=True, in_sweep=True, varying_dt=True, linestyle="--", rank=20,
+                    base=kf_design, in_study=True, in_sweep=True, varying_dt=True, linestyle="--", rank=20,
                     tuning=(Tuned("tau_acc", 1.0, 3.16, (0.1, 1000.0), "tau_acc [s]; 0 = the KF paper's window mean "
                                                                        "and gate 1", off=(0.0,)),
                             Tuned("q", 1e-7, 3.16e-4, (1e-10, 0.1), "q [rad^2/s] the process noise of the gravity "

@@ -7,7 +7,7 @@ axes and the runs it belongs to (``in_study``: the end-to-end study's answer; ``
 IMU side). The runner takes a :class:`FilterInputs` (the samples and the settings the study derived from the
 rest window) and the filter's own parameters (None: its defaults, or what ``base`` derives from the inputs)
 and returns an :class:`~imutherm.imu.filters.common.AttitudeEstimate`. :func:`register` adds one: a new filter
-appears in ``imutherm attitude --filters``, in :func:`imutherm.studies.attitude_study.run_filters`, in the
+appears in ``imutherm attitude --filters``, in :func:`imutherm.imu.filters.run.run_filters`, in the
 plots, in the tuning procedure (:mod:`imutherm.studies.filter_tuning`) if it declares axes, and in the study
 (:class:`imutherm.studies.end_to_end.StudyConfig`, ``imutherm compare``) if it says ``in_study``. No other
 module lists filters by name.
@@ -25,29 +25,38 @@ from imutherm import InputError
 
 @dataclass(frozen=True)
 class FilterInputs:
-    """What a runner gets: gyro (N,3) [rad/s], accel (N,3) [m/s^2] (lever-arm compensated if asked),
-    accel_raw (N,3) [m/s^2] as measured, dt [s], init_s [s] rest window, gated (GatedParams: thresholds and gains
-    from the rest window), kf (KFParams as designed: the ``kf`` runner adds the rest window's levels,
-    :func:`~imutherm.imu.filters.gravity_kf.kf_params_from_rest`), fusion (FusionParams), lever_arm (3,) [m] or
-    None (the aekf's own lever-arm correction), gnss (GnssVelocity or None), ungated (GatedParams of the ungated
-    baseline; None: ``gated``'s), steps ((N,) [s] the true step ending at each sample of an irregular record, or
-    None: ``dt`` throughout; a runner that takes it passes it on, :attr:`FilterSpec.varying_dt`), gyro_sample
-    ('point' | 'interval', :data:`~imutherm.imu.filters.common.GYRO_SAMPLES`: what a gyro sample is; ours take it
-    into their params, the peers always integrate ω_k over the step ending at k)."""
+    """The one record every runner reads what it needs from (built by :func:`imutherm.imu.filters.run.filter_inputs`).
+
+    gyro (N,3) [rad/s]; accel (N,3) [m/s^2] (lever-arm compensated if asked); accel_raw (N,3) [m/s^2] as
+    measured; dt [s]; init_s [s] the rest window; gate (:class:`~imutherm.imu.filters.run.GateConfig`: the gates'
+    design); thresholds (GateThresholds set from the rest window); g_ref [m/s^2] the accelerometer's |f| at rest;
+    design {filter name: the design params object its default starts from, e.g. ``kf``'s KFParams before the rest
+    window's levels, ``fusion``'s FusionParams with the sensor's gyro range}; lever_arm (3,) [m] or None (the
+    aekf's own lever-arm correction); gnss (GnssVelocity or None); steps ((N,) [s] the true step ending at each
+    sample of an irregular record, or None: ``dt`` throughout; a runner that takes it passes it on,
+    :attr:`FilterSpec.varying_dt`); gyro_sample ('point' | 'interval',
+    :data:`~imutherm.imu.filters.common.GYRO_SAMPLES`: what a gyro sample is; ours take it into their params,
+    the peers always integrate ω_k over the step ending at k)."""
 
     gyro: np.ndarray = field(repr=False)
     accel: np.ndarray = field(repr=False)
     accel_raw: np.ndarray = field(repr=False)
     dt: float
     init_s: float
-    gated: object
-    kf: object
-    fusion: object
+    gate: object = None
+    thresholds: object = None
+    g_ref: float | None = None
+    design: dict = field(default_factory=dict)
     lever_arm: tuple | None = None
     gnss: object = None
-    ungated: object = None
     steps: np.ndarray | None = field(default=None, repr=False)
     gyro_sample: str = "point"
+
+    def default(self, name: str):
+        """The params object filter ``name`` runs with by default on this record (:meth:`FilterSpec.params`)."""
+        if name not in REGISTRY:
+            raise InputError(f"filter {name!r} unknown; valid: {', '.join(REGISTRY)}")
+        return REGISTRY[name].params(self)
 
 
 #: the study's tuning ladder: every tuned value is 10^(k / TUNING_STEPS_PER_DECADE) for an integer k, the same

@@ -42,9 +42,9 @@
    effects that take the re-tuned model's held-out error from far beyond that level to within it are named
    without the term (:func:`imutherm.studies.form_error.named_through_form`), and on the term's path a further
    effect must halve the term the effects before it leave. A re-tuned parameter that moved far and explains
-   most of the gap is named as a finding (:mod:`imutherm.studies.findings`; verdict ``finding`` when no library
-   effect is named); the model written is never worse than the nominal one on held-out data without the term
-   (:mod:`imutherm.studies.written_model`); implausible readings are refused before any fit
+   most of the gap is named as a finding (:mod:`imutherm.studies.correlation.findings`; verdict ``finding``
+   when no library effect is named); the model written is never worse than the nominal one on held-out data
+   without the term (:mod:`imutherm.studies.written_model`); implausible readings are refused before any fit
    (:mod:`imutherm.studies.plausibility`).
 6. **Re-run**: the corrected model on the full model (:func:`rerun_full`) for the "after" figures: its full
    steady solve and its transient on the study's checked reduced model (the full adaptive FEM where the check

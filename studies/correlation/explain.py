@@ -12,7 +12,7 @@ evidence a library effect meets in :func:`imutherm.studies.correlation.verdict`:
 
 ``qualifies``: ΔAICc >= :data:`MARGIN_NONE`, explains >= :data:`EXPLAIN_MIN_NOISE` noise sigmas and predicts
 held-out data better. Ranked by ΔAICc, best first. A knob at a bound is not in the list (a symptom of the model's
-form, :class:`imutherm.studies.findings.Symptom`).
+form, :class:`imutherm.studies.correlation.findings.Symptom`).
 """
 
 from __future__ import annotations

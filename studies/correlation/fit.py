@@ -233,7 +233,7 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
     held-out data predicted with the training fit's coefficients; the criterion is then the evidence
     form (n_eff / n) J / σ² + 2k (AICc's small-sample term kept) instead of AICc; ``hint``: the same
     effects' values fitted without the term, a further start (the better evidence of the two is kept).
-    ``fixed``: re-tune knobs held at the given values (not fitted; :mod:`imutherm.studies.findings`).
+    ``fixed``: re-tune knobs held at the given values (not fitted; :mod:`imutherm.studies.correlation.findings`).
     """
     effects = _effects_of(name)
     fixed = dict(fixed or {})

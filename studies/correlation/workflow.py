@@ -16,7 +16,7 @@ from imutherm.unit import knobs
 from imutherm.unit.effects import EFFECTS, effect_of, signal_effect_names
 from imutherm.studies import form_error
 from imutherm.unit.model import ModelOptions
-from imutherm.studies.findings import explain_knobs
+from imutherm.studies.correlation.findings import explain_knobs
 from imutherm.studies.plausibility import check_plausible
 from imutherm.workers import thread_limit
 from imutherm.studies.written_model import choose as choose_written
@@ -73,8 +73,8 @@ class CorrelationResult:
     retune_plain: Fit | None = None
     #: on sparse files, where the term cannot be fitted: the cavity law's form as a prior band (:func:`form_band`)
     form_band: dict | None = None
-    #: re-tuned parameters that moved far and explain most of the gap (:mod:`imutherm.studies.findings`), first
-    #: the largest share
+    #: re-tuned parameters that moved far and explain most of the gap
+    #: (:mod:`imutherm.studies.correlation.findings`), first the largest share
     findings: tuple = ()
     #: which model ``updated_model.toml`` carries and why (:mod:`imutherm.studies.written_model`)
     written: dict | None = None
@@ -84,7 +84,7 @@ class CorrelationResult:
     #: pooled held-out figures (``after`` itself where no term was fitted); its intervals are the findings'
     physics: Fit | None = None
     #: re-tuned knobs that ended at a bound while the data pull them there: symptoms of the model's form, never
-    #: findings (:class:`imutherm.studies.findings.Symptom`: how far the form is off and where)
+    #: findings (:class:`imutherm.studies.correlation.findings.Symptom`: how far the form is off and where)
     symptoms: tuple = ()
     #: one ranked list of the explanations: named effects, findings and ambiguous candidates scored alike
     #: (:mod:`imutherm.studies.correlation.explain`), best first

@@ -66,8 +66,9 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     from imutherm.imu import motion
     from imutherm.imu.compensation import compensate, out_of_range_mask
     from imutherm.imu.sensor_model import simulate_imu
-    from imutherm.studies.attitude_study import (DEFAULT_LEVER_ARM, GateConfig, error_metrics, leveling_window_s,
-                                                 run_filters)
+    from imutherm.imu.filters.run import GateConfig, run_filters
+    from imutherm.imu.motion import DEFAULT_LEVER_ARM
+    from imutherm.studies.attitude_study import error_metrics, leveling_window_s
     from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
     from imutherm.studies.filter_settings import load_settings
 
@@ -103,7 +104,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
                     sets[(cal, comp)] = compensate(raw, cals[cal], comp, out_of_range=config.out_of_range)
             for (cal, comp), s in sets.items():
                 est, _ = run_filters(s.gyro, s.accel, dt, d, gate, names=config.filters, settings=tuned,
-                                     fusion=fusion)
+                                     design={"fusion": fusion})
                 m = {f: error_metrics(e.roll - traj.roll, e.pitch - traj.pitch,
                                       {"all": np.ones(traj.t.size, bool)})["all"] for f, e in est.items()}
                 cal_keys = tuple(cals) if comp == "none" else (cal,)  # uncompensated: the same for all
