@@ -810,8 +810,12 @@ def _damaged_sweep(folder: Path, damage) -> None:
     import json
 
     from imutherm.studies.sweep import plan_sweep
+    from imutherm.thermal.cavity_radiation import AUTO_MAX_PATCHES
+    from imutherm.unit.model import ModelOptions
 
-    plan = plan_sweep(None, "grease", ["environment.ambient_C=20,30,40"], mesh_size_mm=6, min_cells=1)
+    # the command line's model options: its s2s patch edge follows the patch-count rule (cli/_options.py)
+    plan = plan_sweep(None, "grease", ["environment.ambient_C=20,30,40"], mesh_size_mm=6, min_cells=1,
+                      options=ModelOptions(cavity_max_patches=AUTO_MAX_PATCHES))
     folder.mkdir()
     (folder / "sweep.json").write_text(json.dumps({"design": plan.design, "status": "running"}, default=str))
     good = [f"{i},{v:.1f}," + ",".join(["1.0"] * (len(plan.columns) - 5)) + ",ok,,1.0" for i, v in
