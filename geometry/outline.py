@@ -85,14 +85,20 @@ def chain(polylines, tol: float = JOIN_MM) -> tuple:
 
 
 def inside(loops, x, y) -> np.ndarray:
-    """Which points (arrays ``x``, ``y`` [mm]) lie inside the closed ``loops`` by the even-odd rule."""
-    from matplotlib.path import Path as MplPath
-
+    """Which points (arrays ``x``, ``y`` [mm]) lie inside the closed ``loops`` by the even-odd rule: a ray from each
+    point towards +x crosses the loops' edges an odd number of times (edge by edge, every point at once)."""
     x, y = np.asarray(x, float), np.asarray(y, float)
-    pts = np.column_stack([x.ravel(), y.ravel()])
-    result = np.zeros(len(pts), bool)
+    px, py = x.ravel(), y.ravel()
+    result = np.zeros(px.shape, bool)
     for loop in loops:
-        result ^= MplPath(np.asarray(loop, float)).contains_points(pts)
+        pts = np.asarray(loop, float)
+        if len(pts) and not np.array_equal(pts[0], pts[-1]):
+            pts = np.vstack([pts, pts[:1]])   # a loop given open is closed, as a fab reads it
+        for (x0, y0), (x1, y1) in zip(pts[:-1], pts[1:]):
+            if y0 == y1:
+                continue
+            spans = (y0 > py) != (y1 > py)
+            result[spans] ^= px[spans] < x0 + (py[spans] - y0) * (x1 - x0) / (y1 - y0)
     return result.reshape(x.shape)
 
 
