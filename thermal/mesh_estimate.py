@@ -63,12 +63,14 @@ def _two_level(op: FineOperator, S, prolong, coarse_pc):
 def refined_steady_matrix_free(fine_problem, coarse_T_C, prolong, coarse_pc, probes: dict, coarse_probe_C,
                                coarse_max_C: float, *, ratio: int = REFINEMENT_RATIO,
                                order: float = MESH_ERROR_ORDER, max_newton: int = 4,
-                               max_cg: int = MAX_CG_STEPS) -> RefinementEstimate:
+                               max_cg: int = MAX_CG_STEPS, history: list | None = None) -> RefinementEstimate:
     """:func:`imutherm.thermal.refinement.refined_steady` without the refined problem's matrix (module
     docstring): the same arguments (``coarse_pc``, the coarse steady solve's preconditioner, required), the same
     :class:`~imutherm.thermal.refinement.RefinementEstimate` (``solver`` 'matrix-free'). Raises
     :class:`~imutherm.ConvergenceError` when a Newton step's CG does not reach its tolerance in ``max_cg`` steps
-    (the caller falls back to the assembled solve)."""
+    (the caller falls back to the assembled solve). ``history``: a list that gets, after each CG step of the first
+    Newton step, the sites' change so far [K] (the refined value minus the prolonged one; a benchmark's record of
+    how a truncated solve would estimate it)."""
     import scipy.sparse.linalg as spla
 
     from imutherm.thermal.probes import _probes
@@ -83,6 +85,7 @@ def refined_steady_matrix_free(fine_problem, coarse_T_C, prolong, coarse_pc, pro
     T = prolong @ Tc
     T[op.fixed] = op.fixed_values[op.fixed]
     A = spla.LinearOperator((op.n, op.n), matvec=op.apply, dtype=float)
+    names, Pm = _probes(fine_problem.grid, probes)
     atol, steps = None, 0
     for _ in range(max_newton):
         r = op.residual(T)
@@ -93,8 +96,13 @@ def refined_steady_matrix_free(fine_problem, coarse_T_C, prolong, coarse_pc, pro
             break
         op.linearise(T)
         count = [0]
+
+        def step(x, first=steps == 0):
+            count[0] += 1
+            if history is not None and first:
+                history.append(Pm @ x)
         dT, info = spla.cg(A, r, rtol=0.0, atol=atol, M=_two_level(op, op.seven_point(), prolong, coarse_pc),
-                           maxiter=max_cg, callback=lambda _x: count.__setitem__(0, count[0] + 1))
+                           maxiter=max_cg, callback=step)
         steps += count[0]
         if info != 0:
             raise ConvergenceError(f"matrix-free refined solve: CG did not reach rtol {REFINED_CG_RTOL:g} in "
@@ -102,7 +110,6 @@ def refined_steady_matrix_free(fine_problem, coarse_T_C, prolong, coarse_pc, pro
         T += dT
         if not op.nonlinear or np.abs(dT).max() <= REFINED_STEP_K:
             break
-    names, Pm = _probes(fine_problem.grid, probes)
     names = tuple(names) + (HOT_SPOT,)
     coarse = np.append(np.asarray(coarse_probe_C, float), coarse_max_C)
     fine = np.append(Pm @ T, float(np.max(T)))
