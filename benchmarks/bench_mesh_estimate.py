@@ -10,8 +10,10 @@ is the process's, the default-mesh solve's included). Reported per site: the ref
 effectivity ``d_k / d`` of the matrix-free CG truncated after k steps (what a cheaper, truncated estimate would
 give; a two-level step is a dual-weighted residual estimate with an approximate dual).
 
-    python benchmarks/bench_mesh_estimate.py                         # reference unit + 2 boards, ~10 min idle
+    python benchmarks/bench_mesh_estimate.py [--write]               # reference unit + 2 boards, ~10 min idle
     python benchmarks/bench_mesh_estimate.py --boards                # the reference unit only
+
+``--write`` records the printout in ``docs/benchmarks/tables/mesh_estimate.txt`` (``benchmarks/_record.py``).
 """
 
 from __future__ import annotations
@@ -122,4 +124,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    if "--case" in sys.argv:
+        sys.exit(main())
+    import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
+    sys.exit(_record.run(main, "mesh_estimate", "the mesh-error estimate's refined solve, matrix-free vs assembled"))

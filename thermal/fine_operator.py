@@ -145,7 +145,7 @@ class FineOperator:
             yf = np.zeros(face.nodes.shape)
             for l1, (a1, b1) in enumerate(_PAIRS):
                 yf[a1:a1 + nu, b1:b1 + nv] += ca * sum(FACE_M_REF[l1, l2] * X[p] for l2, p in enumerate(_PAIRS))
-            np.add.at(y, face.nodes.reshape(-1), yf.reshape(-1))
+            y[face.nodes.reshape(-1)] += yf.reshape(-1)   # a face's nodes are distinct: no np.add.at needed
 
     def linear_apply(self, x: np.ndarray) -> np.ndarray:
         """(K + H) x [W] for a nodal field ``x`` [K] (no fixed rows)."""

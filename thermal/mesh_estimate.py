@@ -8,10 +8,10 @@ default-mesh field) to the same tolerance, with
 
 * the refined Newton matrix applied matrix-free (:class:`~imutherm.thermal.fine_operator.FineOperator`: equal to
   the assembled one to rounding), its residual likewise;
-* CG preconditioned by a symmetric two-level cycle: a Gauss-Seidel sweep on a 7-point matrix spectrally
+* CG preconditioned by a symmetric two-level cycle: a symmetric Gauss-Seidel sweep on a 7-point matrix spectrally
   equivalent to the Newton matrix (:meth:`~imutherm.thermal.fine_operator.FineOperator.seven_point`, 7 of the 27
   entries a row), the default mesh's own AMG V-cycle through the prolongation as the coarse level (the steady
-  solve's hierarchy: nothing set up), a backward sweep.
+  solve's hierarchy: nothing set up), a symmetric sweep on the residual.
 
 It gives the refined values to the CG tolerance of the assembled solve (:data:`REFINED_CG_RTOL` of the prolonged
 field's residual): the same Richardson estimate, answer and bound (``docs/benchmarks/mesh_estimate.md``).
@@ -37,11 +37,16 @@ from imutherm.workers import one_blas_thread
 
 #: CG steps at most per Newton step [-] (reference unit, default mesh: 13-20 to REFINED_CG_RTOL)
 MAX_CG_STEPS = 60
+#: the smoother's Gauss-Seidel sweeps on the 7-point matrix before and after the coarse correction, and how many
+#: (reference unit, air, load 9: forward/backward 21 CG steps and 4.3 CPU-s; symmetric 15 and 4.0; symmetric twice
+#: 12 and 4.2)
+SWEEPS = ("symmetric", "symmetric")
+SWEEP_ITERATIONS = 1
 
 
 def _two_level(op: FineOperator, S, prolong, coarse_pc):
-    """The symmetric two-level cycle on ``op``: a forward Gauss-Seidel sweep on ``S`` (the 7-point matrix), the
-    coarse grid's V-cycle ``coarse_pc`` through ``prolong`` on the residual, a backward sweep on the residual."""
+    """The symmetric two-level cycle on ``op``: Gauss-Seidel on ``S`` (the 7-point matrix, :data:`SWEEPS`), the
+    coarse grid's V-cycle ``coarse_pc`` through ``prolong`` on the residual, Gauss-Seidel on the residual."""
     import scipy.sparse.linalg as spla
     from pyamg.relaxation.relaxation import gauss_seidel
 
@@ -50,10 +55,10 @@ def _two_level(op: FineOperator, S, prolong, coarse_pc):
     def apply(b):
         b = np.ravel(np.asarray(b, float))
         x = np.zeros_like(b)
-        gauss_seidel(S, x, b, iterations=1, sweep="forward")
+        gauss_seidel(S, x, b, iterations=SWEEP_ITERATIONS, sweep=SWEEPS[0])
         x += prolong @ (coarse_pc @ (R @ (b - op.apply(x))))
         e = np.zeros_like(b)
-        gauss_seidel(S, e, b - op.apply(x), iterations=1, sweep="backward")
+        gauss_seidel(S, e, b - op.apply(x), iterations=SWEEP_ITERATIONS, sweep=SWEEPS[1])
         return x + e
 
     return spla.LinearOperator((op.n, op.n), matvec=apply, dtype=float)
