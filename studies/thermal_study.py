@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import asdict, dataclass, replace
 
@@ -275,7 +276,8 @@ def mesh_error(res: SchemeResult, ratio: int = 2, coarse_pc=None, *, matrix_free
     (:func:`~imutherm.thermal.mesh_estimate.refined_steady_matrix_free`, ~0.3 GB less on the reference unit, the
     same values to its CG tolerance); where its CG does not converge (in ``max_cg`` steps, default
     :data:`~imutherm.thermal.mesh_estimate.MAX_CG_STEPS`), the assembled solve, the reason in the estimate's
-    ``fallback``."""
+    ``fallback``. ``$IMUTHERM_REFINED_SOLVE`` ``assembled``: the assembled solve always (a paired benchmark's
+    "before"; the values agree to the CG tolerance, so the thermal cache does not tell the two apart)."""
     from imutherm import ConvergenceError
     from imutherm.thermal.mesh_estimate import MAX_CG_STEPS, refined_steady_matrix_free
     from imutherm.thermal.refinement import refined_steady
@@ -283,6 +285,8 @@ def mesh_error(res: SchemeResult, ratio: int = 2, coarse_pc=None, *, matrix_free
     st = res.steady
     fine_problem, prolong, probes, coarse, coarse_max = refined_problem(res, ratio)
     why = ""
+    if os.environ.get("IMUTHERM_REFINED_SOLVE", "").strip().lower() == "assembled":
+        matrix_free = False
     if matrix_free and coarse_pc is not None:
         try:
             return refined_steady_matrix_free(fine_problem, st.T_C, prolong, coarse_pc, probes, coarse, coarse_max,

@@ -93,7 +93,7 @@ def test_the_matrix_free_refined_solve_gives_the_assembled_answer():
                                    max_cg=1)
 
 
-def test_the_study_falls_back_to_the_assembled_solve_and_says_why():
+def test_the_study_falls_back_to_the_assembled_solve_and_says_why(monkeypatch):
     """The reference unit on a coarse mesh: the default estimate is the matrix-free solve, with the assembled
     one's values; forced to fail (one CG step), the assembled solve gives them and the printed line says why."""
     from imutherm.imu.sensor_model import SITES
@@ -112,6 +112,10 @@ def test_the_study_falls_back_to_the_assembled_solve_and_says_why():
     line = fmt_error(forced, SITES)
     assert "bound: refined solve assembled, because matrix-free refined solve: CG did not reach" in line
     assert forced.summary()["fallback"] and mf.summary()["refined_solver"] == "matrix-free"
+    monkeypatch.setenv("IMUTHERM_REFINED_SOLVE", "assembled")   # the switch a paired benchmark's "before" uses
+    switched = mesh_error(res, coarse_pc=pc)
+    assert switched.solver == "assembled" and not switched.fallback
+    assert np.array_equal(switched.answer_C, assembled.answer_C)
 
 
 def _fin_tip(n: int) -> tuple:
