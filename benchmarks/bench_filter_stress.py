@@ -1,4 +1,4 @@
-"""Benchmark (not a test): the attitude filters on the stress set of issue 57 (:mod:`imutherm.studies.filter_stress`),
+"""Benchmark (not a test): the attitude filters on the stress set of issue 57 (:mod:`imutherm.studies.attitude.filter_stress`),
 judged by their worst record as well as their mean.
 
 Usage::
@@ -10,7 +10,7 @@ Records: simulated slow tumbles (5-20 °/s through upside down, both verticals, 
 its sensor library; one with a 1 % gyro scale-factor / misalignment error and a 0.5 °/s bias step, one with ten
 times its grade's accelerometer bias) and the three BROAD development trials transformed (mounted upside down / on
 a side / nose up and started there, forward-then-reversed twice: 12 min, re-cut to 100 and 1000 Hz). Every
-filter at the handheld settings of ``imutherm attitude --imu-csv`` (studies/real_settings.toml, tuned on the nine
+filter at the handheld settings of ``imutherm attitude --imu-csv`` (studies/attitude/real_settings.toml, tuned on the nine
 development files); in a git worktree away from ../shared/data set IMUTHERM_SHARED_DATA to that folder. Prints
 inclination RMS [deg] per record and filter, the aekf's reported NIS resets, each filter's mean x VQF and worst
 file x VQF. The BROAD records are
@@ -29,7 +29,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import _record  # noqa: E402
-from imutherm.studies.filter_stress import (STRESS_FILTERS, format_stress_table, stress_records,  # noqa: E402
+from imutherm.studies.attitude.filter_stress import (STRESS_FILTERS, format_stress_table, stress_records,  # noqa: E402
                                             stress_table)
 
 

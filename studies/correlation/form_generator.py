@@ -1,6 +1,6 @@
 """The correlation campaign's hardest model-form path: contacts as thin solid layers, another grid, every law off.
 
-The ``layered`` path of :func:`imutherm.studies.hidden_effect.model_form_options` generates the "measured" data
+The ``layered`` path of :func:`imutherm.studies.correlation.hidden_effect.model_form_options` generates the "measured" data
 with a model that differs from the inversion's in form in several ways at once, as a real bench's unit does:
 
 - **contacts as thin solid layers** (:func:`refine_contact_layers`): every contact conductance (bond lines,
@@ -14,7 +14,7 @@ with a model that differs from the inversion's in form in several ways at once, 
 - **±10 % nuisance on every conductivity and law** (:func:`nuisance_options`): every material's
   conductivities, the contact conductances, the cavity's and the housing's emissivities, the convection
   correlation, the mount and the board (the last three as the other paths have them);
-- per-probe offsets and noise as every path (:func:`imutherm.studies.hidden_effect.make_case`).
+- per-probe offsets and noise as every path (:func:`imutherm.studies.correlation.hidden_effect.make_case`).
 
 A hidden library effect is drawn on top of all this, so model-form error and a strong effect come together in
 one case.
