@@ -273,7 +273,8 @@ def stress_records(broad_dir=None, *, quick: bool = False):
 class StressTable:
     """Inclination RMS [deg] per record and filter (rms {filter: [per record]}), the records' labels, each filter's
     mean x VQF (mean of its RMS over the mean of VQF's) and worst file x VQF (max over records of its RMS / VQF's on
-    that record), and the aekf's reported resets per record."""
+    that record), the aekf's reported resets per record, and the in-motion divergence check's flagged windows per
+    record and filter (motion {filter: [(flagged, windows)]}, :mod:`~imutherm.imu.filters.motion_check`)."""
 
     labels: tuple
     rms: dict
@@ -281,6 +282,7 @@ class StressTable:
     worst_x_ref: dict
     worst_file: dict
     resets: dict
+    motion: dict
 
 
 def stress_table(records, names=STRESS_FILTERS) -> StressTable:
@@ -291,9 +293,12 @@ def stress_table(records, names=STRESS_FILTERS) -> StressTable:
     from imutherm.studies.recorded import PLATFORMS, platform_settings
     from imutherm.imu.filters import FusionParams
 
+    from imutherm.imu.filters.motion_check import motion_disagreement
+
     names = tuple(dict.fromkeys(tuple(names) + (REF,)))
     rms = {n: [] for n in names}
     resets = {n: [] for n in names}
+    motion = {n: [] for n in names}
     d, L = PLATFORMS["handheld"]
     for _, rec in records:
         est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, GateConfig(L=L, init_s=rec.init_s),
@@ -303,13 +308,15 @@ def stress_table(records, names=STRESS_FILTERS) -> StressTable:
             rms[n].append(score(rec, est[n].gravity)["rms_deg"])
             r = est[n].resets
             resets[n].append(None if r is None else int(len(r)))
+            mc = motion_disagreement(rec.gyro, rec.accel, rec.dt, est[n].gravity, init_s=rec.init_s)
+            motion[n].append((len(mc.flagged), int(mc.tilt_deg.size)))
     ref = np.array(rms[REF])
     mean_x = {n: float(np.mean(rms[n]) / np.mean(ref)) for n in names}
     ratio = {n: np.array(rms[n]) / ref for n in names}
     worst = {n: float(np.max(ratio[n])) for n in names}
     labels = tuple(lab for lab, _ in records)
     worst_file = {n: labels[int(np.argmax(ratio[n]))] for n in names}
-    return StressTable(labels, rms, mean_x, worst, worst_file, resets)
+    return StressTable(labels, rms, mean_x, worst, worst_file, resets, motion)
 
 
 def format_stress_table(t: StressTable) -> str:
@@ -322,8 +329,12 @@ def format_stress_table(t: StressTable) -> str:
             c = f"{t.rms[n][i]:.2f}"
             if t.resets[n][i]:
                 c += f" ({t.resets[n][i]} resets)"
+            if t.motion[n][i][0]:
+                c += f" [{t.motion[n][i][0]}/{t.motion[n][i][1]} flagged]"
             cells.append(c)
         lines.append(f"| {lab} | " + " | ".join(cells) + " |")
     lines.append("| **mean x VQF** | " + " | ".join(f"{t.mean_x_ref[n]:.2f}" for n in names) + " |")
     lines.append("| **worst file x VQF** | " + " | ".join(f"{t.worst_x_ref[n]:.2f}" for n in names) + " |")
+    lines.append("| **motion check: records flagged** | " + " | ".join(
+        f"{sum(1 for f, _ in t.motion[n] if f)} of {len(t.labels)}" for n in names) + " |")
     return "\n".join(lines)

@@ -99,6 +99,7 @@ def test_answers_say_the_worst_case_and_a_divergence(tmp_path, capsys):
     res = json.loads((tmp_path / "o" / "attitude.json").read_text())
     assert res["filters"]["aekf"]["resets_s"] == [] and res["filters"]["kf"]["resets_s"] is None
     assert all(res["filters"][n]["rest_off_deg"] == [] for n in ("kf", "aekf", "gated", "vqf"))
+    assert all(res["filters"][n]["motion_check"]["flagged"] == [] for n in ("kf", "aekf", "gated", "vqf"))
     _print_divergence("aekf", [12.5, 40.0])
     warn = capsys.readouterr().out.strip().splitlines()
     assert len(warn) == 1 and "aekf diverged" in warn[0] and "t = 12.5, 40.0 s" in warn[0]
@@ -133,9 +134,12 @@ def test_stress_table_mean_and_worst_file():
     from imutherm.studies.filter_stress import StressTable, format_stress_table
 
     t = StressTable(("a", "b"), {"kf": [1.0, 3.0], "vqf": [1.0, 1.0]}, {"kf": 2.0, "vqf": 1.0},
-                    {"kf": 3.0, "vqf": 1.0}, {"kf": "b", "vqf": "a"}, {"kf": [None, None], "vqf": [None, None]})
+                    {"kf": 3.0, "vqf": 1.0}, {"kf": "b", "vqf": "a"}, {"kf": [None, None], "vqf": [None, None]},
+                    {"kf": [(0, 4), (2, 4)], "vqf": [(0, 4), (0, 4)]})
     text = format_stress_table(t)
     assert "| **mean x VQF** | 2.00 | 1.00 |" in text and "| **worst file x VQF** | 3.00 | 1.00 |" in text
+    assert "| b | 3.00 [2/4 flagged] | 1.00 |" in text
+    assert "| **motion check: records flagged** | 1 of 2 | 0 of 2 |" in text
 
 
 def test_rest_check_flags_a_vertical_off_the_accelerometer_at_rest(tumble):
