@@ -107,6 +107,27 @@ def tumble_plan(rate_dps: float = 10.0, rest_s: float = 60.0) -> list:
     return plan
 
 
+def random_tour_plan(seed: int, *, duration_s: float = 300.0, rate_dps=(20.0, 90.0), angle_deg=(60.0, 270.0),
+                     pause_s=(0.0, 3.0)) -> list:
+    """Segments (duration [s], body rate (3,) [deg/s]) of a hand-held tour: after a 10 s rest, turns about axes drawn
+    uniformly on the sphere (body axes), each through an angle drawn in ``angle_deg`` at a rate drawn in
+    ``rate_dps``, each followed by a pause drawn in ``pause_s`` (0: none), until ``duration_s`` [s]."""
+    if not (duration_s > 10 and 0 < rate_dps[0] <= rate_dps[1] and 0 < angle_deg[0] <= angle_deg[1]
+            and 0 <= pause_s[0] <= pause_s[1]):
+        raise InputError(f"tour: duration_s={duration_s!r}, rate_dps={rate_dps!r}, angle_deg={angle_deg!r}, "
+                         f"pause_s={pause_s!r} are invalid; valid: > 10 s and ordered positive ranges")
+    rng = np.random.default_rng(seed)
+    plan, t = [(10.0, np.zeros(3))], 10.0
+    while t < duration_s:
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        rate, ang, pause = rng.uniform(*rate_dps), rng.uniform(*angle_deg), rng.uniform(*pause_s)
+        plan.append((ang / rate, rate * axis))
+        plan.append((pause, np.zeros(3)))
+        t += ang / rate + pause
+    return plan
+
+
 def tumble_log(*, rate_hz: float = 100.0, rate_dps: float = 10.0, rest_s: float = 60.0, grade: str = "adis16355",
                seed: int = 0, plan=None, name: str | None = None, gyro_sf: float = 0.0,
                bias_step_dps: float = 0.0, accel_bias_x: float = 1.0) -> ReferenceLog:
@@ -236,6 +257,15 @@ SIM_CASES = (
                                                                         gyro_sf=0.01)),
 )
 
+#: a record family kept out of issue 57's development (defined before any was run, first run by the final benchmark):
+#: hand-held tours about random axes (:func:`random_tour_plan`) at 20-90 °/s with pauses of 0-3 s, 5 min, gyro scale
+#: factor and misalignment 0.5 % per matrix element (1σ), three grades and rates
+HELDOUT_CASES = (
+    ("held-out tour bmi160 200 Hz", dict(grade="bmi160", rate_hz=200.0, seed=21, gyro_sf=0.005), 21),
+    ("held-out tour icm42688p 400 Hz", dict(grade="icm42688p", rate_hz=400.0, seed=22, gyro_sf=0.005), 22),
+    ("held-out tour adis16488 100 Hz", dict(grade="adis16488", rate_hz=100.0, seed=23, gyro_sf=0.005), 23),
+)
+
 #: the transformed development records: (label, BROAD file stem, transformed_log keywords, level)
 DEV_CASES = (
     ("B07 mounted upside down", "07_undisturbed_fast_rotation_B", dict(mount=MOUNTS["upside_down"]), False),
@@ -248,10 +278,10 @@ DEV_CASES = (
 )
 
 
-def stress_records(broad_dir=None, *, quick: bool = False):
+def stress_records(broad_dir=None, *, quick: bool = False, heldout: bool = False):
     """The stress set: [(label, RealRecord)] of :data:`SIM_CASES` and, where ``broad_dir`` (None: the shared
-    ``broad-dev`` folder) holds the files, :data:`DEV_CASES`. quick: the first simulated and the first two
-    transformed records only."""
+    ``broad-dev`` folder) holds the files, :data:`DEV_CASES`; heldout: :data:`HELDOUT_CASES` too (after them).
+    quick: the first simulated and the first two transformed records only."""
     from pathlib import Path
 
     from imutherm.imu.reference_log import read_broad_hdf5
@@ -266,6 +296,9 @@ def stress_records(broad_dir=None, *, quick: bool = False):
         if f.is_file():
             out.append((label, prepare_log(transformed_log(read_broad_hdf5(f), **kw), init_s=8.0, name=label,
                                            level=level)))
+    for label, kw, plan_seed in HELDOUT_CASES if heldout and not quick else ():
+        out.append((label, prepare_log(tumble_log(plan=random_tour_plan(plan_seed), name=label, **kw), init_s=8.0,
+                                       name=label)))
     return out
 
 

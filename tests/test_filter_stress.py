@@ -191,3 +191,21 @@ def test_gated_rate_gate_tests_the_turn_rate_not_rolling_over():
     vqf = res["vqf"]["rms_deg"]
     assert old > 1.6 * vqf, (old, vqf)
     assert res["gated"]["rms_deg"] < 1.2 * vqf, (res["gated"]["rms_deg"], vqf)
+
+
+def test_random_tour_plan_is_what_it_says():
+    """The held-out family's plan (only its shape is checked here; no filter is run on it outside the benchmark):
+    a 10 s rest, then turns at 20-90 °/s through 60-270° about unit axes, pauses of 0-3 s, at least the duration."""
+    from imutherm import InputError
+    from imutherm.studies.filter_stress import random_tour_plan
+
+    plan = random_tour_plan(3, duration_s=120.0)
+    assert plan[0][0] == 10.0 and not np.any(plan[0][1])
+    turns, pauses = plan[1::2], plan[2::2]
+    rates = np.array([np.linalg.norm(r) for _, r in turns])
+    assert np.all((rates >= 20.0) & (rates <= 90.0))
+    assert all(60.0 <= d * np.linalg.norm(r) <= 270.0 for d, r in turns)
+    assert all(0.0 <= d <= 3.0 and not np.any(r) for d, r in pauses)
+    assert sum(d for d, _ in plan) >= 120.0
+    with pytest.raises(InputError, match="tour"):
+        random_tour_plan(0, rate_dps=(90.0, 20.0))
