@@ -74,3 +74,29 @@ def test_the_exchange_term_is_the_product_it_replaces(air):
     f, J = red.rhs(0.0, y), red.jac(0.0, y)
     assert np.abs(f - (f_rest - f_ex)).max() <= 1e-10 * np.abs(f_ex).max()
     assert np.abs(J - (J_rest - J_ex)).max() <= 1e-10 * np.abs(J_ex).max()
+
+
+def test_the_conduction_operator_is_k_plus_h_without_its_matrix(air):
+    """L = K + H as the secant operator's sparse part less its secant slopes (no nnz-sized array of its own)."""
+    from imutherm.thermal.reduced import secant_slopes
+    res, asm, A, _, _ = air
+    L = reduced_transient._Conduction(sparse_part(A), secant_slopes(asm, np.asarray(res.steady.T_C)))
+    ref = asm.pattern.csr(asm.K_data + asm.H_data)
+    rng = np.random.default_rng(5)
+    x, X = rng.standard_normal(asm.n), rng.standard_normal((asm.n, 3))
+    for got, want in ((L @ x, ref @ x), (L @ X, ref @ X)):
+        assert got.shape == want.shape
+        assert np.abs(got - want).max() <= 1e-12 * np.abs(ref.data).max() * np.abs(x).max() * 27
+
+
+def test_the_shifted_operators_share_the_pattern(air):
+    """A + s M formed on the assembly's pattern: no copy of its indices, and in single precision for the shifted
+    hierarchy (the V-cycle's precision)."""
+    _, asm, A, M, _ = air
+    S = sparse_part(A)
+    op = reduced_transient._Shifted(A, M, 2.0)
+    single = reduced_transient._Shifted(A, M, 2.0, np.float32)
+    for o in (op, single):
+        assert np.shares_memory(o.sparse.indices, S.indices) and np.shares_memory(o.sparse.indptr, S.indptr)
+    assert op.sparse.dtype == np.float64 and single.sparse.dtype == np.float32
+    assert np.abs(single.sparse.data - op.sparse.data).max() <= 1e-6 * np.abs(op.sparse.data).max()

@@ -158,7 +158,7 @@ def amg_like(A, pc) -> spla.LinearOperator | None:
     ml = getattr(pc, "hierarchy", None)
     if ml is None or len(ml.levels) < 2 or ml.levels[0].A.shape != A.shape:
         return None
-    levels, Al = [], A.astype(np.float32).tocsr()
+    levels, Al = [], A.tocsr() if A.dtype == np.float32 else A.astype(np.float32).tocsr()
     for lvl in ml.levels:
         new = MultilevelSolver.Level()
         new.A = Al
