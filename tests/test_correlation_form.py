@@ -214,7 +214,7 @@ def test_the_single_forms_of_the_form_campaign():
     the other cavity law, a finer mesh, ±10 % nuisance drawn reproducibly from the rng); an unknown form refused."""
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
-    from imutherm.studies.form_generator import FEM_FORMS, GRID_FORM, form_options
+    from imutherm.studies.correlation.form_generator import FEM_FORMS, GRID_FORM, form_options
     from imutherm.unit.cavity_laws import cavity_law
     from imutherm.unit.model import ModelOptions
     inv = ModelOptions()

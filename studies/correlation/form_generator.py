@@ -139,7 +139,7 @@ def form_options(form: str, inversion: ModelOptions, geometry, rng: np.random.Ge
     """(the generator's options, its mesh as (cell-size factor, min cells) or None for the inversion's, record)
     of one form of :data:`FEM_FORMS` given the inversion's ``inversion``; ``nuisance`` draws from ``rng``."""
     from imutherm import InputError
-    from imutherm.studies.hidden_effect import model_form_options
+    from imutherm.studies.correlation.hidden_effect import model_form_options
     if form == "layered":
         return model_form_options(inversion, "layered"), None, {}
     if form == "cavity_law":
@@ -155,12 +155,12 @@ def form_options(form: str, inversion: ModelOptions, geometry, rng: np.random.Ge
 def form_pair(geometry, values: dict, inversion: ModelOptions, generator: ModelOptions, mesh_mm: float,
               min_cells: int, gen_mesh, probes: dict, times, lid_load_W_m2: float | None = None) -> tuple:
     """(rises on the inversion's form, rises on the generator's) [K], each (len(times), len(probes)): the full
-    FEM (:func:`imutherm.studies.forward.checked_rise`) of the unit ``geometry`` with knobs ``values``, once
+    FEM (:func:`imutherm.studies.thermal.forward.checked_rise`) of the unit ``geometry`` with knobs ``values``, once
     with ``inversion``'s laws on its mesh (``mesh_mm``, ``min_cells``) and once with ``generator``'s on
     ``gen_mesh`` ((factor, min cells) of :func:`form_options`, None: the same mesh; contact layers resolved
     where ``generator`` has them). ``lid_load_W_m2``: a radiant load on the lid [W/m^2] (outside the library)."""
     from imutherm.geometry.mesh import build_mesh
-    from imutherm.studies.forward import checked_rise
+    from imutherm.studies.thermal.forward import checked_rise
     from imutherm.thermal.problem import HeatFlux
     from imutherm.unit import knobs
     from imutherm.unit.effects import ModelVariant
