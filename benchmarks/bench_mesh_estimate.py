@@ -39,7 +39,7 @@ def case(layout: str, scheme: str, mode: str) -> dict:
     """One unit, scheme and refined solve (``mf`` or ``assembled``) in this process: figures as a dict."""
     import numpy as np
 
-    from imutherm.studies.thermal_study import refined_problem, run_scheme
+    from imutherm.studies.thermal.thermal_study import refined_problem, run_scheme
     from imutherm.thermal.mesh_estimate import refined_steady_matrix_free
     from imutherm.thermal.refinement import refined_steady
 

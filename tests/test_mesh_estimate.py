@@ -97,7 +97,7 @@ def test_the_study_falls_back_to_the_assembled_solve_and_says_why(monkeypatch):
     """The reference unit on a coarse mesh: the default estimate is the matrix-free solve, with the assembled
     one's values; forced to fail (one CG step), the assembled solve gives them and the printed line says why."""
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.thermal_study import mesh_error, run_scheme
+    from imutherm.studies.thermal.thermal_study import mesh_error, run_scheme
     from imutherm.thermal.refinement import fmt_error
 
     keep = {}

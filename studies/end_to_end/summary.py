@@ -169,7 +169,7 @@ def _settings_json(config: StudyConfig) -> dict:
     seeds, score), or a note that the defaults ran."""
     if not config.tuned:
         return {"tuned": False, "note": "every filter at its defaults"}
-    from imutherm.studies.filter_settings import load_settings
+    from imutherm.studies.attitude.filter_settings import load_settings
 
     fs = load_settings()
     return {"tuned": True, "file": fs.path, "meta": fs.meta,
@@ -251,9 +251,9 @@ def study_summary(result: StudyResult) -> dict:
     """The ``summary.json`` content (module docstring; every metric ``{mean, std}`` over the seeds)."""
     from imutherm.geometry.materials import get_material
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.thermal_study import model_curves
+    from imutherm.studies.thermal.thermal_study import model_curves
     from imutherm.studies.paper import bench_comparison, layout_paper
-    from imutherm.studies.thermal_study import _options_dict
+    from imutherm.studies.thermal.thermal_study import _options_dict
 
     lay = result.layout
     schemes = {}
@@ -360,8 +360,8 @@ def write_scheme_files(result: StudyResult, out) -> None:
 
     from imutherm.io import write_csv
     from imutherm.site_table import write_site_table
-    from imutherm.studies.thermal_study import board_plane_map
-    from imutherm.studies.thermal_study import probe_table
+    from imutherm.studies.thermal.thermal_study import board_plane_map
+    from imutherm.studies.thermal.thermal_study import probe_table
     from imutherm.thermal.output import write_vtu
 
     out = Path(out)

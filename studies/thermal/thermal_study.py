@@ -153,7 +153,7 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     What ``imutherm solve --scheme potted --mesh-size 6 --min-cells 1`` computes, in one call (a coarse mesh:
     one cell across the thinnest part):
 
-    >>> from imutherm.studies.thermal_study import run_scheme
+    >>> from imutherm.studies.thermal.thermal_study import run_scheme
     >>> run = run_scheme("imu_reference", "potted", mesh_size_mm=6, min_cells=1)
     >>> print(f"max rise {run.metrics.max_rise_K:.1f} K in {run.metrics.max_part}")
     max rise 15.4 K in reg_5v_die
