@@ -219,8 +219,8 @@ class FineOperator:
 
     def seven_point(self):
         """A 7-point SPD matrix (CSR) spectrally equivalent to the Newton matrix, for a smoother: each cell's
-        conduction with its 1-D masses across lumped (``k1 ⊗ diag(1/2, 1/2) ⊗ diag(1/2, 1/2)``: at least the
-        consistent one's energy and at most 3x it), the linear laws' lumped face mass and the laws' slopes on the
+        conduction with its 1-D masses across lumped (``k1 ⊗ diag(1/2, 1/2) ⊗ diag(1/2, 1/2)``: the lumped 1-D mass
+        lies between 1x and 3x the consistent one, so each term between 1x and 9x its consistent one), the linear laws' lumped face mass and the laws' slopes on the
         diagonal; fixed rows identity, their couplings dropped. 7 entries a row (a neighbour outside the grid: a
         zero entry on the opposite one), written straight into the CSR arrays."""
         import scipy.sparse as sp
