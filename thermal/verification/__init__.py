@@ -42,7 +42,7 @@ from imutherm.thermal.verification.board_cavity import (BOARD_CAVITY_AMBIENT_C, 
                                                          case_refinement_board_cavity)
 from imutherm.thermal.verification.record import (NAFEMS_T3_TARGET_C, NAFEMS_T4_ROUNDING_K,  # noqa: F401
                                                    NAFEMS_T4_TARGET_C, RADIATION_1D_PUBLISHED_K, VerificationRecord,
-                                                   _record, box_grid, graded)
+                                                   checked, box_grid, graded)
 from imutherm.thermal.verification.steady import (_l2_error, case_composite_wall, case_mms_convergence,  # noqa: F401
                                                    case_nafems_t4, case_natural_convection_1d, case_orthotropic_plate,
                                                    case_radiation_1d, case_slab_generation,

@@ -11,7 +11,7 @@ import numpy as np
 from imutherm.geometry.grid import TensorGrid
 from imutherm.thermal.problem import Convection, ThermalProblem
 from imutherm.thermal.steady import solve_steady
-from imutherm.thermal.verification.record import VerificationRecord, _record
+from imutherm.thermal.verification.record import VerificationRecord, checked
 
 
 #: the board-in-cavity cross-section of case 15: (name, (x0, x1), (z0, z1)) [mm], k (kx, ky, kz) [W/m K],
@@ -104,7 +104,7 @@ def case_refinement_board_cavity(reference=(4, 8, 16)) -> VerificationRecord:
     rise = base[i] - BOARD_CAVITY_AMBIENT_C
     nx, _, nz = _board_cavity_grid(1).shape
     gap = BOARD_CAVITY_PARTS[4][1][0] - BOARD_CAVITY_PARTS[1][1][0]   # board edge to wall [mm]
-    return _record("refinement_board_cavity", "estimated / true error of the base grid's die temperature [-]",
+    return checked("refinement_board_cavity", "estimated / true error of the base grid's die temperature [-]",
                    float(eff[i]), 1.0, outside, 0.0,
                    f"2-D board in an air cavity ({len(BOARD_CAVITY_PARTS)} parts, {BOARD_CAVITY_POWER_W:g} W die, "
                    f"gaps of {gap:g} mm); base grid {nx}x{nz} cells, die rise {rise:.3f} K; reference: grids "
