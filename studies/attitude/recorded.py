@@ -246,9 +246,12 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         series[f"{n}_accel_used"] = e.accel_used
     from imutherm.imu.filters.fusion_peer import fusion_range_info
 
-    return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
-                          L, float(init_s), log.g_rest, log.has_reference, metrics, series,
-                          fusion_range_info(fusion, log.gyro), sample_report(log, names), tuple(warnings))
+    return RecordedResult(source=log.path, rate_hz=log.rate_hz, n_samples=int(log.t.size),
+                          duration_s=float(log.t[-1] + log.dt), units=log.units, platform=platform, lever_arm=d,
+                          turn_radius_m=L, init_s=float(init_s), g_rest_mps2=log.g_rest,
+                          has_reference=log.has_reference, metrics=metrics, series=series,
+                          fusion=fusion_range_info(fusion, log.gyro), samples=sample_report(log, names),
+                          warnings=tuple(warnings))
 
 
 def mounting_warning(info: dict) -> str:

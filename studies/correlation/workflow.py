@@ -37,9 +37,9 @@ from imutherm.studies.correlation.verdict import (EXPLAIN_FRACTION, NONE_NOISE_F
                                                   explains_term)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CorrelationResult:
-    """What ``correlate`` found.
+    """What ``correlate`` found (built by keyword only: 28 fields).
 
     verdict : 'effect' | 'finding' | 'none' | 'ambiguous' | 'not_in_library' | 'discrepancy'
     named_effect : str or None (the first of ``named_effects``), ambiguous_set : tuple
@@ -205,14 +205,17 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     t1 = time.perf_counter()
     rerun_stats = (_rerun(runs, after, disc, models, curves, jobs, say, use_cache, rerun_transient) if rerun
                    else {})
-    return CorrelationResult(v, named, amb_set, before, after, none_fit, tuple(sel.ranking), loc, fp, noise, curves,
-                             runs, {f"{s}@{a:g}C": {"basis": r.basis_size, "unknowns": r.unknowns,
-                                                    "build_s": r.build_s, "solves": r.solves}
-                                    for (s, a), r in roms.items()},
-                             {"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
-                              "total_s": time.perf_counter() - t0, "reason": reason},
-                             words, rerun_stats, named_effects, tuple(sel.steps), dsum, sel.plain, band, found,
-                             written, fscale.summary(), free, symptoms, tuple(expl), nxt)
+    reduced = {f"{s}@{a:g}C": {"basis": r.basis_size, "unknowns": r.unknowns, "build_s": r.build_s,
+                                "solves": r.solves} for (s, a), r in roms.items()}
+    return CorrelationResult(
+        verdict=v, named_effect=named, ambiguous_set=amb_set, before=before, after=after, retune=none_fit,
+        ranking=tuple(sel.ranking), localise=loc, fingerprints=fp, noise_K=noise, curves=curves, runs=runs,
+        reduced=reduced,
+        timings={"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
+                 "total_s": time.perf_counter() - t0, "reason": reason},
+        words=words, full=rerun_stats, named_effects=named_effects, steps=tuple(sel.steps), discrepancy=dsum,
+        retune_plain=sel.plain, form_band=band, findings=found, written=written, form_scale=fscale.summary(),
+        physics=free, symptoms=symptoms, explanations=tuple(expl), next_experiment=nxt)
 
 
 def _inputs_and_models(runs: tuple, layout, holdout, mesh_size_mm: float, min_cells: int, options, models,

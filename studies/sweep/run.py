@@ -206,7 +206,8 @@ def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resum
                    "case_s_max": float(np.max(ok_s)) if ok_s else None},
     }
     write_text_synced(json_path, json_text(record_json))
-    return SweepResult(out, plan, rows, ran, len(done), failed, tuple(sorted(lost)), sens, wall)
+    return SweepResult(out_dir=out, plan=plan, rows=rows, ran=ran, skipped=len(done), failed=failed,
+                       lost=tuple(sorted(lost)), sensitivity=sens, wall_s=wall)
 
 
 def _run_reduced(plan, out, csv_path, json_path, jobs, dask_address, client, progress, start):
@@ -270,4 +271,5 @@ def _run_reduced(plan, out, csv_path, json_path, jobs, dask_address, client, pro
                    "case_s_max": float(np.max(ok_s)) if ok_s else None, **timings},
     }
     write_text_synced(json_path, json_text(record_json))
-    return SweepResult(out, plan, rows, len(rows), 0, failed, (), sens, wall, ver, timings)
+    return SweepResult(out_dir=out, plan=plan, rows=rows, ran=len(rows), skipped=0, failed=failed, lost=(),
+                       sensitivity=sens, wall_s=wall, verification=ver, timings=timings)

@@ -217,7 +217,8 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         metrics = thermal_metrics(tr, final_rise_K=final)
     else:
         metrics = thermal_metrics(steady)
-    res = SchemeResult(geometry, grid, steady, tr, metrics, options, time.perf_counter() - start, check)
+    res = SchemeResult(geometry=geometry, grid=grid, steady=steady, transient=tr, metrics=metrics, options=options,
+                       wall_s=time.perf_counter() - start, transient_check=check)
     if estimate_mesh_error:
         if progress:
             print("  mesh error: the steady solve on the mesh refined 2x ...", flush=True)
