@@ -563,14 +563,14 @@ def _run_ungated_spec(x, p):
 
 register(FilterSpec("gated", _run_gated_spec, GatedParams, "ours",
                     "Liu et al. 2012 gated strapdown (PAPER.md §3.2); GateConfig", "tab:blue", base=gate_design,
-                    in_study=True, in_sweep=True, varying_dt=True, rank=10,
+                    groups={"study", "sweep", "varying_dt", "real_tuned"}, rank=10,
                     tuning=(Tuned("tau_acc", 1.0, 31.6, (0.1, 1000.0), "tau_acc [s]; 0 = Liu et al. 2012's per-sample "
                                   "gate", off=(0.0,)),
                             Tuned("kp", 0.0316, 1.0, (1e-3, 10.0), "kp [1/s] the correction gain (kp_lp in the "
                                                                    "low-pass mode)"))))
 register(FilterSpec("ungated", _run_ungated_spec, GatedParams, "ours",
                     "Liu et al. 2012 update with the gate always open (baseline)", "tab:gray",
-                    base=ungated_design, in_study=True, varying_dt=True, linestyle=":", rank=30,
+                    base=ungated_design, groups={"study", "varying_dt", "real_tuned"}, linestyle=":", rank=30,
                     tuning=(Tuned("kp", 1e-3, 1.0, (1e-4, 10.0), "kp [1/s], ki [1/s^2] = kp^2 / 30 along Liu et al. "
                                                                  "2012's ratio (0.3, 0.003), the gate always open",
                                   derived={"ki": lambda kp: kp * kp / 30.0}),)))
