@@ -15,7 +15,8 @@ rows). Prints, per filter, the per-file RMS and the mean for the library default
 the dev setting is worse than the library defaults by more than their noise. The target: gated, kf
 and aekf cv mean <= 1.3x VQF's cv mean and no file worse than 2x VQF's. ``--write`` writes the dev settings and
 these figures to ``studies/attitude/real_settings.toml`` (the ``--platform handheld`` settings of ``imutherm attitude
---imu-csv``).
+--imu-csv``). Last, every filter at its dev setting on every file through the in-motion divergence check
+(:mod:`imutherm.imu.filters.motion_check`): windows flagged, windows, worst window tilt.
 
 Data: Szczęsna et al., ICCVG 2016, LNCS 9972, pp. 509-520, doi:10.1007/978-3-319-46418-3_45 (RepoIMU); Laidig,
 Caruso, Cereatti, Seel, Data 6 (7), 72, 2021, doi:10.3390/data6070072 (BROAD, CC BY 4.0).
@@ -147,6 +148,15 @@ def main() -> None:
             s = summ[n]
             ok = s["cv_x_vqf"] <= 1.3 and s["cv_worst_x_vqf"] <= 2.0
             print(f"  {n:5s} {s['cv_x_vqf']:.2f}x, worst file {s['cv_worst_x_vqf']:.2f}x: {'met' if ok else 'NOT met'}")
+    print("\nin-motion divergence check (imu/filters/motion_check.py) at the dev settings: windows flagged / windows "
+          "(worst window tilt [deg]); bound ~1.7 deg")
+    print(f"{'filter':9s} " + " ".join(f"{x:>13s}" for x in short))
+    for n in names:
+        cells = []
+        for r in recs:
+            mc = rb.run((n,), r, {n: res[n]["dev"]["settings"]} if res[n]["dev"]["settings"] else {})[n]["motion_check"]
+            cells.append(f"{len(mc['flagged']):>3d}/{mc['n_windows']:<3d}({mc['worst_deg']:5.2f})")
+        print(f"{n:9s} " + " ".join(f"{c:>13s}" for c in cells), flush=True)
     cpu = _cpu_s() - c0
     print(f"wall {time.perf_counter() - t0:.1f} s, cpu {cpu:.1f} s")
     if a.json:

@@ -207,3 +207,25 @@ def test_layered_path_a_strong_effect_is_named_first_and_a_null_gets_no_library_
     assert res0.named_effects == (), (res0.named_effects, res0.timings["reason"])
     w = res0.written
     assert w["heldout_rms_K"] <= w["nominal_heldout_rms_K"] * 1.000001
+
+
+def test_the_single_forms_of_the_form_campaign():
+    """form_options: each form of FEM_FORMS differs from the inversion's model in that one way only (contact layers,
+    the other cavity law, a finer mesh, ±10 % nuisance drawn reproducibly from the rng); an unknown form refused."""
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.studies.correlation.form_generator import FEM_FORMS, GRID_FORM, form_options
+    from imutherm.unit.cavity_laws import cavity_law
+    from imutherm.unit.model import ModelOptions
+    inv = ModelOptions()
+    geo = build_geometry(load_layout(None), "air")
+    got = {f: form_options(f, inv, geo, np.random.default_rng(5)) for f in FEM_FORMS}
+    assert got["layered"][0] == inv.with_(contact_layers=True) and got["layered"][1] is None
+    assert got["cavity_law"][0].cavity_law == cavity_law(inv.cavity_law).form_partner != inv.cavity_law
+    assert got["grid"][0] == inv and got["grid"][1] == GRID_FORM and GRID_FORM[0] < 1.0
+    opts, mesh, rec = got["nuisance"]
+    assert mesh is None and len(rec) >= 5 and all(0.9 <= x <= 1.1 for x in rec.values())
+    assert rec == form_options("nuisance", inv, geo, np.random.default_rng(5))[2]
+    assert opts.cavity_emissivity == pytest.approx(inv.cavity_emissivity * rec["cavity_emissivity"])
+    with pytest.raises(InputError, match="unknown form 'grid2'"):
+        form_options("grid2", inv, geo, np.random.default_rng(5))

@@ -201,8 +201,23 @@ def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
         s["runtime_s"] = float(e.runtime_s)
         s["resets_s"] = None if e.resets is None else [float(k * rec.dt) for k in e.resets]  # divergence monitor
         s["rest_off"] = [(rec.t0 + t, a) for t, a in rest_disagreement(rec.gyro, rec.accel, rec.dt, e.gravity)]
+        s["motion_check"] = motion_check_json(rec.gyro, rec.accel, rec.dt, e.gravity, rec.init_s, t0=rec.t0)
         out[n] = s
     return out
+
+
+def motion_check_json(gyro, accel, dt, gravity, init_s, *, platform: str = "handheld", t0: float = 0.0,
+                      steps=None) -> dict:
+    """The in-motion divergence check (:func:`~imutherm.imu.filters.motion_check.motion_disagreement`) of a filter's
+    down direction (N,3), JSON-ready: window_s, bound_deg, dv_max_mps (the platform's velocity change across a
+    window) and accel_bias_mps2 (the accelerometer bias allowed) of the bound, worst_deg, n_windows, flagged
+    [(t_start [s], tilt [deg])] (times from ``t0`` [s])."""
+    from imutherm.imu.filters.motion_check import ACCEL_BIAS, DV_MAX, motion_disagreement
+
+    mc = motion_disagreement(gyro, accel, dt, gravity, init_s=init_s, dv_max=DV_MAX[platform], steps=steps)
+    return {"window_s": mc.window_s, "bound_deg": mc.bound_deg, "dv_max_mps": DV_MAX[platform],
+            "accel_bias_mps2": ACCEL_BIAS, "worst_deg": mc.worst_deg,
+            "n_windows": int(mc.tilt_deg.size), "flagged": [(t0 + t, a) for t, a in mc.flagged]}
 
 
 def table(names, recs, settings=None) -> dict:
@@ -235,7 +250,7 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
                    "dev_cv_mean_x_vqf": entries.get(n, {}).get("cv_x_vqf"),
                    "dev_cv_worst_x_vqf": entries.get(n, {}).get("cv_worst_x_vqf"),
                    "accel_used_fraction": s["accel_used_fraction"], "runtime_s": s["runtime_s"],
-                   "resets_s": s["resets_s"], "rest_off_deg": s["rest_off"]}
+                   "resets_s": s["resets_s"], "rest_off_deg": s["rest_off"], "motion_check": s["motion_check"]}
                for n, s in res.items()}
     al = rec.align
     broad = rec.dataset == "broad"
@@ -253,5 +268,5 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
 
 
 __all__ = ["DATA_DIRS", "DATA_DIR", "RealRecord", "prepare", "prepare_log", "data_files", "load_all", "errors",
-           "score", "run",
+           "score", "run", "motion_check_json",
            "table", "level_rotation", "identity_alignment", "run_reference_log"]

@@ -239,6 +239,10 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         from imutherm.imu.filters.rest_check import rest_disagreement
 
         m["rest_off_deg"] = rest_disagreement(log.gyro, log.accel, log.dt, e.gravity)  # [(t [s], angle [deg])]
+        from imutherm.studies.attitude.real_benchmark import motion_check_json
+
+        m["motion_check"] = motion_check_json(log.gyro, log.accel, log.dt, e.gravity, init_s, platform=platform,
+                                              steps=steps)  # the in-motion divergence check
         m["time_steps"] = "uniform" if steps is None else ("true" if n in true_step_filters else "median")
         if align_info is not None:
             m["alignment"] = align_info

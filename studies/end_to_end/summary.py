@@ -207,6 +207,7 @@ def _numerical_error(th: dict) -> dict:
                        "answer_sensor_die_max_K": bound, "answer_sensor_die_max_site": bound_at,
                        "answer_hot_spot_K": hot.get("answer_error_K"),
                        "order": est["order"], "ratio": est["ratio"], "fine_nodes": est["fine_nodes"],
+                       "refined_solver": est.get("refined_solver", "assembled"), "fallback": est.get("fallback", ""),
                        "note": "sensor_die_max_K, hot_spot_K: estimated error of the default mesh's steady rise, "
                                "T* - T (positive: the rise is low), Richardson from the default mesh and the mesh "
                                "with every interval split; answer_*: the error bound of the answer the study uses "
@@ -232,7 +233,8 @@ def numerical_error_lines(summary: dict) -> list:
         if m and m.get("answer_sensor_die_max_K") is not None:
             parts.append(error_line(m.get("ratio", REFINEMENT_RATIO), m["order"], m["answer_sensor_die_max_K"],
                                     m["answer_sensor_die_max_site"], m["answer_hot_spot_K"], m["sensor_die_max_K"],
-                                    m["sensor_die_max_site"], m["hot_spot_K"]))
+                                    m["sensor_die_max_site"], m["hot_spot_K"])
+                         + (f"; bound: refined solve assembled, because {m['fallback']}" if m.get("fallback") else ""))
         if parts:
             lines.append(f"numerical error, {name}: " + "; ".join(parts))
     return lines
