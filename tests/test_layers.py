@@ -178,9 +178,9 @@ def test_the_workers_module_imports_only_the_base():
 #: the folders whose modules import no underscore name of another module (issue 60 item 2; the rest follow)
 PUBLIC_SEAMS = ("ecad", "geometry", "imu", "imutherm", "layouts", "unit", "reports", "studies", "thermal")
 #: not yet held: modules that still import _Dirichlet (linear), _probes (probes), the reduced transient's or the
-#: steady solve's private helpers, and the verification package's re-exports for its tests (the list shrinks)
+#: steady solve's private helpers (the list shrinks)
 SEAMS_LATER = ("thermal/mesh_estimate.py", "thermal/reduced_steady.py", "thermal/refinement.py", "thermal/steady.py",
-               "thermal/stepping.py", "thermal/transient.py", "thermal/verification/__init__.py")
+               "thermal/stepping.py", "thermal/transient.py")
 
 
 def private_imports(path: Path) -> list:

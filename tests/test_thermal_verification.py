@@ -91,9 +91,9 @@ def test_trbdf2_order_check_can_fail(monkeypatch):
 
 
 def test_semi_discrete_exact_is_the_closed_form_to_lumped_model_accuracy():
-    pr, tau, rise_inf, Tinf, centre, Bi = verification._lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = verification.lumped_block()
     t = np.linspace(0, 3 * tau, 7)
-    sd = verification._semi_discrete_exact(pr, [centre])(t)[:, 0]
+    sd = verification.semi_discrete_exact(pr, [centre])(t)[:, 0]
     assert np.abs(sd - Tinf - rise_inf * (1 - np.exp(-t / tau))).max() < 10 * Bi * rise_inf
 
 

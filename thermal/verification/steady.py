@@ -120,7 +120,7 @@ def case_radiation_1d() -> VerificationRecord:
                    f"{abs(TL - pub):.2f} K (σ = {SIGMA}).", t0)
 
 
-def _l2_error(g: TensorGrid, T: np.ndarray, exact) -> float:
+def l2_error(g: TensorGrid, T: np.ndarray, exact) -> float:
     """L2 norm of (T_h − exact) over the grid with 2x2x2 Gauss points per cell."""
     gp = np.array([0.5 - 0.5 / math.sqrt(3), 0.5 + 0.5 / math.sqrt(3)])
     nx, ny, nz = g.shape
@@ -164,7 +164,7 @@ def case_mms_convergence(levels=(4, 8, 16, 32)) -> VerificationRecord:
                                                               ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")})
         r = solve_steady(pr)
         hs.append(1.0 / n)
-        errs.append(_l2_error(g, np.asarray(r.T_C), exact))
+        errs.append(l2_error(g, np.asarray(r.T_C), exact))
     rate = float(np.polyfit(np.log(hs), np.log(errs), 1)[0])
     tol = 0.1
     return checked("mms_convergence", "observed L2 convergence rate [-]", rate, 2.0, abs(rate - 2.0), tol,

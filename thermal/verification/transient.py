@@ -98,7 +98,7 @@ def case_semi_infinite() -> VerificationRecord:
                    f"{tol:g} = {100 * tol:g} % of the driving difference.", t0)
 
 
-def _lumped_block():
+def lumped_block():
     """The lumped-capacitance block: 20 x 20 x 10 mm, k = 1e4 W/m K, ρc = 2.4e6 J/m^3 K, P = 1 W,
     h = 10 W/m^2 K on all faces to T∞ = 25 °C (Bi = 1e-5).
 
@@ -120,7 +120,7 @@ def case_lumped_capacitance() -> VerificationRecord:
     t63 of the rise reached at t_end = 5τ.
     """
     t0 = time.perf_counter()
-    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = lumped_block()
     m = 200
     r = solve_transient(pr, 5 * tau, tau / m, theta=0.5, probes={"centre": centre})
     exact = rise_inf * (1 - np.exp(-r.times / tau))
@@ -189,7 +189,7 @@ def case_lumped_backward_euler(divisions=(20, 40, 80)) -> VerificationRecord:
     The observed order p = log2(e(dt)/e(dt/2)) of both pairs must lie in [0.9, 1.1].
     """
     t0 = time.perf_counter()
-    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = lumped_block()
     errs = []
     theta, tol = 1.0, 3e-3
     for m in divisions:
@@ -213,7 +213,7 @@ def case_lumped_backward_euler(divisions=(20, 40, 80)) -> VerificationRecord:
     return replace(rec, passed=rec.passed and order_ok)
 
 
-def _semi_discrete_exact(problem, points):
+def semi_discrete_exact(problem, points):
     """Exact solution of the semi-discrete (space-discretised, time-exact) linear system M T' = F − L T.
 
     For a small linear problem: generalised eigenpairs of (L, M) [dense]. Returns
@@ -252,8 +252,8 @@ def case_lumped_trbdf2(divisions=(10, 20, 40)) -> VerificationRecord:
     closed form P/(hA)(1 − exp(−t/τ)) at the finest step is the compared error.
     """
     t0 = time.perf_counter()
-    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
-    exact_sd = _semi_discrete_exact(pr, [centre])
+    pr, tau, rise_inf, Tinf, centre, Bi = lumped_block()
+    exact_sd = semi_discrete_exact(pr, [centre])
     errs, errs_a = [], []
     ebal = 0.0
     for m in divisions:
@@ -292,7 +292,7 @@ def case_lumped_trbdf2_adaptive(tol_fraction: float = 1e-3) -> VerificationRecor
     rise is the ratio of the default 0.01 K to the reference unit's ~10 K site rises.
     """
     t0 = time.perf_counter()
-    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = lumped_block()
     tol = tol_fraction * rise_inf
     r = solve_transient(pr, 6 * tau, None, scheme="trbdf2", tol_K=tol, probes={"centre": centre})
     exact = rise_inf * (1 - np.exp(-r.times / tau))
