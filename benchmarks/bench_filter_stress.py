@@ -1,4 +1,4 @@
-"""Benchmark (not a test): the attitude filters on the stress set of issue 57 (:mod:`imutherm.studies.filter_stress`),
+"""Benchmark (not a test): the attitude filters on the stress set of issue 57 (:mod:`imutherm.studies.attitude.filter_stress`),
 judged by their worst record as well as their mean.
 
 Usage::
@@ -10,7 +10,7 @@ Records: simulated slow tumbles (5-20 °/s through upside down, both verticals, 
 its sensor library; one with a 1 % gyro scale-factor / misalignment error and a 0.5 °/s bias step, one with ten
 times its grade's accelerometer bias, one at 30 °/s without rests, above the rate gate's 25.6 °/s) and the three BROAD development trials transformed (mounted upside down / on
 a side / nose up and started there, forward-then-reversed twice: 12 min, re-cut to 100 and 1000 Hz). Every
-filter at the handheld settings of ``imutherm attitude --imu-csv`` (studies/real_settings.toml, tuned on the nine
+filter at the handheld settings of ``imutherm attitude --imu-csv`` (studies/attitude/real_settings.toml, tuned on the nine
 development files); in a git worktree away from ../shared/data set IMUTHERM_SHARED_DATA to that folder. Prints
 inclination RMS [deg] per record and filter, the aekf's reported NIS resets, each filter's mean x VQF and worst
 file x VQF, and the in-motion divergence check's flagged windows (imu/filters/motion_check.py). The BROAD records are
@@ -32,8 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import _record  # noqa: E402
 import numpy as np  # noqa: E402
-from imutherm.studies.filter_stress import (DEV_CASES, HELDOUT_CASES, STRESS_FILTERS,  # noqa: E402
-                                            format_stress_table, stress_records, stress_table)
+from imutherm.studies.attitude.filter_stress import (DEV_CASES, HELDOUT_CASES, STRESS_FILTERS,  # noqa: E402
+                                                     format_stress_table, stress_records, stress_table)
 
 
 def main() -> int:

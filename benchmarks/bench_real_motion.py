@@ -5,16 +5,16 @@ Usage::
 
     python benchmarks/bench_real_motion.py [--filters a,b,...] [--json FILE] [--write]
 
-Procedure (:mod:`imutherm.studies.real_tuning`, the same for ours and the peers): the registry's tuning axes on
+Procedure (:mod:`imutherm.studies.attitude.real_tuning`, the same for ours and the peers): the registry's tuning axes on
 the x3.16 ladder, objective the geometric mean of the files' inclination RMS, no setting eligible that makes a
 training file worse than the library defaults by more than that file's noise; **dev**: tuned on all nine files
 and scored on them (a fitted figure); **cv**: each file scored by the setting tuned on the other eight. Scoring
-(:mod:`imutherm.studies.real_benchmark`): inclination RMS per file (RepoIMU after 5 s, BROAD over its movement
+(:mod:`imutherm.studies.attitude.real_benchmark`): inclination RMS per file (RepoIMU after 5 s, BROAD over its movement
 rows). Prints, per filter, the per-file RMS and the mean for the library defaults, dev and cv, the ratio to VQF
 (tuned by the same procedure: dev to dev, cv to cv) and the worst file's ratio, and the guard: files on which
 the dev setting is worse than the library defaults by more than their noise. The target: gated, kf
 and aekf cv mean <= 1.3x VQF's cv mean and no file worse than 2x VQF's. ``--write`` writes the dev settings and
-these figures to ``studies/real_settings.toml`` (the ``--platform handheld`` settings of ``imutherm attitude
+these figures to ``studies/attitude/real_settings.toml`` (the ``--platform handheld`` settings of ``imutherm attitude
 --imu-csv``). Last, every filter at its dev setting on every file through the in-motion divergence check
 (:mod:`imutherm.imu.filters.motion_check`): windows flagged, windows, worst window tilt.
 
@@ -63,10 +63,10 @@ def summary(res: dict, files: list) -> dict:
 
 
 def write_settings(res: dict, summ: dict, files: list, cpu_s: float, path=None) -> None:
-    """The dev settings and their figures as ``studies/real_settings.toml`` (:mod:`imutherm.studies.real_settings`)."""
-    from imutherm.studies.filter_tuning import PROCEDURE
-    from imutherm.studies.real_settings import REAL_SETTINGS_PATH
-    from imutherm.studies.real_tuning import OBJECTIVE
+    """The dev settings and their figures as ``studies/attitude/real_settings.toml`` (:mod:`imutherm.studies.attitude.real_settings`)."""
+    from imutherm.studies.attitude.filter_tuning import PROCEDURE
+    from imutherm.studies.attitude.real_settings import REAL_SETTINGS_PATH
+    from imutherm.studies.attitude.real_tuning import OBJECTIVE
 
     def val(v):
         if isinstance(v, bool):
@@ -83,7 +83,7 @@ def write_settings(res: dict, summ: dict, files: list, cpu_s: float, path=None) 
         return "{ " + ", ".join(f"{json.dumps(k) if not k.isidentifier() else k} = {val(v)}" for k, v in d.items()) + " }"
 
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    lines = ["# Real-motion settings of the attitude filters (imutherm.studies.real_settings): the --platform handheld",
+    lines = ["# Real-motion settings of the attitude filters (imutherm.studies.attitude.real_settings): the --platform handheld",
              "# settings of imutherm attitude --imu-csv. Written by benchmarks/bench_real_motion.py --write; do not edit",
              "# by hand, rerun the command below.", "", "[meta]",
              f"procedure = {val(PROCEDURE)}", f"objective = {val(OBJECTIVE)}",
@@ -108,13 +108,13 @@ def write_settings(res: dict, summ: dict, files: list, cpu_s: float, path=None) 
 
 def main() -> None:
     from imutherm.imu.filters.registry import real_filters
-    from imutherm.studies import real_benchmark as rb
-    from imutherm.studies.real_tuning import tune
+    from imutherm.studies.attitude import real_benchmark as rb
+    from imutherm.studies.attitude.real_tuning import tune
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--filters", default=",".join(real_filters()))
     ap.add_argument("--json", default=None)
-    ap.add_argument("--write", action="store_true", help="write studies/real_settings.toml")
+    ap.add_argument("--write", action="store_true", help="write studies/attitude/real_settings.toml")
     ap.add_argument("--verbose", action="store_true", help="print every fold's choice")
     a = ap.parse_args()
     names = a.filters.split(",")
@@ -164,7 +164,7 @@ def main() -> None:
             json.dump({"files": files, "results": res, "summary": summ}, fh, indent=1, default=str)
     if a.write:
         write_settings(res, summ, files, cpu)
-        print("wrote studies/real_settings.toml")
+        print("wrote studies/attitude/real_settings.toml")
 
 
 if __name__ == "__main__":

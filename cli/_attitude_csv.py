@@ -21,7 +21,7 @@ from imutherm.cli._common import atomic_outdir, write_json
 def add_arguments(p) -> None:
     """The recorded-log options of ``imutherm attitude``."""
     from imutherm.imu.imu_log import ACCEL_UNITS, AXES, GYRO_UNITS
-    from imutherm.studies.recorded import PLATFORMS
+    from imutherm.studies.attitude.recorded import PLATFORMS
 
     g = p.add_argument_group("recorded log (--imu-csv)")
     g.add_argument("--imu-csv", default=None,
@@ -77,7 +77,7 @@ def _lever(text):
 def run(args) -> int:
     """Run the filters on ``args.imu_csv`` and write the outputs; returns 0."""
     from imutherm.imu.imu_log import read_imu_csv
-    from imutherm.studies.recorded import run_recorded
+    from imutherm.studies.attitude.recorded import run_recorded
 
     if args.profile is not None:
         raise InputError("--imu-csv and --profile: give one (a recorded log or a simulated profile)")
@@ -220,7 +220,7 @@ def _run_reference(args) -> int:
     """A reference log (';'-separated RepoIMU layout or a BROAD HDF5 trial): repeats and true times, the
     reference-to-IMU rotation (estimated for RepoIMU, the data set's for BROAD), inclination scores."""
     from imutherm.imu.filters import FusionParams
-    from imutherm.studies.real_benchmark import run_reference_log
+    from imutherm.studies.attitude.real_benchmark import run_reference_log
     from imutherm.imu.filters.registry import parse_filters
 
     if args.init_s is not None and not (np.isfinite(args.init_s) and args.init_s > 0):

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from imutherm.imu.filters.aekf import AEKFParams, run_aekf
-from imutherm.studies.filter_stress import tumble_log
-from imutherm.studies.real_benchmark import errors, prepare_log, run
-from imutherm.studies.recorded import platform_settings
+from imutherm.studies.attitude.filter_stress import tumble_log
+from imutherm.studies.attitude.real_benchmark import errors, prepare_log, run
+from imutherm.studies.attitude.recorded import platform_settings
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +77,7 @@ def test_answers_say_the_worst_case_and_a_divergence(tmp_path, capsys):
     h5py = pytest.importorskip("h5py")
     from imutherm.cli._attitude_csv import _print_divergence
     from imutherm.cli.attitude import main
-    from imutherm.studies.real_settings import real_motion_lines
+    from imutherm.studies.attitude.real_settings import real_motion_lines
 
     plan = [(10.0, np.zeros(3)), (9.0, np.array([20.0, 0.0, 0.0])), (10.0, np.zeros(3)),
             (9.0, np.array([0.0, 20.0, 0.0])), (5.0, np.zeros(3))]
@@ -111,7 +111,7 @@ def test_transformed_logs_are_what_they_say():
     """Mounting: the accelerometer and gyro turned, the reference with them (the reference's up in the new body
     axes is the turned one); palindrome: twice the rows per pair, the gyro negated and the rows backwards in the
     second half; a re-cut rate keeps the gyro's integral (interval samples) to the last sample's share."""
-    from imutherm.studies.filter_stress import MOUNTS, quat_rotate_inv, transformed_log
+    from imutherm.studies.attitude.filter_stress import MOUNTS, quat_rotate_inv, transformed_log
 
     plan = [(2.0, np.zeros(3)), (3.0, np.array([30.0, 10.0, 0.0])), (1.0, np.zeros(3))]
     log = tumble_log(rate_hz=100.0, plan=plan, seed=1, grade="ideal")
@@ -131,7 +131,7 @@ def test_transformed_logs_are_what_they_say():
 
 
 def test_stress_table_mean_and_worst_file():
-    from imutherm.studies.filter_stress import StressTable, format_stress_table
+    from imutherm.studies.attitude.filter_stress import StressTable, format_stress_table
 
     t = StressTable(("a", "b"), {"kf": [1.0, 3.0], "vqf": [1.0, 1.0]}, {"kf": 2.0, "vqf": 1.0},
                     {"kf": 3.0, "vqf": 1.0}, {"kf": "b", "vqf": "a"}, {"kf": [None, None], "vqf": [None, None]},
@@ -163,7 +163,7 @@ def test_gated_rereads_the_f_reference_at_rest():
     with the |f| reference fixed at the start, gated's weight (σa / e_a)² starved its correction at rest in other
     orientations and its vertical sat > 3° off the accelerometer's on 10 or more 5 s windows of rest (measured 16);
     re-read at every rest (the default), on 3 or fewer (measured 2), and its RMS no worse."""
-    from imutherm.studies.filter_stress import SIM_CASES
+    from imutherm.studies.attitude.filter_stress import SIM_CASES
 
     rec = prepare_log(tumble_log(**dict(SIM_CASES)["sim icm42688p 500 Hz 20 deg/s"]), init_s=8.0)
     base = platform_settings("handheld", ("gated",))["gated"]
@@ -181,7 +181,7 @@ def test_gated_rate_gate_tests_the_turn_rate_not_rolling_over():
     acceleration, a rotation about the vertical. Testing |ω̄_I| shut gated's correction for every roll-over and it
     drifted on the gyro alone: 3.6° inclination RMS, 2.0x VQF's (measured). Testing the turn rate about the
     estimate's vertical (the default): within 1.2x VQF (measured 1.07x)."""
-    from imutherm.studies.filter_stress import SIM_CASES
+    from imutherm.studies.attitude.filter_stress import SIM_CASES
 
     rec = prepare_log(tumble_log(**dict(SIM_CASES)["sim icm42688p 200 Hz 30 deg/s, no rests, 1 % scale factor"]),
                       init_s=8.0)
@@ -197,7 +197,7 @@ def test_random_tour_plan_is_what_it_says():
     """The held-out family's plan (only its shape is checked here; no filter is run on it outside the benchmark):
     a 10 s rest, then turns at 20-90 °/s through 60-270° about unit axes, pauses of 0-3 s, at least the duration."""
     from imutherm import InputError
-    from imutherm.studies.filter_stress import random_tour_plan
+    from imutherm.studies.attitude.filter_stress import random_tour_plan
 
     plan = random_tour_plan(3, duration_s=120.0)
     assert plan[0][0] == 10.0 and not np.any(plan[0][1])

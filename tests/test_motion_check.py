@@ -10,7 +10,7 @@ from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.gate import NOISE_K
 from imutherm.imu.filters.motion_check import ACCEL_BIAS, motion_bound_deg, motion_disagreement
-from imutherm.studies import real_benchmark as rb
+from imutherm.studies.attitude import real_benchmark as rb
 
 DT = 0.01
 BROAD = rb.DATA_DIRS["broad"]
@@ -84,7 +84,7 @@ def test_injected_tilt_flagged_on_real_motion_and_kf_vqf_pass():
     kf's and VQF's verticals are not flagged (worst window 0.14-0.43°, bound 1.74°); kf's vertical turned 20° about
     body x or y is flagged on every window (measured 9.5-20.6°: a body-fixed tilt averages down where the unit turns
     through the window)."""
-    from imutherm.studies.recorded import platform_settings
+    from imutherm.studies.attitude.recorded import platform_settings
 
     c, s = math.cos(math.radians(20.0)), math.sin(math.radians(20.0))
     turns = (np.array([[1, 0, 0], [0, c, -s], [0, s, c]]), np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]))
@@ -94,7 +94,7 @@ def test_injected_tilt_flagged_on_real_motion_and_kf_vqf_pass():
         for n in ("kf", "vqf"):
             assert res[n]["motion_check"]["flagged"] == [] and res[n]["motion_check"]["worst_deg"] < 0.6, (stem, n)
         from imutherm.imu.filters.run import GateConfig, run_filters
-        from imutherm.studies.recorded import PLATFORMS
+        from imutherm.studies.attitude.recorded import PLATFORMS
 
         d, L = PLATFORMS["handheld"]
         est, _ = run_filters(rec.gyro, rec.accel, rec.dt, d, GateConfig(L=L, init_s=rec.init_s), names=("kf",),

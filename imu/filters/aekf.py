@@ -25,7 +25,7 @@ adaptation laws instead:
 * **R bounded, divergence monitored** (issue 57): the adapted R stays within ``[r_min_x, r_max_x]`` times the
   accelerometer noise measured on the rest window. Unbounded, it ran away on slow turns through upside down
   and vertical: a correlated attitude error (a degree, normal while turning) read as noise raised R, the
-  accelerometer was trusted less, the error grew (a simulated 5-20 °/s tumble, :mod:`imutherm.studies.filter_stress`:
+  accelerometer was trusted less, the error grew (a simulated 5-20 °/s tumble, :mod:`imutherm.studies.attitude.filter_stress`:
   18° inclination RMS, 72° peak; bounded 0.7°, VQF 0.6°), while on other axes R fell to its 1e-8 floor.
   In the low-pass mode a **NIS monitor** (windowed mean of νᵀ S_m⁻¹ ν over the quasi-static updates, S_m with
   the accelerometer allowed ``monitor_deg`` of error) declares divergence above the chi-square bound, re-levels

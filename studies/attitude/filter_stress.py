@@ -1,8 +1,8 @@
 """A stress set for the attitude filters: records that leave moderate attitudes, from simulation and the
 development files, every filter judged by its worst file as well as its mean (issue 57).
 
-Records (:func:`stress_records`), each a :class:`~imutherm.studies.real_benchmark.RealRecord` scored exactly as
-the real-motion benchmark scores its files (inclination RMS, :func:`~imutherm.studies.real_benchmark.score`):
+Records (:func:`stress_records`), each a :class:`~imutherm.studies.attitude.real_benchmark.RealRecord` scored exactly as
+the real-motion benchmark scores its files (inclination RMS, :func:`~imutherm.studies.attitude.real_benchmark.score`):
 
 * **simulated** (:func:`tumble_log`): pure rotation about the sensor (no linear acceleration) at 5-20 °/s
   through upside down (|roll| > 90°), vertical (|pitch| > 70°) and back to level, rests of 1-10 min between the
@@ -285,7 +285,7 @@ def stress_records(broad_dir=None, *, quick: bool = False, heldout: bool = False
     from pathlib import Path
 
     from imutherm.imu.reference_log import read_broad_hdf5
-    from imutherm.studies.real_benchmark import DATA_DIRS, prepare_log
+    from imutherm.studies.attitude.real_benchmark import DATA_DIRS, prepare_log
 
     out = []
     for label, kw in SIM_CASES[:1] if quick else SIM_CASES:
@@ -322,8 +322,8 @@ def stress_table(records, names=STRESS_FILTERS) -> StressTable:
     """Run ``names`` (with VQF) at the handheld settings of ``imutherm attitude --imu-csv`` on ``records``
     [(label, RealRecord)] and tabulate (:class:`StressTable`)."""
     from imutherm.imu.filters.run import GateConfig, run_filters
-    from imutherm.studies.real_benchmark import score
-    from imutherm.studies.recorded import PLATFORMS, platform_settings
+    from imutherm.studies.attitude.real_benchmark import score
+    from imutherm.studies.attitude.recorded import PLATFORMS, platform_settings
     from imutherm.imu.filters import FusionParams
 
     from imutherm.imu.filters.motion_check import motion_disagreement
