@@ -96,9 +96,9 @@ class GatedParams:
                             of radius L, a rotation about the vertical; at Liu et al. 2012's moderate attitudes the two
                             are the same while the vehicle turns, but a unit rolled or pitched over (the only way to
                             upside down or vertical) turns about a horizontal axis, carries no such acceleration, and
-                            |ω̄_I| shut the correction for the whole manoeuvre (issue 57: a hand-held tour at 30 °/s
-                            through every orientation, gyro scale factor 1 %, gated 1.9x VQF's inclination RMS, 1.0x
-                            with it)
+                            |ω̄_I| shut the correction for the whole manoeuvre (issue 57: a 30 °/s tumble through
+                            every orientation without rests, gyro scale factor 1 %, gated 2.0x VQF's inclination RMS,
+                            1.07x with it; the stress set holds it)
     """
 
     thresholds: GateThresholds | None
