@@ -30,7 +30,7 @@ not run for this script.
 2026-12-07 before any FEM case ran, and not changed after). The same rules as above (strong at >= 5 noise sigmas,
 named right, settled right, null false names, written model), with:
 
-- the truth: the full FEM (:func:`imutherm.studies.form_generator.form_pair`) of the unit (default layout, air and
+- the truth: the full FEM (:func:`imutherm.studies.correlation.form_generator.form_pair`) of the unit (default layout, air and
   grease at 70 C, 1500 s, 40 readings at tp1-3 and the three gyros), the mount, the board's conductivity and the
   convection off by ±10 % (as ``make_case``), one hidden kind of :data:`FEM_KINDS`: none; a library power error at
   the 5 V regulator or the processor (the library's own draw, ±0.1-0.5 W); a poor board joint (its draw); the cavity's
@@ -179,8 +179,8 @@ class FemCase:
     def __init__(self, kind: str, form: str, seed: int, models):
         from imutherm.geometry.build import build_geometry
         from imutherm.geometry.layout import load_layout
-        from imutherm.studies.form_generator import form_options
-        from imutherm.studies.hidden_effect import FINDING_FACTOR, draw_value
+        from imutherm.studies.correlation.form_generator import form_options
+        from imutherm.studies.correlation.hidden_effect import FINDING_FACTOR, draw_value
         from imutherm.unit import knobs
         rng = np.random.default_rng(seed)
         self.layout = load_layout(None)
@@ -212,7 +212,7 @@ class FemCase:
         self.natural["both"] = float(np.sqrt(np.mean(d**2)) / np.sqrt(np.mean(y**2)))
 
     def _pair(self, scheme, power_scale, sites, times):
-        from imutherm.studies.form_generator import form_pair
+        from imutherm.studies.correlation.form_generator import form_pair
         geo = self.geo[scheme]
         values = dict(self.truth, **({"power_scale": power_scale} if power_scale != 1.0 else {}))
         return form_pair(geo, values, self.models.options, self.gen, FEM_MESH_MM, FEM_MIN_CELLS, self.gen_mesh,

@@ -140,7 +140,47 @@ def amg_preconditioner(A) -> spla.LinearOperator:
         vcycle(x, b)
         return x.astype(float)
 
-    return spla.LinearOperator(A.shape, matvec=matvec, dtype=float)
+    op = spla.LinearOperator(A.shape, matvec=matvec, dtype=float)
+    op.hierarchy = ml   # for :func:`amg_like`
+    return op
+
+
+def amg_like(A, pc) -> spla.LinearOperator | None:
+    """The V-cycle of :func:`amg_preconditioner` for a matrix ``A`` on the same grid as the one ``pc`` was built
+    on, reusing ``pc``'s aggregates and prolongators: only the coarse matrices R A P are formed again (Galerkin)
+    and the smoothers reset. None when ``pc`` carries no hierarchy (then build one). For A + s M from A's
+    hierarchy (reference unit, air, default mesh, CG to 1e-4 of the power load, s = 10 / 3.3 / 0.5 / 0.1 / 0.02
+    1/s): 35 / 22 / 24 / 33 / 58 iterations against 36 / 22 / 23 / 33 / 56 with a hierarchy built on A + M / 0.3 s,
+    for a third of its setup time (0.40 s against 1.15 s at load 7)."""
+    import pyamg
+    from pyamg.multilevel import MultilevelSolver
+
+    ml = getattr(pc, "hierarchy", None)
+    if ml is None or len(ml.levels) < 2 or ml.levels[0].A.shape != A.shape:
+        return None
+    levels, Al = [], A.tocsr() if A.dtype == np.float32 else A.astype(np.float32).tocsr()
+    for lvl in ml.levels:
+        new = MultilevelSolver.Level()
+        new.A = Al
+        if hasattr(lvl, "P"):
+            new.P, new.R = lvl.P, lvl.R
+            Al = (lvl.R @ Al @ lvl.P).tocsr()
+        levels.append(new)
+    out = MultilevelSolver(levels)
+    pyamg.relaxation.smoothing.change_smoothers(out, AMG_OPTIONS["presmoother"], AMG_OPTIONS["postsmoother"])
+    vcycle = _private_vcycle(out)
+    if vcycle is None:
+        return None
+
+    def matvec(b):
+        b = np.ravel(np.asarray(b, dtype=np.float32))
+        x = np.zeros_like(b)
+        vcycle(x, b)
+        return x.astype(float)
+
+    op = spla.LinearOperator(A.shape, matvec=matvec, dtype=float)
+    op.hierarchy = out
+    return op
 
 
 class _LinSolver:

@@ -177,21 +177,29 @@ def linearised(asm, T_C: np.ndarray):
         if bc.face != EXCHANGE_FACE and abs(bc.T_ref - pb.ambient_C) > 1e-9:
             raise InputError(f"reduced model: a law on face {bc.face!r} refers to {bc.T_ref:g} C, not the ambient "
                              f"{pb.ambient_C:g} C (a fixture away from ambient is not supported)")
-    D = np.zeros(asm.n)
-    for bc in asm.nonlinear:
-        if bc.face == EXCHANGE_FACE:  # between surfaces, not to the ambient: the low-rank term below
-            continue
-        dT = T_C[bc.nodes] - bc.T_ref
-        q, dq = bc.law.flux_out(T_C[bc.nodes], bc.T_ref)
-        small = np.abs(dT) < 1e-3
-        sec = np.where(small, dq, q / np.where(small, 1.0, dT))
-        np.add.at(D, bc.nodes, bc.weights * sec)
+    D = secant_slopes(asm, T_C)
     data = asm.K_data + asm.H_data   # one pattern: the sum of the data arrays is the sum of the matrices
     data[asm.pattern.diag_pos] += D
     A = asm.pattern.csr(data)
     if exchanges:
         A = SparsePlusLowRank(A, *exchange_secant(exchanges[0], T_C))
     return A, asm.F_q.copy()
+
+
+def secant_slopes(asm, T_C: np.ndarray) -> np.ndarray:
+    """(n,) [W/K] the nodal secant conductances q / (T - T_ref) of the nonlinear laws to the surroundings about
+    ``T_C`` [°C] (the slope where |T - T_ref| < 1 mK): the diagonal :func:`linearised` adds to K + H (the s2s
+    exchange is its low-rank term, not in here)."""
+    D = np.zeros(asm.n)
+    for bc in asm.nonlinear:
+        if bc.face == EXCHANGE_FACE:  # between surfaces, not to the ambient: the low-rank term
+            continue
+        dT = T_C[bc.nodes] - bc.T_ref
+        q, dq = bc.law.flux_out(T_C[bc.nodes], bc.T_ref)
+        small = np.abs(dT) < 1e-3
+        sec = np.where(small, dq, q / np.where(small, 1.0, dT))
+        np.add.at(D, bc.nodes, bc.weights * sec)
+    return D
 
 
 def lag_field(A, M, pc=None, rtol: float = BASIS_RTOL) -> np.ndarray:

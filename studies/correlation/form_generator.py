@@ -1,6 +1,6 @@
 """The correlation campaign's hardest model-form path: contacts as thin solid layers, another grid, every law off.
 
-The ``layered`` path of :func:`imutherm.studies.hidden_effect.model_form_options` generates the "measured" data
+The ``layered`` path of :func:`imutherm.studies.correlation.hidden_effect.model_form_options` generates the "measured" data
 with a model that differs from the inversion's in form in several ways at once, as a real bench's unit does:
 
 - **contacts as thin solid layers** (:func:`refine_contact_layers`): every contact conductance (bond lines,
@@ -14,7 +14,7 @@ with a model that differs from the inversion's in form in several ways at once, 
 - **±10 % nuisance on every conductivity and law** (:func:`nuisance_options`): every material's
   conductivities, the contact conductances, the cavity's and the housing's emissivities, the convection
   correlation, the mount and the board (the last three as the other paths have them);
-- per-probe offsets and noise as every path (:func:`imutherm.studies.hidden_effect.make_case`).
+- per-probe offsets and noise as every path (:func:`imutherm.studies.correlation.hidden_effect.make_case`).
 
 A hidden library effect is drawn on top of all this, so model-form error and a strong effect come together in
 one case.
@@ -139,7 +139,7 @@ def form_options(form: str, inversion: ModelOptions, geometry, rng: np.random.Ge
     """(the generator's options, its mesh as (cell-size factor, min cells) or None for the inversion's, record)
     of one form of :data:`FEM_FORMS` given the inversion's ``inversion``; ``nuisance`` draws from ``rng``."""
     from imutherm import InputError
-    from imutherm.studies.hidden_effect import model_form_options
+    from imutherm.studies.correlation.hidden_effect import model_form_options
     if form == "layered":
         return model_form_options(inversion, "layered"), None, {}
     if form == "cavity_law":
@@ -155,12 +155,12 @@ def form_options(form: str, inversion: ModelOptions, geometry, rng: np.random.Ge
 def form_pair(geometry, values: dict, inversion: ModelOptions, generator: ModelOptions, mesh_mm: float,
               min_cells: int, gen_mesh, probes: dict, times, lid_load_W_m2: float | None = None) -> tuple:
     """(rises on the inversion's form, rises on the generator's) [K], each (len(times), len(probes)): the full
-    FEM (:func:`imutherm.studies.forward.checked_rise`) of the unit ``geometry`` with knobs ``values``, once
+    FEM (:func:`imutherm.studies.thermal.forward.checked_rise`) of the unit ``geometry`` with knobs ``values``, once
     with ``inversion``'s laws on its mesh (``mesh_mm``, ``min_cells``) and once with ``generator``'s on
     ``gen_mesh`` ((factor, min cells) of :func:`form_options`, None: the same mesh; contact layers resolved
     where ``generator`` has them). ``lid_load_W_m2``: a radiant load on the lid [W/m^2] (outside the library)."""
     from imutherm.geometry.mesh import build_mesh
-    from imutherm.studies.forward import checked_rise
+    from imutherm.studies.thermal.forward import checked_rise
     from imutherm.thermal.problem import HeatFlux
     from imutherm.unit import knobs
     from imutherm.unit.effects import ModelVariant

@@ -1,0 +1,102 @@
+"""The reduced transient's cost (issue 59): the shifted AMG hierarchy built on the unshifted one's aggregates
+(:func:`imutherm.thermal.linear.amg_like`) preconditions as well as a hierarchy of its own, and the reduced model's
+s2s exchange term, precomputed as (Q^T X), is the same right-hand side and Jacobian as the product it replaces."""
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg as spla
+
+from imutherm.studies.thermal.thermal_study import run_scheme
+from imutherm.thermal import linear, reduced_transient
+from imutherm.thermal.reduced import linearised, sparse_part
+
+COARSE = dict(mesh_size_mm=6.0, min_cells=1)
+
+
+@pytest.fixture(scope="module")
+def air():
+    """The reference unit's air scheme (s2s cavity law) on the coarse mesh: its assembly, secant operator, heat
+    capacity and the steady solve's own preconditioner."""
+    kept = {}
+    res = run_scheme(None, "air", keep=kept, **COARSE)
+    asm = kept["assembly"]
+    A, _ = linearised(asm, np.asarray(res.steady.T_C))
+    return res, asm, A, asm.M, kept["preconditioner"]
+
+
+def _its(op, b, pc) -> int:
+    n = [0]
+    _, info = spla.cg(op, b, rtol=1e-4, M=pc, maxiter=2000, callback=lambda _: n.__setitem__(0, n[0] + 1))
+    assert info == 0
+    return n[0]
+
+
+def test_amg_like_preconditions_the_shifted_operator_as_its_own_hierarchy(air):
+    _, asm, A, M, pc = air
+    assert getattr(pc, "hierarchy", None) is not None
+    S = (sparse_part(A) + reduced_transient.SHIFTED_PC_S * M).tocsr()
+    like, own = linear.amg_like(S, pc), linear.amg_preconditioner(S)
+    assert like is not None and len(like.hierarchy.levels) == len(pc.hierarchy.levels)
+    for s in (10.0, 1.0 / 0.3, 0.5):
+        op = reduced_transient._Shifted(A, M, s)
+        n_like, n_own, n_plain = _its(op, asm.F_q, like), _its(op, asm.F_q, own), _its(op, asm.F_q, pc)
+        # the same iterations to within a few, and far fewer than the unshifted hierarchy needs at the large shifts
+        assert n_like <= n_own + 3, (s, n_like, n_own)
+        if s > 1.0:
+            assert 2 * n_like < n_plain, (s, n_like, n_plain)
+
+
+def test_amg_like_needs_a_hierarchy_of_the_same_size(air):
+    _, asm, A, M, pc = air
+    S = sparse_part(A).tocsr()
+    plain = spla.LinearOperator(S.shape, matvec=lambda x: x, dtype=float)
+    assert linear.amg_like(S, plain) is None
+    assert linear.amg_like(S[:100, :100].tocsr(), pc) is None
+
+
+def test_the_exchange_term_is_the_product_it_replaces(air):
+    from imutherm.thermal.problem import SIGMA, ZERO_C_K
+    res, asm, _, M, _ = air
+    x = np.asarray(res.steady.T_C) - res.steady.problem.ambient_C
+    V = reduced_transient._m_orthonormal([x, np.ones(asm.n), M @ x], M)
+    red = reduced_transient._Reduced(asm, V, res.steady.problem.ambient_C)
+    ex = [law for law in red.laws if law[0] == "exchange"]
+    assert len(ex) == 1
+    _, bc, Q, _ = ex[0]
+    y = V.T @ (M @ x) * 0.7
+    Tk = red.amb + ZERO_C_K + Q @ y
+    f_ex = Q.T @ (bc.law.X @ (SIGMA * Tk**4))
+    J_ex = Q.T @ (bc.law.X @ (4 * SIGMA * Tk[:, None]**3 * Q))
+    saved = red.laws
+    red.laws = [law for law in saved if law[0] != "exchange"]
+    f_rest, J_rest = red.rhs(0.0, y), red.jac(0.0, y)
+    red.laws = saved
+    f, J = red.rhs(0.0, y), red.jac(0.0, y)
+    assert np.abs(f - (f_rest - f_ex)).max() <= 1e-10 * np.abs(f_ex).max()
+    assert np.abs(J - (J_rest - J_ex)).max() <= 1e-10 * np.abs(J_ex).max()
+
+
+def test_the_conduction_operator_is_k_plus_h_without_its_matrix(air):
+    """L = K + H as the secant operator's sparse part less its secant slopes (no nnz-sized array of its own)."""
+    from imutherm.thermal.reduced import secant_slopes
+    res, asm, A, _, _ = air
+    L = reduced_transient._Conduction(sparse_part(A), secant_slopes(asm, np.asarray(res.steady.T_C)))
+    ref = asm.pattern.csr(asm.K_data + asm.H_data)
+    rng = np.random.default_rng(5)
+    x, X = rng.standard_normal(asm.n), rng.standard_normal((asm.n, 3))
+    for got, want in ((L @ x, ref @ x), (L @ X, ref @ X)):
+        assert got.shape == want.shape
+        assert np.abs(got - want).max() <= 1e-12 * np.abs(ref.data).max() * np.abs(x).max() * 27
+
+
+def test_the_shifted_operators_share_the_pattern(air):
+    """A + s M formed on the assembly's pattern: no copy of its indices, and in single precision for the shifted
+    hierarchy (the V-cycle's precision)."""
+    _, asm, A, M, _ = air
+    S = sparse_part(A)
+    op = reduced_transient._Shifted(A, M, 2.0)
+    single = reduced_transient._Shifted(A, M, 2.0, np.float32)
+    for o in (op, single):
+        assert np.shares_memory(o.sparse.indices, S.indices) and np.shares_memory(o.sparse.indptr, S.indptr)
+    assert op.sparse.dtype == np.float64 and single.sparse.dtype == np.float32
+    assert np.abs(single.sparse.data - op.sparse.data).max() <= 1e-6 * np.abs(op.sparse.data).max()
