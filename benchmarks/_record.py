@@ -17,6 +17,7 @@ import datetime
 import io
 import os
 import resource
+import statistics
 import subprocess
 import sys
 import time
@@ -93,6 +94,13 @@ def run(main, name, title: str, argv=None, tables: Path = TABLES) -> int:
         write(tables / f"{table}.txt", head, tee.kept.getvalue())
         print(f"wrote {tables / f'{table}.txt'}")
     return status
+
+
+def paired(runs: list, ref_runs: list) -> tuple[dict, list]:
+    """Medians of repeated runs (``wall`` s, ``cpu`` s, ``mb`` peak) and their ratios to the reference's, in that order."""
+    med = {k: statistics.median(r[k] for r in runs) for k in ("wall", "cpu", "mb")}
+    ref = {k: statistics.median(r[k] for r in ref_runs) for k in ("wall", "cpu", "mb")}
+    return med, [med[k] / ref[k] for k in ("wall", "cpu", "mb")]
 
 
 def scheme_in_process(script: str, scheme: str) -> dict:

@@ -8,10 +8,10 @@ Usage::
    compensation, 25 °C) on the training set (flight + shake, seeds 100-101) and
    the held-out set (flight, swing, vehicle, handheld; seeds 0-5), each profile with its realistic
    disturbances (``--clean``: idealised; ``--lever-comp``: every gravity-referenced filter gets the
-   accelerometer with its lever-arm term removed, as ``aekf`` does itself): see :mod:`imutherm.studies.filter_benchmark` and
+   accelerometer with its lever-arm term removed, as ``aekf`` does itself): see :mod:`imutherm.studies.attitude.filter_benchmark` and
    :mod:`imutherm.imu.disturbances`.
 2. Tuning (skipped with ``--tuned FILE`` from an earlier run): each filter by the study's one procedure
-   (:mod:`imutherm.studies.filter_tuning`: the registry's tuning axes on one x3.16 ladder, an axis grown while
+   (:mod:`imutherm.studies.attitude.filter_tuning`: the registry's tuning axes on one x3.16 ladder, an axis grown while
    the best lies on its open edge, the published defaults a candidate too) on the training records; written
    to ``DIR/tuned.json``. A filter without tuning axes (``aekf_gnss``) has no tuned row.
 3. Table: filter × profile × {defaults, tuned}: roll / pitch RMS and max over
@@ -34,7 +34,7 @@ import numpy as np
 
 def main() -> None:
     from imutherm.imu.filters.registry import filter_names, tuned_filters
-    from imutherm.studies import filter_benchmark as fb
+    from imutherm.studies.attitude import filter_benchmark as fb
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--tuned", help="tuned.json of an earlier run (skips the tuning)")
@@ -104,7 +104,7 @@ def main() -> None:
 def ablation(names, tuned, seeds=tuple(range(6))) -> None:
     """Flight, held-out seeds: whole-record RMS of each filter with no / each / all disturbances."""
     from imutherm.imu import disturbances
-    from imutherm.studies import filter_benchmark as fb
+    from imutherm.studies.attitude import filter_benchmark as fb
 
     P = disturbances.PRESETS["flight"]
     cases = {"none": None, "vibration": disturbances.Disturbances(vibration=P.vibration),

@@ -20,7 +20,7 @@ import time
 
 def main() -> None:
     from imutherm.imu.filters.registry import filter_names
-    from imutherm.studies.attitude_study import run_attitude_study
+    from imutherm.studies.attitude.attitude_study import run_attitude_study
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=3)

@@ -3,9 +3,8 @@
 Each board of ``examples/boards/`` named by ``--boards`` (default: cube-main, 244 footprints, a 150 x 120 mm
 4-layer KiCad 5 board, the largest shared one; proves-fc-v4c, 151 footprints, 88 x 94.5 mm with slots and
 notches in its outline) is imported as a user imports it (``imutherm import BOARD --powers P.csv --site
-REF=KIND``; while the package table does not know every part, the heights the tests take from
-``tests/data/shared_board_heights.csv`` are given with ``--heights``), so its true outline, measured copper
-and via fields are in the model (issue 55 item 4). Then ``imutherm solve --scheme air`` (steady) runs on the
+REF=KIND``, no heights given: each part's height comes from the board file, the package tables or the stated
+estimate), so its true outline, measured copper and via fields are in the model (issue 55 item 4). Then ``imutherm solve --scheme air`` (steady) runs on the
 reference unit and on each board, interleaved (reference, boards, ``--repeat`` times) so a drift of the
 machine's speed hits both sides alike; ratios are of the medians. Target (issue 55): within 3x the reference
 unit's wall time and CPU seconds.
@@ -20,34 +19,20 @@ import argparse
 import gzip
 import json
 import os
-import statistics
 import sys
 import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 BOARDS = ROOT / "examples" / "boards"
-HEIGHTS_FIXTURE = ROOT / "tests" / "data" / "shared_board_heights.csv"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _record  # noqa: E402  (benchmarks/_record.py)
 from bench_import import run  # noqa: E402
 
 SOLVE_RATIO = 3.0
 #: each board's sensor site, as tests/test_import_boards.py imports it
 SITES = {"cube-main": "U9=probe", "proves-fc-v4c": "U7=imu", "proves-radio-stick": "U18=probe",
          "unl-core-board": "U5=imu"}
-
-
-def _heights(name: str, work: Path) -> list:
-    """``--heights FILE`` of the board's rows of the tests' fixture, [] when it has none (or is gone)."""
-    if not HEIGHTS_FIXTURE.exists():
-        return []
-    rows = [line.split(":", 1)[1] for line in HEIGHTS_FIXTURE.read_text().splitlines()
-            if line.startswith(f"{name}:")]
-    if not rows:
-        return []
-    path = work / f"{name}_heights.csv"
-    path.write_text("reference,height_mm,source\n" + "\n".join(rows) + "\n")
-    return ["--heights", str(path)]
 
 
 def main(argv=None) -> int:
@@ -61,7 +46,7 @@ def main(argv=None) -> int:
     for name in args.boards:
         (work / f"{name}.kicad_pcb").write_bytes(gzip.decompress((BOARDS / f"{name}.kicad_pcb.gz").read_bytes()))
         cmd = imu + ["import", f"{name}.kicad_pcb", "--powers", str(BOARDS / f"{name}_powers.csv"),
-                     "--site", SITES[name], *_heights(name, work), "--out", f"{name}.toml"]
+                     "--site", SITES[name], "--out", f"{name}.toml"]
         r = run(cmd, work)
         layouts[name] = str(work / f"{name}.toml")
         lines = r["out"].splitlines()
@@ -78,12 +63,10 @@ def main(argv=None) -> int:
             print(f"[{i + 1}/{args.repeat}] solve {name}: {r['wall']:.1f} s wall, {r['cpu']:.1f} CPU-s, "
                   f"{r['mb']:.0f} MB peak", flush=True)
     ok = True
-    ref = {k: statistics.median(r[k] for r in results["reference"]) for k in ("wall", "cpu", "mb")}
     print(f"\n{'unit':<16} {'wall [s]':>9} {'CPU [s]':>8} {'peak [MB]':>10} {'x ref wall':>10} {'x ref CPU':>9} "
           f"{'x ref MB':>8}  target  mesh")
     for name, runs in results.items():
-        med = {k: statistics.median(r[k] for r in runs) for k in ("wall", "cpu", "mb")}
-        ratios = [med[k] / ref[k] for k in ("wall", "cpu", "mb")]
+        med, ratios = _record.paired(runs, results["reference"])
         passed = name == "reference" or (ratios[0] <= SOLVE_RATIO and ratios[1] <= SOLVE_RATIO)
         ok &= passed
         mesh = json.loads((work / f"solve_{name}_0" / "result.json").read_text())["mesh"]

@@ -2,7 +2,7 @@
 
 ``imutherm compare`` corrects each site's power-on curve for the discretisation error by scaling its rise with one
 factor, the steady answer over the default mesh's steady value
-(``imutherm.studies.thermal_study.mesh_corrected``). That assumes the error of a curve is proportional to its rise
+(``imutherm.studies.thermal.thermal_study.mesh_corrected``). That assumes the error of a curve is proportional to its rise
 at every time. Here the assumption meets a transient of another discretisation: each scheme's reduced power-on
 transient (checked against the full model) is solved on the default mesh and on the same mesh with every interval
 split in 2 (1.5 million nodes, its own AMG hierarchies, basis and check), and per sensor die and test point the
@@ -45,7 +45,7 @@ def one_scheme(scheme: str) -> dict:
     from threadpoolctl import threadpool_limits
 
     from imutherm.geometry.mesh import prolongation, refine_grid
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
     from imutherm.thermal.assembly import assemble
     from imutherm.thermal.reduced_transient import reduced_power_on
     from imutherm.thermal.steady import solve_steady

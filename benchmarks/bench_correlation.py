@@ -1,7 +1,7 @@
 """Campaign: the correlation workflow on generated data with one effect hidden (the "proven blind" check).
 
 For each hidden effect (and null cases with none, and an effect outside the library) it generates
-``--cases`` cases (:func:`imutherm.studies.hidden_effect.make_case`: full model on a finer mesh,
+``--cases`` cases (:func:`imutherm.studies.correlation.hidden_effect.make_case`: full model on a finer mesh,
 ±10 % nuisance on board conductivity, convection and mount, probe noise and offsets), runs
 :func:`imutherm.studies.correlation.correlate` on each, and reports top-1 accuracy (on cases
 whose signature, the RMS change the effect makes at the sites, is >= 5x the noise), the confusion
@@ -33,8 +33,8 @@ from imutherm.io import write_json
 from imutherm.measured import read_measured
 from imutherm.studies.correlation import FORM_RETUNE, build_models, correlate, result_json
 from imutherm.studies.correlation.forward_model import _Forward
-from imutherm.studies.form_generator import generator_mesh_mm
-from imutherm.studies.hidden_effect import (FINDING_KINDS, MODEL_FORMS, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case,
+from imutherm.studies.correlation.form_generator import generator_mesh_mm
+from imutherm.studies.correlation.hidden_effect import (FINDING_KINDS, MODEL_FORMS, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case,
                                            model_form_options)
 
 DEFAULT_EFFECTS = ("contact@bond", "emissivity", "cavity_emissivity", "power@reg_5v", "fixture_leak",
@@ -69,7 +69,7 @@ def main(argv=None) -> int:
                          "'discretisation' with the s2s cavity discretised otherwise, 'layered' every "
                          "contact a thin solid layer, ±10 %% nuisance on every conductivity, contact and emissivity, "
                          "on a grid 1.5x coarser or 2x finer than the inversion's by turns (--gen-mesh-size "
-                         "ignored; imutherm.studies.form_generator), so the data differ from the inverted model "
+                         "ignored; imutherm.studies.correlation.form_generator), so the data differ from the inverted model "
                          "in form")
     ap.add_argument("--discrepancy", action=argparse.BooleanOptionalAction, default=None,
                     help="the discrepancy term: default as correlate's ('auto': where the library does not explain "

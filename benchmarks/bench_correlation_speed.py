@@ -42,7 +42,7 @@ def main() -> int:
                         "made with the effective law)")
     args = p.parse_args()
     from imutherm.cli import main as cli
-    from imutherm.studies.hidden_effect import make_case
+    from imutherm.studies.correlation.hidden_effect import make_case
 
     data = Path(args.data)
     files = sorted(data.glob("*.csv"))

@@ -50,7 +50,7 @@ TRANSIENT_CHILD = r"""
 import json, sys
 from threadpoolctl import threadpool_limits
 threadpool_limits(1)
-from imutherm.studies.thermal_study import run_scheme
+from imutherm.studies.thermal.thermal_study import run_scheme
 steps = int(sys.argv[1])
 res = run_scheme(None, "grease", transient=steps > 0, t_end=5.0 * max(steps, 1), dt=5.0 if steps else None)
 print(json.dumps({"unknowns": res.steady.unknowns, "steps": res.transient.steps if steps else 0}))

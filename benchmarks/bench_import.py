@@ -23,7 +23,6 @@ import copy
 import gzip
 import os
 import resource
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -33,6 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 BOARDS = ROOT / "examples" / "boards"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _record  # noqa: E402  (benchmarks/_record.py)
 from bench_study import _tree_memory_mb  # noqa: E402
 
 COMPARE_RATIO, SOLVE_RATIO = 2.0, 3.0
@@ -255,10 +255,8 @@ def main(argv=None) -> int:
     print(f"\n{'command':<8} {'unit':<10} {'wall [s]':>9} {'CPU [s]':>8} {'peak [MB]':>10} {'x ref wall':>10} "
           f"{'x ref CPU':>9} {'x ref MB':>8}  target")
     for (what, name), runs in results.items():
-        med = {k: statistics.median(r[k] for r in runs) for k in ("wall", "cpu", "mb")}
-        ref = {k: statistics.median(r[k] for r in results[(what, "reference")]) for k in ("wall", "cpu", "mb")}
+        med, ratios = _record.paired(runs, results[(what, "reference")])
         limit = COMPARE_RATIO if what == "compare" else SOLVE_RATIO
-        ratios = [med[k] / ref[k] for k in ("wall", "cpu", "mb")]
         passed = name == "reference" or all(x <= limit for x in ratios)
         ok &= passed
         cells = _cells(work, what, name)

@@ -2,7 +2,7 @@
 
 Each scheme is solved steady with the study's laws (natural convection, radiation, the s2s cavity law) on the
 default mesh (2 mm cells, 2 across the thinnest parts and gaps) and on the same mesh with every interval split
-in 2 and in 3 (``imutherm.studies.mesh_convergence.refinement_study``: 0.19, 1.5 and 5.0 million nodes for
+in 2 and in 3 (``imutherm.studies.thermal.mesh_convergence.refinement_study``: 0.19, 1.5 and 5.0 million nodes for
 air). Per sensor die, test point and the hot spot it prints the rises, the observed order of convergence p, the
 extrapolated rise and so the error of the default mesh (extrapolated minus 1x), against the estimate the study
 prints from two grids with p = 1 assumed (``imutherm.thermal.refinement.MESH_ERROR_ORDER``: 2 x (2x - 1x)), and
@@ -33,7 +33,7 @@ def one_scheme(scheme: str) -> dict:
     import numpy as np
     from threadpoolctl import threadpool_limits
 
-    from imutherm.studies.mesh_convergence import refinement_study
+    from imutherm.studies.thermal.mesh_convergence import refinement_study
     from imutherm.unit.model import ModelOptions
 
     with threadpool_limits(1):

@@ -1,7 +1,7 @@
 """How far a generator of "measured" data is from the inversion's nominal model, on a null case (no effect hidden).
 
 The size of a model-form path of the correlation campaign (``bench_correlation.py --model-form``): the
-generator (:func:`imutherm.studies.hidden_effect.make_case`, full nonlinear model, its ±10 % nuisance, no
+generator (:func:`imutherm.studies.correlation.hidden_effect.make_case`, full nonlinear model, its ±10 % nuisance, no
 noise) against the inversion's reduced model at its nominal values, both schemes at 70 °C. Paths: the
 campaign's own (``--model-form cavity-law`` / ``discretisation``), or the inversion's laws on another
 generator mesh (``--gen-mesh-size``) or with a fixed exterior h (``--exterior-h``)::
@@ -24,7 +24,7 @@ import numpy as np
 from imutherm.measured import read_measured
 from imutherm.studies.correlation import build_models
 from imutherm.studies.correlation.forward_model import _Forward
-from imutherm.studies.hidden_effect import MODEL_FORMS, make_case, model_form_options
+from imutherm.studies.correlation.hidden_effect import MODEL_FORMS, make_case, model_form_options
 
 EXPERIMENTS = (("air", 70.0), ("grease", 70.0))
 

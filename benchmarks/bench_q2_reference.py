@@ -10,7 +10,7 @@ pyamg to 1e-10 and read at the sites with scikit-fem's own probes (about 1.5 mil
 nonzeros: ~4 min and ~12 GB a scheme on the 2-core machine).
 
 Linear laws (exterior convection at a fixed coefficient, no radiation, no cavity exchange:
-``imutherm.studies.mesh_convergence.linear_laws``), since the quadratic model is written for them. Per sensor die,
+``imutherm.studies.thermal.mesh_convergence.linear_laws``), since the quadratic model is written for them. Per sensor die,
 test point and hot spot it prints the Q1 rises on the default mesh refined 1x, 2x, 3x and their extrapolation, the
 study's corrected answer with its bound, and the Q2 rise on the default mesh. Both discretisations converge
 from below here (too stiff), so the Q2 rise is an independent lower bound of the converged one: it must lie
@@ -109,8 +109,8 @@ def one_scheme(scheme: str) -> dict:
     import numpy as np
     from threadpoolctl import threadpool_limits
 
-    from imutherm.studies.mesh_convergence import linear_laws, refinement_study
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.mesh_convergence import linear_laws, refinement_study
+    from imutherm.studies.thermal.thermal_study import run_scheme
 
     t0 = time.perf_counter()
     with threadpool_limits(1):

@@ -5,17 +5,18 @@ Usage::
 
     python benchmarks/bench_real_motion.py [--filters a,b,...] [--json FILE] [--write]
 
-Procedure (:mod:`imutherm.studies.real_tuning`, the same for ours and the peers): the registry's tuning axes on
+Procedure (:mod:`imutherm.studies.attitude.real_tuning`, the same for ours and the peers): the registry's tuning axes on
 the x3.16 ladder, objective the geometric mean of the files' inclination RMS, no setting eligible that makes a
 training file worse than the library defaults by more than that file's noise; **dev**: tuned on all nine files
 and scored on them (a fitted figure); **cv**: each file scored by the setting tuned on the other eight. Scoring
-(:mod:`imutherm.studies.real_benchmark`): inclination RMS per file (RepoIMU after 5 s, BROAD over its movement
+(:mod:`imutherm.studies.attitude.real_benchmark`): inclination RMS per file (RepoIMU after 5 s, BROAD over its movement
 rows). Prints, per filter, the per-file RMS and the mean for the library defaults, dev and cv, the ratio to VQF
 (tuned by the same procedure: dev to dev, cv to cv) and the worst file's ratio, and the guard: files on which
 the dev setting is worse than the library defaults by more than their noise. The target: gated, kf
 and aekf cv mean <= 1.3x VQF's cv mean and no file worse than 2x VQF's. ``--write`` writes the dev settings and
-these figures to ``studies/real_settings.toml`` (the ``--platform handheld`` settings of ``imutherm attitude
---imu-csv``).
+these figures to ``studies/attitude/real_settings.toml`` (the ``--platform handheld`` settings of ``imutherm attitude
+--imu-csv``). Last, every filter at its dev setting on every file through the in-motion divergence check
+(:mod:`imutherm.imu.filters.motion_check`): windows flagged, windows, worst window tilt.
 
 Data: Szczęsna et al., ICCVG 2016, LNCS 9972, pp. 509-520, doi:10.1007/978-3-319-46418-3_45 (RepoIMU); Laidig,
 Caruso, Cereatti, Seel, Data 6 (7), 72, 2021, doi:10.3390/data6070072 (BROAD, CC BY 4.0).
@@ -62,10 +63,10 @@ def summary(res: dict, files: list) -> dict:
 
 
 def write_settings(res: dict, summ: dict, files: list, cpu_s: float, path=None) -> None:
-    """The dev settings and their figures as ``studies/real_settings.toml`` (:mod:`imutherm.studies.real_settings`)."""
-    from imutherm.studies.filter_tuning import PROCEDURE
-    from imutherm.studies.real_settings import REAL_SETTINGS_PATH
-    from imutherm.studies.real_tuning import OBJECTIVE
+    """The dev settings and their figures as ``studies/attitude/real_settings.toml`` (:mod:`imutherm.studies.attitude.real_settings`)."""
+    from imutherm.studies.attitude.filter_tuning import PROCEDURE
+    from imutherm.studies.attitude.real_settings import REAL_SETTINGS_PATH
+    from imutherm.studies.attitude.real_tuning import OBJECTIVE
 
     def val(v):
         if isinstance(v, bool):
@@ -82,7 +83,7 @@ def write_settings(res: dict, summ: dict, files: list, cpu_s: float, path=None) 
         return "{ " + ", ".join(f"{json.dumps(k) if not k.isidentifier() else k} = {val(v)}" for k, v in d.items()) + " }"
 
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    lines = ["# Real-motion settings of the attitude filters (imutherm.studies.real_settings): the --platform handheld",
+    lines = ["# Real-motion settings of the attitude filters (imutherm.studies.attitude.real_settings): the --platform handheld",
              "# settings of imutherm attitude --imu-csv. Written by benchmarks/bench_real_motion.py --write; do not edit",
              "# by hand, rerun the command below.", "", "[meta]",
              f"procedure = {val(PROCEDURE)}", f"objective = {val(OBJECTIVE)}",
@@ -107,13 +108,13 @@ def write_settings(res: dict, summ: dict, files: list, cpu_s: float, path=None) 
 
 def main() -> None:
     from imutherm.imu.filters.registry import real_filters
-    from imutherm.studies import real_benchmark as rb
-    from imutherm.studies.real_tuning import tune
+    from imutherm.studies.attitude import real_benchmark as rb
+    from imutherm.studies.attitude.real_tuning import tune
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--filters", default=",".join(real_filters()))
     ap.add_argument("--json", default=None)
-    ap.add_argument("--write", action="store_true", help="write studies/real_settings.toml")
+    ap.add_argument("--write", action="store_true", help="write studies/attitude/real_settings.toml")
     ap.add_argument("--verbose", action="store_true", help="print every fold's choice")
     a = ap.parse_args()
     names = a.filters.split(",")
@@ -147,6 +148,15 @@ def main() -> None:
             s = summ[n]
             ok = s["cv_x_vqf"] <= 1.3 and s["cv_worst_x_vqf"] <= 2.0
             print(f"  {n:5s} {s['cv_x_vqf']:.2f}x, worst file {s['cv_worst_x_vqf']:.2f}x: {'met' if ok else 'NOT met'}")
+    print("\nin-motion divergence check (imu/filters/motion_check.py) at the dev settings: windows flagged / windows "
+          "(worst window tilt [deg]); bound ~1.7 deg")
+    print(f"{'filter':9s} " + " ".join(f"{x:>13s}" for x in short))
+    for n in names:
+        cells = []
+        for r in recs:
+            mc = rb.run((n,), r, {n: res[n]["dev"]["settings"]} if res[n]["dev"]["settings"] else {})[n]["motion_check"]
+            cells.append(f"{len(mc['flagged']):>3d}/{mc['n_windows']:<3d}({mc['worst_deg']:5.2f})")
+        print(f"{n:9s} " + " ".join(f"{c:>13s}" for c in cells), flush=True)
     cpu = _cpu_s() - c0
     print(f"wall {time.perf_counter() - t0:.1f} s, cpu {cpu:.1f} s")
     if a.json:
@@ -154,7 +164,7 @@ def main() -> None:
             json.dump({"files": files, "results": res, "summary": summ}, fh, indent=1, default=str)
     if a.write:
         write_settings(res, summ, files, cpu)
-        print("wrote studies/real_settings.toml")
+        print("wrote studies/attitude/real_settings.toml")
 
 
 if __name__ == "__main__":

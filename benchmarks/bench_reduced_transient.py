@@ -28,7 +28,7 @@ def main(argv=None) -> int:
     ap.add_argument("--min-cells", type=int, default=None)
     args = ap.parse_args(argv)
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
     from imutherm.unit.model import ModelOptions
 
     mesh = dict(mesh_size_mm=args.mesh_size or DEFAULT_MAX_CELL_MM, min_cells=args.min_cells or DEFAULT_MIN_CELLS)

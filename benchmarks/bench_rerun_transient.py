@@ -1,5 +1,5 @@
 """Benchmark of the correlation's re-run of a corrected model: the checked reduced transient
-(``studies.forward.checked_rise``, the default of ``imutherm correlate``) against the full adaptive TR-BDF2
+(``studies.thermal.forward.checked_rise``, the default of ``imutherm correlate``) against the full adaptive TR-BDF2
 at the library's tolerance (``full_rise``, ``correlate --full``), both against a reference: the full
 TR-BDF2 ten times tighter (1e-3 K per step at the sites, CG at 1e-8).
 
@@ -63,7 +63,7 @@ def main(argv=None) -> int:
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
-    from imutherm.studies.forward import checked_rise, full_rise
+    from imutherm.studies.thermal.forward import checked_rise, full_rise
     from imutherm.thermal.reduced_transient import CHECK_TOL_K
     from imutherm.unit import knobs
     from imutherm.unit.model import ModelOptions

@@ -31,7 +31,7 @@ T = 70.0 + 10.0 * (1.0 - np.exp(-t / 300.0))[:, None] * np.linspace(0.8, 1.2, 6)
 steady = T[-1]
 chamber = np.array([-40.0, 70.0]); rise = np.array([steady - 70.0 + 3.0, steady - 70.0])
 bare = bare_calibration(cfg.grade, 0)
-import imutherm.studies.attitude_study, imutherm.imu.compensation  # imports outside the timing
+import imutherm.studies.attitude.attitude_study, imutherm.imu.compensation  # imports outside the timing
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 t0 = time.perf_counter()
 imu_case(cfg.grade, 0, t, T, steady, chamber, rise, cfg, bare)

@@ -27,7 +27,7 @@ import numpy as np
 
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
-from imutherm.studies.thermal_study import STUDY_CG_RTOL
+from imutherm.studies.thermal.thermal_study import STUDY_CG_RTOL
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.metrics import T63_FRACTION, T95_FRACTION, settle_time
 from imutherm.unit.model import ModelOptions, build_problem

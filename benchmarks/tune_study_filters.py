@@ -1,13 +1,13 @@
-"""Tune every attitude filter of the study by the one procedure and write ``studies/filter_settings.toml``.
+"""Tune every attitude filter of the study by the one procedure and write ``studies/attitude/filter_settings.toml``.
 
-The procedure and the tuning records are :mod:`imutherm.studies.filter_tuning` (the registry's axes on one
+The procedure and the tuning records are :mod:`imutherm.studies.attitude.filter_tuning` (the registry's axes on one
 x3.16 ladder, grown while the best lies on an open edge, the published defaults a candidate too; the study's
 chain at a warm-up, tuning seeds 100, 101, disjoint from the answer's 0-2); this script runs it and writes the
 file with the provenance of every entry (grid, scores, seeds, the command).
 
 Usage::
 
-    python benchmarks/tune_study_filters.py [--out studies/filter_settings.toml]
+    python benchmarks/tune_study_filters.py [--out studies/attitude/filter_settings.toml]
         [--seeds 100,101] [--profiles flight,swing] [--filters gated,kf,...]
 
 Prints each filter's grid scores and the choice; CPU time at the end.
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from imutherm.imu.filters.registry import tuned_filters
-from imutherm.studies.filter_tuning import GRADE, PROCEDURE, PROFILES, SEEDS, T0_C, WARMUP_K, WARMUP_TAU_S, tune
+from imutherm.studies.attitude.filter_tuning import GRADE, PROCEDURE, PROFILES, SEEDS, T0_C, WARMUP_K, WARMUP_TAU_S, tune
 
 
 def _toml_value(v) -> str:
@@ -43,7 +43,7 @@ def write_settings(path: Path, result: dict, *, seeds, command: str, cpu_s: floa
     """The settings file: [meta] and one [profile.filter] table per tuned filter."""
     data = (f"{GRADE}, default-duration profiles, study lever arms, improved compensation calibrated in the unit, "
             f"first-order warm-up +{WARMUP_K:g} K tau {WARMUP_TAU_S:g} s from {T0_C:g} C")
-    lines = ["# Tuned attitude-filter settings of the study (imutherm.studies.filter_settings).",
+    lines = ["# Tuned attitude-filter settings of the study (imutherm.studies.attitude.filter_settings).",
              "# Written by benchmarks/tune_study_filters.py; do not edit by hand, rerun the command below.", "",
              "[meta]",
              f"procedure = {_toml_value(PROCEDURE)}",
@@ -74,7 +74,7 @@ def write_settings(path: Path, result: dict, *, seeds, command: str, cpu_s: floa
 def main(argv=None) -> int:
     root = Path(__file__).resolve().parent.parent
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=str(root / "studies" / "filter_settings.toml"))
+    ap.add_argument("--out", default=str(root / "studies" / "attitude" / "filter_settings.toml"))
     ap.add_argument("--seeds", default=",".join(map(str, SEEDS)))
     ap.add_argument("--profiles", default=",".join(PROFILES))
     ap.add_argument("--filters", default=",".join(tuned_filters()))

@@ -4,7 +4,8 @@ Outputs in ``--out DIR``: ``attitude.json`` (:meth:`RecordedResult.to_json`: per
 max against the log's reference, null without one, the share of samples on which the accelerometer
 corrected the attitude, runtime, whether it integrated the true time steps; the units, axes, rate, platform,
 lever arm, turn radius used; ``samples``: repeats and repeated time stamps dropped, the step spread, resampled
-or not; ``warnings``: a z axis reading up at rest, also printed before the scores),
+or not; ``warnings``: a z axis reading up at rest, also printed before the scores; per filter ``resets_s``,
+``rest_off_deg`` and ``motion_check``, the divergence checks, each also a ``warning:`` line when it fires),
 ``attitude_series.npz`` (every filter's roll / pitch, the reference) and, with a reference,
 ``attitude.png``.
 """
@@ -20,7 +21,7 @@ from imutherm.cli._common import atomic_outdir, write_json
 def add_arguments(p) -> None:
     """The recorded-log options of ``imutherm attitude``."""
     from imutherm.imu.imu_log import ACCEL_UNITS, AXES, GYRO_UNITS
-    from imutherm.studies.recorded import PLATFORMS
+    from imutherm.studies.attitude.recorded import PLATFORMS
 
     g = p.add_argument_group("recorded log (--imu-csv)")
     g.add_argument("--imu-csv", default=None,
@@ -76,7 +77,7 @@ def _lever(text):
 def run(args) -> int:
     """Run the filters on ``args.imu_csv`` and write the outputs; returns 0."""
     from imutherm.imu.imu_log import read_imu_csv
-    from imutherm.studies.recorded import run_recorded
+    from imutherm.studies.attitude.recorded import run_recorded
 
     if args.profile is not None:
         raise InputError("--imu-csv and --profile: give one (a recorded log or a simulated profile)")
@@ -151,13 +152,22 @@ def run(args) -> int:
             score = "no reference"
         print(f"{name:8s} {score}  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  "
               f"runtime {m['runtime_s']:.2f} s")
-        _print_divergence(name, m.get("resets_s"), m.get("rest_off_deg"))
+        _print_divergence(name, m.get("resets_s"), m.get("rest_off_deg"), m.get("motion_check"))
     return 0
 
 
-def _print_divergence(name: str, resets_s, rest_off=None) -> None:
+def _print_divergence(name: str, resets_s, rest_off=None, motion=None) -> None:
     """One line when a filter's innovations said it diverged (its monitor reset it; aekf's NIS monitor), one when
-    its vertical was off the accelerometer's at rest (:func:`imutherm.imu.filters.rest_check.rest_disagreement`)."""
+    its vertical was off the accelerometer's at rest (:func:`imutherm.imu.filters.rest_check.rest_disagreement`),
+    one when it was off the accelerometer averaged over windows of motion
+    (:func:`imutherm.imu.filters.motion_check.motion_disagreement`, ``motion`` its JSON dict)."""
+    if motion and motion["flagged"]:
+        t, worst = max(motion["flagged"], key=lambda x: x[1])
+        print(f"warning: {name} off the vertical in motion: the specific force averaged over {motion['window_s']:g} s "
+              f"in its attitude leans {worst:.1f}° from its vertical (at t = {t:.1f} s) on {len(motion['flagged'])} of "
+              f"{motion['n_windows']} windows, more than the {motion['bound_deg']:.2f}° that the accelerometer's noise, "
+              f"a {1e3 * motion['accel_bias_mps2'] / 9.80665:.0f} mg bias and a velocity change of "
+              f"{motion['dv_max_mps']:g} m/s across a window allow; its attitude is off by about that much there")
     if rest_off:
         worst = max(a for _, a in rest_off)
         print(f"warning: {name} lost the vertical: at rest it was off the accelerometer's by more than 3° on "
@@ -210,7 +220,7 @@ def _run_reference(args) -> int:
     """A reference log (';'-separated RepoIMU layout or a BROAD HDF5 trial): repeats and true times, the
     reference-to-IMU rotation (estimated for RepoIMU, the data set's for BROAD), inclination scores."""
     from imutherm.imu.filters import FusionParams
-    from imutherm.studies.real_benchmark import run_reference_log
+    from imutherm.studies.attitude.real_benchmark import run_reference_log
     from imutherm.imu.filters.registry import parse_filters
 
     if args.init_s is not None and not (np.isfinite(args.init_s) and args.init_s > 0):
@@ -246,5 +256,5 @@ def _run_reference(args) -> int:
         print(f"{name:8s} inclination rms {m['inclination_rms_deg']:.3f} deg{here}  max {m['inclination_max_deg']:.2f} "
               f"deg  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  runtime "
               f"{m['runtime_s']:.2f} s{dev}")
-        _print_divergence(name, m["resets_s"], m["rest_off_deg"])
+        _print_divergence(name, m["resets_s"], m["rest_off_deg"], m["motion_check"])
     return 0

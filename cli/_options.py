@@ -134,7 +134,7 @@ def add_fitted_model_argument(parser: argparse.ArgumentParser) -> None:
 
 def run_inputs(args) -> tuple:
     """(LayoutSpec, ModelOptions, effects, FittedModel or None) of a run: the CLI's layout and model switches,
-    or with ``--model FILE`` the fitted model on them (:func:`imutherm.studies.fitted_model.apply_fitted`).
+    or with ``--model FILE`` the fitted model on them (:func:`imutherm.studies.thermal.fitted_model.apply_fitted`).
 
     A model file that records the switches it was fitted with fixes them: a different switch given on the
     command line is refused (the fitted values belong to those laws). Without LAYOUT, the model's layout.
@@ -145,7 +145,7 @@ def run_inputs(args) -> tuple:
     cli = model_options(args)
     if getattr(args, "model", None) is None:
         return load_layout(args.layout), cli, (), None
-    from imutherm.studies.fitted_model import apply_fitted, load_fitted_model
+    from imutherm.studies.thermal.fitted_model import apply_fitted, load_fitted_model
 
     fitted = load_fitted_model(args.model)
     base = cli
@@ -198,7 +198,7 @@ def add_time_arguments(parser: argparse.ArgumentParser, t_end: float, settle_sto
 
 def time_kwargs(args) -> dict:
     """``run_scheme`` time arguments from the options of :func:`add_time_arguments` (checked)."""
-    from imutherm.studies.thermal_study import check_time_arguments
+    from imutherm.studies.thermal.thermal_study import check_time_arguments
 
     if args.t_end is None:
         args.t_end = args.t_end_default

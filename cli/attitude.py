@@ -55,7 +55,7 @@ def add_args(p) -> None:
                         "filter on a profile, all but those needing GNSS on a log)")
     p.add_argument("--filter-defaults", action="store_true",
                    help="run the filters at their defaults, not at the tuned settings of "
-                        "studies/filter_settings.toml for the profile (every motion profile; static, at rest, "
+                        "studies/attitude/filter_settings.toml for the profile (every motion profile; static, at rest, "
                         "runs the defaults either way)")
     p.add_argument("--disturbances", default="none", choices=("none", "realistic"),
                    help="realistic: the profile's vibration, turbulence, wind, sync error and jitter "
@@ -97,13 +97,13 @@ def run(args) -> int:
         import inspect
 
         from imutherm.imu import motion
-        from imutherm.studies.attitude_study import check_temperature_span, read_temperature_csv
+        from imutherm.studies.attitude.attitude_study import check_temperature_span, read_temperature_csv
 
         duration = args.duration or inspect.signature(getattr(motion, f"{args.profile}_profile")).parameters[
             "duration"].default
         check_temperature_span(read_temperature_csv(args.temperature_csv)[0], 0.0, duration, args.temperature_csv)
     from imutherm.imu.gnss import GnssConfig
-    from imutherm.studies.attitude_study import run_attitude_study
+    from imutherm.studies.attitude.attitude_study import run_attitude_study
 
     gnss = GnssConfig(rate_hz=args.gnss_rate, vel_std=args.gnss_vel_std)  # InputError names the bad value
     from imutherm.imu.filters.registry import parse_filters
@@ -131,7 +131,7 @@ def run(args) -> int:
         print(f"{name:8s} roll rms {o['roll_rms_deg']['mean']:.3f} deg  pitch rms {o['pitch_rms_deg']['mean']:.3f} deg"
               f"  runtime {m[name]['runtime_s']['mean']:.2f} s"
               + (f"  heading rms {m[name]['heading']['rms_deg']['mean']:.2f} deg" if "heading" in m[name] else ""))
-    from imutherm.studies.real_settings import real_motion_lines
+    from imutherm.studies.attitude.real_settings import real_motion_lines
 
     for line in real_motion_lines(list(m)):
         print(line)

@@ -17,7 +17,7 @@ least-squares rate-table calibration alone (``linear``) and with the high-rate
 roll coupling compensated by a cubic (``poly``) or a 30-node network (``mlp``),
 beside Wang et al.'s figures, the fitted and true coefficients.
 
-``--procedure overload`` (Lin et al., :mod:`imutherm.studies.overload_study`) writes
+``--procedure overload`` (Lin et al., :mod:`imutherm.studies.attitude.overload_study`) writes
 ``overload.json``: Ka, K2, D1 per load (1..10 g) and power-on, the joint
 values and the unit's truth, and the attitude filters on the ``shake`` profile
 (1.2 g and 5 g) with and without the recovered terms compensated. With
@@ -37,7 +37,7 @@ from imutherm.cli._options import add_out_argument
 from imutherm.imu.calibration import RigConfig
 from imutherm.imu.compensation import INTERPS
 from imutherm.imu.grades import GRADES
-from imutherm.studies.calibration_study import run_calibration
+from imutherm.studies.attitude.calibration_study import run_calibration
 
 
 PROCEDURES = ("temperature", "roll-coupling", "overload")
@@ -60,7 +60,7 @@ def _roll_coupling(args) -> int:
 
 
 def _overload(args) -> int:
-    from imutherm.studies.overload_study import run_overload_study
+    from imutherm.studies.attitude.overload_study import run_overload_study
 
     from imutherm.imu.overload import LoadDependence
 

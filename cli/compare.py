@@ -13,11 +13,11 @@ warm-up), ``attitude_<s>.csv`` (attitude error of each filter over the warm-up),
 
 ``--uncertainty`` propagates the model's uncertain inputs (each with its range and source) through each
 scheme's reduced model to the sensor-die rises, the settle time and the differences between schemes
-(:mod:`imutherm.studies.uncertainty`): 5-95 % intervals and Sobol' indices in ``uncertainty.json``
+(:mod:`imutherm.studies.uncertainty.uncertainty`): 5-95 % intervals and Sobol' indices in ``uncertainty.json``
 (and ``summary.json``), pages in ``report.pdf`` (``uncertainty.pdf`` with ``--thermal-only``), checked
 against the full FEM at ``--uncertainty-checks`` drawn points per scheme; in the end-to-end study,
 ``--uncertainty-imu-draws`` of the draws also go through the full IMU chain to the residual sensor errors
-and the attitude error (:mod:`imutherm.studies.uncertainty_imu`; the study's seeds fixed).
+and the attitude error (:mod:`imutherm.studies.uncertainty.uncertainty_imu`; the study's seeds fixed).
 
 Transients: on a reduced model of each scheme's steady field that checks itself against the full model
 (every site within 0.05 K, every t95 within 1 %; :mod:`imutherm.thermal.reduced_transient`), the full
@@ -74,7 +74,7 @@ def add_args(parser) -> None:
                    help=f"attitude filters (default: the registry's study filters, {','.join(study_filters())})")
     g.add_argument("--filter-defaults", action="store_true",
                    help="run the filters at their defaults, not at the tuned settings of "
-                        "studies/filter_settings.toml (benchmarks/tune_study_filters.py)")
+                        "studies/attitude/filter_settings.toml (benchmarks/tune_study_filters.py)")
     g.add_argument("--out-of-range", default="linear", choices=("error", "hold", "linear"),
                    help="compensation beyond the calibrated range: linear (default: extrapolate the "
                         "calibration's temperature trend), hold (clamp), error (refuse)")
@@ -129,7 +129,7 @@ def run(args) -> int:
     check_bench(layout)  # a bad bench file of the layout's [reference_data] refused before any solve
     args.run_model = (layout, options, effects, fitted)
     if args.uncertainty:
-        from imutherm.studies.uncertainty import UncertainInput, design, imu_draw_rows
+        from imutherm.studies.uncertainty.uncertainty import UncertainInput, design, imu_draw_rows
 
         if args.uncertainty_checks < 0:
             raise InputError(f"--uncertainty-checks must be an integer >= 0, got {args.uncertainty_checks}")
@@ -298,7 +298,7 @@ def _uncertainty(args, layout, schemes, options, study=None):
     prints its answer."""
     if not args.uncertainty:
         return None
-    from imutherm.studies.uncertainty import run_uncertainty
+    from imutherm.studies.uncertainty.uncertainty import run_uncertainty
 
     say = None if args.no_progress else (lambda m: print(m, flush=True))
     unc = run_uncertainty(layout, schemes, options=options, samples=args.uncertainty_samples,
@@ -364,7 +364,7 @@ def print_answer(summary: dict) -> None:
     if fs.get("tuned"):
         print(f"filters at their tuned settings ({Path(fs['file']).name}, tuned on seeds "
               f"{', '.join(map(str, fs['meta'].get('seeds', [])))}; --filter-defaults: at defaults)")
-    from imutherm.studies.real_settings import real_motion_lines
+    from imutherm.studies.attitude.real_settings import real_motion_lines
 
     for line in real_motion_lines(st["filters"]):
         print(line)

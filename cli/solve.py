@@ -29,7 +29,7 @@ from imutherm.cli._options import (add_effect_argument, add_fitted_model_argumen
                                    check_thermal_cost, run_inputs, time_kwargs)
 from imutherm.geometry.build import build_geometry
 from imutherm.site_table import write_site_table
-from imutherm.studies.thermal_study import probe_table, result_summary, run_scheme
+from imutherm.studies.thermal.thermal_study import probe_table, result_summary, run_scheme
 from imutherm.unit.effects import list_effects, parse_effect
 from imutherm.thermal.output import write_result
 

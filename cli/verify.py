@@ -32,8 +32,8 @@ def add_args(parser) -> None:
 
 def all_cases() -> dict:
     """The thermal core's cases (:mod:`imutherm.thermal.verification`) and the reference unit's mesh-refinement
-    study (:func:`imutherm.studies.mesh_convergence.case_reference_unit_refinement`, ~1 min and ~2 GB)."""
-    from imutherm.studies.mesh_convergence import case_reference_unit_refinement
+    study (:func:`imutherm.studies.thermal.mesh_convergence.case_reference_unit_refinement`, ~1 min and ~2 GB)."""
+    from imutherm.studies.thermal.mesh_convergence import case_reference_unit_refinement
     from imutherm.thermal.verification import CASES
 
     return {**CASES, "refinement_reference_unit": case_reference_unit_refinement}

@@ -1,4 +1,4 @@
-"""Draw the docs' picture of the filters on real motion, from ``studies/real_settings.toml``.
+"""Draw the docs' picture of the filters on real motion, from ``studies/attitude/real_settings.toml``.
 
 Usage (the figure in the repository was made so)::
 
@@ -19,7 +19,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from imutherm.reports.real_motion_plots import real_motion_figure  # noqa: E402
-from imutherm.studies.real_settings import load_real_settings  # noqa: E402
+from imutherm.studies.attitude.real_settings import load_real_settings  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "_static" / "real_motion.png"
 

@@ -33,7 +33,7 @@ from imutherm.imu.compensation import compensate, out_of_range_mask
 from imutherm.imu.filters.run import run_filters
 from imutherm.imu.motion import DEFAULT_LEVER_ARM, make_profile
 from imutherm.imu.sensor_model import G0, SITES, draw_unit, simulate_imu
-from imutherm.studies.filter_settings import load_settings
+from imutherm.studies.attitude.filter_settings import load_settings
 
 OUT = Path(os.environ.get("IMUTHERM_EXAMPLES_OUT", tempfile.gettempdir())) / "imutherm-examples" / "api_imu"
 OUT.mkdir(parents=True, exist_ok=True)

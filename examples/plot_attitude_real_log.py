@@ -81,11 +81,11 @@ print(f"{source.name}: {len(raw)} samples over {t[-1] - t[0]:.1f} s, resampled t
 # ---------------------
 # ``imutherm attitude --imu-csv pendulum.csv --init-s 1 --out DIR`` runs every filter and writes
 # ``attitude.json``, ``attitude_series.npz``; here the same through the Python API
-# (:func:`imutherm.imu.imu_log.read_imu_csv`, :func:`imutherm.studies.recorded.run_recorded`), so that the
+# (:func:`imutherm.imu.imu_log.read_imu_csv`, :func:`imutherm.studies.attitude.recorded.run_recorded`), so that the
 # slowest filter, the adaptive EKF ``aekf`` (several times the others together), can be left out to keep
 # the example short. The pendulum rests only for the first second or two: the leveling window is 1 s.
 from imutherm.imu.imu_log import read_imu_csv
-from imutherm.studies.recorded import log_filters, run_recorded
+from imutherm.studies.attitude.recorded import log_filters, run_recorded
 
 imu_log = read_imu_csv(log, init_s=1.0)
 result = run_recorded(imu_log, platform="handheld", init_s=1.0, names=[n for n in log_filters() if n != "aekf"])

@@ -8,7 +8,7 @@ held-out prediction (and AICc with an effective sample size) and names the missi
 none is missing, or that it is not in the library.
 
 To see it work blind, "measured" data are generated here by the full nonlinear model with one effect
-hidden (:func:`imutherm.studies.hidden_effect.make_case`): 0.35 W more in the 5 V regulator than the
+hidden (:func:`imutherm.studies.correlation.hidden_effect.make_case`): 0.35 W more in the 5 V regulator than the
 layout says, ±10 % nuisance errors on the board conductivity, the convection and the mount conductance,
 0.05 K probe noise and a fixed offset per site. The generator's mesh (3 mm) is finer than the
 inversion's (6 mm), so the inversion does not see its own discretisation. One experiment (the air scheme at
@@ -28,7 +28,7 @@ import numpy as np
 
 from imutherm.cli import main as imutherm
 from imutherm.measured import read_measured
-from imutherm.studies.hidden_effect import make_case
+from imutherm.studies.correlation.hidden_effect import make_case
 
 OUT = Path(os.environ.get("IMUTHERM_EXAMPLES_OUT", tempfile.gettempdir())) / "imutherm-examples" / "correlation"
 case = make_case(OUT / "case", "power@reg_5v", np.random.default_rng(3), experiments=(("air", 70.0),),

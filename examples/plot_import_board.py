@@ -30,7 +30,7 @@ from imutherm.ecad.to_layout import ImportOptions, import_board
 from imutherm.ecad.user_tables import read_value_csv
 from imutherm.geometry.build import build_geometry
 from imutherm.reports.board_plot import board_figure
-from imutherm.studies.thermal_study import run_scheme
+from imutherm.studies.thermal.thermal_study import run_scheme
 
 BOARDS = Path(__file__).resolve().parent / "boards" if "__file__" in globals() else Path("boards")
 OUT = Path(os.environ.get("IMUTHERM_EXAMPLES_OUT", tempfile.gettempdir())) / "imutherm-examples" / "import_board"

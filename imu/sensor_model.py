@@ -167,48 +167,36 @@ class SensorGrade:
 
 
 def _spec_from_dict(d: dict, kind: str) -> SensorSpec:
+    """A grade table's gyro (deg/s units) or accelerometer (mg units) entry as a :class:`SensorSpec` in SI."""
+    unit, u = ("dps", _DEG) if kind == "gyro" else ("mg", _MG)  # deg/s -> rad/s, mg -> m/s^2
+    common = dict(
+        noise_density=d[f"noise_rms_{unit}"] * u / np.sqrt(d["noise_ref_rate_hz"]),
+        bias_instability=d[f"bias_instability_{unit}"] * u,
+        bias_corr_time_s=d["bias_corr_time_s"],
+        rate_random_walk=d[f"rate_random_walk_{unit}_per_rts"] * u,
+        lsb=d[f"lsb_{unit}"] * u,
+        initial_bias=d[f"initial_bias_{unit}"] * u,
+        initial_sf=d["initial_sf_ppm"] * 1e-6,
+        misalignment=d["misalignment_deg"] * _DEG,
+        turn_on_bias=d[f"turn_on_bias_{unit}"] * u,
+        bias_temp_amplitude=d[f"bias_temp_amplitude_{unit}"] * u,
+        sf_temp_amplitude=d["sf_temp_amplitude_ppm"] * 1e-6,
+        power_on_curve_fraction=d["power_on_curve_fraction"],
+        temp_rate_coeff=d[f"temp_rate_coeff_{unit}_per_Cmin"] * u,
+        misalignment_tempco=d.get("misalignment_tempco_deg_per_K", 0.0) * _DEG,
+    )
     if kind == "gyro":
-        u = _DEG  # deg/s -> rad/s
-        rms = d["noise_rms_dps"] * u
         return SensorSpec(
-            noise_density=rms / np.sqrt(d["noise_ref_rate_hz"]),
-            bias_instability=d["bias_instability_dps"] * u,
-            bias_corr_time_s=d["bias_corr_time_s"],
-            rate_random_walk=d["rate_random_walk_dps_per_rts"] * u,
-            lsb=d["lsb_dps"] * u,
-            initial_bias=d["initial_bias_dps"] * u,
-            initial_sf=d["initial_sf_ppm"] * 1e-6,
-            misalignment=d["misalignment_deg"] * _DEG,
-            turn_on_bias=d["turn_on_bias_dps"] * u,
-            bias_temp_amplitude=d["bias_temp_amplitude_dps"] * u,
-            sf_temp_amplitude=d["sf_temp_amplitude_ppm"] * 1e-6,
-            power_on_curve_fraction=d["power_on_curve_fraction"],
-            temp_rate_coeff=d["temp_rate_coeff_dps_per_Cmin"] * u,
+            **common,
             g_sensitivity=d["g_sensitivity_dps_per_g"] * u / G0,
-            misalignment_tempco=d.get("misalignment_tempco_deg_per_K", 0.0) * _DEG,
             roll_coupling=tuple(float(v) * u for v in d.get("roll_coupling_dps", (0.0, 0.0))),
             roll_coupling_ref=d.get("roll_coupling_ref_dps", 300.0) * u,
             full_scale=d.get("full_scale_dps", 0.0) * u,
         )
-    u = _MG  # mg -> m/s^2
-    rms = d["noise_rms_mg"] * u
     return SensorSpec(
-        noise_density=rms / np.sqrt(d["noise_ref_rate_hz"]),
-        bias_instability=d["bias_instability_mg"] * u,
-        bias_corr_time_s=d["bias_corr_time_s"],
-        rate_random_walk=d["rate_random_walk_mg_per_rts"] * u,
-        lsb=d["lsb_mg"] * u,
-        initial_bias=d["initial_bias_mg"] * u,
-        initial_sf=d["initial_sf_ppm"] * 1e-6,
-        misalignment=d["misalignment_deg"] * _DEG,
-        turn_on_bias=d["turn_on_bias_mg"] * u,
-        bias_temp_amplitude=d["bias_temp_amplitude_mg"] * u,
-        sf_temp_amplitude=d["sf_temp_amplitude_ppm"] * 1e-6,
-        power_on_curve_fraction=d["power_on_curve_fraction"],
-        temp_rate_coeff=d["temp_rate_coeff_mg_per_Cmin"] * u,
+        **common,
         asymmetry=d["asymmetry_ppm"] * 1e-6,
         k2=d["k2_mg_per_g2"] * 1e-3 / G0,  # [g/g^2] -> [1/(m/s^2)]
-        misalignment_tempco=d.get("misalignment_tempco_deg_per_K", 0.0) * _DEG,
     )
 
 

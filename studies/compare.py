@@ -1,6 +1,6 @@
 """The main job: the cooling schemes of a layout side by side (steady + power-on transient).
 
-``compare_schemes`` runs :func:`imutherm.studies.thermal_study.run_scheme` for
+``compare_schemes`` runs :func:`imutherm.studies.thermal.thermal_study.run_scheme` for
 each scheme and collects what the comparison report needs: the summary of each
 run, the site curves, and a temperature map in the main board's mid-plane.
 ``write_comparison`` writes the result files the report is drawn from, with the reference data the layout
@@ -19,7 +19,7 @@ from imutherm import InputError
 from imutherm.io import write_json
 from imutherm.geometry.layout import load_layout
 from imutherm.site_table import write_site_table
-from imutherm.studies.thermal_study import (SchemeResult, board_plane_map, model_curves, probe_table,
+from imutherm.studies.thermal.thermal_study import (SchemeResult, board_plane_map, model_curves, probe_table,
                                             result_summary)
 
 def paper_thermal(layout) -> dict | None:
@@ -88,12 +88,12 @@ def compare_schemes(layout=None, schemes=("air", "grease", "potted"), *, progres
         time, as in the end-to-end study (:func:`imutherm.studies.end_to_end.run_study`).
     use_cache : read each scheme's result from the disk cache when one of the same content is there, and keep it
         there (:func:`imutherm.studies.end_to_end.thermal.cached_scheme_run`)
-    **run_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme`
+    **run_kwargs : passed to :func:`imutherm.studies.thermal.thermal_study.run_scheme`
     """
     import time
     from concurrent.futures import as_completed
 
-    from imutherm.studies.thermal_study import longest_first
+    from imutherm.studies.thermal.thermal_study import longest_first
     from imutherm.unit.model import ModelOptions
     from imutherm.workers import check_jobs, process_pool, usable_workers
 
@@ -139,7 +139,7 @@ def _scheme_task(layout, scheme: str, run_kwargs: dict, use_cache: bool = True) 
 
 def write_comparison(comp: Comparison, out: str | os.PathLike, model: dict | None = None) -> None:
     """``compare.json``, ``probes_<scheme>.csv`` and ``map_<scheme>.npz`` in ``out``; ``model``: the fitted
-    model the comparison ran on (:meth:`imutherm.studies.fitted_model.FittedModel.summary`), if any."""
+    model the comparison ran on (:meth:`imutherm.studies.thermal.fitted_model.FittedModel.summary`), if any."""
     from imutherm.studies.paper import bench_comparison
 
     out = Path(out)

@@ -19,7 +19,7 @@ def transient_steps(time_kwargs: dict) -> int:
     """Time steps [-] of a transient given ``run_scheme``'s time arguments (``t_end``, ``time_scheme``,
     ``dt``, ``dt_max``): given steps are counted; for the error-controlled TR-BDF2 steps the count is
     its lower bound ``t_end / dt_max`` (steps never exceed ``dt_max``, default 300 s)."""
-    from imutherm.studies.thermal_study import THETA_DT, THETA_DT_MAX
+    from imutherm.studies.thermal.thermal_study import THETA_DT, THETA_DT_MAX
     from imutherm.thermal.transient import DEFAULT_DT_MAX
 
     t_end, dt, dt_max = time_kwargs["t_end"], time_kwargs.get("dt"), time_kwargs.get("dt_max")

@@ -8,7 +8,7 @@ from imutherm.imu import motion
 from imutherm.imu.filters import AEKFParams, run_aekf
 from imutherm.imu.gnss import GnssConfig, simulate_gnss
 from imutherm.imu.sensor_model import G0, draw_unit, load_grade, simulate_imu
-from imutherm.studies.attitude_study import run_filters
+from imutherm.studies.attitude.attitude_study import run_filters
 
 GRADE = load_grade("adis16355")
 #: accelerometer noise std of one sample [m/s^2]: white 3.5 mg (the horizontal-attitude KF paper) and the 2.52 mg LSB's quantisation
@@ -127,7 +127,7 @@ def test_bad_input():
 
 def test_attitude_study_reports_heading_and_gnss(tmp_path):
     """The attitude study simulates the GNSS for aekf_gnss and reports heading for the filters that have one."""
-    from imutherm.studies.attitude_study import run_attitude_study
+    from imutherm.studies.attitude.attitude_study import run_attitude_study
 
     res = run_attitude_study("shake", compensation="none", duration=30.0, names=("gated", "aekf", "aekf_gnss"),
                              gnss=GnssConfig(rate_hz=2.0, vel_std=0.1))
@@ -181,7 +181,7 @@ def test_block_mean_keeps_the_vibrating_flight():
     the gate and the gravity update, both stay under 1 deg roll and pitch RMS (measured 0.53 / 0.32, 0.43 / 0.43);
     per sample (accel_avg_s = dt) they still fail (> 10 deg), so the test sees the fix. On the static and swing
     records (seed 0) the default is no worse than per sample by more than 0.02 deg RMS (measured +0.001 / -0.01)."""
-    from imutherm.studies import filter_benchmark as fb
+    from imutherm.studies.attitude import filter_benchmark as fb
 
     recs = fb.make_records([("flight", (2, 3)), ("swing", (0,)), ("static", (0,))])
     per_sample = {"accel_avg_s": 0.01}

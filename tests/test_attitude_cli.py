@@ -8,7 +8,7 @@ import pytest
 from imutherm import InputError
 from imutherm.cli.attitude import main
 from imutherm.imu.sensor_model import SITES
-from imutherm.studies.attitude_study import GateConfig, run_attitude_study
+from imutherm.studies.attitude.attitude_study import GateConfig, run_attitude_study
 
 NAMES = ("gated", "kf", "ungated", "fusion")
 SEGMENTS = ("overall", "stable", "manoeuvre")
@@ -49,7 +49,7 @@ def test_temperature_csv_is_interpolated(tmp_path):
 @pytest.mark.parametrize("time_value", ["inf", "0", "1200"])
 def test_single_row_temperature_csv_is_constant(tmp_path, time_value):
     """A steady-run probes.csv of ``imutherm solve`` has one row at time_s = inf: a constant temperature."""
-    from imutherm.studies.attitude_study import read_temperature_csv, temperature_on
+    from imutherm.studies.attitude.attitude_study import read_temperature_csv, temperature_on
 
     csv = tmp_path / "probes.csv"
     temps = ["31.5", "32", "33.25", "34", "35", "36.5"]
@@ -64,7 +64,7 @@ def test_single_row_temperature_csv_is_constant(tmp_path, time_value):
 
 
 def test_temperature_csv_nonfinite_rejected_unless_single_row(tmp_path):
-    from imutherm.studies.attitude_study import read_temperature_csv
+    from imutherm.studies.attitude.attitude_study import read_temperature_csv
 
     csv = tmp_path / "t.csv"
     csv.write_text("time_s," + ",".join(SITES) + "\n0," + ",".join(["25"] * 6) + "\ninf," + ",".join(["26"] * 6) + "\n")
@@ -143,7 +143,7 @@ def test_realistic_flight_is_of_the_papers_order_and_turbulence_shuts_the_gate()
     between 1° and 6° in pitch (docs/benchmarks/attitude.md: 0.52 / 4.05° on seeds 0-5); light turbulence alone keeps the gate
     shut on most stable-flight samples (clean: open on all of them)."""
     from imutherm.imu import disturbances
-    from imutherm.studies import filter_benchmark as fb
+    from imutherm.studies.attitude import filter_benchmark as fb
 
     res = run_attitude_study("flight", seeds=3, names=("gated",), disturbances=True)
     o = res.metrics["gated"]["overall"]

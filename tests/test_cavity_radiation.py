@@ -311,7 +311,7 @@ def test_calculix_export_refuses_the_exchange(tmp_path):
 def test_ambient_drift_with_s2s():
     """The drift's lag field comes from the linearised model, which carries the s2s exchange as its secant
     (thermal/reduced.py): a drift of r adds between 0 and r t to every site (a site lags its surroundings)."""
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
     from imutherm.unit.effects import parse_effect
     kw = dict(options=ModelOptions(cavity_law="s2s"), transient=True, t_end=600.0, mesh_size_mm=6.0, min_cells=1)
     base = run_scheme(None, "air", **kw)

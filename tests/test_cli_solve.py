@@ -7,7 +7,7 @@ import meshio
 import numpy as np
 import pytest
 
-from imutherm.studies.thermal_study import STUDY_CG_RTOL
+from imutherm.studies.thermal.thermal_study import STUDY_CG_RTOL
 
 from imutherm.cli import _common, main
 from imutherm.cli import solve as solve_cli

@@ -15,7 +15,7 @@ from imutherm.measured import MeasuredRun, read_measured, write_measured
 from imutherm.studies.correlation import (SPARSE_NOISE_K, Fit, build_models, correlate, heldout_worse_z, noise_sigma,
                                           result_json, updated_model_toml, verdict)
 from imutherm.studies.correlation.holdout import _masks
-from imutherm.studies.hidden_effect import make_case
+from imutherm.studies.correlation.hidden_effect import make_case
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/_toy_reduced.py
 
@@ -638,7 +638,7 @@ def test_a_model_form_null_case_names_no_library_effect(tmp_path, models_effecti
     re-tune takes it down (s2s couples the boards to the housing more weakly than the effective law at one
     emissivity), the discrepancy term what is left, and no library effect is named (before the model-form term
     and the re-tuned cavity emissivity, this case was named cavity_emissivity)."""
-    from imutherm.studies.hidden_effect import model_form_options
+    from imutherm.studies.correlation.hidden_effect import model_form_options
     case = make_case(tmp_path / "case", "none", np.random.default_rng(11), mesh_size_mm=MF_GEN_MM, min_cells=1,
                      samples=30, options=model_form_options(models_effective.options))
     runs = [read_measured(f) for f in case.files]
@@ -659,7 +659,7 @@ def test_an_effect_hidden_under_the_other_cavity_law_is_named_once_the_law_is_in
     hidden value and the term it leaves is within 3 noise sigmas. Before the blend the shared re-tune knobs sat
     at their bounds under the air scheme's law error and this case was `discrepancy` (the bench's gross path:
     2/6 strong effects named). The null case of the same generator names no library effect."""
-    from imutherm.studies.hidden_effect import model_form_options
+    from imutherm.studies.correlation.hidden_effect import model_form_options
     gen = model_form_options(models.options)
     assert gen.cavity_law == "effective"
     case = make_case(tmp_path / "bond", "contact@bond", np.random.default_rng(7), mesh_size_mm=MF_GEN_MM,
@@ -751,7 +751,7 @@ def test_the_cavity_emissivity_is_re_tuned_not_named(tmp_path):
     p = j["retuned_parameters"]["cavity_emissivity"]
     assert p["kind"] == "retune" and p["source"] == FORM_RETUNE["cavity_emissivity"]
     assert p["ci95"][0] <= 0.3 <= p["ci95"][1]
-    from imutherm.studies.fitted_model import fitted_options, load_fitted_model
+    from imutherm.studies.thermal.fitted_model import fitted_options, load_fitted_model
     path = Path(tmp_path) / "updated_model.toml"
     path.write_text(updated_model_toml(res))
     m = load_fitted_model(path)  # read back into the re-tune, and applied by --model

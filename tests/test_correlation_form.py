@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from imutherm import InputError
-from imutherm.studies import form_error
+from imutherm.studies.correlation import form_error
 from imutherm.studies.correlation import build_discrepancy, correlate, result_json, updated_model_toml
 from imutherm.studies.correlation.forward_model import _Forward
 from imutherm.studies.correlation.holdout import _masks, _test_union
@@ -103,7 +103,7 @@ def test_the_written_model_is_never_worse_than_the_nominal_one():
     readings worse than the nominal one: the nominal model is written, or the term-free refit where it is no worse
     (here the nuisance values themselves), and the TOML says so."""
     from _toy_reduced import toy_models, toy_runs
-    from imutherm.studies.written_model import choose
+    from imutherm.studies.correlation.written_model import choose
     m = toy_models()
     runs = toy_runs(dict(NUISANCE), np.random.default_rng(2))
     fwd = _Forward(tuple(runs), m.roms, m.geometries)
@@ -130,7 +130,7 @@ def _run(values, times, ambient=70.0, power=1.0):
 def test_implausible_readings_are_refused_before_any_fit():
     """A 300 K rise (a reading above 250 degC) and a powered sensor 5 K colder than its ambient are refused with
     the file and line; a reading 1 K below the ambient early on (a probe offset) is not."""
-    from imutherm.studies.plausibility import check_plausible
+    from imutherm.studies.correlation.plausibility import check_plausible
     with pytest.raises(InputError, match=r"x.csv:12: tp1 reads 370.0 °C.*solder"):
         check_plausible([_run([70.0, 90.0, 370.0, 95.0], [0, 300, 600, np.inf])])
     with pytest.raises(InputError, match=r"x.csv:12: tp1 reads 65.00 °C, 5.0 K below the ambient"):
@@ -151,7 +151,7 @@ def test_contacts_as_thin_solid_layers():
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.geometry.mesh import build_mesh
-    from imutherm.studies.form_generator import LAYER_MM, refine_contact_layers
+    from imutherm.studies.correlation.form_generator import LAYER_MM, refine_contact_layers
     from imutherm.unit.model import ModelOptions, build_problem
     geo = build_geometry(load_layout(None), "grease")
     h = 150.0
@@ -190,8 +190,8 @@ def test_layered_path_a_strong_effect_is_named_first_and_a_null_gets_no_library_
     generator gets no library name and its written model is no worse than the nominal one."""
     from imutherm.measured import read_measured
     from imutherm.studies.correlation import build_models
-    from imutherm.studies.form_generator import generator_mesh_mm
-    from imutherm.studies.hidden_effect import make_case, model_form_options
+    from imutherm.studies.correlation.form_generator import generator_mesh_mm
+    from imutherm.studies.correlation.hidden_effect import make_case, model_form_options
     models = build_models([("air", 70.0), ("grease", 70.0)], mesh_size_mm=6.0, min_cells=1)
     gen = model_form_options(models.options, "layered")
     case = make_case(tmp_path / "reg", "power@reg_5v", np.random.default_rng(43), mesh_size_mm=generator_mesh_mm(6.0, 0),
@@ -207,3 +207,25 @@ def test_layered_path_a_strong_effect_is_named_first_and_a_null_gets_no_library_
     assert res0.named_effects == (), (res0.named_effects, res0.timings["reason"])
     w = res0.written
     assert w["heldout_rms_K"] <= w["nominal_heldout_rms_K"] * 1.000001
+
+
+def test_the_single_forms_of_the_form_campaign():
+    """form_options: each form of FEM_FORMS differs from the inversion's model in that one way only (contact layers,
+    the other cavity law, a finer mesh, ±10 % nuisance drawn reproducibly from the rng); an unknown form refused."""
+    from imutherm.geometry.build import build_geometry
+    from imutherm.geometry.layout import load_layout
+    from imutherm.studies.correlation.form_generator import FEM_FORMS, GRID_FORM, form_options
+    from imutherm.unit.cavity_laws import cavity_law
+    from imutherm.unit.model import ModelOptions
+    inv = ModelOptions()
+    geo = build_geometry(load_layout(None), "air")
+    got = {f: form_options(f, inv, geo, np.random.default_rng(5)) for f in FEM_FORMS}
+    assert got["layered"][0] == inv.with_(contact_layers=True) and got["layered"][1] is None
+    assert got["cavity_law"][0].cavity_law == cavity_law(inv.cavity_law).form_partner != inv.cavity_law
+    assert got["grid"][0] == inv and got["grid"][1] == GRID_FORM and GRID_FORM[0] < 1.0
+    opts, mesh, rec = got["nuisance"]
+    assert mesh is None and len(rec) >= 5 and all(0.9 <= x <= 1.1 for x in rec.values())
+    assert rec == form_options("nuisance", inv, geo, np.random.default_rng(5))[2]
+    assert opts.cavity_emissivity == pytest.approx(inv.cavity_emissivity * rec["cavity_emissivity"])
+    with pytest.raises(InputError, match="unknown form 'grid2'"):
+        form_options("grid2", inv, geo, np.random.default_rng(5))

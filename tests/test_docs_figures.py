@@ -343,9 +343,9 @@ def test_the_study_page_types_no_recorded_figure():
 
 
 def test_the_study_page_tuning_table_is_the_settings_file():
-    """The flight's tuned vs default scores on the study page are those studies/filter_settings.toml records."""
+    """The flight's tuned vs default scores on the study page are those studies/attitude/filter_settings.toml records."""
     import tomllib
-    settings = tomllib.loads((ROOT / "studies" / "filter_settings.toml").read_text(encoding="utf-8"))
+    settings = tomllib.loads((ROOT / "studies" / "attitude" / "filter_settings.toml").read_text(encoding="utf-8"))
     doc = (REFERENCE / "study.md").read_text(encoding="utf-8")
     table = doc[doc.index("Flight, tuned vs defaults [deg]"):]
     rows = re.findall(r"^\| (\w+) \| [^|]+ \| ([\d.]+) \| ([\d.]+) \|$", table[:table.index("\n\n", 200)], re.M)

@@ -26,7 +26,7 @@ MAIN = (
     "imutherm.unit.model.build_problem",
     "imutherm.thermal.steady.solve_steady",
     "imutherm.thermal.transient.solve_transient",
-    "imutherm.studies.thermal_study.run_scheme",
+    "imutherm.studies.thermal.thermal_study.run_scheme",
     "imutherm.ecad.read.read_board",
     "imutherm.ecad.to_layout.import_board",
     "imutherm.imu.sensor_model.draw_unit",

@@ -470,7 +470,7 @@ def test_snapping_moves_only_dieless_parts_and_saves_mesh_lines(real_boards):
 def test_snapping_changes_no_temperature_that_matters(real_boards, tmp_path):
     """The openuav unit solved steady (air) with every edge exact and with the die-less parts snapped: the
     sensor die and the hot spot within 0.05 K (measured 2026-12-04: 0.017 and 0.018 K of 3.6 and 11.7 K)."""
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
 
     board = read_kicad(real_boards["openuav"])
     res = {}

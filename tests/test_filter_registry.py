@@ -97,8 +97,8 @@ def test_registered_filter_appears_in_the_study_compare_and_the_tuner(gyro_only)
 
     from imutherm.cli import build_parser
     from imutherm.cli.compare import _study_config
-    from imutherm.studies import filter_settings as fs
-    from imutherm.studies import filter_tuning
+    from imutherm.studies.attitude import filter_settings as fs
+    from imutherm.studies.attitude import filter_tuning
     from imutherm.studies.end_to_end import StudyConfig, imu_case
 
     assert "gyro_only" in StudyConfig().filters and "gyro_only" in study_filters()
@@ -109,7 +109,7 @@ def test_registered_filter_appears_in_the_study_compare_and_the_tuner(gyro_only)
     best = r["swing"]["gyro_only"]
     assert best["values"]["kp"] > 0 and best["score"] < best["default_score"]  # a correction beats none
     # the held-out benchmark (bench_attitude) tunes and runs it by the same procedure, no list of its own
-    from imutherm.studies import filter_benchmark as fb
+    from imutherm.studies.attitude import filter_benchmark as fb
 
     recs = fb.make_records((("swing", (100,)),))
     assert fb.tune("gyro_only", recs).values["kp"] > 0

@@ -9,7 +9,7 @@ from imutherm.imu.filters import FusionParams, GatedParams, KFParams
 from imutherm.imu.filters.run import GateConfig, filter_inputs, run_filters
 from imutherm.imu.motion import make_profile
 from imutherm.imu.sensor_model import draw_unit, simulate_imu
-from imutherm.studies import attitude_study
+from imutherm.studies.attitude import attitude_study
 
 
 @pytest.fixture(scope="module")

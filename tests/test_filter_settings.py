@@ -1,4 +1,4 @@
-"""The study's tuned filter settings (studies/filter_settings.toml): read, checked, applied; page 1 of the report.
+"""The study's tuned filter settings (studies/attitude/filter_settings.toml): read, checked, applied; page 1 of the report.
 
 The file itself is produced by benchmarks/tune_study_filters.py; these tests check that it carries its
 provenance, that its grids are the script's, that the study runs each filter at the file's value (a spy
@@ -12,8 +12,8 @@ import pytest
 
 from imutherm import InputError
 from imutherm.imu.filters import registry
-from imutherm.studies import filter_settings as fs
-from imutherm.studies import filter_tuning as tuner
+from imutherm.studies.attitude import filter_settings as fs
+from imutherm.studies.attitude import filter_tuning as tuner
 
 STUDY_FILTERS = ("gated", "kf", "ungated", "aekf", "fusion", "vqf")  # the answer shows at least these
 
@@ -202,7 +202,7 @@ def _answer_data(filters=("gated", "kf", "vqf")):
         schemes[name] = {"answer": f"{name}: a sentence.", "attitude": att}
     return {"layout": "reference", "ambient_C": 70.0, "power_W": 1.0, "seeds": [0, 1, 2],
             "out_of_range_policy": "linear", "schemes": schemes,
-            "filter_settings": {"tuned": True, "file": "studies/filter_settings.toml", "meta": {"seeds": [100, 101]}},
+            "filter_settings": {"tuned": True, "file": "studies/attitude/filter_settings.toml", "meta": {"seeds": [100, 101]}},
             "study": {"grade": "adis16355", "profiles": ["flight"], "compensations": ["conventional", "improved"],
                       "filters": list(filters)}}
 

@@ -14,8 +14,8 @@ from imutherm.cli import main
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
-from imutherm.studies.fitted_model import apply_fitted, fitted_options, load_fitted_model
-from imutherm.studies.thermal_study import run_scheme
+from imutherm.studies.thermal.fitted_model import apply_fitted, fitted_options, load_fitted_model
+from imutherm.studies.thermal.thermal_study import run_scheme
 from imutherm.unit import knobs
 from imutherm.unit.effects import effect_problem
 from imutherm.unit.model import ModelOptions
@@ -114,7 +114,7 @@ def test_bad_model_files_are_refused(model_file, tmp_path, capsys):
 def test_round_trip_correlate_then_solve_and_compare_on_the_fitted_model(tmp_path):
     """0.35 W hidden at the 5 V regulator (full-model data, ±10 % nuisance, noise) on a coarse mesh ->
     ``correlate`` -> ``solve --model`` and ``compare --model`` give the corrected model's rises and name it."""
-    from imutherm.studies.hidden_effect import make_case
+    from imutherm.studies.correlation.hidden_effect import make_case
 
     case = make_case(tmp_path / "case", "power@reg_5v", np.random.default_rng(3), mesh_size_mm=6.0, min_cells=1,
                      value=0.35, samples=30)

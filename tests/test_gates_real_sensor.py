@@ -18,7 +18,7 @@ from imutherm.imu import motion
 from imutherm.imu.attitude_math import G0, gravity_dir_body
 from imutherm.imu.filters import FusionParams, GatedParams, KFParams, run_fusion, run_gated, run_kf
 from imutherm.imu.filters.fusion_peer import GYRO_FULL_SCALES_DPS, gyro_range_of_grade, looks_saturated, make_ahrs
-from imutherm.studies.attitude_study import GateConfig, run_filters
+from imutherm.studies.attitude.attitude_study import GateConfig, run_filters
 
 RATE = 286.0
 DT = 1.0 / RATE
@@ -169,7 +169,7 @@ def test_study_fusion_range_is_the_grades_full_scale(monkeypatch):
     """The attitude study gives the fusion peer its sensor grade's stated full scale (adis16355 +-300 °/s,
     adis16488 +-450 °/s, ideal: none), not the record's peak, and says so in attitude.json."""
     from imutherm.imu.filters import fusion_peer
-    from imutherm.studies.attitude_study import run_attitude_study
+    from imutherm.studies.attitude.attitude_study import run_attitude_study
 
     assert [gyro_range_of_grade(g) for g in ("adis16355", "adis16488", "ideal")] == pytest.approx([300, 450, 0])
     seen = []

@@ -13,7 +13,7 @@ from imutherm.geometry.materials import get_material, with_properties
 from imutherm.geometry.mesh import build_mesh
 from imutherm.measured import read_measured
 from imutherm.thermal.small_signal import periodic_ambient_field, tangent_operator
-from imutherm.studies.hidden_effect import (CHAMBER_AMPLITUDE_K, CHAMBER_CYCLING, CHAMBER_PERIOD_S,
+from imutherm.studies.correlation.hidden_effect import (CHAMBER_AMPLITUDE_K, CHAMBER_CYCLING, CHAMBER_PERIOD_S,
                                             POWER_MODE_CHAIN_V, POWER_MODE_STEP, make_case)
 from imutherm.unit import knobs
 from imutherm.thermal.assembly import assemble
@@ -180,7 +180,7 @@ def test_model_form_path_differs_from_the_inversion_model_on_a_null_case(tmp_pat
     (no nuisance, no noise, no offsets), air scheme at 70 C on a 6 mm mesh, the s2s law's rises at 1500 s
     are 15-80 % above the effective law's at the board's IR points (measured +44, +70, +59 % at 6 mm) (the default mesh: tp1 24.1 K against
     16.9 K steady, +43 %, docs/benchmarks/cavity_radiation.md), while the potted-free grease scheme differs less than the air scheme."""
-    from imutherm.studies.hidden_effect import model_form_options
+    from imutherm.studies.correlation.hidden_effect import model_form_options
     inv = ModelOptions(cavity_law="effective")  # named: the library's default law may change
     assert model_form_options(inv).cavity_law == "s2s"
     assert model_form_options(model_form_options(inv)).cavity_law == "effective"
@@ -203,7 +203,7 @@ def test_discretisation_path_differs_from_the_inversion_model_by_its_stated_amou
     (2026-12-04). The mild campaign path's distance from the model (0.14-0.16 K RMS with the ±10 % nuisance) is
     therefore its generator's finer mesh and the nuisance, hardly the radiosity's discretisation
     (docs/benchmarks/correlation.md says so)."""
-    from imutherm.studies.hidden_effect import model_form_options
+    from imutherm.studies.correlation.hidden_effect import model_form_options
     inv = ModelOptions(cavity_law="s2s")
     kw = dict(experiments=(("air", 70.0), ("grease", 70.0)), sites=("tp1", "tp2", "tp3"), mesh_size_mm=6.0,
               min_cells=1, samples=4, noise_K=0.0, offset_K=0.0, nuisance=0.0)
@@ -222,7 +222,7 @@ def test_model_form_paths_and_their_refusals():
     the 'layered' path keeps the laws and makes every contact a thin solid layer (the generator refines its grid
     for them: tests/test_correlation_form.py)."""
     from imutherm import InputError
-    from imutherm.studies.hidden_effect import FORM_PATCH_MM, FORM_RAYS, MODEL_FORMS, model_form_options
+    from imutherm.studies.correlation.hidden_effect import FORM_PATCH_MM, FORM_RAYS, MODEL_FORMS, model_form_options
     s2s = ModelOptions(cavity_law="s2s")
     assert MODEL_FORMS == ("cavity-law", "discretisation", "layered")
     lay = model_form_options(s2s, "layered")

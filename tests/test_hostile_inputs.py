@@ -76,8 +76,8 @@ def no_work(monkeypatch):
     """Meshing, solving and the attitude / calibration studies fail the test if they start."""
     import imutherm.cli.calibrate as cal
     import imutherm.cli.geometry as geo
-    import imutherm.studies.attitude_study as att
-    import imutherm.studies.thermal_study as ts
+    import imutherm.studies.attitude.attitude_study as att
+    import imutherm.studies.thermal.thermal_study as ts
 
     monkeypatch.setattr(geo, "build_mesh", _fail)
     monkeypatch.setattr(ts, "build_mesh", _fail)
@@ -311,7 +311,7 @@ def _csv_cases() -> dict:
 
 @pytest.mark.parametrize("case", list(_csv_cases()))
 def test_bad_temperature_csv(case, out, tmp_path, capsys, monkeypatch):
-    import imutherm.studies.attitude_study as att
+    import imutherm.studies.attitude.attitude_study as att
 
     data, expect = _csv_cases()[case]
     path = tmp_path / f"{case}.csv"
@@ -326,7 +326,7 @@ def test_bad_temperature_csv(case, out, tmp_path, capsys, monkeypatch):
 
 
 def test_temperature_csv_with_byte_order_mark(tmp_path):
-    from imutherm.studies.attitude_study import read_temperature_csv
+    from imutherm.studies.attitude.attitude_study import read_temperature_csv
 
     path = tmp_path / "bom.csv"
     path.write_bytes(codecs.BOM_UTF8 + b"time_s,gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z\n0,1,2,3,4,5,6\n")
@@ -662,7 +662,7 @@ MEASURED = {  # name -> (text, expected tokens)
     "kelvin_power_on": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,343.15\n300,358.1\n", ["kelvin", "power-on"]),
     "fahrenheit": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,158\n300,190\n", ["degF", "power-on"]),
     "one_row": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,70\n", ["one row"]),
-    # readings no unit of this kind can produce (studies/plausibility.py), refused before any model is built
+    # readings no unit of this kind can produce (studies/correlation/plausibility.py), refused before any model is built
     "rise_300K": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,70\n300,90\n600,370.5\ninf,95\n",
                   ["370.5", "solder"]),
     "colder_than_ambient": ("# scheme = air\n# ambient_C = 70\ntime_s,tp1\n0,70\n300,90\n600,61\ninf,95\n",

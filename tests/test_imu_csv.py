@@ -8,8 +8,8 @@ import pytest
 from imutherm import InputError
 from imutherm.cli.attitude import main
 from imutherm.imu.imu_log import read_imu_csv, write_imu_csv
-from imutherm.studies.recorded import log_filters
-from imutherm.studies import filter_benchmark as fb
+from imutherm.studies.attitude.recorded import log_filters
+from imutherm.studies.attitude import filter_benchmark as fb
 
 
 @pytest.fixture(scope="module")

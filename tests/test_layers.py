@@ -68,7 +68,7 @@ def test_no_layer_imports_a_layer_above_it(layer):
 def test_the_check_sees_an_upward_import(tmp_path):
     """The reader finds a function-level upward import (what the budget's cycle was made of)."""
     f = tmp_path / "m.py"
-    f.write_text("def f():\n    from imutherm.studies.thermal_study import run_scheme\n    import imutherm.cli\n"
+    f.write_text("def f():\n    from imutherm.studies.thermal.thermal_study import run_scheme\n    import imutherm.cli\n"
                  "from imutherm import studies, InputError\n")
     assert sorted((line, target) for line, target, _ in imports_of(f)) == [(2, "studies"), (3, "cli"), (4, "imutherm"),
                                                                       (4, "studies")]

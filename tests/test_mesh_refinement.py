@@ -133,7 +133,7 @@ def test_the_refined_solve_is_the_refined_problem_s_solution():
     AMG to 1e-10) within its stated ~1e-3 K (air, s2s exchange, natural convection and radiation)."""
     from dataclasses import replace
 
-    from imutherm.studies.thermal_study import mesh_error, run_scheme
+    from imutherm.studies.thermal.thermal_study import mesh_error, run_scheme
     from imutherm.thermal.steady import solve_steady
     from imutherm.unit.model import build_problem, cavity_exchange_law
 
@@ -154,7 +154,7 @@ def test_rises_grow_monotonically_under_uniform_refinement(scheme):
     """Reference unit, steady, linear boundary laws: every sensor site's rise grows from the base mesh to its
     2x and 3x refinements, and the lowest observed order at the dies is at least the study's assumed one."""
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.mesh_convergence import refinement_study
+    from imutherm.studies.thermal.mesh_convergence import refinement_study
     from imutherm.thermal.refinement import MESH_ERROR_ORDER
 
     st = refinement_study(None, scheme)
@@ -173,7 +173,7 @@ def test_the_study_s_estimate_bounds_the_default_mesh_s_error():
     up to 0.219 K, both at accel_x); the rises grow under refinement; and the study's corrected answer is within its
     bound of that extrapolation, the bound <= 0.1 K (issue 45; up to 0.055 K, accel_x)."""
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.mesh_convergence import refinement_study
+    from imutherm.studies.thermal.mesh_convergence import refinement_study
     from imutherm.thermal.refinement import MESH_ERROR_ORDER, bracket, richardson
     from imutherm.unit.model import ModelOptions
 
@@ -251,7 +251,7 @@ def test_the_answer_is_corrected_by_the_refined_mesh():
     """With the mesh-error estimate the scheme's answer is the estimate's corrected one: the steady site values are
     its answer_C, every site curve is the default mesh's rise scaled by one factor (so t63 and t95 do not move), the
     hot spot's rise is scaled by its own, and result.json says so; without it nothing changes."""
-    from imutherm.studies.thermal_study import mesh_corrected, mesh_error, result_summary, run_scheme
+    from imutherm.studies.thermal.thermal_study import mesh_corrected, mesh_error, result_summary, run_scheme
     from imutherm.thermal.refinement import HOT_SPOT
 
     kw = dict(mesh_size_mm=6.0, min_cells=1, transient=True, transient_model="reduced", until_settled=True,

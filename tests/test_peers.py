@@ -10,8 +10,8 @@ from imutherm.imu import motion
 from imutherm.imu.filters import EKFParams, MadgwickParams, MahonyParams, VQFParams
 from imutherm.imu.filters.peers import ekf_batch, madgwick_loop, mahony_loop
 from imutherm.imu.filters.registry import filter_names
-from imutherm.studies import filter_benchmark as fb
-from imutherm.studies.attitude_study import run_filters
+from imutherm.studies.attitude import filter_benchmark as fb
+from imutherm.studies.attitude.attitude_study import run_filters
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +104,7 @@ def test_the_benchmark_tunes_by_the_study_s_procedure():
     its choice is the grid search's own on the same objective, a ladder value, never worse than the defaults,
     deterministic; a filter without axes (aekf_gnss) or unknown is refused."""
     from imutherm.imu.filters.registry import REGISTRY
-    from imutherm.studies import filter_tuning
+    from imutherm.studies.attitude import filter_tuning
 
     recs = [r for r in fb.make_records((("swing", (100,)),))]
     res = fb.tune("madgwick", recs)
@@ -122,8 +122,8 @@ def test_the_benchmark_tunes_by_the_study_s_procedure():
 
 
 def test_benchmark_turn_radius_matches_the_platform_defaults():
-    from imutherm.studies.recorded import PLATFORMS
-    from imutherm.studies.attitude_study import DEFAULT_LEVER_ARM
+    from imutherm.studies.attitude.recorded import PLATFORMS
+    from imutherm.studies.attitude.attitude_study import DEFAULT_LEVER_ARM
 
     for prof in ("vehicle", "handheld"):
         assert fb.TURN_RADIUS[prof] == PLATFORMS[prof][1]

@@ -14,7 +14,7 @@ from imutherm import InputError
 from imutherm.cli.attitude import main
 from imutherm.imu.attitude_math import G0, euler_to_quat, gravity_dir_body, quat_to_dcm
 from imutherm.imu.imu_log import read_imu_csv, write_imu_csv
-from imutherm.studies import real_benchmark as rb
+from imutherm.studies.attitude import real_benchmark as rb
 
 DT = 0.01
 BROAD27 = rb.DATA_DIRS["broad"] / "27_disturbed_phone_vibration_B.hdf5"
@@ -200,7 +200,7 @@ def test_gated_lowpass_is_stable_at_any_time_constant(tau_acc):
     """The gated filter's low-pass sits in a strapdown frame outside its correction loop: at kp 3 1/s with a 10 s
     low-pass (kp tau_acc = 30; inside the loop, as before, it oscillated to 20-90° on real files) it holds the tilt
     of the known slow turns with a 0.5 °/s gyro bias within 1° RMS after 30 s."""
-    from imutherm.studies.attitude_study import GateConfig, run_filters
+    from imutherm.studies.attitude.attitude_study import GateConfig, run_filters
 
     t, q, w, f = _slow_turns()
     rng = np.random.default_rng(0)
@@ -278,7 +278,7 @@ def test_gyro_sample_conventions_integrate_their_own_samples():
 def test_cross_validation_splits_by_file():
     """Leave-one-file-out: every file is scored once by a fold whose training files exclude it and include every
     other file (both data sets)."""
-    from imutherm.studies.real_tuning import folds
+    from imutherm.studies.attitude.real_tuning import folds
 
     files = ["02a/1", "02a/2", "B07", "B16", "B27"]
     fs = folds(files)
@@ -289,12 +289,12 @@ def test_cross_validation_splits_by_file():
 
 @pytest.mark.skipif(not BROAD27.exists(), reason="the shared BROAD development files are not here")
 def test_real_settings_file_is_the_procedures_output():
-    """The --platform handheld settings come from studies/real_settings.toml: every filter tuned on the real files
+    """The --platform handheld settings come from studies/attitude/real_settings.toml: every filter tuned on the real files
     (the registry's real_filters) has an entry, each with its grid, its dev and cross-validated scores on the nine
     files, no guard breach, and gated, kf, aekf meet the issue's target (cv mean <= 1.3x VQF's, every file <= 2x)."""
     from imutherm.imu.filters.registry import real_filters
-    from imutherm.studies.real_settings import load_real_settings
-    from imutherm.studies.recorded import platform_settings
+    from imutherm.studies.attitude.real_settings import load_real_settings
+    from imutherm.studies.attitude.recorded import platform_settings
 
     rs = load_real_settings()
     assert set(rs.values) == set(real_filters()) and len(rs.meta["files"]) == 9

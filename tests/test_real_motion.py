@@ -408,7 +408,7 @@ def test_every_filter_that_takes_a_varying_step_integrates_the_true_steps():
     gyro integrates 13 % too little time); the others (VQF, one sample period fixed at construction) run at the
     median either way."""
     from imutherm.imu.filters.registry import REGISTRY, filter_names
-    from imutherm.studies.attitude_study import GateConfig, run_filters
+    from imutherm.studies.attitude.attitude_study import GateConfig, run_filters
 
     t, q, gyro, f, steps = _jittered_swing()
     rng = np.random.default_rng(1)
@@ -524,9 +524,9 @@ def test_mahony_is_never_run_at_the_ahrs_defaults_on_motion():
 
     from imutherm.imu.filters.peers import MahonyParams, run_mahony
     from imutherm.imu.motion import PROFILES
-    from imutherm.studies.attitude_study import _profile_settings
-    from imutherm.studies.filter_settings import load_settings
-    from imutherm.studies.recorded import PLATFORM_PROFILE, PLATFORMS, platform_settings
+    from imutherm.studies.attitude.attitude_study import _profile_settings
+    from imutherm.studies.attitude.filter_settings import load_settings
+    from imutherm.studies.attitude.recorded import PLATFORM_PROFILE, PLATFORMS, platform_settings
 
     fs = load_settings()
     for plat in PLATFORMS:
@@ -636,8 +636,8 @@ def test_every_filter_holds_a_constant_rate_rotation(name, turntable_record):
     the exact gyro 0°; a frame or sign error in the gyro propagation shows as degrees (the body turns through
     360° every 12 s). Measured: gated 0.12, kf 0.23, ungated 0.10, fusion 0.20, aekf 0.02, aekf_gnss 0.06, vqf
     0.09, mahony 0.17, ekf 0.10; madgwick 0.45 (expected to fail, see its reason)."""
-    from imutherm.studies.attitude_study import GateConfig, run_filters
-    from imutherm.studies.filter_settings import load_settings
+    from imutherm.studies.attitude.attitude_study import GateConfig, run_filters
+    from imutherm.studies.attitude.filter_settings import load_settings
 
     t, q, g, a, _, fixes = turntable_record
     est, _ = run_filters(g, a, DT, (0.3, 0.0, 0.0), GateConfig(init_s=8.0), names=(name,), gnss=fixes,

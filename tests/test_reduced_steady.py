@@ -13,7 +13,7 @@ import pytest
 
 from imutherm.imu.sensor_model import SITES
 from imutherm.studies import end_to_end
-from imutherm.studies.thermal_study import run_scheme
+from imutherm.studies.thermal.thermal_study import run_scheme
 from imutherm.thermal import reduced_steady
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.steady import solve_steady

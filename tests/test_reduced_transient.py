@@ -8,7 +8,7 @@ the reduced model), the check's estimate against the true error, and the fall-ba
 import numpy as np
 import pytest
 
-from imutherm.studies.thermal_study import run_scheme
+from imutherm.studies.thermal.thermal_study import run_scheme
 from imutherm.thermal import reduced_transient
 from imutherm.unit.model import ModelOptions
 
@@ -53,7 +53,7 @@ def test_reduced_result_reads_like_a_transient(short_effective):
     assert tr.probe_C.shape == (len(tr.times), len(tr.probe_names))
     assert np.allclose(tr.probe_C[0], red.steady.problem.ambient_C)   # power-on from the ambient
     assert tr.energy_balance_rel_error < 1e-3
-    from imutherm.studies.thermal_study import result_summary
+    from imutherm.studies.thermal.thermal_study import result_summary
     s = result_summary(red)
     assert s["transient_model"] == "reduced" and s["transient_check"]["accepted"]
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from imutherm.studies.thermal_study import run_scheme
+from imutherm.studies.thermal.thermal_study import run_scheme
 from imutherm.thermal import linear, reduced_transient
 from imutherm.thermal.reduced import linearised, sparse_part
 

@@ -1,4 +1,4 @@
-"""The correlation's re-run of the corrected model (studies/forward.py ``checked_rise``): the full steady solve and
+"""The correlation's re-run of the corrected model (studies/thermal/forward.py ``checked_rise``): the full steady solve and
 the transient on the study's checked reduced model, the full adaptive FEM where the check fails.
 
 The reference is the full adaptive TR-BDF2 run ten times tighter than the library's default (1e-3 K per step
@@ -14,7 +14,7 @@ import pytest
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
-from imutherm.studies.forward import checked_rise, full_rise
+from imutherm.studies.thermal.forward import checked_rise, full_rise
 from imutherm.thermal import reduced_transient
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.steady import solve_steady

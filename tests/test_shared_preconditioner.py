@@ -7,7 +7,7 @@ import pytest
 
 from imutherm.geometry.layout import load_layout
 from imutherm.studies.end_to_end import thermal as thermal_mod
-from imutherm.studies.thermal_study import mesh_error, run_scheme
+from imutherm.studies.thermal.thermal_study import mesh_error, run_scheme
 from imutherm.thermal import linear, reduced_steady, reduced_transient
 from imutherm.unit.model import ModelOptions
 

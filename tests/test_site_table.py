@@ -10,7 +10,7 @@ from imutherm.site_table import ACCEL_SITES, GYRO_SITES, SITES, read_site_table,
 
 def test_site_names_are_defined_once():
     import imutherm.imu.sensor_model as sm
-    import imutherm.studies.thermal_study as ts
+    import imutherm.studies.thermal.thermal_study as ts
 
     assert sm.SITES is SITES and ts.GYRO_SITES is GYRO_SITES and ts.ACCEL_SITES is ACCEL_SITES
     assert GYRO_SITES + ACCEL_SITES == SITES
@@ -19,7 +19,7 @@ def test_site_names_are_defined_once():
 @pytest.fixture(scope="module")
 def coarse_run():
     """A real power-on transient of the reference unit (coarse mesh, linear laws: a few seconds)."""
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
     from imutherm.unit.model import ModelOptions
 
     opts = ModelOptions(exterior="fixed", radiation=False, cavity_radiation=False)
@@ -30,8 +30,8 @@ def test_round_trip_through_the_writers_of_every_command(coarse_run, tmp_path):
     """The probe table of a real run, written by the one writer and read back by the one reader (as
     ``imutherm attitude --temperature-csv`` and the reports read it): times to 9 digits, temperatures
     to 1e-6 K, every site in the file's order, the IMU's six in SITES order."""
-    from imutherm.studies.attitude_study import read_temperature_csv
-    from imutherm.studies.thermal_study import probe_table
+    from imutherm.studies.attitude.attitude_study import read_temperature_csv
+    from imutherm.studies.thermal.thermal_study import probe_table
 
     header, rows = probe_table(coarse_run)
     assert header[0] == "time_s" and set(SITES) < set(header[1:]) and len(rows) > 5

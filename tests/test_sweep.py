@@ -316,7 +316,7 @@ def test_transient_sweep_adds_t95_of_the_hottest_site(tmp_path):
 @pytest.mark.slow
 def test_attitude_columns_are_the_end_to_end_metrics_of_the_case(tmp_path):
     from imutherm.studies.end_to_end import scheme_attitude_metrics
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
     from imutherm.unit.model import ModelOptions
 
     out = tmp_path / "a"

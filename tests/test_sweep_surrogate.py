@@ -163,7 +163,7 @@ def test_the_largest_rise_is_the_maximum_over_the_powered_nodes():
     the 3.3 V regulator moves when its neighbour, the 5 V regulator, runs at a third of its power)."""
     from imutherm.studies.sweep.case import run_case
     from imutherm.studies.sweep.plan import full_case
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
 
     p = plan_sweep(None, "grease", [f"{POWER}=0.203,1.421"], method="grid", surrogate="reduced", **COARSE)
     sur = surrogate.build_surrogate(p)

@@ -42,8 +42,8 @@ def test_a_second_study_solves_nothing(folder, monkeypatch, capsys):
     assert len(list(folder.glob("*.pkl"))) == 1
     capsys.readouterr()
     for mod, name in ((thermal_mod, "thermal_case"), (thermal_mod, "solve_steady"),
-                      ("imutherm.studies.thermal_study.solve_steady", None),
-                      ("imutherm.studies.thermal_study.solve_transient", None)):
+                      ("imutherm.studies.thermal.thermal_study.solve_steady", None),
+                      ("imutherm.studies.thermal.thermal_study.solve_transient", None)):
         if name is None:
             monkeypatch.setattr(mod, _no_solve)
         else:
@@ -121,7 +121,7 @@ def test_the_uncertainty_models_are_kept(folder, monkeypatch):
     """``compare --uncertainty``'s reduced models: a second build of the same content reads the first; another
     input range is another key."""
     from imutherm.geometry.build import build_geometry
-    from imutherm.studies import uncertainty
+    from imutherm.studies.uncertainty import uncertainty
     from imutherm.thermal import reduced
 
     ins = uncertainty.inputs(build_geometry(None, "potted"))
@@ -141,7 +141,7 @@ def test_the_thermal_comparison_is_kept(folder, monkeypatch, capsys):
     """``compare --thermal-only``: each scheme's result is read back from the cache, in this process (``jobs``
     1) and in the workers alike."""
     from imutherm.studies.compare import compare_schemes
-    from imutherm.studies import thermal_study
+    from imutherm.studies.thermal import thermal_study
 
     kw = dict(mesh_size_mm=6.0, min_cells=1, t_end=300.0, transient_model="reduced")
     first = compare_schemes(None, ("potted",), jobs=1, **kw)

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from imutherm.studies.thermal_study import run_scheme
+from imutherm.studies.thermal.thermal_study import run_scheme
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.metrics import T95_FRACTION, settle_time
 from imutherm.thermal.solve import solve_transient, time_steps

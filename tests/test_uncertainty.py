@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from imutherm.studies import uncertainty
+from imutherm.studies.uncertainty import uncertainty
 
 
 def _uniform(*ranges):

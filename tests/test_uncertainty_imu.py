@@ -1,5 +1,5 @@
 """The residual sensor errors and attitude error under the thermal model's uncertainty
-(:mod:`imutherm.studies.uncertainty_imu`): a draw at the nominal inputs is the nominal study, bit for bit;
+(:mod:`imutherm.studies.uncertainty.uncertainty_imu`): a draw at the nominal inputs is the nominal study, bit for bit;
 each draw's hand-off moves the study's curves by the reduced model's change; the difference between
 schemes is taken draw by draw; the CLI's refusals and the JSON's keys."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from imutherm.imu.sensor_model import SITES
-from imutherm.studies import uncertainty_imu
+from imutherm.studies.uncertainty import uncertainty_imu
 from imutherm.studies.end_to_end import StudyConfig, imu_case, reduce_cases
 
 #: the study's IMU side, lean but with two profiles, three compensations and three filters (the draws cut it)
@@ -141,7 +141,7 @@ def test_answer_words_on_the_attitude_error():
 
 
 def test_imu_section_json_keys():
-    from imutherm.studies.uncertainty import _imu_section
+    from imutherm.studies.uncertainty.uncertainty import _imu_section
 
     rom_a, rom_g = ToyRom(), ToyRom(0.6)
     draws = [dict(V0), {"power_scale": 1.15, "power@reg_5v": 0.6, "mount_h_W_m2K": 200.0}]
@@ -186,7 +186,7 @@ def test_nominal_draws_through_the_real_chain_reproduce_the_study():
     """On the FEM (6 mm mesh, the model's default cavity law): the study of the air scheme, its reduced model, a
     draw pinned at the nominal inputs through the IMU chain gives the study's attitude and residual figures
     exactly (measured 13 min wall for two schemes on the shared machine; one scheme here)."""
-    from imutherm.studies import uncertainty
+    from imutherm.studies.uncertainty import uncertainty
     from imutherm.studies.end_to_end import run_study
 
     cfg = StudyConfig(seeds=1, profiles=("flight",), compensations=("improved",), filters=("gated",))

@@ -201,7 +201,7 @@ def test_the_grease_scheme_bonds_the_parts_that_set_the_hot_spot_and_the_sensor(
     assert bond.lo[2] == pytest.approx(geo.part("housing").hole[0][2])   # from the cavity floor (the base) ...
     assert bond.hi[2] == pytest.approx(geo.part("U3").lo[2])             # ... to the regulator where it is
     # bonded, the hot spot and the sensor run cooler than in air (the rule's point)
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
 
     air, gr = (run_scheme(r.spec, s, mesh_size_mm=6, min_cells=1).metrics for s in ("air", "grease"))
     # (the diode's heat leaves mostly through its leads; the grease touches its moulded body)

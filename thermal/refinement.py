@@ -104,6 +104,9 @@ class RefinementEstimate:
     answer_C : (m,) [°C] the corrected answer, answer_error_K : (m,) [K] its error bound (:func:`bracket`)
     ratio : int, order : float (assumed, :data:`MESH_ERROR_ORDER`)
     coarse_nodes, fine_nodes : int; seconds : float [s] (wall) and cpu_s : float [s] of the refined solve
+    solver : str, 'assembled' (:func:`refined_steady`) or 'matrix-free'
+    (:func:`imutherm.thermal.mesh_estimate.refined_steady_matrix_free`); cg_steps : int, its CG steps (0: not counted)
+    fallback : str, why the assembled solve was used after the matrix-free one ('' none)
     """
 
     names: tuple
@@ -119,6 +122,9 @@ class RefinementEstimate:
     fine_nodes: int
     seconds: float
     cpu_s: float
+    solver: str = "assembled"
+    cg_steps: int = 0
+    fallback: str = ""
 
     def max_error(self, names, of: str = "error_K") -> tuple:
         """(the error [K] of largest magnitude over ``names`` (those present), its site); ``of``: 'error_K' (the
@@ -135,6 +141,8 @@ class RefinementEstimate:
         return {"method": f"Richardson: the steady solve again on the mesh with every interval split in "
                           f"{self.ratio} ({self.fine_nodes:,} nodes), order p = {self.order:g} assumed "
                           "(imutherm.thermal.refinement.MESH_ERROR_ORDER)",
+                "refined_solver": getattr(self, "solver", "assembled"), "cg_steps": getattr(self, "cg_steps", 0),
+                "fallback": getattr(self, "fallback", ""),
                 "ratio": self.ratio, "order": self.order, "coarse_nodes": self.coarse_nodes,
                 "fine_nodes": self.fine_nodes, "timings_s": {"wall": self.seconds, "cpu": self.cpu_s},
                 "answer": "answer_C, the midpoint between refined_C and the extrapolation at the order p, within "
@@ -237,7 +245,7 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
     exchanges = [bc.law for bc in asm.nonlinear if isinstance(bc.law, CavityExchange)]
     T = prolong @ Tc
     T[dnodes] = dvals
-    atol = None
+    atol, count = None, [0]
     for _ in range(max_newton):
         N, J = asm.nonlinear_flux(T) if asm.nonlinear else (0.0, None)
         r = F - L @ T - N
@@ -251,7 +259,8 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
         if J is not None:
             A.data[D.free_diag] += J[~D.mask]
         op = _with_exchanges(A, exchanges, T, D.mask) if exchanges else A
-        dT, info = spla.cg(op, r, rtol=0.0, atol=atol, M=_two_level(A, prolong, coarse_pc), maxiter=500)
+        dT, info = spla.cg(op, r, rtol=0.0, atol=atol, M=_two_level(A, prolong, coarse_pc), maxiter=500,
+                           callback=lambda _x: count.__setitem__(0, count[0] + 1))
         A.data[D.free_diag] = diag
         if info != 0:
             raise ConvergenceError(f"refined steady solve: CG did not reach rtol {REFINED_CG_RTOL:g} (info {info})")
@@ -265,7 +274,8 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
     err, extra = richardson(coarse, fine, ratio, order)
     answer, bound = bracket(coarse, fine, ratio, order)
     return RefinementEstimate(names, coarse, fine, err, extra, answer, bound, int(ratio), float(order), int(len(Tc)),
-                              int(fine_problem.grid.n_nodes), time.perf_counter() - t0, time.process_time() - c0)
+                              int(fine_problem.grid.n_nodes), time.perf_counter() - t0, time.process_time() - c0,
+                              cg_steps=count[0])
 
 
 def fmt_error(est: RefinementEstimate, sites) -> str:
@@ -275,9 +285,18 @@ def fmt_error(est: RefinementEstimate, sites) -> str:
     e, at_e = est.max_error(sites)
     hot = est.names.index(HOT_SPOT)
     if not math.isfinite(b):
-        return (f"mesh (Richardson, {est.ratio}x refined, p >= {est.order:g}): answer corrected, hot spot within "
+        line = (f"mesh (Richardson, {est.ratio}x refined, p >= {est.order:g}): answer corrected, hot spot within "
                 f"{est.answer_error_K[hot]:.3f} K (default mesh {est.error_K[hot]:+.2f} K)")
-    return error_line(est.ratio, est.order, b, at_b, est.answer_error_K[hot], e, at_e, est.error_K[hot])
+    else:
+        line = error_line(est.ratio, est.order, b, at_b, est.answer_error_K[hot], e, at_e, est.error_K[hot])
+    return line + solver_note(est)
+
+
+def solver_note(est: RefinementEstimate) -> str:
+    """'' for the matrix-free refined solve (the default); else how the refined solve was made and why."""
+    if getattr(est, "fallback", ""):
+        return f"; bound: refined solve assembled, because {est.fallback}"
+    return ""
 
 
 def error_line(ratio: int, order: float, bound_K: float, bound_at: str, hot_bound_K: float, error_K: float,

@@ -2,7 +2,7 @@
 
 Two schemes (:mod:`imutherm.thermal.stepping`): the θ-scheme (θ = 1 backward Euler, θ = 0.5
 Crank–Nicolson) with given steps, and TR-BDF2 with given or error-controlled steps (the default of every
-study: :func:`imutherm.studies.thermal_study.run_scheme`). Both work in increment form from a uniform start
+study: :func:`imutherm.studies.thermal.thermal_study.run_scheme`). Both work in increment form from a uniform start
 (``ambient_C``: power-on); the θ-scheme linearises the nonlinear laws once per step about the
 start-of-step temperature, ``N(T1) ≈ N(T0) + N'(T0) (T1 − T0)`` (no inner iterations); the energy
 bookkeeping uses the same fluxes the scheme used, so the balance closes to solver precision. Matrices are
@@ -190,7 +190,7 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
         means the same scheme it always did: the verification cases call it so
         (``theta=0.5``, Crank–Nicolson) and switching the default would change their
         stored figures. Every study passes ``'trbdf2'``
-        (:func:`imutherm.studies.thermal_study.run_scheme`, the reduced models' checks,
+        (:func:`imutherm.studies.thermal.thermal_study.run_scheme`, the reduced models' checks,
         the correlation's re-runs) and so does the CLI; adaptive steps (``dt=None``)
         need ``'trbdf2'``.
     theta : float [-]
@@ -268,7 +268,7 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
     >>> print(f"{result.probe_C[-1, 0] - 20.0:.2f} K after {result.times[-1]:.0f} s in {result.steps} steps")
     6.33 K after 400 s in 14 steps
 
-    A layout's problem and its sensor sites: :func:`imutherm.studies.thermal_study.run_scheme`, or
+    A layout's problem and its sensor sites: :func:`imutherm.studies.thermal.thermal_study.run_scheme`, or
     ``solve_transient(problem, 1500.0, scheme="trbdf2", probes=geometry.sites, settle_C=...)`` as in the
     gallery's API example.
     """

@@ -97,7 +97,7 @@ class ModelOptions:
     contact_layers : bool, a contact conductance as a thin solid layer (default False: the touching cell
         layer's conductivity *along the normal* takes the series resistance, :class:`Interface`): True sets every
         component of the touching cells to the series value, the form of a resolved solid layer when the grid
-        has a thin cell layer there (:func:`imutherm.studies.form_generator.refine_contact_layers`); a
+        has a thin cell layer there (:func:`imutherm.studies.correlation.form_generator.refine_contact_layers`); a
         model-form device of the correlation campaign's generator, not a law of the default model
     """
 

@@ -25,7 +25,7 @@ adaptation laws instead:
 * **R bounded, divergence monitored** (issue 57): the adapted R stays within ``[r_min_x, r_max_x]`` times the
   accelerometer noise measured on the rest window. Unbounded, it ran away on slow turns through upside down
   and vertical: a correlated attitude error (a degree, normal while turning) read as noise raised R, the
-  accelerometer was trusted less, the error grew (a simulated 5-20 °/s tumble, :mod:`imutherm.studies.filter_stress`:
+  accelerometer was trusted less, the error grew (a simulated 5-20 °/s tumble, :mod:`imutherm.studies.attitude.filter_stress`:
   18° inclination RMS, 72° peak; bounded 0.7°, VQF 0.6°), while on other axes R fell to its 1e-8 floor.
   In the low-pass mode a **NIS monitor** (windowed mean of νᵀ S_m⁻¹ ν over the quasi-static updates, S_m with
   the accelerometer allowed ``monitor_deg`` of error) declares divergence above the chi-square bound, re-levels
@@ -114,7 +114,8 @@ from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, ch
                                         initial_quat, lever_arm_accel, sample_steps)
 from imutherm.imu.filters.inertial_lp import REST_STATE, REST_TAU, rest_step
 from imutherm.imu.filters.aekf_math import (align_rotation, hpht, joseph_update, mm3, mv3,  # noqa: F401
-                                            mat_mul, orthonormalise, propagate_cov, rotvec_dcm, skew)
+                                            mat_mul, orthonormalise, propagate_cov, record_reset,
+                                            reset_attitude, rotvec_dcm, skew)
 
 
 @dataclass(frozen=True)
@@ -429,21 +430,10 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                             C = mm3(C, align_rotation(C[2], -fk).T)
                             H[:, 0:3] = -mm3(C.T, skew(gn))
                             nu = fk + mv3(C.T, gn)
-                        for i in range(3):
-                            for j in range(9):
-                                P[i, j] = 0.0
-                                P[j, i] = 0.0
-                        P[0, 0] = P[1, 1] = (10.0 * np.pi / 180.0) ** 2
-                        P[2, 2] = p0_yaw
                         R[:] = r_start
-                        HPH = hpht(H, P)
-                        S = HPH.copy()
-                        for i in range(3):
-                            S[i, i] += R[i] / wgt
+                        HPH, S = reset_attitude(P, H, R, wgt, p0_yaw)
                         nis = nu @ np.linalg.solve(S, nu)
-                        if n_reset < resets.shape[0]:
-                            resets[n_reset] = k
-                            n_reset += 1
+                        n_reset = record_reset(resets, n_reset, k)
                         rej_t = 0.0
                     nis_s = 0.0
                     nis_n = 0
@@ -454,20 +444,9 @@ def _aekf_loop(gyro, accel, dt, dts, C0, b0, g, qg0, r0, rbw, qa, memory_s, q_id
                     if rej_t < reject_timeout:
                         accept = False
                     else:
-                        for i in range(3):
-                            for j in range(9):
-                                P[i, j] = 0.0
-                                P[j, i] = 0.0
-                        P[0, 0] = P[1, 1] = (10.0 * np.pi / 180.0) ** 2
-                        P[2, 2] = p0_yaw
-                        HPH = hpht(H, P)
-                        S = HPH.copy()
-                        for i in range(3):
-                            S[i, i] += R[i] / wgt
+                        HPH, S = reset_attitude(P, H, R, wgt, p0_yaw)
                         rej_t = 0.0
-                        if n_reset < resets.shape[0]:
-                            resets[n_reset] = k
-                            n_reset += 1
+                        n_reset = record_reset(resets, n_reset, k)
                 else:
                     rej_t = 0.0
             if accept:

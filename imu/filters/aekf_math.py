@@ -149,3 +149,31 @@ def joseph_update(P, H, Sinv, r, nu, I9):
             P[i, j] = x
             P[j, i] = x
     return dx
+
+
+@njit(cache=True)
+def reset_attitude(P, H, R, wgt, p0_yaw):
+    """The attitude-covariance reset after a divergence (the NIS monitor) or a long rejection (the re-level), in
+    place: P's attitude rows and columns zeroed, the tilt variances set to (10°)², the yaw variance to p0_yaw
+    [rad^2]; returns (H P Hᵀ, S = H P Hᵀ + diag(R / wgt)) for the measurement H (3, 9), R (3,) its variances and
+    wgt its weight."""
+    for i in range(3):
+        for j in range(9):
+            P[i, j] = 0.0
+            P[j, i] = 0.0
+    P[0, 0] = P[1, 1] = (10.0 * np.pi / 180.0) ** 2
+    P[2, 2] = p0_yaw
+    HPH = hpht(H, P)
+    S = HPH.copy()
+    for i in range(3):
+        S[i, i] += R[i] / wgt
+    return HPH, S
+
+
+@njit(cache=True)
+def record_reset(resets, n, k):
+    """Report sample k as a reset: resets[n] = k while there is room; returns the new count."""
+    if n < resets.shape[0]:
+        resets[n] = k
+        return n + 1
+    return n

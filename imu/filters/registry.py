@@ -8,7 +8,7 @@ IMU side). The runner takes a :class:`FilterInputs` (the samples and the setting
 rest window) and the filter's own parameters (None: its defaults, or what ``base`` derives from the inputs)
 and returns an :class:`~imutherm.imu.filters.common.AttitudeEstimate`. :func:`register` adds one: a new filter
 appears in ``imutherm attitude --filters``, in :func:`imutherm.imu.filters.run.run_filters`, in the
-plots, in the tuning procedure (:mod:`imutherm.studies.filter_tuning`) if it declares axes, and in the study
+plots, in the tuning procedure (:mod:`imutherm.studies.attitude.filter_tuning`) if it declares axes, and in the study
 (:class:`imutherm.studies.end_to_end.StudyConfig`, ``imutherm compare``) if it says ``in_study``. No other
 module lists filters by name.
 """
@@ -126,13 +126,13 @@ class FilterSpec:
     in_sweep : run in a sweep case's lean IMU side (:func:`sweep_filters`);
     varying_dt : the runner integrates over the true per-sample steps ``inputs.steps`` of an irregular record
     (False: it takes one sample period, ``dt``, the median step);
-    real_tuned : tuned on the real development files (:mod:`imutherm.studies.real_tuning`, :func:`real_filters`)
+    real_tuned : tuned on the real development files (:mod:`imutherm.studies.attitude.real_tuning`, :func:`real_filters`)
     for the recorded-log settings; False where the procedure's guard (no file worse than the library defaults)
     would keep defaults that are themselves a trap on real motion;
     rank : its place in the registry, the tables and the plots (lower first; ties in registration order);
     reference : the peer each filter's real-motion figures are set against (the ratio column of the tables);
     platform_tuned : its defaults are a trap on real motion, so each recorded-log platform runs its tuned setting
-    (:func:`imutherm.studies.recorded.platform_setting`);
+    (:func:`imutherm.studies.attitude.recorded.platform_setting`);
     gyro_range : it takes the sensor's declared gyro full scale (``--gyro-range``: its over-range recovery), and
     the attitude commands say what it ran with.
 

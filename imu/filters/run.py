@@ -85,7 +85,7 @@ def run_filters(gyro, accel, dt: float, lever_arm, gate: GateConfig = GateConfig
     ``aekf`` removes the accelerometer's lever-arm term itself; ``lever_comp=True`` removes it
     (:func:`imutherm.imu.filters.common.lever_arm_accel`) for every gravity-referenced filter (all but
     ``aekf_gnss``), so that they are compared on the same information.
-    ``settings`` {name: {field: value}} (the tuned settings, :mod:`imutherm.studies.filter_settings`) replaces
+    ``settings`` {name: {field: value}} (the tuned settings, :mod:`imutherm.studies.attitude.filter_settings`) replaces
     fields of what each filter runs with (``params[name]``, else its registry default on this record:
     ``gated`` / ``ungated`` their GatedParams after the rest window set the thresholds, ``kf`` its KFParams
     before the rest-window levels are added).

@@ -59,7 +59,7 @@ class Discrepancy:
     ratio: float
     groups: tuple = ()
     #: scheme -> the largest prior scale [-] the type-II search may reach: the model's known form error
-    #: (:meth:`imutherm.studies.form_error.FormScale.cap`); empty: :data:`DISCREPANCY_PRIOR_RANGE` alone
+    #: (:meth:`imutherm.studies.correlation.form_error.FormScale.cap`); empty: :data:`DISCREPANCY_PRIOR_RANGE` alone
     caps: dict = field(default_factory=dict)
 
     def group(self, i: int) -> str:

@@ -20,8 +20,8 @@ and the named effects re-fitted) against the model with it free, fitted without 
 - **evidence**: ΔAICc >= :data:`~imutherm.studies.correlation.MARGIN_NONE` for the free knob, and it explains
   at least :data:`~imutherm.studies.correlation.EXPLAIN_MIN_NOISE` noise sigmas of RMS;
 - **beyond the model's form**: the RMS it explains is at least ``FORM_SIGMAS`` (2) times the model's stated form
-  error at the readings (:func:`imutherm.studies.form_error.band_K`), the level within which
-  :func:`~imutherm.studies.form_error.named_through_form` leaves a residue to the model's form. Issue 58's
+  error at the readings (:func:`imutherm.studies.correlation.form_error.band_K`), the level within which
+  :func:`~imutherm.studies.correlation.form_error.named_through_form` leaves a residue to the model's form. Issue 58's
   campaign (toy, seed 59): with the profile interval, ``k_board_W_mK`` moved by a 2-5 % form error was named a
   finding on 2 of 3 null cases at each level;
 - **most of the gap**: the move alone (the nominal model with this knob at its fitted value) takes the RMS at the
@@ -52,7 +52,7 @@ from imutherm.unit import knobs
 GAP_SHARE = 0.5
 #: source ranges of the form knobs, where the re-tune's range is wider than the source's: the cavity's pair
 #: emissivity is re-tuned over 0.02-0.9 because the inside finish is not stated, but the unit's stated finish
-#: (anodised inner walls, solder-masked boards) gives 0.63-0.86 (studies/uncertainty.py: boards 0.80-0.95,
+#: (anodised inner walls, solder-masked boards) gives 0.63-0.86 (studies/uncertainty/uncertainty.py: boards 0.80-0.95,
 #: anodised walls 0.75-0.90, Incropera Table A.11, widened -> 1/(1/e1 + 1/e2 - 1))
 FORM_SOURCE_RANGES = {"cavity_emissivity": (0.63, 0.86, "anodised inner walls 0.75-0.90 and solder-masked boards "
                                                          "0.80-0.95 (Incropera Table A.11, widened): pair 0.63-0.86")}
@@ -148,8 +148,8 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
     from imutherm.studies.correlation.holdout import _held, _pooled
     from imutherm.studies.correlation.profile import CHI2_95, profile_interval, residual_floor_K2
     from imutherm.studies.correlation.verdict import EXPLAIN_MIN_NOISE, MARGIN_NONE
-    from imutherm.studies.written_model import heldout_rms
-    from imutherm.studies.form_error import FORM_SIGMAS
+    from imutherm.studies.correlation.written_model import heldout_rms
+    from imutherm.studies.correlation.form_error import FORM_SIGMAS
 
     out, sym = [], []
     h_nom = heldout_rms(fwd, fwd.nominal, test)

@@ -200,13 +200,13 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
                use_cache: bool = True, transient: str = "reduced"):
     """(site rises [K] of the corrected model at the run's times, how its transient was computed: dict) on
     the full model: its steady solve and, ``transient`` 'reduced', the transient on the checked reduced model
-    (:func:`imutherm.studies.forward.checked_rise`: the full adaptive FEM where the check fails), 'full' the
+    (:func:`imutherm.studies.thermal.forward.checked_rise`: the full adaptive FEM where the check fails), 'full' the
     full adaptive FEM. Kept in the disk cache under the key of the layout's content, scheme, options, values,
     sites, times, mesh and ``transient``."""
     from dataclasses import replace
 
     from imutherm.cache import cached
-    from imutherm.studies.forward import checked_rise
+    from imutherm.studies.thermal.forward import checked_rise
     if transient not in ("reduced", "full"):
         raise InputError(f"correlate: the re-run's transient is 'reduced' or 'full', not {transient!r}")
     model_vals, signal = {}, []
@@ -217,7 +217,7 @@ def _rerun_one(geo, values: dict, run: MeasuredRun, mesh_size_mm: float, min_cel
             model_vals[k] = v
     model_vals["power_scale"] = values.get("power_scale", 1.0) * run.power_scale
     # the study's CG tolerance: the same t95 to 0.1 s as 1e-6, 18 % fewer iterations (see STUDY_CG_RTOL)
-    from imutherm.studies.thermal_study import STUDY_CG_RTOL
+    from imutherm.studies.thermal.thermal_study import STUDY_CG_RTOL
     probes = {s: geo.sites[s] for s in run.sites}
 
     def build():
@@ -240,7 +240,7 @@ def rerun_full(runs, values: dict, models: Models, jobs: int = 1, progress=None,
     ``jobs``: runs re-run at once; ``use_cache``: a re-run of the same corrected model on the same data
     (the next correlation of the same unit) is read from the disk cache (:mod:`imutherm.cache`).
     ``transient``: 'reduced' (default) the full steady solve and the transient on the study's checked reduced
-    model, the full adaptive FEM where its check fails (:func:`imutherm.studies.forward.checked_rise`);
+    model, the full adaptive FEM where its check fails (:func:`imutherm.studies.thermal.forward.checked_rise`);
     'full' the full adaptive FEM (``--full``).
     """
     say = progress or (lambda s: None)

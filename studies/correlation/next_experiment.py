@@ -8,7 +8,7 @@ smallest pairwise separation of the leading candidates' predicted readings again
 
     z = max over readings |y_a - y_b| / s,   s² = noise² + (form fraction × rise)²
 
-(the form fraction: the model's stated form error per scheme, :mod:`imutherm.studies.form_error`, applied to
+(the form fraction: the model's stated form error per scheme, :mod:`imutherm.studies.correlation.form_error`, applied to
 the mean predicted rise: a smooth model error of that size could mimic the difference there). The pointwise
 maximum is the conservative reading of a separation: a smooth form error does not average away over readings.
 A design is expected to settle the question when z >= :data:`SETTLE_SIGMAS` for every pair.

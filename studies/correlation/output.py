@@ -158,7 +158,7 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
     ``[model]`` the layout and model switches the fit ran with (``layout_path``, ``options``), ``[correlation]``
     its verdict, RMS before / after and (up to :data:`MAX_TOML_READINGS`) the readings side by side
     (:func:`reading_rows`), so that ``solve`` / ``compare`` / ``sweep --model FILE`` run on it and
-    name it (:mod:`imutherm.studies.fitted_model`)."""
+    name it (:mod:`imutherm.studies.thermal.fitted_model`)."""
     import json
     from pathlib import Path
 
@@ -174,7 +174,7 @@ def updated_model_toml(res: CorrelationResult, layout_path: str | None = None,
         if layout_path is not None:
             lines.append(f"layout = {json.dumps(str(Path(layout_path).resolve()))}")
         if options is not None:
-            from imutherm.studies.fitted_model import OPTION_FIELDS
+            from imutherm.studies.thermal.fitted_model import OPTION_FIELDS
             for name in OPTION_FIELDS:
                 v = getattr(options, name)
                 if v is not None:

@@ -14,12 +14,12 @@ from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS
 from imutherm.unit import knobs
 from imutherm.unit.effects import EFFECTS, effect_of, signal_effect_names
-from imutherm.studies import form_error
+from imutherm.studies.correlation import form_error
 from imutherm.unit.model import ModelOptions
 from imutherm.studies.correlation.findings import explain_knobs
-from imutherm.studies.plausibility import check_plausible
+from imutherm.studies.correlation.plausibility import check_plausible
 from imutherm.workers import thread_limit
-from imutherm.studies.written_model import choose as choose_written
+from imutherm.studies.correlation.written_model import choose as choose_written
 from imutherm.studies.correlation.discrepancy import _disc_curve, form_band
 from imutherm.studies.correlation.explain import explanations as explanations_of
 from imutherm.studies.correlation.next_experiment import next_experiment as next_experiment_of
@@ -76,9 +76,9 @@ class CorrelationResult:
     #: re-tuned parameters that moved far and explain most of the gap
     #: (:mod:`imutherm.studies.correlation.findings`), first the largest share
     findings: tuple = ()
-    #: which model ``updated_model.toml`` carries and why (:mod:`imutherm.studies.written_model`)
+    #: which model ``updated_model.toml`` carries and why (:mod:`imutherm.studies.correlation.written_model`)
     written: dict | None = None
-    #: the model's known form error (:mod:`imutherm.studies.form_error`): the term's cap, the band of the rules
+    #: the model's known form error (:mod:`imutherm.studies.correlation.form_error`): the term's cap, the band of the rules
     form_scale: dict | None = None
     #: the corrected model's physics alone: its effects and the re-tune fitted without the discrepancy term, with
     #: pooled held-out figures (``after`` itself where no term was fitted); its intervals are the findings'

@@ -2,7 +2,7 @@
 
 For each scheme of a layout, with one set of model options:
 
-1. **Thermal** (:func:`imutherm.studies.thermal_study.run_scheme`): the steady
+1. **Thermal** (:func:`imutherm.studies.thermal.thermal_study.run_scheme`): the steady
    field and the power-on transient from the layout's ambient; each site's
    curve, t63/t95 and the spread inside each sensor triad.
 2. **Self-heating in the calibration oven** (:func:`self_heating_table`): the

@@ -68,9 +68,9 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     from imutherm.imu.sensor_model import simulate_imu
     from imutherm.imu.filters.run import GateConfig, run_filters
     from imutherm.imu.motion import DEFAULT_LEVER_ARM
-    from imutherm.studies.attitude_study import error_metrics, leveling_window_s
+    from imutherm.studies.attitude.attitude_study import error_metrics, leveling_window_s
     from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
-    from imutherm.studies.filter_settings import load_settings
+    from imutherm.studies.attitude.filter_settings import load_settings
 
     unit, cal_ss, run_ss = _draw(grade, seed)
     cals = _calibrations(unit, cal_ss, chamber_C, rise_K, config, bare_cal)
@@ -230,7 +230,7 @@ def scheme_attitude_metrics(result, *, seeds: int = 1, seed0: int = 0, config: S
 
     Parameters
     ----------
-    result : SchemeResult (:func:`imutherm.studies.thermal_study.run_scheme`; with a transient, the warm-up
+    result : SchemeResult (:func:`imutherm.studies.thermal.thermal_study.run_scheme`; with a transient, the warm-up
         phase is included, else only the steady phase)
     seeds, seed0 : int, units / noise draws (common random numbers, as in :func:`run_study`)
     config : StudyConfig, the IMU side (default :func:`sweep_config`; its seeds are replaced)

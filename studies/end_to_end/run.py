@@ -47,12 +47,12 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
         options, mesh, time and estimate settings, oven temperatures, code; not the IMU side) and keep the
         computed ones there; a hit prints ``<scheme>: thermal: cached (key ...)`` (whatever ``progress``) and
         solves nothing. ``$IMUTHERM_CACHE=off`` turns it off too
-    **thermal_kwargs : passed to :func:`imutherm.studies.thermal_study.run_scheme` (mesh_size_mm, min_cells,
+    **thermal_kwargs : passed to :func:`imutherm.studies.thermal.thermal_study.run_scheme` (mesh_size_mm, min_cells,
         transient time settings); the transient is always run. ``estimate_mesh_error=True``: each scheme's
-        steady answer also gets its discretisation error (:func:`~imutherm.studies.thermal_study.mesh_error`,
+        steady answer also gets its discretisation error (:func:`~imutherm.studies.thermal.thermal_study.mesh_error`,
         one refined solve at a time over the workers)
     """
-    from imutherm.studies.thermal_study import result_summary
+    from imutherm.studies.thermal.thermal_study import result_summary
 
     start = time.perf_counter()
     layout, schemes, options, jobs, seeds = _study_inputs(layout, schemes, options, jobs, config)

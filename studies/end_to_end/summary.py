@@ -169,7 +169,7 @@ def _settings_json(config: StudyConfig) -> dict:
     seeds, score), or a note that the defaults ran."""
     if not config.tuned:
         return {"tuned": False, "note": "every filter at its defaults"}
-    from imutherm.studies.filter_settings import load_settings
+    from imutherm.studies.attitude.filter_settings import load_settings
 
     fs = load_settings()
     return {"tuned": True, "file": fs.path, "meta": fs.meta,
@@ -207,6 +207,7 @@ def _numerical_error(th: dict) -> dict:
                        "answer_sensor_die_max_K": bound, "answer_sensor_die_max_site": bound_at,
                        "answer_hot_spot_K": hot.get("answer_error_K"),
                        "order": est["order"], "ratio": est["ratio"], "fine_nodes": est["fine_nodes"],
+                       "refined_solver": est.get("refined_solver", "assembled"), "fallback": est.get("fallback", ""),
                        "note": "sensor_die_max_K, hot_spot_K: estimated error of the default mesh's steady rise, "
                                "T* - T (positive: the rise is low), Richardson from the default mesh and the mesh "
                                "with every interval split; answer_*: the error bound of the answer the study uses "
@@ -232,7 +233,8 @@ def numerical_error_lines(summary: dict) -> list:
         if m and m.get("answer_sensor_die_max_K") is not None:
             parts.append(error_line(m.get("ratio", REFINEMENT_RATIO), m["order"], m["answer_sensor_die_max_K"],
                                     m["answer_sensor_die_max_site"], m["answer_hot_spot_K"], m["sensor_die_max_K"],
-                                    m["sensor_die_max_site"], m["hot_spot_K"]))
+                                    m["sensor_die_max_site"], m["hot_spot_K"])
+                         + (f"; bound: refined solve assembled, because {m['fallback']}" if m.get("fallback") else ""))
         if parts:
             lines.append(f"numerical error, {name}: " + "; ".join(parts))
     return lines
@@ -249,9 +251,9 @@ def study_summary(result: StudyResult) -> dict:
     """The ``summary.json`` content (module docstring; every metric ``{mean, std}`` over the seeds)."""
     from imutherm.geometry.materials import get_material
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.thermal_study import model_curves
+    from imutherm.studies.thermal.thermal_study import model_curves
     from imutherm.studies.paper import bench_comparison, layout_paper
-    from imutherm.studies.thermal_study import _options_dict
+    from imutherm.studies.thermal.thermal_study import _options_dict
 
     lay = result.layout
     schemes = {}
@@ -358,8 +360,8 @@ def write_scheme_files(result: StudyResult, out) -> None:
 
     from imutherm.io import write_csv
     from imutherm.site_table import write_site_table
-    from imutherm.studies.thermal_study import board_plane_map
-    from imutherm.studies.thermal_study import probe_table
+    from imutherm.studies.thermal.thermal_study import board_plane_map
+    from imutherm.studies.thermal.thermal_study import probe_table
     from imutherm.thermal.output import write_vtu
 
     out = Path(out)

@@ -13,7 +13,7 @@ from imutherm import InputError
 from imutherm.geometry.layout import LayoutSpec
 from imutherm.unit.model import ModelOptions, build_problem
 from imutherm.thermal.steady import solve_steady
-from imutherm.studies.thermal_study import longest_first, with_mesh_error  # noqa: F401  (the package's names)
+from imutherm.studies.thermal.thermal_study import longest_first, with_mesh_error  # noqa: F401  (the package's names)
 
 
 def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | None = None,
@@ -86,13 +86,13 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     Steady field, power-on transient (always run) and the oven self-heating table; a pure function of its
     arguments, so schemes can run in separate processes. With ``estimate_mesh_error``, the sites' values and
     curves and the oven's rises are the estimate's corrected answer
-    (:func:`~imutherm.studies.thermal_study.mesh_corrected`). The oven solves are reduced and checked when the
+    (:func:`~imutherm.studies.thermal.thermal_study.mesh_corrected`). The oven solves are reduced and checked when the
     transient is (``transient_model`` 'reduced'), else full. Returns (SchemeResult, chamber, rise, oven solves
     (list of dicts, :func:`self_heating_table`)).
     """
     from imutherm.budget import release_freed_memory
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.thermal_study import mesh_factors, run_scheme
+    from imutherm.studies.thermal.thermal_study import mesh_factors, run_scheme
 
     estimate = thermal_kwargs.pop("estimate_mesh_error", False)
     kept = {}   # the steady solve's preconditioner: the oven's check and the estimate's coarse level use it too
@@ -111,7 +111,7 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
 
 #: the study's own source a thermal case depends on, beside the models' (:data:`imutherm.cache.CODE_VERSION`:
 #: thermal, unit, geometry, layouts, the constants); files read, not imported
-CASE_SOURCES = (("studies", "thermal_study.py"), ("studies", "end_to_end/thermal.py"), ("imutherm", "site_table.py"))
+CASE_SOURCES = (("studies", "thermal/thermal_study.py"), ("studies", "end_to_end/thermal.py"), ("imutherm", "site_table.py"))
 
 
 def thermal_key(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, **thermal_kwargs) -> str:
@@ -169,7 +169,7 @@ def cached_scheme_run(layout: LayoutSpec, scheme: str, run_kwargs: dict, use_cac
     nothing read or written). A hit prints ``<scheme>: thermal: cached (key ...)``; an entry that cannot be read
     is recomputed, said in one line."""
     from imutherm.cache import enabled, key_of, load_status, source_version, store
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
 
     kw = {k: v for k, v in run_kwargs.items() if k != "progress"}
     key = None

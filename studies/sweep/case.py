@@ -15,7 +15,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from imutherm.studies.sweep.plan import Case, CaseSettings
 
 def case_outputs(result, sites) -> dict:
-    """Outputs of one :class:`~imutherm.studies.thermal_study.SchemeResult`.
+    """Outputs of one :class:`~imutherm.studies.thermal.thermal_study.SchemeResult`.
 
     max_rise_K [K] largest steady rise anywhere; rise_<site>_K [K] steady rise of each site;
     t95_s [s] (transient only) time to 95 % of its final rise of the site with the largest rise
@@ -51,7 +51,7 @@ def attitude_columns(transient: bool) -> tuple:
 
 def run_case(case: Case, settings: CaseSettings) -> dict:
     """Run one case; any exception is recorded in the row (status ``failed``), never raised."""
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
 
     start = time.perf_counter()
     row = {"case": case.case_id}

@@ -221,7 +221,7 @@ def case_model(raw: dict, path: str, scheme: str, base: ModelOptions, values: di
             _assign(data, key, v)
     layout = parse_layout(data, path)
     if fitted is not None:
-        from imutherm.studies.fitted_model import fitted_layout
+        from imutherm.studies.thermal.fitted_model import fitted_layout
         layout = fitted_layout(fitted, layout)
     geometry = build_geometry(layout, scheme)
     overrides = tuple(with_properties(get_material(m), f"--set materials.{m}", **ch) for m, ch in mats.items())
@@ -283,7 +283,7 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     attitude_seeds : int, IMU units / noise draws averaged per case (seeds 0 .. n-1)
     max_cpu_hours : float [h], most estimated CPU time of all cases (default :data:`MAX_CPU_HOURS`): the
         cases are counted and the first case's mesh estimated before the design is expanded
-    fitted : FittedModel or None, the correlated model (:mod:`imutherm.studies.fitted_model`): its powers
+    fitted : FittedModel or None, the correlated model (:mod:`imutherm.studies.thermal.fitted_model`): its powers
         act on every case's layout (after the case's own values); its other values must already be in
         ``options`` (``imutherm.cli._options.run_inputs``)
     surrogate : ``reduced`` (cases on the scheme's reduced model, :mod:`imutherm.studies.sweep.surrogate`:
@@ -359,7 +359,7 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
     settings = CaseSettings(scheme, float(mesh_size_mm), int(min_cells), bool(transient), float(t_end), sites,
                             bool(attitude), int(attitude_seeds))
     if fitted is not None:
-        from imutherm.studies.fitted_model import fitted_effects
+        from imutherm.studies.thermal.fitted_model import fitted_effects
         if fitted_effects(fitted):
             raise InputError(f"--model {fitted.path}: effect(s) {', '.join(e.text() for e in fitted_effects(fitted))} "
                              f"add a boundary law a sweep case cannot carry; use imutherm solve/compare --model")

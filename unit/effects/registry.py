@@ -50,7 +50,7 @@ class Effect:
     ambient_rate : callable or None, ``ambient_rate(setting) -> K/s``: a signal effect that moves the
         surroundings at this rate (it needs the sites' lag field and a transient run; a reduced model takes it
         as its ambient ramp); None: the effect acts on the reading
-    carried : how a fitted model carries the effect into a run (:mod:`imutherm.studies.fitted_model`):
+    carried : how a fitted model carries the effect into a run (:mod:`imutherm.studies.thermal.fitted_model`):
         'options' (the model options, by ``apply``), 'layout' (the layout's part powers) or 'run' (a boundary
         law the run switches on itself)
     target_options : target -> the :class:`~imutherm.unit.model.ModelOptions` field the parameter sets whatever
@@ -63,7 +63,7 @@ class Effect:
     fit_cost : CPU cost of fitting the effect relative to the others [-], before it is measured (a probe lag's
         rises are computed on a dense time grid and filtered)
     draw : callable or None, ``draw(rng, param) -> value``: a hidden value for the generated test cases
-        (:mod:`imutherm.studies.hidden_effect`); None: uniform over the parameter's range (log-uniform for a
+        (:mod:`imutherm.studies.correlation.hidden_effect`); None: uniform over the parameter's range (log-uniform for a
         log parameter)
     """
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.mesh import build_mesh
-from imutherm.studies.forward import full_rise
+from imutherm.studies.thermal.forward import full_rise
 from imutherm.unit import knobs
 
 #: the finer mesh (and s2s patches) of the grid estimate: the inversion's cell size over this factor

@@ -1,10 +1,10 @@
 """The filters' real-motion settings (``imutherm attitude --imu-csv --platform handheld``), read from
 ``real_settings.toml`` beside this module.
 
-Written by ``benchmarks/bench_real_motion.py --write`` (:mod:`imutherm.studies.real_tuning`): every filter with
-tuning axes, ours and the peers, tuned by the one procedure (:mod:`imutherm.studies.filter_tuning`) on the nine
+Written by ``benchmarks/bench_real_motion.py --write`` (:mod:`imutherm.studies.attitude.real_tuning`): every filter with
+tuning axes, ours and the peers, tuned by the one procedure (:mod:`imutherm.studies.attitude.filter_tuning`) on the nine
 real development files (RepoIMU and BROAD), with the physical base settings of
-:data:`~imutherm.studies.real_tuning.BASE` beside the tuned axes. The file holds per filter the values, the
+:data:`~imutherm.studies.attitude.real_tuning.BASE` beside the tuned axes. The file holds per filter the values, the
 grid, the per-file scores, the cross-validated scores (each file scored by the setting tuned on the other
 eight), the date and the command:
 the values are a *development* choice (fitted on the files they are scored on); the cross-validated figures are
@@ -46,7 +46,7 @@ class RealSettings:
 def parse_real_settings(data: dict, path: str = "<dict>") -> RealSettings:
     """Check the TOML content (every value a field of the filter's registry ``params_cls``) and build
     :class:`RealSettings`; one-line InputError naming the file, the filter and the field."""
-    from imutherm.studies.filter_settings import target_class
+    from imutherm.studies.attitude.filter_settings import target_class
 
     meta = data.get("meta", {})
     values, entries = {}, {}

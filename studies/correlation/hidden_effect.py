@@ -29,7 +29,7 @@ from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.geometry.mesh import DEFAULT_MIN_CELLS, build_mesh
 from imutherm.measured import write_measured
 from imutherm.unit import knobs
-from imutherm.studies.forward import checked_rise, full_rise, switched_rise
+from imutherm.studies.thermal.forward import checked_rise, full_rise, switched_rise
 from imutherm.unit.effects import EFFECTS, ModelVariant, effect_of, power_part, setting
 from imutherm.unit.cavity_laws import cavity_law
 from imutherm.unit.model import ModelOptions
@@ -194,7 +194,7 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
     if hidden in FINDING_KINDS:  # the hidden value replaces the parameter's nuisance draw
         nz[hidden] = v
     if nuisance_all:
-        from imutherm.studies.form_generator import nuisance_options
+        from imutherm.studies.correlation.form_generator import nuisance_options
         options, factors = nuisance_options(options, build_geometry(layout, experiments[0][0]), rng, nuisance)
         extra = {**extra, "nuisance_factors": factors}
     files = []
@@ -220,7 +220,7 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
             variant = ModelVariant(variant.geometry, variant.options, laws)
         grid = build_mesh(variant.geometry, mesh_size_mm, min_cells)
         if variant.options.contact_layers:
-            from imutherm.studies.form_generator import refine_contact_layers
+            from imutherm.studies.correlation.form_generator import refine_contact_layers
             grid = refine_contact_layers(grid, variant.geometry, variant.options)
         sig = [setting(hidden, **{effect_of(hidden).params[0].name: v})] if (
             hidden not in ("none", *OUT_OF_LIBRARY_KINDS, *FINDING_KINDS) and not is_model) else []
@@ -234,7 +234,7 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
             cyc = (v, extra["period_s"], extra["phase_rad"][e]) if hidden == CHAMBER_CYCLING else None
             if variant.options.contact_layers and cyc is None:
                 # the layered path: its own checked reduced transient (within 0.01 K of a tight full TR-BDF2 run
-                # on the re-run's cases, in a third of the time: studies/forward.checked_rise), the full adaptive
+                # on the re-run's cases, in a third of the time: studies/thermal/forward.checked_rise), the full adaptive
                 # one where the check fails
                 rise = checked_rise(variant, grid, probes, times, sig)[0]
             else:

@@ -58,7 +58,7 @@ def refinement_study(layout=None, scheme: str = "air", *, options=None, levels=L
     """Solve ``scheme`` on the base mesh and its refinements by ``levels`` (the first 1); observed orders and
     extrapolated rises from the three finest levels (:func:`imutherm.thermal.refinement.observed_order`)."""
     from imutherm.geometry.mesh import prolongation, refine_grid
-    from imutherm.studies.thermal_study import run_scheme
+    from imutherm.studies.thermal.thermal_study import run_scheme
     from imutherm.thermal.refinement import HOT_SPOT, observed_order, refined_steady
     from imutherm.unit.model import build_problem, cavity_exchange_law
 

@@ -47,7 +47,7 @@ from imutherm.imu.reference_log import (Alignment, estimate_alignment, inclinati
 
 #: the shared real recordings (relative to the repository's parent folder, or the folder the environment variable
 #: IMUTHERM_SHARED_DATA names: a git worktree elsewhere), one folder per data set
-SHARED = Path(os.environ.get("IMUTHERM_SHARED_DATA") or Path(__file__).resolve().parents[2] / "shared" / "data")
+SHARED = Path(os.environ.get("IMUTHERM_SHARED_DATA") or Path(__file__).resolve().parents[3] / "shared" / "data")
 DATA_DIRS = {"repoimu": SHARED / "repoimu", "broad": SHARED / "broad-dev"}
 DATA_DIR = DATA_DIRS["repoimu"]
 #: rest window [s] per layout (RepoIMU: released 1.3-1.5 s in; BROAD: 26-46 s at rest first, the --imu-csv default)
@@ -114,7 +114,7 @@ def prepare(path, *, init_s: float | None = None, skip_s: float = SKIP_S) -> Rea
 def prepare_log(log, *, init_s: float | None = None, skip_s: float = SKIP_S, name: str | None = None,
                 level: bool = True) -> RealRecord:
     """:func:`prepare` of a log already read (:class:`~imutherm.imu.reference_log.ReferenceLog`, e.g. a
-    simulated or transformed one: :mod:`imutherm.studies.filter_stress`); name None: the file's stem; level False:
+    simulated or transformed one: :mod:`imutherm.studies.attitude.filter_stress`); name None: the file's stem; level False:
     step 2 skipped (the IMU axes kept, so the filters start in the mounting's attitude, upside down or on a side)."""
     path = log.path
     init_s = INIT_S[log.layout] if init_s is None else float(init_s)
@@ -173,17 +173,17 @@ def score(rec: RealRecord, gravity) -> dict:
             "p95_deg": float(np.percentile(e, 95)), "noise_deg": float(np.std(blocks) / np.sqrt(NOISE_BLOCKS))}
 
 
-#: the gate design inputs on real hand / body motion (:data:`imutherm.studies.recorded.PLATFORMS` handheld)
+#: the gate design inputs on real hand / body motion (:data:`imutherm.studies.attitude.recorded.PLATFORMS` handheld)
 def _platform():
-    from imutherm.studies.recorded import PLATFORMS
+    from imutherm.studies.attitude.recorded import PLATFORMS
 
     return PLATFORMS["handheld"]
 
 
 def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
-    """Run ``names`` on ``rec`` (:func:`imutherm.studies.attitude_study.run_filters`: the handheld lever arm and
+    """Run ``names`` on ``rec`` (:func:`imutherm.studies.attitude.attitude_study.run_filters`: the handheld lever arm and
     turn radius, the record's rest window, interval gyro samples) with ``settings`` {name: {field: value}} on top
-    of the library defaults (None: every filter at its defaults; :func:`imutherm.studies.recorded.platform_settings`
+    of the library defaults (None: every filter at its defaults; :func:`imutherm.studies.attitude.recorded.platform_settings`
     gives a platform's), and score each: {name: score dict + accel_used_fraction, runtime_s}."""
     from imutherm.imu.filters import FusionParams
     from imutherm.imu.filters.run import GateConfig, run_filters
@@ -201,8 +201,23 @@ def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
         s["runtime_s"] = float(e.runtime_s)
         s["resets_s"] = None if e.resets is None else [float(k * rec.dt) for k in e.resets]  # divergence monitor
         s["rest_off"] = [(rec.t0 + t, a) for t, a in rest_disagreement(rec.gyro, rec.accel, rec.dt, e.gravity)]
+        s["motion_check"] = motion_check_json(rec.gyro, rec.accel, rec.dt, e.gravity, rec.init_s, t0=rec.t0)
         out[n] = s
     return out
+
+
+def motion_check_json(gyro, accel, dt, gravity, init_s, *, platform: str = "handheld", t0: float = 0.0,
+                      steps=None) -> dict:
+    """The in-motion divergence check (:func:`~imutherm.imu.filters.motion_check.motion_disagreement`) of a filter's
+    down direction (N,3), JSON-ready: window_s, bound_deg, dv_max_mps (the platform's velocity change across a
+    window) and accel_bias_mps2 (the accelerometer bias allowed) of the bound, worst_deg, n_windows, flagged
+    [(t_start [s], tilt [deg])] (times from ``t0`` [s])."""
+    from imutherm.imu.filters.motion_check import ACCEL_BIAS, DV_MAX, motion_disagreement
+
+    mc = motion_disagreement(gyro, accel, dt, gravity, init_s=init_s, dv_max=DV_MAX[platform], steps=steps)
+    return {"window_s": mc.window_s, "bound_deg": mc.bound_deg, "dv_max_mps": DV_MAX[platform],
+            "accel_bias_mps2": ACCEL_BIAS, "worst_deg": mc.worst_deg,
+            "n_windows": int(mc.tilt_deg.size), "flagged": [(t0 + t, a) for t, a in mc.flagged]}
 
 
 def table(names, recs, settings=None) -> dict:
@@ -218,15 +233,15 @@ def table(names, recs, settings=None) -> dict:
 def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float = SKIP_S, fusion=None) -> dict:
     """``imutherm attitude --imu-csv`` on a reference log (``;``-separated RepoIMU layout or a BROAD HDF5 trial):
     :func:`prepare`, every filter in ``names`` at the handheld platform's settings
-    (:func:`imutherm.studies.recorded.platform_settings`), the inclination scores. fusion : FusionParams or None
+    (:func:`imutherm.studies.attitude.recorded.platform_settings`), the inclination scores. fusion : FusionParams or None
     (its defaults: gyro range not declared, over-range recovery off; never the data's peak). Returns a JSON-ready
     dict."""
     from imutherm.imu.filters.fusion_peer import fusion_range_info
-    from imutherm.studies.recorded import platform_settings
+    from imutherm.studies.attitude.recorded import platform_settings
 
     rec = prepare(path, init_s=init_s, skip_s=skip_s)
     res = run(names, rec, platform_settings("handheld", names), fusion=fusion)
-    from imutherm.studies.real_settings import load_real_settings
+    from imutherm.studies.attitude.real_settings import load_real_settings
 
     entries = load_real_settings().entries
     ref = res.get("vqf", {}).get("rms_deg")
@@ -235,7 +250,7 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
                    "dev_cv_mean_x_vqf": entries.get(n, {}).get("cv_x_vqf"),
                    "dev_cv_worst_x_vqf": entries.get(n, {}).get("cv_worst_x_vqf"),
                    "accel_used_fraction": s["accel_used_fraction"], "runtime_s": s["runtime_s"],
-                   "resets_s": s["resets_s"], "rest_off_deg": s["rest_off"]}
+                   "resets_s": s["resets_s"], "rest_off_deg": s["rest_off"], "motion_check": s["motion_check"]}
                for n, s in res.items()}
     al = rec.align
     broad = rec.dataset == "broad"
@@ -253,5 +268,5 @@ def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float
 
 
 __all__ = ["DATA_DIRS", "DATA_DIR", "RealRecord", "prepare", "prepare_log", "data_files", "load_all", "errors",
-           "score", "run",
+           "score", "run", "motion_check_json",
            "table", "level_rotation", "identity_alignment", "run_reference_log"]

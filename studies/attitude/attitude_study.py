@@ -51,7 +51,7 @@ class AttitudeStudyResult:
     fusion : dict                   the fusion peer's gyroscope_range_dps [deg/s] (the grade's full scale) and
                                     its source
     filter_settings : dict          what each filter ran with: ``tuned`` {name: {field: value}} from ``file``
-                                    (studies/filter_settings.toml), ``defaults`` [names] at their defaults
+                                    (studies/attitude/filter_settings.toml), ``defaults`` [names] at their defaults
     """
 
     profile: str
@@ -203,7 +203,7 @@ def run_attitude_study(profile: str = "flight", *, grade: str = "adis16355", tem
     """Run the attitude chain for ``seeds`` seeds (seed0, seed0+1, ...) and reduce the errors.
 
     settings : None or 'defaults': every filter at its defaults; 'tuned': each filter at its tuned settings
-    for the profile (:mod:`imutherm.studies.filter_settings`; ``imutherm attitude``'s default), those the file
+    for the profile (:mod:`imutherm.studies.attitude.filter_settings`; ``imutherm attitude``'s default), those the file
     has none for (a profile or filter not tuned) at their defaults, as ``filter_settings`` in the result says.
 
     profile : one of motion.PROFILES; grade : sensor grade name; temperature_C [°C] constant
@@ -317,7 +317,7 @@ def _profile_settings(profile: str, names, settings) -> tuple:
         return {}, {"tuned": {}, "defaults": list(names)}
     if settings != "tuned":
         raise InputError(f"filter settings: {settings!r} is invalid; valid: 'tuned', 'defaults' or None")
-    from imutherm.studies.filter_settings import load_settings
+    from imutherm.studies.attitude.filter_settings import load_settings
 
     fs = load_settings()
     tuned = fs.for_profile(profile, names)

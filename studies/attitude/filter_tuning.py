@@ -9,14 +9,14 @@ pick. The lowest score wins (ties: the first in grid order); the filter's publis
 too. :func:`search` is the procedure on any ``evaluate(point) -> score``; two users run it:
 
 * the study's settings (:func:`tune`, ``benchmarks/tune_study_filters.py``, which writes
-  ``studies/filter_settings.toml``): each point run on the motion profiles of :data:`PROFILES` (default
+  ``studies/attitude/filter_settings.toml``): each point run on the motion profiles of :data:`PROFILES` (default
   durations, the study's lever arms and sensor grade) for the tuning seeds :data:`SEEDS` (100, 101: the
   study's answer uses seeds 0-2, so the settings are not fitted to the data they are scored on);
   score = mean over the seeds of (roll RMS + pitch RMS) / 2 [deg] over the whole record. The samples are
   those of the study: unit drawn from the seed, calibrated, improved compensation; the dies warm up as a
   first-order step of +10 K with tau = 85 s from 25 °C (the study's air scheme: +11.1 K at the dies,
   t95 = 255 s, i.e. tau ≈ t95 / 3), so the bias loops see a warm-up drift;
-* the held-out benchmark (:func:`imutherm.studies.filter_benchmark.tune`, ``benchmarks/bench_attitude.py``) on
+* the held-out benchmark (:func:`imutherm.studies.attitude.filter_benchmark.tune`, ``benchmarks/bench_attitude.py``) on
   its own disturbed training records.
 """
 
@@ -35,7 +35,7 @@ PROCEDURE = ("the registry's tuning axes on one x3.16 ladder, the full product t
              "the best lies on its open edge (up to its bounds); the published defaults a candidate too; lowest "
              "score wins")
 #: the profiles tuned: the study's (flight, swing) and the attitude command's other motion profiles, whose
-#: settings also serve the recorded-log platforms (:data:`imutherm.studies.recorded.PLATFORM_PROFILE`). Not
+#: settings also serve the recorded-log platforms (:data:`imutherm.studies.attitude.recorded.PLATFORM_PROFILE`). Not
 #: ``static``: at rest every setting holds and there is nothing to tune
 PROFILES = ("flight", "swing", "vehicle", "handheld", "shake")
 SEEDS = (100, 101)
@@ -148,7 +148,7 @@ def tuning_samples(profile: str, seed: int):
     from imutherm.imu.sensor_model import draw_unit, load_grade, simulate_imu
     from imutherm.imu.filters.run import GateConfig
     from imutherm.imu.motion import DEFAULT_LEVER_ARM
-    from imutherm.studies.attitude_study import leveling_window_s
+    from imutherm.studies.attitude.attitude_study import leveling_window_s
 
     g = load_grade(GRADE)
     d = DEFAULT_LEVER_ARM[profile]
@@ -165,7 +165,7 @@ def tuning_samples(profile: str, seed: int):
 
 def score(traj, est) -> float:
     """(roll RMS + pitch RMS) / 2 [deg], whole record."""
-    from imutherm.studies.attitude_study import error_metrics
+    from imutherm.studies.attitude.attitude_study import error_metrics
 
     m = error_metrics(est.roll - traj.roll, est.pitch - traj.pitch, {"all": np.ones(traj.t.size, bool)})["all"]
     return 0.5 * (m["roll_rms_deg"] + m["pitch_rms_deg"])

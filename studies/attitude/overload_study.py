@@ -62,7 +62,7 @@ def run_overload_study(grade: str = "adis16355", seed: int = 0, *, rig: Overload
     from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
     from imutherm.imu.filters.run import GateConfig, run_filters
     from imutherm.imu.motion import DEFAULT_LEVER_ARM
-    from imutherm.studies.attitude_study import leveling_window_s
+    from imutherm.studies.attitude.attitude_study import leveling_window_s
 
     from imutherm.imu.filters.registry import filter_names
 

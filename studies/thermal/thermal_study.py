@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import asdict, dataclass, replace
 
@@ -152,7 +153,7 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
     What ``imutherm solve --scheme potted --mesh-size 6 --min-cells 1`` computes, in one call (a coarse mesh:
     one cell across the thinnest part):
 
-    >>> from imutherm.studies.thermal_study import run_scheme
+    >>> from imutherm.studies.thermal.thermal_study import run_scheme
     >>> run = run_scheme("imu_reference", "potted", mesh_size_mm=6, min_cells=1)
     >>> print(f"max rise {run.metrics.max_rise_K:.1f} K in {run.metrics.max_part}")
     max rise 15.4 K in reg_5v_die
@@ -243,7 +244,25 @@ def _reduced_transient(problem, asm, steady, probes, t_end, settle, save_times, 
     return tr, check
 
 
-def mesh_error(res: SchemeResult, ratio: int = 2, coarse_pc=None):
+def refined_problem(res: SchemeResult, ratio: int = 2) -> tuple:
+    """(refined problem, prolongation, probes {site: (x, y, z) [m]}, the sites' default-mesh values [°C], the
+    default mesh's maximum [°C]) of the mesh-error estimate (:func:`mesh_error`)."""
+    from imutherm.geometry.mesh import prolongation, refine_grid
+    from imutherm.unit.model import cavity_exchange_law
+
+    st = res.steady
+    fine = refine_grid(res.grid, ratio)
+    exchange = None
+    if st.problem.exchanges:
+        exchange = cavity_exchange_law(res.geometry, res.grid, res.options).refined(fine, ratio)
+    fine_problem = replace(build_problem(res.geometry, fine, res.options, exchange=exchange),
+                           boundary=st.problem.boundary)
+    probes = {n: res.geometry.sites[n] for n in st.probe_names if n in res.geometry.sites}
+    coarse = [float(v) for n, v in zip(st.probe_names, st.probe_C) if n in probes]
+    return fine_problem, prolongation(res.grid, fine), probes, coarse, float(np.max(st.T_C))
+
+
+def mesh_error(res: SchemeResult, ratio: int = 2, coarse_pc=None, *, matrix_free: bool = True, max_cg: int | None = None):
     """The discretisation error of ``res``'s steady answer at its sites and hot spot
     (:class:`~imutherm.thermal.refinement.RefinementEstimate`): the same problem on ``res.grid`` with every
     interval split in ``ratio`` parts (:func:`~imutherm.geometry.mesh.refine_grid`), solved from the prolonged
@@ -251,23 +270,32 @@ def mesh_error(res: SchemeResult, ratio: int = 2, coarse_pc=None):
     boundary (model effects included) and the same s2s exchange (patches and view factors of the coarse grid,
     :meth:`~imutherm.thermal.cavity_radiation.CavityExchange.refined`): the difference is the conduction's
     discretisation alone. ``coarse_pc``: the steady solve's preconditioner
-    (:func:`~imutherm.thermal.refinement.refined_steady`), else the coarse level is set up again."""
-    from imutherm.geometry.mesh import prolongation, refine_grid
+    (:func:`~imutherm.thermal.refinement.refined_steady`), else the coarse level is set up again.
+
+    ``matrix_free`` (default) with a ``coarse_pc``: the refined solve without its matrix
+    (:func:`~imutherm.thermal.mesh_estimate.refined_steady_matrix_free`, ~0.3 GB less on the reference unit, the
+    same values to its CG tolerance); where its CG does not converge (in ``max_cg`` steps, default
+    :data:`~imutherm.thermal.mesh_estimate.MAX_CG_STEPS`), the assembled solve, the reason in the estimate's
+    ``fallback``. ``$IMUTHERM_REFINED_SOLVE`` ``assembled``: the assembled solve always (a paired benchmark's
+    "before"; the values agree to the CG tolerance, so the thermal cache does not tell the two apart)."""
+    from imutherm import ConvergenceError
+    from imutherm.thermal.mesh_estimate import MAX_CG_STEPS, refined_steady_matrix_free
     from imutherm.thermal.refinement import refined_steady
-    from imutherm.unit.model import cavity_exchange_law
 
     st = res.steady
-    coarse_problem = st.problem
-    fine = refine_grid(res.grid, ratio)
-    exchange = None
-    if coarse_problem.exchanges:
-        exchange = cavity_exchange_law(res.geometry, res.grid, res.options).refined(fine, ratio)
-    fine_problem = replace(build_problem(res.geometry, fine, res.options, exchange=exchange),
-                           boundary=coarse_problem.boundary)
-    probes = {n: res.geometry.sites[n] for n in st.probe_names if n in res.geometry.sites}
-    coarse = [float(v) for n, v in zip(st.probe_names, st.probe_C) if n in probes]
-    return refined_steady(fine_problem, coarse_problem, st.T_C, prolongation(res.grid, fine), probes, coarse,
-                          float(np.max(st.T_C)), ratio=ratio, coarse_pc=coarse_pc)
+    fine_problem, prolong, probes, coarse, coarse_max = refined_problem(res, ratio)
+    why = ""
+    if os.environ.get("IMUTHERM_REFINED_SOLVE", "").strip().lower() == "assembled":
+        matrix_free = False
+    if matrix_free and coarse_pc is not None:
+        try:
+            return refined_steady_matrix_free(fine_problem, st.T_C, prolong, coarse_pc, probes, coarse, coarse_max,
+                                              ratio=ratio, max_cg=MAX_CG_STEPS if max_cg is None else max_cg)
+        except ConvergenceError as e:
+            why = str(e)
+    est = refined_steady(fine_problem, st.problem, st.T_C, prolong, probes, coarse, coarse_max, ratio=ratio,
+                         coarse_pc=coarse_pc)
+    return replace(est, fallback=why) if why else est
 
 
 def mesh_factors(res: SchemeResult) -> dict:

@@ -2,9 +2,9 @@
 
 The gates' design inputs that depend on the platform (lever arm d from the rotation centre, turn radius L)
 come from :data:`PLATFORMS` unless given; everything else is the filters' defaults
-(:class:`~imutherm.studies.attitude_study.GateConfig`), with the leveling window ``init_s`` at the start of
+(:class:`~imutherm.studies.attitude.attitude_study.GateConfig`), with the leveling window ``init_s`` at the start of
 the log. The |f| reference, gyro bias and gate widening are measured on the log's own rest window at its
-own sample rate (:func:`~imutherm.studies.attitude_study.run_filters`).
+own sample rate (:func:`~imutherm.studies.attitude.attitude_study.run_filters`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.imu.attitude_math import roll_pitch_from_gravity
 from imutherm.imu.filters.run import GateConfig, run_filters
-from imutherm.studies.attitude_study import error_metrics
+from imutherm.studies.attitude.attitude_study import error_metrics
 
 #: platform defaults of the gate design inputs: lever arm d (3,) [m] and turn radius L [m].
 #: handheld: no lever arm (the rotation centre of hand and body motion moves between wrist, elbow and shoulder, so
@@ -32,8 +32,8 @@ PLATFORMS = {
     "aircraft": ((0.3, 0.0, 0.05), GateConfig.L),
 }
 
-#: the simulated motion profile whose tuned settings (``studies/filter_settings.toml``, the one tuning procedure
-#: of :mod:`imutherm.studies.filter_tuning` on seeds 100-101) stand for each platform where a setting is taken
+#: the simulated motion profile whose tuned settings (``studies/attitude/filter_settings.toml``, the one tuning procedure
+#: of :mod:`imutherm.studies.attitude.filter_tuning` on seeds 100-101) stand for each platform where a setting is taken
 #: from the file: handheld -> the handheld profile, vehicle -> the vehicle profile, aircraft -> the flight
 PLATFORM_PROFILE = {"handheld": "handheld", "vehicle": "vehicle", "aircraft": "flight"}
 
@@ -45,7 +45,7 @@ def platform_setting(platform: str, name: str) -> dict:
     on one held-out record; 3.44° on RepoIMU): the integral gain winds the bias estimate up under sustained
     accelerations. Tuned on simulated records (the study's chain, seeds 100-101), not on the data the
     recorded-log benchmarks score; the file names the grid, the scores and the command."""
-    from imutherm.studies.filter_settings import load_settings
+    from imutherm.studies.attitude.filter_settings import load_settings
 
     prof = PLATFORM_PROFILE[platform]
     tuned = load_settings().for_profile(prof, (name,))
@@ -56,9 +56,9 @@ def platform_setting(platform: str, name: str) -> dict:
 
 
 def platform_settings(platform: str, names=None) -> dict:
-    """{filter: {field: value}} of ``platform`` for :func:`~imutherm.studies.attitude_study.run_filters`'s
+    """{filter: {field: value}} of ``platform`` for :func:`~imutherm.studies.attitude.attitude_study.run_filters`'s
     ``settings`` (fields of each filter's registry ``params_cls`` on top of its library defaults). handheld: the
-    real-motion settings of every filter in :mod:`imutherm.studies.real_settings` (the one tuning procedure on the
+    real-motion settings of every filter in :mod:`imutherm.studies.attitude.real_settings` (the one tuning procedure on the
     nine real development files, cross-validated by file; ours and the peers alike), and ``mahony``'s tuned
     profile setting where that file has none; vehicle / aircraft: the library defaults (the papers' filters) but
     ``mahony``, at its profile's tuned setting (:func:`platform_setting`: every filter whose registry entry
@@ -70,7 +70,7 @@ def platform_settings(platform: str, names=None) -> dict:
     names = filter_names(gnss=False) if names is None else tuple(names)
     out = {}
     if platform == "handheld":
-        from imutherm.studies.real_settings import load_real_settings
+        from imutherm.studies.attitude.real_settings import load_real_settings
 
         out = load_real_settings().for_names(names)
     for name in platform_tuned_filters():
@@ -237,6 +237,10 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         from imutherm.imu.filters.rest_check import rest_disagreement
 
         m["rest_off_deg"] = rest_disagreement(log.gyro, log.accel, log.dt, e.gravity)  # [(t [s], angle [deg])]
+        from imutherm.studies.attitude.real_benchmark import motion_check_json
+
+        m["motion_check"] = motion_check_json(log.gyro, log.accel, log.dt, e.gravity, init_s, platform=platform,
+                                              steps=steps)  # the in-motion divergence check
         m["time_steps"] = "uniform" if steps is None else ("true" if REGISTRY[n].varying_dt else "median")
         if align_info is not None:
             m["alignment"] = align_info

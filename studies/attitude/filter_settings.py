@@ -8,7 +8,7 @@ answer is not computed on. The file holds, per profile and filter, the chosen va
 whose best sits at a bound, the tuning seeds, the scores and the command that produced them.
 
 The values are fields of the object a filter's runner reads, its registry ``params_cls``
-(:func:`imutherm.studies.attitude_study.run_filters` applies them with :func:`dataclasses.replace` to what the
+(:func:`imutherm.studies.attitude.attitude_study.run_filters` applies them with :func:`dataclasses.replace` to what the
 registry's ``base`` derives from the record: ``gated`` / ``ungated`` :class:`GatedParams` after the thresholds
 are set from the rest window, ``kf`` :class:`KFParams` before its rest-window levels are added).
 """

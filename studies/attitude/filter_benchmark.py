@@ -10,7 +10,7 @@ scored against the *reference* attitude (the truth delayed by the sync
 error), as a test with an external reference would score it;
 ``disturbances=False`` gives the idealised records.
 
-Tuning procedure: the study's one procedure (:mod:`imutherm.studies.filter_tuning`, the same for every
+Tuning procedure: the study's one procedure (:mod:`imutherm.studies.attitude.filter_tuning`, the same for every
 filter, ours and the peers): each filter's axes as the registry declares them
 (:class:`~imutherm.imu.filters.registry.Tuned`), one x3.16 ladder, an axis grown while the best lies on its
 open edge, the published defaults a candidate too; here minimising the mean over the **training** records
@@ -41,7 +41,7 @@ TRAIN = (("flight", (100, 101)), ("shake", (100, 101)))
 HELD_OUT = (("flight", tuple(range(6))), ("swing", tuple(range(6))), ("vehicle", tuple(range(6))),
             ("handheld", tuple(range(6))))
 
-#: the gates' design turn radius L [m] per profile: the platform's (:data:`imutherm.studies.recorded.PLATFORMS`,
+#: the gates' design turn radius L [m] per profile: the platform's (:data:`imutherm.studies.attitude.recorded.PLATFORMS`,
 #: as ``--imu-csv --platform`` uses), GateConfig.L (the aircraft's 1146 m) for the others
 TURN_RADIUS = {"vehicle": 50.0, "handheld": 0.5}
 
@@ -158,7 +158,7 @@ def objective(name: str, values: dict, records) -> float:
 class TuneResult:
     """Result of :func:`tune`: values {field: value} (the chosen point, or the defaults' values when they win),
     objective [deg] on the training records, evaluations, objective at the defaults [deg], wall time [s];
-    grid, at_bound, chosen: as in the study's settings file (:func:`imutherm.studies.filter_tuning.search`)."""
+    grid, at_bound, chosen: as in the study's settings file (:func:`imutherm.studies.attitude.filter_tuning.search`)."""
 
     name: str
     values: dict
@@ -172,9 +172,9 @@ class TuneResult:
 
 
 def tune(name: str, records) -> TuneResult:
-    """The study's tuning procedure (:func:`imutherm.studies.filter_tuning.tune_filter`, the registry's axes)
+    """The study's tuning procedure (:func:`imutherm.studies.attitude.filter_tuning.tune_filter`, the registry's axes)
     for filter ``name`` on training ``records``; InputError for a filter without axes."""
-    from imutherm.studies.filter_tuning import tune_filter
+    from imutherm.studies.attitude.filter_tuning import tune_filter
 
     t0 = time.perf_counter()
     r = tune_filter(name, lambda pt: objective(name, pt, records))

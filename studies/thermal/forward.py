@@ -1,6 +1,6 @@
 """The full model's site rises for one experiment, with the effects of a correlation switched on.
 
-Used twice: to make "measured" data with an effect hidden (:mod:`imutherm.studies.hidden_effect`)
+Used twice: to make "measured" data with an effect hidden (:mod:`imutherm.studies.correlation.hidden_effect`)
 and to re-run the corrected model of a correlation on the full FEM (:mod:`imutherm.studies.correlation`),
 so the generator and the check cannot disagree on what an effect means.
 """

@@ -1,6 +1,6 @@
 """The correlation campaign's hardest model-form path: contacts as thin solid layers, another grid, every law off.
 
-The ``layered`` path of :func:`imutherm.studies.hidden_effect.model_form_options` generates the "measured" data
+The ``layered`` path of :func:`imutherm.studies.correlation.hidden_effect.model_form_options` generates the "measured" data
 with a model that differs from the inversion's in form in several ways at once, as a real bench's unit does:
 
 - **contacts as thin solid layers** (:func:`refine_contact_layers`): every contact conductance (bond lines,
@@ -14,10 +14,14 @@ with a model that differs from the inversion's in form in several ways at once, 
 - **±10 % nuisance on every conductivity and law** (:func:`nuisance_options`): every material's
   conductivities, the contact conductances, the cavity's and the housing's emissivities, the convection
   correlation, the mount and the board (the last three as the other paths have them);
-- per-probe offsets and noise as every path (:func:`imutherm.studies.hidden_effect.make_case`).
+- per-probe offsets and noise as every path (:func:`imutherm.studies.correlation.hidden_effect.make_case`).
 
 A hidden library effect is drawn on top of all this, so model-form error and a strong effect come together in
 one case.
+
+:func:`form_pair` serves a campaign at a *set* form error (``benchmarks/bench_correlation_forms.py --generator
+fem``): the full FEM's site rises of one truth twice, on the inversion's own form (its laws and mesh) and on one
+other form of :data:`FEM_FORMS` alone, so the form's error can be scaled to a chosen fraction of the rise.
 """
 
 from __future__ import annotations
@@ -37,6 +41,15 @@ LAYER_MM = 0.1
 #: the generator's cell size as a factor of the inversion's, by case (alternating): coarser, finer (0.75, not 0.5:
 #: a 3 mm generator case took ~30 min on the shared machine under load, a 9 mm one 16 min)
 GRID_FACTORS = (1.5, 0.75)
+
+#: the single forms :func:`form_pair` generates with: contacts as thin layers, the other cavity-radiation law, a
+#: finer grid (:data:`GRID_FORM`), ±10 % nuisance on every conductivity, contact and emissivity
+FEM_FORMS = ("layered", "cavity_law", "grid", "nuisance")
+#: the ``grid`` form's generator mesh: cell size this factor of the inversion's, and this many cells across the
+#: thinnest part (the inversion's campaigns use 4 mm and 1: the generator 2 mm and 2, 2x finer both ways; a
+#: coarser cell size barely changes the unit's tensor grid, whose lines follow the parts: 4 mm and 8 mm gave
+#: the same site rises within 0.04 K, 2026-12-07)
+GRID_FORM = (0.5, 2)
 
 
 def generator_mesh_mm(inversion_mm: float, case: int) -> float:
@@ -120,3 +133,46 @@ def nuisance_options(options: ModelOptions, geometry, rng: np.random.Generator, 
         cavity_wall_emissivity=wall_emissivity_for_pair(min(0.95, options.cavity_emissivity * rec["cavity_emissivity"])),
         emissivity=min(1.0, eps_ext * f("emissivity_ext")))
     return out, rec
+
+
+def form_options(form: str, inversion: ModelOptions, geometry, rng: np.random.Generator) -> tuple:
+    """(the generator's options, its mesh as (cell-size factor, min cells) or None for the inversion's, record)
+    of one form of :data:`FEM_FORMS` given the inversion's ``inversion``; ``nuisance`` draws from ``rng``."""
+    from imutherm import InputError
+    from imutherm.studies.correlation.hidden_effect import model_form_options
+    if form == "layered":
+        return model_form_options(inversion, "layered"), None, {}
+    if form == "cavity_law":
+        return model_form_options(inversion, "cavity-law"), None, {}
+    if form == "grid":
+        return inversion, GRID_FORM, {}
+    if form == "nuisance":
+        opts, rec = nuisance_options(inversion, geometry, rng, 0.10)
+        return opts, None, rec
+    raise InputError(f"form_options: unknown form {form!r}; valid: {', '.join(FEM_FORMS)}")
+
+
+def form_pair(geometry, values: dict, inversion: ModelOptions, generator: ModelOptions, mesh_mm: float,
+              min_cells: int, gen_mesh, probes: dict, times, lid_load_W_m2: float | None = None) -> tuple:
+    """(rises on the inversion's form, rises on the generator's) [K], each (len(times), len(probes)): the full
+    FEM (:func:`imutherm.studies.thermal.forward.checked_rise`) of the unit ``geometry`` with knobs ``values``, once
+    with ``inversion``'s laws on its mesh (``mesh_mm``, ``min_cells``) and once with ``generator``'s on
+    ``gen_mesh`` ((factor, min cells) of :func:`form_options`, None: the same mesh; contact layers resolved
+    where ``generator`` has them). ``lid_load_W_m2``: a radiant load on the lid [W/m^2] (outside the library)."""
+    from imutherm.geometry.mesh import build_mesh
+    from imutherm.studies.thermal.forward import checked_rise
+    from imutherm.thermal.problem import HeatFlux
+    from imutherm.unit import knobs
+    from imutherm.unit.effects import ModelVariant
+    out = []
+    for opts, mesh in ((inversion, (1.0, min_cells)), (generator, gen_mesh or (1.0, min_cells))):
+        variant = knobs.variant(geometry, opts, values)
+        if lid_load_W_m2:
+            laws = dict(variant.extra_laws)
+            laws["zmax"] = laws.get("zmax", ()) + (HeatFlux(float(lid_load_W_m2)),)
+            variant = ModelVariant(variant.geometry, variant.options, laws)
+        grid = build_mesh(variant.geometry, mesh_mm * mesh[0], mesh[1])
+        if variant.options.contact_layers:
+            grid = refine_contact_layers(grid, variant.geometry, variant.options)
+        out.append(checked_rise(variant, grid, probes, times)[0])
+    return out[0], out[1]

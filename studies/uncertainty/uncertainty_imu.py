@@ -152,8 +152,8 @@ def with_form_end(nom: Chain, sm, values0: dict, say=None) -> Chain:
 def _oven_full(sm, values: dict, nom: Chain) -> dict:
     """{chamber index: (6,) full-FEM steady site rise [K]} at each oven temperature other than the ambient."""
     from imutherm.imu.sensor_model import SITES
-    from imutherm.studies.forward import full_rise
-    from imutherm.studies.thermal_study import STUDY_CG_RTOL
+    from imutherm.studies.thermal.forward import full_rise
+    from imutherm.studies.thermal.thermal_study import STUDY_CG_RTOL
     from imutherm.unit import knobs
 
     geo = sm.geometry

@@ -21,7 +21,7 @@ their differences between schemes, and checks the reduced model against the full
 drawn points (steady at every check point, the power-on transient at the first).
 
 With the nominal end-to-end study (``study``), a few of the draws also run through the full IMU chain
-to the residual sensor errors and the attitude error (:mod:`imutherm.studies.uncertainty_imu`).
+to the residual sensor errors and the attitude error (:mod:`imutherm.studies.uncertainty.uncertainty_imu`).
 """
 
 from __future__ import annotations
@@ -304,8 +304,8 @@ def scheme_outputs(sm: SchemeModel, X: np.ndarray, t_end: float) -> dict:
 
 def check_point(sm: SchemeModel, row, t_end: float, transient: bool) -> dict:
     """The reduced model against the full FEM at one drawn point: largest site error [K], t95 error [-]."""
-    from imutherm.studies.forward import full_rise
-    from imutherm.studies.thermal_study import STUDY_CG_RTOL
+    from imutherm.studies.thermal.forward import full_rise
+    from imutherm.studies.thermal.thermal_study import STUDY_CG_RTOL
     from imutherm.unit import knobs
     from imutherm.thermal.metrics import T95_FRACTION, settle_time
 
@@ -359,8 +359,8 @@ def answer_words(stats: dict, schemes) -> list:
 def imu_draw_rows(n_draws, samples: int, n_inputs: int) -> np.ndarray:
     """Design rows of the IMU draws: the first ``n_draws`` points of the design's base Sobol' sequence (its A
     matrix: every (D + 2)-th row), which fill the input space evenly. ``n_draws`` None: the default
-    (:data:`~imutherm.studies.uncertainty_imu.DEFAULT_IMU_DRAWS`, at most ``samples``)."""
-    from imutherm.studies.uncertainty_imu import DEFAULT_IMU_DRAWS
+    (:data:`~imutherm.studies.uncertainty.uncertainty_imu.DEFAULT_IMU_DRAWS`, at most ``samples``)."""
+    from imutherm.studies.uncertainty.uncertainty_imu import DEFAULT_IMU_DRAWS
 
     n = min(DEFAULT_IMU_DRAWS, samples) if n_draws is None else n_draws
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 0 <= n <= samples:
@@ -377,7 +377,7 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
 
     ``study``: the nominal end-to-end study (:class:`~imutherm.studies.end_to_end.StudyResult`) of the same
     layout, schemes and options: with it, ``imu_draws`` of the draws (:func:`imu_draw_rows`) also run through
-    the full IMU chain (:mod:`imutherm.studies.uncertainty_imu`) in ``jobs`` processes. ``use_cache``: the
+    the full IMU chain (:mod:`imutherm.studies.uncertainty.uncertainty_imu`) in ``jobs`` processes. ``use_cache``: the
     schemes' reduced models read from and kept in the disk cache (:func:`build_scheme_model`).
 
     Returns {"inputs": [...], "notes": [...], "samples", "draws", "seed", "stats": {"<output>:<scheme>" or
@@ -387,7 +387,7 @@ def run_uncertainty(layout, schemes, *, options=None, samples: int = DEFAULT_SAM
     """
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import LayoutSpec, load_layout
-    from imutherm.studies import uncertainty_imu
+    from imutherm.studies.uncertainty import uncertainty_imu
 
     say = progress or (lambda s: None)
     t0 = time.perf_counter()

@@ -1,19 +1,19 @@
 """The filters' real-motion settings: the one tuning procedure on the real development files, cross-validated by
 file.
 
-Data: every file of :func:`imutherm.studies.real_benchmark.data_files` (six RepoIMU pendulum trials, three BROAD
-trials), prepared and scored as :mod:`imutherm.studies.real_benchmark` does (inclination RMS per file).
+Data: every file of :func:`imutherm.studies.attitude.real_benchmark.data_files` (six RepoIMU pendulum trials, three BROAD
+trials), prepared and scored as :mod:`imutherm.studies.attitude.real_benchmark` does (inclination RMS per file).
 
 Procedure, the same for every filter with tuning axes, ours and the peers (:func:`tune`):
 
-* the search is :func:`imutherm.studies.filter_tuning.tune_filter`: the registry's axes on one x3.16 ladder, the
+* the search is :func:`imutherm.studies.attitude.filter_tuning.tune_filter`: the registry's axes on one x3.16 ladder, the
   product grown while the best lies on an open edge, the library defaults a candidate too;
 * a point runs the filter at ``BASE`` (physical settings of our low-pass modes that are not tuned) plus the point;
   the defaults candidate runs the library defaults alone;
 * objective: the mean over the training files of ln(RMS) (a geometric mean: the files' RMS span 0.3-8°, and an
   arithmetic mean would let the hardest file choose for all); the arithmetic mean is what the benchmark reports;
 * guard: a point that makes any training file worse than the library defaults by more than that file's noise
-  (:func:`imutherm.studies.real_benchmark.score`'s ``noise_deg``, the standard error of its RMS over ten blocks)
+  (:func:`imutherm.studies.attitude.real_benchmark.score`'s ``noise_deg``, the standard error of its RMS over ten blocks)
   is not eligible: its score is raised by :data:`GUARD_PENALTY` plus its excess (the sum of ln(RMS / (default +
   noise)) over the files it breaks), so it ranks behind every eligible point and behind the defaults (which are
   eligible by definition), while the search still knows which ineligible points come nearer;
@@ -61,7 +61,7 @@ class Runs:
         return {} if point is None else {self.name: {**BASE.get(self.name, {}), **point}}
 
     def score(self, point, file) -> dict:
-        from imutherm.studies.real_benchmark import run
+        from imutherm.studies.attitude.real_benchmark import run
 
         key = (None if point is None else tuple(sorted(point.items())), file)
         if key not in self.memo:
@@ -83,7 +83,7 @@ class Runs:
 
 
 def chosen_settings(name: str, r: dict) -> dict:
-    """The settings {field: value} a :func:`~imutherm.studies.filter_tuning.tune_filter` result stands for ({}: the
+    """The settings {field: value} a :func:`~imutherm.studies.attitude.filter_tuning.tune_filter` result stands for ({}: the
     library defaults)."""
     return {} if r["chosen"] == "defaults" else {**BASE.get(name, {}), **r["values"]}
 
@@ -92,7 +92,7 @@ def tune(name: str, recs, log=print) -> dict:
     """The module docstring's procedure for filter ``name`` on ``recs``: {"dev": {values, settings, chosen, grid,
     scores, at_bound, evaluations, files {file: rms}}, "cv": {file: {settings, rms}}, "defaults": {file: {rms,
     noise}}, "evaluations": runs made}."""
-    from imutherm.studies.filter_tuning import tune_filter
+    from imutherm.studies.attitude.filter_tuning import tune_filter
 
     runs = Runs(name, recs)
     files = [r.name for r in recs]

@@ -1,0 +1,274 @@
+"""The steady Newton operator of a refined grid, applied without assembling it (matrix-free).
+
+:func:`imutherm.thermal.refinement.refined_steady` assembles the refined problem's 27-point matrix: on the
+reference unit's 2x refined mesh (1.5e6 nodes) ~500 MB of indices and data, the study's memory peak, and ~2 CPU-s.
+:class:`FineOperator` applies the same operator from per-cell coefficients (three (nx, ny, nz) arrays) and the
+outer faces' laws: the conduction of each Q1 box cell by its closed form (``K_e = cx KX + cy KY + cz KZ``,
+:mod:`imutherm.thermal.assembly`; the tensor structure ``KX = k1 ⊗ m1 ⊗ m1`` applied as a difference along x and
+a 2x2 face mass across it), the linear laws' consistent face mass, the nonlinear laws' lumped nodal flux and its
+diagonal slope, each surface-to-surface exchange's symmetric Jacobian (as the steady solve linearises it,
+:func:`imutherm.thermal.steady._with_exchanges`), fixed-temperature nodes as identity rows. It equals the
+assembled matrix to rounding (``tests/test_mesh_estimate.py``). The conduction is one numba pass over the cells
+(:func:`_volume_kernel`), no temporary array.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from imutherm import InputError
+from imutherm.geometry.grid import FACE_NAMES
+from imutherm.lazy_jit import njit
+from imutherm.thermal.assembly import (EXCHANGE_FACE, FACE_M_REF, NodalBC, _cell_sizes3, faces, volume_load)
+from imutherm.thermal.problem import LINEAR_LAWS, NONLINEAR_LAWS, FixedTemperature, HeatFlux
+
+_PAIRS = [(0, 0), (0, 1), (1, 0), (1, 1)]
+
+
+def _mass4(c, d00, d01, d10, d11):
+    """36 (m1 ⊗ m1) applied to four corner values, times ``c``/36: the unit face mass across an axis."""
+    c = c / 36.0
+    return (c * (4.0 * d00 + 2.0 * d01 + 2.0 * d10 + d11), c * (2.0 * d00 + 4.0 * d01 + d10 + 2.0 * d11),
+            c * (2.0 * d00 + d01 + 4.0 * d10 + 2.0 * d11), c * (d00 + 2.0 * d01 + 2.0 * d10 + 4.0 * d11))
+
+
+def _volume_kernel(x, cx, cy, cz, y):
+    """y (Nx, Ny, Nz) += K x: each box cell's ``cx KX + cy KY + cz KZ`` (:mod:`imutherm.thermal.assembly`) as a
+    difference along each axis and the 2x2 face mass across it; cells in C order, one pass (numba)."""
+    nx, ny, nz = cx.shape
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                u000, u001, u010, u011 = x[i, j, k], x[i, j, k + 1], x[i, j + 1, k], x[i, j + 1, k + 1]
+                u100, u101, u110, u111 = x[i + 1, j, k], x[i + 1, j, k + 1], x[i + 1, j + 1, k], x[i + 1, j + 1, k + 1]
+                # along x: pairs (b, c)
+                t00, t01, t10, t11 = _mass4_jit(cx[i, j, k], u100 - u000, u101 - u001, u110 - u010, u111 - u011)
+                y[i + 1, j, k] += t00
+                y[i, j, k] -= t00
+                y[i + 1, j, k + 1] += t01
+                y[i, j, k + 1] -= t01
+                y[i + 1, j + 1, k] += t10
+                y[i, j + 1, k] -= t10
+                y[i + 1, j + 1, k + 1] += t11
+                y[i, j + 1, k + 1] -= t11
+                # along y: pairs (a, c)
+                t00, t01, t10, t11 = _mass4_jit(cy[i, j, k], u010 - u000, u011 - u001, u110 - u100, u111 - u101)
+                y[i, j + 1, k] += t00
+                y[i, j, k] -= t00
+                y[i, j + 1, k + 1] += t01
+                y[i, j, k + 1] -= t01
+                y[i + 1, j + 1, k] += t10
+                y[i + 1, j, k] -= t10
+                y[i + 1, j + 1, k + 1] += t11
+                y[i + 1, j, k + 1] -= t11
+                # along z: pairs (a, b)
+                t00, t01, t10, t11 = _mass4_jit(cz[i, j, k], u001 - u000, u011 - u010, u101 - u100, u111 - u110)
+                y[i, j, k + 1] += t00
+                y[i, j, k] -= t00
+                y[i, j + 1, k + 1] += t01
+                y[i, j + 1, k] -= t01
+                y[i + 1, j, k + 1] += t10
+                y[i + 1, j, k] -= t10
+                y[i + 1, j + 1, k + 1] += t11
+                y[i + 1, j + 1, k] -= t11
+
+
+_mass4_jit = njit(inline="always", cache=True)(_mass4)
+_volume_kernel = njit(cache=True)(_volume_kernel)
+
+
+class FineOperator:
+    """The Newton operator and residual of a steady :class:`~imutherm.thermal.problem.ThermalProblem`, matrix-free.
+
+    ``residual(T)`` [W]: F - (K + H) T - N(T), zero at fixed nodes; ``linearise(T)`` sets the nonlinear laws'
+    slopes and the exchanges' Jacobians at ``T`` [°C]; then ``apply(v)`` [W] is the Newton matrix times ``v`` [K]
+    (SPD, fixed rows identity) and ``diagonal()`` its diagonal."""
+
+    def __init__(self, problem):
+        g = problem.grid
+        self.problem, self.grid = problem, g
+        self.cells = g.shape
+        self.node_shape = tuple(s + 1 for s in g.shape)
+        self.n = int(np.prod(self.node_shape))
+        hx, hy, hz = _cell_sizes3(g)
+        k = problem.k.reshape(g.shape + (3,))
+        self.coef = (k[..., 0] * (hy * hz / hx), k[..., 1] * (hx * hz / hy), k[..., 2] * (hx * hy / hz))
+        self.linear, self.nonlinear, dirichlet = [], [], []
+        F_bc = np.zeros(self.n)
+        fcs = faces(g)
+        for name in FACE_NAMES:
+            for law in problem.boundary.get(name, ()):
+                face = fcs[name]
+                mask = face.mask(law.region)
+                if isinstance(law, FixedTemperature):
+                    dirichlet.append((np.unique(face.corner_nodes(mask)), law.value(None)))
+                elif isinstance(law, LINEAR_LAWS):
+                    coef = np.where(mask, law.coefficient, 0.0)
+                    w = face.nodal_weights(coef)
+                    F_bc[face.nodes.reshape(-1)] += (w * problem.law_T_C(law)).reshape(-1)
+                    self.linear.append((face, coef * face.area))
+                elif isinstance(law, (HeatFlux,) + NONLINEAR_LAWS):
+                    w = face.nodal_weights(mask.astype(float)).reshape(-1)
+                    nodes, keep = face.nodes.reshape(-1), w > 0
+                    if isinstance(law, HeatFlux):
+                        F_bc[nodes[keep]] += law.q * w[keep]
+                    else:
+                        self.nonlinear.append(NodalBC(name, law, problem.law_T_C(law), nodes[keep], w[keep]))
+                else:  # pragma: no cover - ThermalProblem validates the laws
+                    raise InputError(f"face {name!r}: unsupported law {law!r}")
+        for ex in problem.exchanges:
+            self.nonlinear.append(NodalBC(EXCHANGE_FACE, ex, problem.ambient_C, np.asarray(ex.nodes),
+                                          np.asarray(ex.weights)))
+        self.F = volume_load(problem) + F_bc
+        self.fixed = np.zeros(self.n, bool)
+        self.fixed_values = np.zeros(self.n)
+        for nodes, value in dirichlet:   # later laws win on shared nodes, as the assembly's
+            self.fixed[nodes] = True
+            self.fixed_values[nodes] = value
+        self.any_fixed = bool(self.fixed.any())
+        self.slope = np.zeros(self.n)    # the nonlinear laws' diagonal slopes [W/K] (exchanges': replaced)
+        self._exchanges = []
+
+    # -- the linear part: conduction and the linear laws ------------------------------------------------------
+    def _volume(self, x: np.ndarray) -> np.ndarray:
+        """Conduction stiffness times a nodal field ``x`` [K] -> [W] (:func:`_volume_kernel`)."""
+        y3 = np.zeros(self.node_shape)
+        _volume_kernel(np.ascontiguousarray(x, float).reshape(self.node_shape), *self.coef, y3)
+        return y3.reshape(-1)
+
+    def _faces(self, x: np.ndarray, y: np.ndarray) -> None:
+        """Add the linear laws' consistent face mass times ``x`` into ``y`` [W]."""
+        for face, ca in self.linear:
+            nu, nv = ca.shape
+            xf = x[face.nodes]
+            X = {(a, b): xf[a:a + nu, b:b + nv] for a, b in _PAIRS}
+            yf = np.zeros(face.nodes.shape)
+            for l1, (a1, b1) in enumerate(_PAIRS):
+                yf[a1:a1 + nu, b1:b1 + nv] += ca * sum(FACE_M_REF[l1, l2] * X[p] for l2, p in enumerate(_PAIRS))
+            y[face.nodes.reshape(-1)] += yf.reshape(-1)   # a face's nodes are distinct: no np.add.at needed
+
+    def linear_apply(self, x: np.ndarray) -> np.ndarray:
+        """(K + H) x [W] for a nodal field ``x`` [K] (no fixed rows)."""
+        y = self._volume(np.asarray(x, float))
+        self._faces(x, y)
+        return y
+
+    def diagonal_linear(self) -> np.ndarray:
+        """The diagonal of K + H [W/K]."""
+        nx, ny, nz = self.cells
+        d3 = np.zeros(self.node_shape)
+        c = sum(self.coef) / 9.0   # every corner: (cx + cy + cz) * (1/3)^2
+        for a in (0, 1):
+            for b in (0, 1):
+                for e in (0, 1):
+                    d3[a:a + nx, b:b + ny, e:e + nz] += c
+        d = d3.reshape(-1)
+        for face, ca in self.linear:
+            nu, nv = ca.shape
+            w = np.zeros(face.nodes.shape)
+            for a, b in _PAIRS:
+                w[a:a + nu, b:b + nv] += ca / 9.0
+            np.add.at(d, face.nodes.reshape(-1), w.reshape(-1))
+        return d
+
+    # -- the nonlinear laws ---------------------------------------------------------------------------------
+    def nonlinear_flux(self, T: np.ndarray) -> tuple:
+        """(N, J): lumped nodal heat out through the nonlinear laws [W] and its diagonal slope [W/K]."""
+        N, J = np.zeros(self.n), np.zeros(self.n)
+        for bc in self.nonlinear:
+            qv, dq = bc.law.flux_out(T[bc.nodes], bc.T_ref)
+            np.add.at(N, bc.nodes, bc.weights * qv)
+            np.add.at(J, bc.nodes, bc.weights * dq)
+        return N, J
+
+    def residual(self, T: np.ndarray) -> np.ndarray:
+        """F - (K + H) T - N(T) [W] at ``T`` [°C], zero at fixed nodes."""
+        N, _ = self.nonlinear_flux(T)
+        r = self.F - self.linear_apply(T) - N
+        r[self.fixed] = 0.0
+        return r
+
+    def linearise(self, T: np.ndarray) -> None:
+        """The Newton matrix at ``T`` [°C]: the laws' diagonal slopes, each exchange's symmetric Jacobian."""
+        _, self.slope = self.nonlinear_flux(T)
+        self._exchanges = []
+        for bc in self.nonlinear:
+            if bc.face == EXCHANGE_FACE and hasattr(bc.law, "symmetric_jacobian"):
+                s, D = bc.law.symmetric_jacobian(T[bc.law.nodes])
+                self._exchanges.append((bc.law, s, D))
+
+    def apply(self, v: np.ndarray) -> np.ndarray:
+        """The Newton matrix (set by :meth:`linearise`) times ``v`` [K] -> [W]; fixed rows identity."""
+        v = np.ravel(np.asarray(v, float))
+        w = np.where(self.fixed, 0.0, v) if self.any_fixed else v
+        out = self.linear_apply(w)
+        out += self.slope * w
+        for law, s, D in self._exchanges:
+            u = w[law.nodes]
+            out[law.nodes] += law.PnT @ (s * (law.X @ (s * (law.Pn @ u)))) - D * u
+        if self.any_fixed:
+            out[self.fixed] = v[self.fixed]
+        return out
+
+    def diagonal(self) -> np.ndarray:
+        """The Newton matrix's diagonal [W/K] for a smoother: K + H and the laws' diagonal slopes (an exchange's
+        own slope standing for its coupling's diagonal); fixed rows 1."""
+        d = self.diagonal_linear() + self.slope
+        d[self.fixed] = 1.0
+        return d
+
+    def seven_point(self):
+        """A 7-point SPD matrix (CSR) spectrally equivalent to the Newton matrix, for a smoother: each cell's
+        conduction with its 1-D masses across lumped (``k1 ⊗ diag(1/2, 1/2) ⊗ diag(1/2, 1/2)``: at least the
+        consistent one's energy and at most 3x it), the linear laws' lumped face mass and the laws' slopes on the
+        diagonal; fixed rows identity, their couplings dropped. 7 entries a row (a neighbour outside the grid: a
+        zero entry on the opposite one), written straight into the CSR arrays."""
+        import scipy.sparse as sp
+
+        Nx, Ny, Nz = self.node_shape
+        n = self.n
+        strides = (Ny * Nz, Nz, 1)
+        data = np.zeros((n, 7))
+        diag3 = np.zeros(self.node_shape)
+        for axis, c in enumerate(self.coef):
+            # the edge between node i and i+1 along ``axis``: a quarter of each of the 4 cells around it
+            e = np.zeros(tuple(N - 1 if a == axis else N for a, N in enumerate(self.node_shape)))
+            others = [a for a in range(3) if a != axis]
+            for p in (0, 1):
+                for q in (0, 1):
+                    idx = [slice(None)] * 3
+                    idx[others[0]] = slice(p, p + self.cells[others[0]])
+                    idx[others[1]] = slice(q, q + self.cells[others[1]])
+                    e[tuple(idx)] += 0.25 * c
+            lo, hi = [slice(None)] * 3, [slice(None)] * 3
+            lo[axis], hi[axis] = slice(0, -1), slice(1, None)
+            diag3[tuple(lo)] += e
+            diag3[tuple(hi)] += e
+            minus, plus = np.zeros(self.node_shape), np.zeros(self.node_shape)
+            minus[tuple(hi)] = -e    # row at i+1, column i
+            plus[tuple(lo)] = -e     # row at i, column i+1
+            data[:, 2 - axis] = minus.reshape(-1)
+            data[:, 4 + axis] = plus.reshape(-1)
+        d = diag3.reshape(-1)
+        for face, ca in self.linear:
+            nu, nv = ca.shape
+            w = np.zeros(face.nodes.shape)
+            for a, b in _PAIRS:
+                w[a:a + nu, b:b + nv] += ca / 4.0
+            np.add.at(d, face.nodes.reshape(-1), w.reshape(-1))
+        data[:, 3] = d + self.slope
+        rows = np.arange(n, dtype=np.int32)
+        ijk = np.unravel_index(rows, self.node_shape)
+        cols = np.empty((n, 7), np.int32)
+        cols[:, 3] = rows
+        for axis, st in enumerate(strides):
+            first, last = ijk[axis] == 0, ijk[axis] == self.node_shape[axis] - 1
+            cols[:, 2 - axis] = np.where(first, rows + st, rows - st)   # outside: the opposite one, value 0
+            cols[:, 4 + axis] = np.where(last, rows - st, rows + st)
+        if self.fixed.any():
+            f = self.fixed
+            data[f] = 0.0
+            data[f, 3] = 1.0
+            data[np.isin(cols, np.flatnonzero(f)) & (cols != rows[:, None])] = 0.0
+        return sp.csr_matrix((data.reshape(-1), cols.reshape(-1), np.arange(0, 7 * n + 1, 7, dtype=np.int64)),
+                             shape=(n, n))
