@@ -179,7 +179,7 @@ def test_the_workers_module_imports_only_the_base():
 PUBLIC_SEAMS = ("ecad", "geometry", "imu", "imutherm", "layouts", "unit", "reports", "studies", "thermal")
 #: not yet held: modules that still import _Dirichlet (linear), _probes (probes), the reduced transient's or the
 #: steady solve's private helpers (the list shrinks)
-SEAMS_LATER = ("thermal/mesh_estimate.py", "thermal/reduced_steady.py", "thermal/refinement.py", "thermal/steady.py",
+SEAMS_LATER = ("thermal/reduced_steady.py", "thermal/refinement.py", "thermal/steady.py",
                "thermal/stepping.py", "thermal/transient.py")
 
 
