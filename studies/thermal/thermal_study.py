@@ -340,7 +340,9 @@ def mesh_corrected(res: SchemeResult) -> SchemeResult:
 def with_mesh_error(res, coarse_pc=None):
     """``res`` with its mesh-error estimate and the answer corrected by it (:func:`mesh_error`,
     :func:`mesh_corrected`), the refined solve one at a time in a pool's workers
-    (:func:`imutherm.workers.one_at_a_time`: ~8x the memory of a scheme's solve); ``wall_s`` includes it.
+    (:func:`imutherm.workers.one_at_a_time`: on the reference unit it adds ~0.35 GB matrix-free, ~0.6 GB
+    assembled, to the ~0.57 GB of a scheme's steady solve, ``docs/benchmarks/mesh_estimate.md``); ``wall_s``
+    includes it.
     ``coarse_pc``: the steady solve's preconditioner (:func:`mesh_error`)."""
     import time
 
