@@ -235,12 +235,12 @@ class FemCase:
         the FEM pair's inversion-form rise with and without it is not computed, None)."""
         if self.value is None or self.lid is not None:
             return None
-        from imutherm.studies.correlation.forward_model import _Forward
+        from imutherm.studies.correlation.forward_model import ForwardModel
         from imutherm.unit import knobs
         t = np.linspace(0.0, 1500.0, 40)
         runs = tuple(MeasuredRun(f"{s}.csv", s, 70.0, 1.0, 0.0, "die", FEM_SITES, t, np.zeros((40, 6)),
                                  tuple(range(40))) for s in SCHEMES)
-        fwd = _Forward(runs, self.models.roms, self.models.geometries)
+        fwd = ForwardModel(runs, self.models.roms, self.models.geometries)
         base = dict(self.truth)
         base[self.kind] = knobs.nominal_values(self.geo["air"], self.models.options).get(self.kind, None)
         if base[self.kind] is None:
@@ -300,6 +300,10 @@ def summarise(rows: list) -> dict:
         out[f"{100 * level:g}%"] = {
             "strong_named_right": f"{len(right)}/{len(strong)}", "null_false_names": f"{len(false)}/{len(nulls)}",
             "ambiguous_settled_right": f"{len(settled)}/{len(amb)}", "written_worse_than_nominal": f"{len(worse)}/{len(rs)}",
+            **({"null_ambiguous_sets": f"{sum(bool(r['ambiguous_set']) for r in nulls)}/{len(nulls)}",
+                "null_ambiguous_settled_to_nothing": sum(bool(r['ambiguous_set']) and r.get('settled_verdict') is not None
+                                                         and not r['settled_first'] for r in nulls)}
+               if any(r["ambiguous_set"] for r in nulls) else {}),
             **({"out_of_library_false_names": f"{sum(bool(r['named_effects'] or r['findings']) for r in ool)}/{len(ool)}",
                 "out_of_library_verdicts": [r["verdict"] for r in ool]} if ool else {}),
             **({"null_retune_residual_pct_of_rise": [round(100 * np.sqrt(max(r["retune_rms_K"]**2 - r["noise_K"]**2, 0.0))
@@ -318,7 +322,11 @@ def main(argv=None) -> int:
     ap.add_argument("--form", choices=("layered", "cavity_law", "grid", "nuisance"), default="layered",
                     help="--generator fem: the generator's one other form")
     ap.add_argument("--kinds", nargs="*", default=None, help="--generator fem: only these hidden kinds")
+    ap.add_argument("--table", nargs="*", default=None, help="print the markdown table of these forms_fem_*.json, stop")
     args = ap.parse_args(argv)
+    if args.table is not None:
+        print(table(args.table))
+        return 0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.generator == "fem":
@@ -340,6 +348,25 @@ def main(argv=None) -> int:
     write_json(out / "forms_campaign.json", {"rows": rows, "summary": summary, "args": vars(args)})
     print(json.dumps(summary, indent=1))
     return 0
+
+
+def table(paths) -> str:
+    """A markdown table of FEM campaigns (``forms_fem_<form>.json`` or its ``_rows.json``): one row per form and
+    level, the figures by :func:`summarise`."""
+    head = ("| form | natural form error | level | strong named right | null false names | null ambiguous sets "
+            "| out of library named | ambiguous settled right | written worse than nominal | null re-tune residual |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for p in paths:
+        d = json.loads(Path(p).read_text())
+        rows = d["rows"] if isinstance(d, dict) else d  # a campaign's file or its rows file
+        nat = np.median([r["natural_form_level"]["both"] for r in rows])
+        for lev, x in summarise(rows).items():
+            lines.append(f"| {rows[0]['form']} | {100 * nat:.2f} % | {lev} | {x['strong_named_right']} | "
+                         f"{x['null_false_names']} | {x.get('null_ambiguous_sets', '0/' + x['null_false_names'].split('/')[1])} | "
+                         f"{x.get('out_of_library_false_names', '-')} | {x['ambiguous_settled_right']} | "
+                         f"{x['written_worse_than_nominal']} | "
+                         f"{', '.join(f'{v:g} %' for v in x.get('null_retune_residual_pct_of_rise', [])) or '-'} |")
+    return "\n".join(lines)
 
 
 def _main_fem(args, out: Path) -> int:

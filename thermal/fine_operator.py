@@ -19,7 +19,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.geometry.grid import FACE_NAMES
 from imutherm.lazy_jit import njit
-from imutherm.thermal.assembly import (EXCHANGE_FACE, FACE_M_REF, NodalBC, _cell_sizes3, faces, volume_load)
+from imutherm.thermal.assembly import (EXCHANGE_FACE, FACE_M_REF, NodalBC, cell_sizes3, faces, volume_load)
 from imutherm.thermal.problem import LINEAR_LAWS, NONLINEAR_LAWS, FixedTemperature, HeatFlux
 
 _PAIRS = [(0, 0), (0, 1), (1, 0), (1, 1)]
@@ -90,7 +90,7 @@ class FineOperator:
         self.cells = g.shape
         self.node_shape = tuple(s + 1 for s in g.shape)
         self.n = int(np.prod(self.node_shape))
-        hx, hy, hz = _cell_sizes3(g)
+        hx, hy, hz = cell_sizes3(g)
         k = problem.k.reshape(g.shape + (3,))
         self.coef = (k[..., 0] * (hy * hz / hx), k[..., 1] * (hx * hz / hy), k[..., 2] * (hx * hy / hz))
         self.linear, self.nonlinear, dirichlet = [], [], []
