@@ -19,7 +19,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.geometry.grid import FACE_NAMES
 from imutherm.lazy_jit import njit
-from imutherm.thermal.assembly import (EXCHANGE_FACE, FACE_M_REF, NodalBC, cell_sizes3, faces, volume_load)
+from imutherm.thermal.assembly import (EXCHANGE_FACE, FACE_M_REF, NodalBC, faces, volume_load)
 from imutherm.thermal.problem import LINEAR_LAWS, NONLINEAR_LAWS, FixedTemperature, HeatFlux
 
 _PAIRS = [(0, 0), (0, 1), (1, 0), (1, 1)]
@@ -32,17 +32,22 @@ def _mass4(c, d00, d01, d10, d11):
             c * (2.0 * d00 + d01 + 4.0 * d10 + 2.0 * d11), c * (d00 + 2.0 * d01 + 2.0 * d10 + 4.0 * d11))
 
 
-def _volume_kernel(x, cx, cy, cz, y):
-    """y (Nx, Ny, Nz) += K x: each box cell's ``cx KX + cy KY + cz KZ`` (:mod:`imutherm.thermal.assembly`) as a
-    difference along each axis and the 2x2 face mass across it; cells in C order, one pass (numba)."""
-    nx, ny, nz = cx.shape
+def _volume_kernel(x, kc, hx, hy, hz, y):
+    """y (Nx, Ny, Nz) += K x: each box cell's ``cx KX + cy KY + cz KZ`` (:mod:`imutherm.thermal.assembly`; ``cx =
+    k_x hy hz / hx`` from the cells' conductivity ``kc`` (nx, ny, nz, 3) and the 1-D cell sizes, formed per cell: no
+    coefficient arrays kept) as a difference along each axis and the 2x2 face mass across it; cells in C order, one
+    pass (numba)."""
+    nx, ny, nz = kc.shape[0], kc.shape[1], kc.shape[2]
     for i in range(nx):
         for j in range(ny):
             for k in range(nz):
+                cxi = kc[i, j, k, 0] * (hy[j] * hz[k] / hx[i])
+                cyi = kc[i, j, k, 1] * (hx[i] * hz[k] / hy[j])
+                czi = kc[i, j, k, 2] * (hx[i] * hy[j] / hz[k])
                 u000, u001, u010, u011 = x[i, j, k], x[i, j, k + 1], x[i, j + 1, k], x[i, j + 1, k + 1]
                 u100, u101, u110, u111 = x[i + 1, j, k], x[i + 1, j, k + 1], x[i + 1, j + 1, k], x[i + 1, j + 1, k + 1]
                 # along x: pairs (b, c)
-                t00, t01, t10, t11 = _mass4_jit(cx[i, j, k], u100 - u000, u101 - u001, u110 - u010, u111 - u011)
+                t00, t01, t10, t11 = _mass4_jit(cxi, u100 - u000, u101 - u001, u110 - u010, u111 - u011)
                 y[i + 1, j, k] += t00
                 y[i, j, k] -= t00
                 y[i + 1, j, k + 1] += t01
@@ -52,7 +57,7 @@ def _volume_kernel(x, cx, cy, cz, y):
                 y[i + 1, j + 1, k + 1] += t11
                 y[i, j + 1, k + 1] -= t11
                 # along y: pairs (a, c)
-                t00, t01, t10, t11 = _mass4_jit(cy[i, j, k], u010 - u000, u011 - u001, u110 - u100, u111 - u101)
+                t00, t01, t10, t11 = _mass4_jit(cyi, u010 - u000, u011 - u001, u110 - u100, u111 - u101)
                 y[i, j + 1, k] += t00
                 y[i, j, k] -= t00
                 y[i, j + 1, k + 1] += t01
@@ -62,7 +67,7 @@ def _volume_kernel(x, cx, cy, cz, y):
                 y[i + 1, j + 1, k + 1] += t11
                 y[i + 1, j, k + 1] -= t11
                 # along z: pairs (a, b)
-                t00, t01, t10, t11 = _mass4_jit(cz[i, j, k], u001 - u000, u011 - u010, u101 - u100, u111 - u110)
+                t00, t01, t10, t11 = _mass4_jit(czi, u001 - u000, u011 - u010, u101 - u100, u111 - u110)
                 y[i, j, k + 1] += t00
                 y[i, j, k] -= t00
                 y[i, j + 1, k + 1] += t01
@@ -73,8 +78,38 @@ def _volume_kernel(x, cx, cy, cz, y):
                 y[i + 1, j + 1, k] -= t11
 
 
+def _sgs_kernel(d, ex, ey, ez, b, x):
+    """One symmetric Gauss-Seidel sweep (forward in C order, then backward) on the 7-point matrix with diagonal ``d``
+    (Nx, Ny, Nz) and couplings ``-ex`` (Nx-1, Ny, Nz), ``-ey``, ``-ez`` between neighbours: ``x`` (Nx, Ny, Nz)
+    updated in place for the right-hand side ``b`` (numba; pyamg's ``gauss_seidel(..., sweep='symmetric')`` on
+    :meth:`FineOperator.seven_point`, without its CSR matrix)."""
+    Nx, Ny, Nz = d.shape
+    for sweep in range(2):
+        for ii in range(Nx):
+            i = ii if sweep == 0 else Nx - 1 - ii
+            for jj in range(Ny):
+                j = jj if sweep == 0 else Ny - 1 - jj
+                for kk in range(Nz):
+                    k = kk if sweep == 0 else Nz - 1 - kk
+                    s = b[i, j, k]
+                    if i > 0:
+                        s += ex[i - 1, j, k] * x[i - 1, j, k]
+                    if i < Nx - 1:
+                        s += ex[i, j, k] * x[i + 1, j, k]
+                    if j > 0:
+                        s += ey[i, j - 1, k] * x[i, j - 1, k]
+                    if j < Ny - 1:
+                        s += ey[i, j, k] * x[i, j + 1, k]
+                    if k > 0:
+                        s += ez[i, j, k - 1] * x[i, j, k - 1]
+                    if k < Nz - 1:
+                        s += ez[i, j, k] * x[i, j, k + 1]
+                    x[i, j, k] = s / d[i, j, k]
+
+
 _mass4_jit = njit(inline="always", cache=True)(_mass4)
 _volume_kernel = njit(cache=True)(_volume_kernel)
+_sgs_kernel = njit(cache=True)(_sgs_kernel)
 
 
 class FineOperator:
@@ -90,9 +125,8 @@ class FineOperator:
         self.cells = g.shape
         self.node_shape = tuple(s + 1 for s in g.shape)
         self.n = int(np.prod(self.node_shape))
-        hx, hy, hz = cell_sizes3(g)
-        k = problem.k.reshape(g.shape + (3,))
-        self.coef = (k[..., 0] * (hy * hz / hx), k[..., 1] * (hx * hz / hy), k[..., 2] * (hx * hy / hz))
+        self.h = tuple(np.ascontiguousarray(h, float) for h in g.cell_sizes())   # 1-D cell sizes [m]
+        self.kc = np.ascontiguousarray(problem.k, float).reshape(g.shape + (3,))  # a view of the problem's k
         self.linear, self.nonlinear, dirichlet = [], [], []
         F_bc = np.zeros(self.n)
         fcs = faces(g)
@@ -129,11 +163,18 @@ class FineOperator:
         self.slope = np.zeros(self.n)    # the nonlinear laws' diagonal slopes [W/K] (exchanges': replaced)
         self._exchanges = []
 
+    def coef(self, axis: int) -> np.ndarray:
+        """The cells' conduction coefficient along ``axis`` (nx, ny, nz) [W/K]: ``k_x hy hz / hx`` for x (formed on
+        request, not kept)."""
+        hx, hy, hz = self.h[0][:, None, None], self.h[1][None, :, None], self.h[2][None, None, :]
+        geo = (hy * hz / hx, hx * hz / hy, hx * hy / hz)[axis]
+        return self.kc[..., axis] * geo
+
     # -- the linear part: conduction and the linear laws ------------------------------------------------------
     def _volume(self, x: np.ndarray) -> np.ndarray:
         """Conduction stiffness times a nodal field ``x`` [K] -> [W] (:func:`_volume_kernel`)."""
         y3 = np.zeros(self.node_shape)
-        _volume_kernel(np.ascontiguousarray(x, float).reshape(self.node_shape), *self.coef, y3)
+        _volume_kernel(np.ascontiguousarray(x, float).reshape(self.node_shape), self.kc, *self.h, y3)
         return y3.reshape(-1)
 
     def _faces(self, x: np.ndarray, y: np.ndarray) -> None:
@@ -157,7 +198,7 @@ class FineOperator:
         """The diagonal of K + H [W/K]."""
         nx, ny, nz = self.cells
         d3 = np.zeros(self.node_shape)
-        c = sum(self.coef) / 9.0   # every corner: (cx + cy + cz) * (1/3)^2
+        c = sum(self.coef(a) for a in range(3)) / 9.0   # every corner: (cx + cy + cz) * (1/3)^2
         for a in (0, 1):
             for b in (0, 1):
                 for e in (0, 1):
@@ -217,20 +258,15 @@ class FineOperator:
         d[self.fixed] = 1.0
         return d
 
-    def seven_point(self):
-        """A 7-point SPD matrix (CSR) spectrally equivalent to the Newton matrix, for a smoother: each cell's
-        conduction with its 1-D masses across lumped (``k1 ⊗ diag(1/2, 1/2) ⊗ diag(1/2, 1/2)``: the lumped 1-D mass
-        lies between 1x and 3x the consistent one, so each term between 1x and 9x its consistent one), the linear laws' lumped face mass and the laws' slopes on the
-        diagonal; fixed rows identity, their couplings dropped. 7 entries a row (a neighbour outside the grid: a
-        zero entry on the opposite one), written straight into the CSR arrays."""
-        import scipy.sparse as sp
-
-        Nx, Ny, Nz = self.node_shape
-        n = self.n
-        strides = (Ny * Nz, Nz, 1)
-        data = np.zeros((n, 7))
-        diag3 = np.zeros(self.node_shape)
-        for axis, c in enumerate(self.coef):
+    def seven_point_stencil(self) -> tuple:
+        """The 7-point SPD matrix of :meth:`seven_point` as a stencil: ``(d, ex, ey, ez)``, its diagonal (Nx, Ny, Nz)
+        [W/K] and its couplings, ``-ex[i, j, k]`` (Nx-1, Ny, Nz) between nodes (i, j, k) and (i+1, j, k), likewise
+        ``ey``, ``ez``; fixed nodes' couplings 0 and diagonal 1. Four nodal arrays, where the CSR matrix holds
+        nine (~0.14 GB on the reference unit's refined mesh)."""
+        d = np.zeros(self.node_shape)
+        edges = []
+        for axis in range(3):
+            c = self.coef(axis)
             # the edge between node i and i+1 along ``axis``: a quarter of each of the 4 cells around it
             e = np.zeros(tuple(N - 1 if a == axis else N for a, N in enumerate(self.node_shape)))
             others = [a for a in range(3) if a != axis]
@@ -240,23 +276,62 @@ class FineOperator:
                     idx[others[0]] = slice(p, p + self.cells[others[0]])
                     idx[others[1]] = slice(q, q + self.cells[others[1]])
                     e[tuple(idx)] += 0.25 * c
+            del c
             lo, hi = [slice(None)] * 3, [slice(None)] * 3
             lo[axis], hi[axis] = slice(0, -1), slice(1, None)
-            diag3[tuple(lo)] += e
-            diag3[tuple(hi)] += e
-            minus, plus = np.zeros(self.node_shape), np.zeros(self.node_shape)
-            minus[tuple(hi)] = -e    # row at i+1, column i
-            plus[tuple(lo)] = -e     # row at i, column i+1
-            data[:, 2 - axis] = minus.reshape(-1)
-            data[:, 4 + axis] = plus.reshape(-1)
-        d = diag3.reshape(-1)
+            d[tuple(lo)] += e
+            d[tuple(hi)] += e
+            edges.append(e)
+        d = d.reshape(-1)
         for face, ca in self.linear:
             nu, nv = ca.shape
             w = np.zeros(face.nodes.shape)
             for a, b in _PAIRS:
                 w[a:a + nu, b:b + nv] += ca / 4.0
             np.add.at(d, face.nodes.reshape(-1), w.reshape(-1))
-        data[:, 3] = d + self.slope
+        d += self.slope
+        if self.any_fixed:
+            f3 = self.fixed.reshape(self.node_shape)
+            for axis, e in enumerate(edges):
+                lo, hi = [slice(None)] * 3, [slice(None)] * 3
+                lo[axis], hi[axis] = slice(0, -1), slice(1, None)
+                e[f3[tuple(lo)] | f3[tuple(hi)]] = 0.0
+            d[self.fixed] = 1.0
+        return (d.reshape(self.node_shape), *edges)
+
+    def smoother(self):
+        """``smooth(x, b)``: one symmetric Gauss-Seidel sweep on the 7-point matrix (:meth:`seven_point_stencil`,
+        set up now, at the current linearisation) for ``b`` [W], updating the nodal field ``x`` [K] in place."""
+        d, ex, ey, ez = self.seven_point_stencil()
+        shape = self.node_shape
+
+        def smooth(x: np.ndarray, b: np.ndarray) -> None:
+            _sgs_kernel(d, ex, ey, ez, np.ascontiguousarray(b, float).reshape(shape), x.reshape(shape))
+
+        return smooth
+
+    def seven_point(self):
+        """A 7-point SPD matrix (CSR) spectrally equivalent to the Newton matrix, for a smoother: each cell's
+        conduction with its 1-D masses across lumped (``k1 ⊗ diag(1/2, 1/2) ⊗ diag(1/2, 1/2)``: the lumped 1-D mass
+        lies between 1x and 3x the consistent one, so each term between 1x and 9x its consistent one), the linear
+        laws' lumped face mass and the laws' slopes on the diagonal; fixed rows identity, their couplings dropped.
+        7 entries a row (a neighbour outside the grid: a zero entry on the opposite one). The refined solve smooths
+        with its stencil (:meth:`smoother`) and does not form this matrix; kept as the stencil's reference."""
+        import scipy.sparse as sp
+
+        d, *edges = self.seven_point_stencil()
+        n = self.n
+        strides = (self.node_shape[1] * self.node_shape[2], self.node_shape[2], 1)
+        data = np.zeros((n, 7))
+        data[:, 3] = d.reshape(-1)
+        for axis, e in enumerate(edges):
+            lo, hi = [slice(None)] * 3, [slice(None)] * 3
+            lo[axis], hi[axis] = slice(0, -1), slice(1, None)
+            minus, plus = np.zeros(self.node_shape), np.zeros(self.node_shape)
+            minus[tuple(hi)] = -e    # row at i+1, column i
+            plus[tuple(lo)] = -e     # row at i, column i+1
+            data[:, 2 - axis] = minus.reshape(-1)
+            data[:, 4 + axis] = plus.reshape(-1)
         rows = np.arange(n, dtype=np.int32)
         ijk = np.unravel_index(rows, self.node_shape)
         cols = np.empty((n, 7), np.int32)
@@ -265,10 +340,5 @@ class FineOperator:
             first, last = ijk[axis] == 0, ijk[axis] == self.node_shape[axis] - 1
             cols[:, 2 - axis] = np.where(first, rows + st, rows - st)   # outside: the opposite one, value 0
             cols[:, 4 + axis] = np.where(last, rows - st, rows + st)
-        if self.fixed.any():
-            f = self.fixed
-            data[f] = 0.0
-            data[f, 3] = 1.0
-            data[np.isin(cols, np.flatnonzero(f)) & (cols != rows[:, None])] = 0.0
         return sp.csr_matrix((data.reshape(-1), cols.reshape(-1), np.arange(0, 7 * n + 1, 7, dtype=np.int64)),
                              shape=(n, n))

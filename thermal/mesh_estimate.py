@@ -10,7 +10,7 @@ default-mesh field) to the same tolerance, with
   the assembled one to rounding), its residual likewise;
 * CG preconditioned by a symmetric two-level cycle: a symmetric Gauss-Seidel sweep on a 7-point matrix spectrally
   equivalent to the Newton matrix (:meth:`~imutherm.thermal.fine_operator.FineOperator.seven_point`, 7 of the 27
-  entries a row), the default mesh's own AMG V-cycle through the prolongation as the coarse level (the steady
+  entries a row; swept on its stencil by a numba kernel, no CSR matrix formed), the default mesh's own AMG V-cycle through the prolongation as the coarse level (the steady
   solve's hierarchy: nothing set up), a symmetric sweep on the residual.
 
 It gives the refined values to the CG tolerance of the assembled solve (:data:`REFINED_CG_RTOL` of the prolonged
@@ -37,29 +37,33 @@ from imutherm.workers import one_blas_thread
 
 #: CG steps at most per Newton step [-] (reference unit, default mesh: 13-20 to REFINED_CG_RTOL)
 MAX_CG_STEPS = 60
-#: the smoother's Gauss-Seidel sweeps on the 7-point matrix before and after the coarse correction, and how many
-#: (reference unit, air, load 9: forward/backward 21 CG steps and 4.3 CPU-s; symmetric 15 and 4.0; symmetric twice
-#: 12 and 4.2)
-SWEEPS = ("symmetric", "symmetric")
+#: the smoother's symmetric Gauss-Seidel sweeps on the 7-point stencil before and after the coarse correction
+#: (reference unit, air, load 9: forward/backward 21 CG steps and 4.3 CPU-s; symmetric once 15 and 4.0; symmetric
+#: twice 12 and 4.2)
 SWEEP_ITERATIONS = 1
 
 
-def _two_level(op: FineOperator, S, prolong, coarse_pc):
-    """The symmetric two-level cycle on ``op``: Gauss-Seidel on ``S`` (the 7-point matrix, :data:`SWEEPS`), the
-    coarse grid's V-cycle ``coarse_pc`` through ``prolong`` on the residual, Gauss-Seidel on the residual."""
+def _two_level(op: FineOperator, prolong, coarse_pc):
+    """The symmetric two-level cycle on ``op`` at its current linearisation: symmetric Gauss-Seidel on the 7-point
+    stencil (:meth:`~imutherm.thermal.fine_operator.FineOperator.smoother`), the coarse grid's V-cycle ``coarse_pc``
+    through ``prolong`` on the residual, symmetric Gauss-Seidel on the residual."""
     import scipy.sparse.linalg as spla
-    from pyamg.relaxation.relaxation import gauss_seidel
 
     R = prolong.T
+    smooth = op.smoother()
 
     def apply(b):
         b = np.ravel(np.asarray(b, float))
         x = np.zeros_like(b)
-        gauss_seidel(S, x, b, iterations=SWEEP_ITERATIONS, sweep=SWEEPS[0])
+        for _ in range(SWEEP_ITERATIONS):
+            smooth(x, b)
         x += prolong @ (coarse_pc @ (R @ (b - op.apply(x))))
+        r = b - op.apply(x)
         e = np.zeros_like(b)
-        gauss_seidel(S, e, b - op.apply(x), iterations=SWEEP_ITERATIONS, sweep=SWEEPS[1])
-        return x + e
+        for _ in range(SWEEP_ITERATIONS):
+            smooth(e, r)
+        x += e
+        return x
 
     return spla.LinearOperator((op.n, op.n), matvec=apply, dtype=float)
 
@@ -108,7 +112,7 @@ def refined_steady_matrix_free(fine_problem, coarse_T_C, prolong, coarse_pc, pro
             count[0] += 1
             if history is not None and first:
                 history.append(Pm @ x)
-        dT, info = spla.cg(A, r, rtol=0.0, atol=atol, M=_two_level(op, op.seven_point(), prolong, coarse_pc),
+        dT, info = spla.cg(A, r, rtol=0.0, atol=atol, M=_two_level(op, prolong, coarse_pc),
                            maxiter=max_cg, callback=step)
         steps += count[0]
         if info != 0:
