@@ -84,7 +84,8 @@ class Patches:
     P : sparse (n, n_nodes), patch average of the nodal temperatures [-] (rows sum to 1)
     n_regions : int; region_cells : (n_regions,) air cells per region
     face_patch : tuple of three int arrays, patch of each grid face normal to x, y, z
-        (shapes (nx+1, ny, nz), (nx, ny+1, nz), (nx, ny, nz+1); -1: no patch)
+        (shapes (nx+1, ny, nz), (nx, ny+1, nz), (nx, ny, nz+1); -1: no patch); None where no rays are traced
+        (a chunk of patches, :func:`refined_patches`)
     fc_patch, fc_axis, fc_plane, fc_u, fc_v : per face cell: patch, normal axis, node-plane index and
         the (u, v) cell indices on the two other axes in increasing axis order
     """
@@ -564,7 +565,9 @@ def refined_patches(patches: Patches, fine: TensorGrid, factor: int) -> Patches:
     """The same patches on ``fine``, the grid of ``patches`` with every interval split into ``factor`` parts
     (:func:`imutherm.geometry.mesh.refine_grid`): each face cell's ``factor**2`` sub-faces belong to its patch,
     so the patches, their areas and the view factors between them are unchanged, and only the averaging
-    ``P`` (and the per-face-cell arrays) are of the fine grid's nodes and faces."""
+    ``P`` (and the per-face-cell arrays) are of the fine grid's nodes and faces. No ``face_patch`` map (rays are
+    not traced on the fine grid: its view factors are the coarse ones; the map held ~35 MB on the reference
+    unit's refined mesh)."""
     f = int(factor)
     a, b = np.meshgrid(np.arange(f), np.arange(f), indexing="ij")
     a, b = a.ravel(), b.ravel()
@@ -577,7 +580,6 @@ def refined_patches(patches: Patches, fine: TensorGrid, factor: int) -> Patches:
     Nn = tuple(n + 1 for n in fine.shape)
     area = np.empty(len(patch))
     cols = np.empty((4, len(patch)), dtype=np.int64)
-    face_patch = []
     for ax in range(3):
         m = axis == ax
         u_ax, v_ax = [d for d in range(3) if d != ax]
@@ -586,16 +588,9 @@ def refined_patches(patches: Patches, fine: TensorGrid, factor: int) -> Patches:
             ijk = [None] * 3
             ijk[ax], ijk[u_ax], ijk[v_ax] = plane[m], u[m] + da, v[m] + db
             cols[k, m] = (ijk[0] * Nn[1] + ijk[1]) * Nn[2] + ijk[2]
-        shp = list(fine.shape)
-        shp[ax] += 1
-        fp = np.full(shp, -1, dtype=np.int64)
-        ind = [None] * 3
-        ind[ax], ind[u_ax], ind[v_ax] = plane[m], u[m], v[m]
-        fp[tuple(ind)] = patch[m]
-        face_patch.append(fp)
     vals = np.tile(area / 4.0 / patches.area[patch], 4)
     P = sp.csr_matrix((vals, (np.tile(patch, 4), cols.ravel())), shape=(patches.n, fine.n_nodes))
-    return replace(patches, P=P, face_patch=tuple(face_patch), fc_patch=patch, fc_axis=axis, fc_plane=plane,
+    return replace(patches, P=P, face_patch=None, fc_patch=patch, fc_axis=axis, fc_plane=plane,
                    fc_u=u, fc_v=v)
 
 
