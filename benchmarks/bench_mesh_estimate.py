@@ -76,7 +76,7 @@ def main(argv=None) -> int:
     if args.case:
         print(json.dumps(case(*args.case)))
         return 0
-    from bench_board_solve import SITES, _heights
+    from bench_board_solve import SITES
     from bench_import import run
 
     work = Path(tempfile.mkdtemp(prefix="bench_mesh_estimate_"))
@@ -84,7 +84,7 @@ def main(argv=None) -> int:
     for name in args.boards:
         (work / f"{name}.kicad_pcb").write_bytes(gzip.decompress((BOARDS / f"{name}.kicad_pcb.gz").read_bytes()))
         run([sys.executable, "-m", "imutherm.cli", "import", f"{name}.kicad_pcb", "--powers",
-             str(BOARDS / f"{name}_powers.csv"), "--site", SITES[name], *_heights(name, work), "--out",
+             str(BOARDS / f"{name}_powers.csv"), "--site", SITES[name], "--out",
              f"{name}.toml"], work)
         units.append((str(work / f"{name}.toml"), "air"))
     print(f"# bench_mesh_estimate, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load before "
