@@ -77,6 +77,9 @@ def test_the_matrix_free_operator_is_the_assembled_one(fixed):
     op.smoother()(x_stencil, b)
     assert np.abs(x_stencil - x_csr).max() <= 1e-12 * np.abs(x_csr).max()
     assert np.abs(x_stencil - x0).max() > 1e-3 * np.abs(x0).max()   # a sweep, not a no-op
+    x32 = x0.copy()   # the stencil stored in single precision: the same sweep to that precision
+    op.smoother(np.float32)(x32, b)
+    assert np.abs(x32 - x_csr).max() <= 1e-6 * np.abs(x_csr).max()
 
 
 def test_the_matrix_free_refined_solve_gives_the_assembled_answer():

@@ -299,10 +299,12 @@ class FineOperator:
             d[self.fixed] = 1.0
         return (d.reshape(self.node_shape), *edges)
 
-    def smoother(self):
+    def smoother(self, dtype=np.float64):
         """``smooth(x, b)``: one symmetric Gauss-Seidel sweep on the 7-point matrix (:meth:`seven_point_stencil`,
-        set up now, at the current linearisation) for ``b`` [W], updating the nodal field ``x`` [K] in place."""
-        d, ex, ey, ez = self.seven_point_stencil()
+        set up now, at the current linearisation) for ``b`` [W], updating the nodal field ``x`` [K] in place.
+        ``dtype``: the stencil's storage (``np.float32`` halves it; the sweep's sums stay in double precision, and
+        the sweep is still a symmetric Gauss-Seidel, of the stencil rounded to single precision)."""
+        d, ex, ey, ez = (a.astype(dtype, copy=False) for a in self.seven_point_stencil())
         shape = self.node_shape
 
         def smooth(x: np.ndarray, b: np.ndarray) -> None:

@@ -41,6 +41,10 @@ MAX_CG_STEPS = 60
 #: (reference unit, air, load 9: forward/backward 21 CG steps and 4.3 CPU-s; symmetric once 15 and 4.0; symmetric
 #: twice 12 and 4.2)
 SWEEP_ITERATIONS = 1
+#: the smoother's stencil in single precision: it is only the preconditioner's smoother (the Newton matrix, the
+#: residual and CG stay double); on the reference unit the same CG steps and refined values to 1e-5 K as in double
+#: (w59-memory, docs/benchmarks/mesh_estimate.md), 24 MB less on its refined mesh
+SMOOTHER_DTYPE = np.float32
 
 
 def _two_level(op: FineOperator, prolong, coarse_pc):
@@ -50,7 +54,7 @@ def _two_level(op: FineOperator, prolong, coarse_pc):
     import scipy.sparse.linalg as spla
 
     R = prolong.T
-    smooth = op.smoother()
+    smooth = op.smoother(SMOOTHER_DTYPE)
 
     def apply(b):
         b = np.ravel(np.asarray(b, float))
