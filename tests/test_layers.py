@@ -28,7 +28,7 @@ FORBIDDEN = {
     "studies": {"reports", "cli"},
     "reports": {"cli"},
 }
-ENTRY_POINTS = {"studies/study_reference.py", "studies/study_cardguide.py", "studies/study.py"}
+ENTRY_POINTS = {"studies/study_reference.py", "studies/study.py"}
 #: the unit model's old homes in thermal/: each only re-exports its module of unit/
 FACADES = {"thermal/model.py", "thermal/effects.py", "thermal/knobs.py"}
 
