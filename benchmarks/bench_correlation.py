@@ -32,7 +32,7 @@ import numpy as np
 from imutherm.io import write_json
 from imutherm.measured import read_measured
 from imutherm.studies.correlation import FORM_RETUNE, build_models, correlate, result_json
-from imutherm.studies.correlation.forward_model import _Forward
+from imutherm.studies.correlation.forward_model import ForwardModel
 from imutherm.studies.correlation.form_generator import generator_mesh_mm
 from imutherm.studies.correlation.hidden_effect import (FINDING_KINDS, MODEL_FORMS, OUT_OF_LIBRARY_KINDS, HiddenCase, make_case,
                                            model_form_options)
@@ -133,7 +133,7 @@ def main(argv=None) -> int:
             write_json(d / "correlation.json", j)  # the case's whole verdict, for a look at why
             called = res.named_effect if res.verdict == "effect" else res.verdict
             sig = signature(models, runs, case, res.noise_K)
-            shape = residual_shape(_Forward(tuple(runs), models.roms, models.geometries), res.retune.values)
+            shape = residual_shape(ForwardModel(tuple(runs), models.roms, models.geometries), res.retune.values)
             rows.append({"form": form, "named_effects": list(res.named_effects),
                          "findings": [f.parameter for f in res.findings], "named_first": j["named_first"],
                          "written_model": j["written_model"]["model"] if j["written_model"] else None,
@@ -169,7 +169,7 @@ def signature(models, runs, case, noise_K: float) -> float | None:
     values, with and without it), over the noise: how visible the effect is. None: not in the library."""
     if case.hidden in ("none", *OUT_OF_LIBRARY_KINDS) or not noise_K:
         return None
-    fwd = _Forward(tuple(runs), models.roms, models.geometries)
+    fwd = ForwardModel(tuple(runs), models.roms, models.geometries)
     base = dict(case.nuisance)
     if case.hidden in FINDING_KINDS:  # a re-tune parameter moved far: against its nominal value
         base[case.hidden] = fwd.nominal[case.hidden]

@@ -235,12 +235,12 @@ class FemCase:
         the FEM pair's inversion-form rise with and without it is not computed, None)."""
         if self.value is None or self.lid is not None:
             return None
-        from imutherm.studies.correlation.forward_model import _Forward
+        from imutherm.studies.correlation.forward_model import ForwardModel
         from imutherm.unit import knobs
         t = np.linspace(0.0, 1500.0, 40)
         runs = tuple(MeasuredRun(f"{s}.csv", s, 70.0, 1.0, 0.0, "die", FEM_SITES, t, np.zeros((40, 6)),
                                  tuple(range(40))) for s in SCHEMES)
-        fwd = _Forward(runs, self.models.roms, self.models.geometries)
+        fwd = ForwardModel(runs, self.models.roms, self.models.geometries)
         base = dict(self.truth)
         base[self.kind] = knobs.nominal_values(self.geo["air"], self.models.options).get(self.kind, None)
         if base[self.kind] is None:

@@ -15,7 +15,7 @@ development files); in a git worktree away from ../shared/data set IMUTHERM_SHAR
 inclination RMS [deg] per record and filter, the aekf's reported NIS resets, each filter's mean x VQF and worst
 file x VQF, and the in-motion divergence check's flagged windows (imu/filters/motion_check.py). The BROAD records are
 development data (the settings were tuned on these trials, untransformed); the simulated ones were not tuned on;
-the held-out family (hand-held tours about random axes, studies/filter_stress.py HELDOUT_CASES) was defined before
+the held-out family (hand-held tours about random axes, studies/attitude/filter_stress.py HELDOUT_CASES) was defined before
 any of it was run and first run by this benchmark (issue 57). Each group is summarised on its own.
 Data: Laidig, Caruso, Cereatti, Seel, Data 6 (7), 72, 2021, doi:10.3390/data6070072 (BROAD, CC BY 4.0).
 """

@@ -23,7 +23,7 @@ import numpy as np
 
 from imutherm.measured import read_measured
 from imutherm.studies.correlation import build_models
-from imutherm.studies.correlation.forward_model import _Forward
+from imutherm.studies.correlation.forward_model import ForwardModel
 from imutherm.studies.correlation.hidden_effect import MODEL_FORMS, make_case, model_form_options
 
 EXPERIMENTS = (("air", 70.0), ("grease", 70.0))
@@ -46,7 +46,7 @@ def main() -> None:
         case = make_case(tmp, "none", np.random.default_rng(a.seed), experiments=EXPERIMENTS,
                          mesh_size_mm=a.gen_mesh_size, min_cells=1, seed=a.seed, options=opts, samples=40)
         runs = [read_measured(f) for f in case.files]
-    fwd = _Forward(tuple(runs), models.roms, models.geometries)
+    fwd = ForwardModel(tuple(runs), models.roms, models.geometries)
     print(f"generator: {a.model_form or 'the inversion laws'}, mesh {a.gen_mesh_size:g} mm"
           + (f", fixed exterior h {a.exterior_h:g} W/m^2 K" if a.exterior_h is not None else "")
           + f"; inversion mesh {a.mesh_size:g} mm; nuisance {case.nuisance}")

@@ -356,11 +356,11 @@ def mesh_info(grid: TensorGrid) -> MeshInfo:
         # fewest cells the part spans along any axis, over the grid lines through it
         counts = [int(mask.sum(axis=a).max()) for a in range(3)]
         across[name] = min(counts)
-    gaps = _gaps(grid)
+    gaps = grid_gaps(grid)
     return MeshInfo(grid.n_cells, grid.n_nodes, float(widths.min() / MM), float(widths.max() / MM), across, **gaps)
 
 
-def _gaps(grid: TensorGrid) -> dict:
+def grid_gaps(grid: TensorGrid) -> dict:
     """The thinnest gap of the fill between solids and the fewest cells across any gap (:class:`MeshInfo`)."""
     if "fill" not in grid.part_names or not (grid.cell_part == grid.part_names.index("fill")).any():
         return {}

@@ -14,7 +14,7 @@ from imutherm.cli import correlate as cli
 from imutherm.measured import MeasuredRun, read_measured, write_measured
 from imutherm.studies.correlation import (SPARSE_NOISE_K, Fit, build_models, correlate, heldout_worse_z, noise_sigma,
                                           result_json, updated_model_toml, verdict)
-from imutherm.studies.correlation.holdout import _masks
+from imutherm.studies.correlation.holdout import holdout_folds
 from imutherm.studies.correlation.hidden_effect import make_case
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/_toy_reduced.py
@@ -126,20 +126,20 @@ def _run(path, scheme, times, values, sites=("tp1",)):
 def test_hold_out_design():
     """Sparse files: leave one reading out; dense files: fit early, predict late; or leave a named file out."""
     sparse = [_run("a.csv", "air", [800.0, np.inf], [89.0, 90.0]), _run("g.csv", "grease", [300.0, np.inf], [77.6, 78])]
-    folds = _masks(sparse, "auto")
+    folds = holdout_folds(sparse, "auto")
     assert len(folds) == 4
     for train, test in folds:  # each reading is held out once and trained on otherwise
         assert sum(int(m.sum()) for m in test.values()) == 1
         assert sum(int(m.sum()) for m in train.values()) == 3
     t = np.linspace(0, 1000, 20)
     dense = [_run("a.csv", "air", t, 70 + t / 100), _run("g.csv", "grease", t, 70 + t / 200)]
-    (train, test), = _masks(dense, "auto")
+    (train, test), = holdout_folds(dense, "auto")
     for i in (0, 1):  # each file: its first 60 % of the time, then the rest
         assert int(train[i].sum()) == 12 and int(test[i].sum()) == 8
-    (train, test), = _masks(dense, "g.csv")
+    (train, test), = holdout_folds(dense, "g.csv")
     assert int(test[1].sum()) == 20 and int(train[1].sum()) == 0
     with pytest.raises(Exception, match="--holdout 'x.csv': not one of the measured files"):
-        _masks(dense, "x.csv")
+        holdout_folds(dense, "x.csv")
 
 
 def test_noise_estimate_from_second_differences():
@@ -172,7 +172,7 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.studies.correlation.fit import _knobs_for
-    from imutherm.studies.correlation.forward_model import _Forward
+    from imutherm.studies.correlation.forward_model import ForwardModel
     from imutherm.unit import knobs
     from imutherm.unit.effects import power_part
 
@@ -181,7 +181,7 @@ def test_a_power_candidate_cannot_take_a_part_below_zero_power():
     runs = [_run("a.csv", "air", [800.0], [89.0]), _run("g.csv", "grease", [300.0], [77.0])]
     runs[1] = MeasuredRun("g.csv", "grease", 70.0, 0.9, 0.0, "die", ("tp1",), np.array([300.0]),
                           np.array([[77.0]]), (0,))
-    fwd = _Forward(runs, {}, geos)
+    fwd = ForwardModel(runs, {}, geos)
     adc_W = power_part(geos["air"], "adc").power_W
     assert 0.0 < adc_W < 1.0  # the layout's ADC draws well under the library's 1 W
     knob = _knobs_for("power@adc", fwd)[-1]
@@ -463,15 +463,15 @@ def test_what_an_effect_must_gain_without_the_term_and_leave_with_it():
     a form error's size). With the term: where the effects act, the term they leave within 2 noise sigmas or
     halved (a lid heat load named ``contact@bond`` left 0.153 K in grease, 2.96 sigmas, of 0.2 K)."""
     from imutherm.studies.correlation import explains_term
-    from imutherm.studies.correlation.verdict import _plain_explains
+    from imutherm.studies.correlation.verdict import plain_explains
     noise = 0.052
     chosen = _fit("contact@board", -380.0, 0.076)
     sel = ([{"verdict": "effect"}, {"verdict": "none"}], [chosen])
-    assert _plain_explains(sel, noise)  # within 2 sigmas: the old standard alone
-    assert not _plain_explains(sel, noise, _fit("none", 0.0, 0.128))  # 0.076 > 0.128 / 2
-    assert _plain_explains(sel, noise, _fit("none", 0.0, 0.9))  # a real effect's gain
-    assert not _plain_explains(([{"verdict": "effect"}], [_fit("a", -90.0, 0.2)]), noise, _fit("none", 0.0, 0.9))
-    assert _plain_explains(([{"verdict": "none"}], []), noise, _fit("none", 0.0, 0.09))
+    assert plain_explains(sel, noise)  # within 2 sigmas: the old standard alone
+    assert not plain_explains(sel, noise, _fit("none", 0.0, 0.128))  # 0.076 > 0.128 / 2
+    assert plain_explains(sel, noise, _fit("none", 0.0, 0.9))  # a real effect's gain
+    assert not plain_explains(([{"verdict": "effect"}], [_fit("a", -90.0, 0.2)]), noise, _fit("none", 0.0, 0.9))
+    assert plain_explains(([{"verdict": "none"}], []), noise, _fit("none", 0.0, 0.09))
 
     def with_term(name, left, signature=None):
         from dataclasses import replace

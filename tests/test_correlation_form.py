@@ -14,8 +14,8 @@ import pytest
 from imutherm import InputError
 from imutherm.studies.correlation import form_error
 from imutherm.studies.correlation import build_discrepancy, correlate, result_json, updated_model_toml
-from imutherm.studies.correlation.forward_model import _Forward
-from imutherm.studies.correlation.holdout import _masks, _test_union
+from imutherm.studies.correlation.forward_model import ForwardModel
+from imutherm.studies.correlation.holdout import holdout_folds, held_out_union
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/_toy_reduced.py
 
@@ -39,7 +39,7 @@ def test_the_known_form_scale_and_the_terms_cap():
     assert fs.cap("grease") == pytest.approx(form_error.FORM_SIGMAS * fs.of("grease"))
     m = toy_models()
     runs = toy_runs({**NUISANCE, "power@reg_5v": 0.5}, np.random.default_rng(1), _form(0.10))
-    fwd = _Forward(tuple(runs), m.roms, m.geometries)
+    fwd = ForwardModel(tuple(runs), m.roms, m.geometries)
     full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
     free = build_discrepancy(fwd, fwd.nominal, 0.05, 1.0)
     capped = build_discrepancy(fwd, fwd.nominal, 0.05, 1.0, caps={"air": 0.02, "grease": 0.01})
@@ -106,8 +106,8 @@ def test_the_written_model_is_never_worse_than_the_nominal_one():
     from imutherm.studies.correlation.written_model import choose
     m = toy_models()
     runs = toy_runs(dict(NUISANCE), np.random.default_rng(2))
-    fwd = _Forward(tuple(runs), m.roms, m.geometries)
-    test = _test_union(_masks(runs, "auto"))
+    fwd = ForwardModel(tuple(runs), m.roms, m.geometries)
+    test = held_out_union(holdout_folds(runs, "auto"))
     bad = {**fwd.nominal, "k_board_W_mK": 40.0}
     w = choose(fwd, fwd.nominal, bad, None, test)
     assert w["model"] == "nominal" and w["corrected_heldout_rms_K"] > w["nominal_heldout_rms_K"]

@@ -10,8 +10,10 @@ import pytest
 
 from imutherm.cli.attitude import main
 from imutherm.imu.filters import GatedParams, run_ungated
-from imutherm.imu.filters.registry import (REGISTRY, FilterSpec, Tuned, filter_names, parse_filters, register,
-                                           study_filters, sweep_filters, tuned_filters, unregister)
+from imutherm.imu.filters.registry import (GROUPS, REGISTRY, FilterSpec, Tuned, filter_names, gyro_range_filters,
+                                           in_group, parse_filters, platform_tuned_filters, real_filters,
+                                           reference_filter, register, study_filters, sweep_filters, tuned_filters,
+                                           unregister)
 
 
 def _gyro_only(x, p):
@@ -24,10 +26,31 @@ def _gyro_only(x, p):
 @pytest.fixture
 def gyro_only():
     register(FilterSpec("gyro_only", _gyro_only, GatedParams, "ours", "test: strapdown without correction",
-                        "tab:cyan", in_study=True, base=lambda x: GatedParams(None, kp=0.0, ki=0.0),
+                        "tab:cyan", groups={"study", "real_tuned"}, base=lambda x: GatedParams(None, kp=0.0, ki=0.0),
                         tuning=(Tuned("kp", 0.01, 0.1, (1e-3, 1.0), "kp [1/s]"),)))
     yield "gyro_only"
     unregister("gyro_only")
+
+
+def test_a_filter_belongs_to_named_groups_and_the_registry_is_queried_by_group(gyro_only):
+    """One field, ``groups``, says which runs a filter belongs to; each query reads a group; a group the registry
+    does not know is refused when the filter is registered, and when it is asked for."""
+    assert REGISTRY["gyro_only"].groups == frozenset({"study", "real_tuned"})
+    assert "gyro_only" in study_filters() and "gyro_only" in real_filters() and "gyro_only" not in sweep_filters()
+    assert in_group("study") == study_filters()            # none of the study group needs GNSS
+    assert reference_filter() == "vqf" and platform_tuned_filters() == ("mahony",)
+    assert gyro_range_filters(("vqf", "fusion", "nope")) == ("fusion",)
+    assert "vqf" not in in_group("varying_dt") and "gated" in in_group("varying_dt")  # VQF's period is fixed
+    assert "mahony" in tuned_filters() and "mahony" not in real_filters()  # its defaults are a trap on real motion
+    for spec in REGISTRY.values():
+        assert spec.groups <= set(GROUPS), spec.name
+    with pytest.raises(Exception, match="group studdy unknown; valid: study, sweep"):
+        register(FilterSpec("typo", _gyro_only, GatedParams, "ours", "test", "tab:cyan", groups={"studdy"}))
+    assert "typo" not in REGISTRY
+    with pytest.raises(Exception, match="groups must be a set of group names"):
+        FilterSpec("typo", _gyro_only, GatedParams, "ours", "test", "tab:cyan", groups="study")
+    with pytest.raises(Exception, match="filter group 'in_study' unknown"):
+        in_group("in_study")
 
 
 def test_builtin_filters_are_registered_once():

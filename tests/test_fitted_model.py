@@ -156,9 +156,11 @@ def test_updated_model_toml_reads_back(tmp_path):
     vals = {"power_scale": 0.9, "mount_h_W_m2K": 1234.5, "power@reg_5v": -0.3, "cavity_law_blend": 0.8}
     after = Fit("power@reg_5v", vals, 0.2, 0.3, 4, 4.0, 3, float("nan"), 0.25, 0.3, effects=("power@reg_5v",))
     retune = Fit("none", {"power_scale": 0.95}, 1.1, 1.5, 4, 4.0, 2, float("nan"), 1.3, 1.6)
-    res = CorrelationResult("effect", "power@reg_5v", (), {"rms_K": 2.0, "max_K": 3.0, "heldout_rms_K": 2.1},
-                            after, retune, (after,), {}, {}, 0.5, {}, (), {}, {"reason": "test", "total_s": 1.0},
-                            "a test", {"rms_K": 0.22, "max_K": 0.31}, named_effects=("power@reg_5v",),
+    res = CorrelationResult(verdict="effect", named_effect="power@reg_5v", ambiguous_set=(),
+                            before={"rms_K": 2.0, "max_K": 3.0, "heldout_rms_K": 2.1}, after=after, retune=retune,
+                            ranking=(after,), localise={}, fingerprints={}, noise_K=0.5, curves={}, runs=(),
+                            reduced={}, timings={"reason": "test", "total_s": 1.0}, words="a test",
+                            full={"rms_K": 0.22, "max_K": 0.31}, named_effects=("power@reg_5v",),
                             steps=({"verdict": "effect", "named": "power@reg_5v", "base": retune, "ranking": (after,),
                                     "ambiguous_set": (), "reason": "test"},))
     opts = ModelOptions(cavity_law="s2s", mounting_conductance_W_m2K=800.0)
@@ -197,9 +199,11 @@ def test_the_readings_go_side_by_side_into_the_model_file_the_csv_and_the_report
                          "after_full_K": 17.25 + col}}
     after = Fit("power@reg_5v", {"power@reg_5v": -0.5}, 0.2, 0.3, 2, 2.0, 1, float("nan"), 0.25, 0.3,
                 effects=("power@reg_5v",))
-    res = CorrelationResult("effect", "power@reg_5v", (), {"rms_K": 2.0, "max_K": 3.0, "heldout_rms_K": 2.1},
-                            after, after, (after,), {}, {}, 0.5, curves, (run,), {}, {"reason": "t", "total_s": 1.0},
-                            "a test", {"rms_K": 0.22, "max_K": 0.31}, named_effects=("power@reg_5v",),
+    res = CorrelationResult(verdict="effect", named_effect="power@reg_5v", ambiguous_set=(),
+                            before={"rms_K": 2.0, "max_K": 3.0, "heldout_rms_K": 2.1}, after=after, retune=after,
+                            ranking=(after,), localise={}, fingerprints={}, noise_K=0.5, curves=curves, runs=(run,),
+                            reduced={}, timings={"reason": "t", "total_s": 1.0}, words="a test",
+                            full={"rms_K": 0.22, "max_K": 0.31}, named_effects=("power@reg_5v",),
                             steps=({"verdict": "effect", "named": "power@reg_5v", "base": after, "ranking": (after,),
                                     "ambiguous_set": (), "reason": "t"},))
     rows = reading_rows(res)

@@ -220,7 +220,7 @@ def test_the_refined_solve_with_fixed_temperatures_and_nonlinear_laws():
                 "xmin": NaturalConvection("vertical", 0.02)}
         return ThermalProblem(grid, k, 1.0, q.reshape(-1), 70.0, laws)
 
-    g = verification._board_cavity_grid(1)
+    g = verification.board_cavity_grid(1)
     pts = {"die": (23.5e-3, 5e-3, 7.95e-3), "board": (40e-3, 5e-3, 7.6e-3)}
     pc = problem(g)
     st = solve_steady(pc, probes=pts)

@@ -96,6 +96,11 @@ def test_sample_and_hold_trial_keeps_its_samples_and_scores_as_the_reference_rea
         assert d["filters"][n]["inclination_rms_deg"] == pytest.approx(ref["filters"][n]["inclination_rms_deg"],
                                                                        abs=2e-3), n
         assert ref["filters"][n]["inclination_rms_deg"] < 0.5, n  # VQF 0.37°, ours 0.31-0.36° (dev figures)
+        # the in-motion divergence check on both paths (the CSV path integrates the true steps): nothing flagged,
+        # the same worst window within 0.05°
+        assert d["filters"][n]["motion_check"]["flagged"] == [] == ref["filters"][n]["motion_check"]["flagged"], n
+        assert d["filters"][n]["motion_check"]["worst_deg"] == pytest.approx(
+            ref["filters"][n]["motion_check"]["worst_deg"], abs=0.05), n
 
 
 def _tilting_log(Cri, tmp_path, name):

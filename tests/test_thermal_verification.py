@@ -91,9 +91,9 @@ def test_trbdf2_order_check_can_fail(monkeypatch):
 
 
 def test_semi_discrete_exact_is_the_closed_form_to_lumped_model_accuracy():
-    pr, tau, rise_inf, Tinf, centre, Bi = verification._lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = verification.lumped_block()
     t = np.linspace(0, 3 * tau, 7)
-    sd = verification._semi_discrete_exact(pr, [centre])(t)[:, 0]
+    sd = verification.semi_discrete_exact(pr, [centre])(t)[:, 0]
     assert np.abs(sd - Tinf - rise_inf * (1 - np.exp(-t / tau))).max() < 10 * Bi * rise_inf
 
 
@@ -131,7 +131,7 @@ def test_cli_verify_writes_json_and_exits_zero(tmp_path, capsys):
 
 def test_cli_verify_exits_nonzero_on_failure(tmp_path, monkeypatch, capsys):
     def bad():
-        return verification._record("slab_generation", "x", 1.0, 2.0, 1.0, 0.1, "forced failure", 0.0)
+        return verification.checked("slab_generation", "x", 1.0, 2.0, 1.0, 0.1, "forced failure", 0.0)
 
     monkeypatch.setitem(verification.CASES, "slab_generation", bad)
     rc = verify_cli.main(["--out", str(tmp_path / "v"), "--case", "slab_generation"])
@@ -180,7 +180,7 @@ def _note_literals():
         if not isinstance(fn, ast.FunctionDef):
             continue
         for call in ast.walk(fn):
-            if not (isinstance(call, ast.Call) and getattr(call.func, "id", None) in ("_record", "VerificationRecord")):
+            if not (isinstance(call, ast.Call) and getattr(call.func, "id", None) in ("checked", "VerificationRecord")):
                 continue
             note = call.args[6] if len(call.args) > 6 else next(k.value for k in call.keywords if k.arg == "note")
             out += [(fn.name, text) for text in _literal_parts(note)]

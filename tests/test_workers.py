@@ -74,7 +74,7 @@ def test_the_studies_build_their_pools_here():
 
 def test_the_correlations_map_gives_in_two_workers_what_it_gives_in_one():
     """The correlation's model builds run through :func:`process_pool` (min(jobs, tasks) workers), in order."""
-    from imutherm.studies.correlation.models import _map
+    from imutherm.studies.correlation.models import map_jobs
 
     args = [(7, 2), (9, 4), (10, 3)]
-    assert _map(divmod, args, 2) == _map(divmod, args, 1) == [(3, 1), (2, 1), (3, 1)]
+    assert map_jobs(divmod, args, 2) == map_jobs(divmod, args, 1) == [(3, 1), (2, 1), (3, 1)]

@@ -170,14 +170,14 @@ def _volume_data(pattern: Pattern, grid: TensorGrid, coefs: list, refs: list) ->
     return data
 
 
-def _cell_sizes3(grid):
+def cell_sizes3(grid):
     hx, hy, hz = grid.cell_sizes()
     return hx[:, None, None], hy[None, :, None], hz[None, None, :]
 
 
 def _stiffness_terms(problem: ThermalProblem) -> tuple:
     g = problem.grid
-    hx, hy, hz = _cell_sizes3(g)
+    hx, hy, hz = cell_sizes3(g)
     k = problem.k.reshape(g.shape + (3,))
     cx = k[..., 0] * (hy * hz / hx)
     cy = k[..., 1] * (hx * hz / hy)

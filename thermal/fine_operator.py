@@ -19,7 +19,7 @@ import numpy as np
 from imutherm import InputError
 from imutherm.geometry.grid import FACE_NAMES
 from imutherm.lazy_jit import njit
-from imutherm.thermal.assembly import (EXCHANGE_FACE, FACE_M_REF, NodalBC, _cell_sizes3, faces, volume_load)
+from imutherm.thermal.assembly import (EXCHANGE_FACE, FACE_M_REF, NodalBC, cell_sizes3, faces, volume_load)
 from imutherm.thermal.problem import LINEAR_LAWS, NONLINEAR_LAWS, FixedTemperature, HeatFlux
 
 _PAIRS = [(0, 0), (0, 1), (1, 0), (1, 1)]
@@ -90,7 +90,7 @@ class FineOperator:
         self.cells = g.shape
         self.node_shape = tuple(s + 1 for s in g.shape)
         self.n = int(np.prod(self.node_shape))
-        hx, hy, hz = _cell_sizes3(g)
+        hx, hy, hz = cell_sizes3(g)
         k = problem.k.reshape(g.shape + (3,))
         self.coef = (k[..., 0] * (hy * hz / hx), k[..., 1] * (hx * hz / hy), k[..., 2] * (hx * hy / hz))
         self.linear, self.nonlinear, dirichlet = [], [], []
@@ -219,8 +219,8 @@ class FineOperator:
 
     def seven_point(self):
         """A 7-point SPD matrix (CSR) spectrally equivalent to the Newton matrix, for a smoother: each cell's
-        conduction with its 1-D masses across lumped (``k1 ⊗ diag(1/2, 1/2) ⊗ diag(1/2, 1/2)``: at least the
-        consistent one's energy and at most 3x it), the linear laws' lumped face mass and the laws' slopes on the
+        conduction with its 1-D masses across lumped (``k1 ⊗ diag(1/2, 1/2) ⊗ diag(1/2, 1/2)``: the lumped 1-D mass
+        lies between 1x and 3x the consistent one, so each term between 1x and 9x its consistent one), the linear laws' lumped face mass and the laws' slopes on the
         diagonal; fixed rows identity, their couplings dropped. 7 entries a row (a neighbour outside the grid: a
         zero entry on the opposite one), written straight into the CSR arrays."""
         import scipy.sparse as sp

@@ -2,11 +2,11 @@
 
 * :func:`amg_preconditioner`: one single-precision smoothed-aggregation V-cycle (pyamg) as the
   preconditioner of CG (``_private_vcycle``: the one use of a pyamg private, with its public fallback).
-* ``_LinSolver``: solves ``A x = b`` for a sequence of matrices near the one its preconditioner (LU or
-  AMG) was built on, rebuilding it when CG slows down; ``_choose`` picks the method (sparse LU below
-  ``DIRECT_LIMIT`` unknowns, else AMG-CG), ``_check_rtol`` checks a tolerance.
+* ``LinSolver``: solves ``A x = b`` for a sequence of matrices near the one its preconditioner (LU or
+  AMG) was built on, rebuilding it when CG slows down; ``choose_solver`` picks the method (sparse LU below
+  ``DIRECT_LIMIT`` unknowns, else AMG-CG), ``check_rtol`` checks a tolerance.
 * ``_Dirichlet``: symmetric elimination of the fixed-temperature nodes on the shared CSR pattern.
-* ``_initial_field``: the start field of a Newton iteration or a transient.
+* ``initial_field``: the start field of a Newton iteration or a transient.
 """
 
 from __future__ import annotations
@@ -183,7 +183,7 @@ def amg_like(A, pc) -> spla.LinearOperator | None:
     return op
 
 
-class _LinSolver:
+class LinSolver:
     """Solves A x = b for a sequence of SPD matrices near the one the preconditioner was built on."""
 
     def __init__(self, method: str, rtol: float = CG_RTOL, maxiter: int = 5000):
@@ -286,7 +286,7 @@ class _LinSolver:
         return x, its, float(np.linalg.norm(b - A @ x) / bn)
 
 
-def _check_rtol(rtol) -> float:
+def check_rtol(rtol) -> float:
     try:
         r = float(rtol)
     except (TypeError, ValueError):
@@ -296,7 +296,7 @@ def _check_rtol(rtol) -> float:
     return r
 
 
-def _choose(solver: str, n_free: int) -> str:
+def choose_solver(solver: str, n_free: int) -> str:
     if solver not in ("auto", "direct", "amg"):
         raise InputError(f"solver must be 'auto', 'direct' or 'amg', got {solver!r}")
     if solver == "auto":
@@ -325,7 +325,7 @@ class _Dirichlet:
         return d
 
 
-def _initial_field(problem: ThermalProblem, initial_C, n: int) -> np.ndarray:
+def initial_field(problem: ThermalProblem, initial_C, n: int) -> np.ndarray:
     if initial_C is None:
         return np.full(n, problem.ambient_C)
     T = np.array(initial_C, dtype=float)

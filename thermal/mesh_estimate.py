@@ -78,7 +78,7 @@ def refined_steady_matrix_free(fine_problem, coarse_T_C, prolong, coarse_pc, pro
     how a truncated solve would estimate it)."""
     import scipy.sparse.linalg as spla
 
-    from imutherm.thermal.probes import _probes
+    from imutherm.thermal.probes import probe_matrix
 
     if coarse_pc is None:
         raise InputError("refined_steady_matrix_free: needs the coarse solve's preconditioner (solve_steady(keep=))")
@@ -90,7 +90,9 @@ def refined_steady_matrix_free(fine_problem, coarse_T_C, prolong, coarse_pc, pro
     T = prolong @ Tc
     T[op.fixed] = op.fixed_values[op.fixed]
     A = spla.LinearOperator((op.n, op.n), matvec=op.apply, dtype=float)
-    names, Pm = _probes(fine_problem.grid, probes)
+    names = tuple(str(n) for n in probes)
+    Pm = probe_matrix(fine_problem.grid, np.array([np.asarray(p, float).reshape(3) for p in probes.values()])
+                      if probes else np.zeros((0, 3)))
     atol, steps = None, 0
     for _ in range(max_newton):
         r = op.residual(T)

@@ -1,8 +1,8 @@
 """Observers of a transient: what is recorded of each accepted step.
 
-The probe history (``_ProbeHistory``), whole fields at requested times (``_SavedFields``), the energy
-account integrated with each scheme's own weights (``_EnergyAccount``) and the settle stop
-(``_SettleWatch``); each takes the steps (``imutherm.thermal.stepping._Step``) one at a time.
+The probe history (``ProbeHistory``), whole fields at requested times (``SavedFields``), the energy
+account integrated with each scheme's own weights (``EnergyAccount``) and the settle stop
+(``SettleWatch``); each takes the steps (``imutherm.thermal.stepping.AcceptedStep``) one at a time.
 """
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from imutherm.thermal.assembly import Assembly
-from imutherm.thermal.stepping import _Step
+from imutherm.thermal.stepping import AcceptedStep
 
-class _ProbeHistory:
+class ProbeHistory:
     """Observer: the step times and the probe temperatures at each."""
 
     def __init__(self, P, T0):
@@ -20,7 +20,7 @@ class _ProbeHistory:
         self.times = [0.0]
         self.probes = [P @ T0]
 
-    def observe(self, st: _Step):
+    def observe(self, st: AcceptedStep):
         self.times.append(st.tb)
         self.probes.append(self.P @ st.T)
 
@@ -29,7 +29,7 @@ class _ProbeHistory:
         return times, np.array(self.probes).reshape(len(times), -1)
 
 
-class _SavedFields:
+class SavedFields:
     """Observer: whole fields at the requested times (linear in time within a step)."""
 
     def __init__(self, sv, T0):
@@ -38,7 +38,7 @@ class _SavedFields:
         while len(self.saved) < sv.size and sv[len(self.saved)] <= 0.0:
             self.saved.append(T0.copy())
 
-    def observe(self, st: _Step):
+    def observe(self, st: AcceptedStep):
         sv, ta, tb = self.sv, st.ta, st.tb
         while len(self.saved) < sv.size and sv[len(self.saved)] <= tb * (1 + 1e-12):
             w = min(max((sv[len(self.saved)] - ta) / (tb - ta), 0.0), 1.0)
@@ -48,7 +48,7 @@ class _SavedFields:
         return np.array(self.saved).reshape(len(self.saved), n_nodes)
 
 
-class _EnergyAccount:
+class EnergyAccount:
     """Observer: energy put in and let out [J], each integrated with the scheme's own weights."""
 
     def __init__(self, asm: Assembly):
@@ -56,7 +56,7 @@ class _EnergyAccount:
         self.sumFq, self.flux_in = float(asm.F_q.sum()), asm.flux_in_W
         self.E_in = self.E_out = 0.0
 
-    def observe(self, st: _Step):
+    def observe(self, st: AcceptedStep):
         self.E_in += st.h * (st.power_mean * self.sumFq + self.flux_in)
         self.E_out += st.h * st.heat_out_W
         if st.fixed_in_J is not None:
@@ -70,16 +70,16 @@ class _EnergyAccount:
         return E_stored, abs(self.E_in - E_stored - self.E_out) / denom
 
 
-class _SettleWatch:
+class SettleWatch:
     """The settle stop: True once every probe has passed 95 % of its rise and is within ``fraction`` of it."""
 
-    def __init__(self, final, fraction, history: _ProbeHistory):
+    def __init__(self, final, fraction, history: ProbeHistory):
         self.final, self.fraction, self.history = final, fraction, history
         self.p0 = history.probes[0]
         self.rise = final - self.p0
         self.passed95 = self.rise == 0
 
-    def observe(self, st: _Step) -> bool:
+    def observe(self, st: AcceptedStep) -> bool:
         p = self.history.probes[-1]
         nz = self.rise != 0
         frac = np.ones_like(self.rise)

@@ -33,7 +33,7 @@ from imutherm import ConvergenceError, InputError
 from imutherm.thermal.assembly import Assembly, assemble
 from imutherm.thermal.cavity_radiation import CavityExchange
 from imutherm.thermal.guards import DIVERGED_RISE_K  # a steady rise beyond it is divergence, not physics
-from imutherm.thermal.linear import CG_RTOL, _check_rtol, _choose, _Dirichlet, _initial_field, _LinSolver
+from imutherm.thermal.linear import CG_RTOL, check_rtol, choose_solver, _Dirichlet, initial_field, LinSolver
 from imutherm.thermal.probes import _probes
 from imutherm.workers import one_blas_thread
 from imutherm.thermal.problem import ThermalProblem
@@ -159,14 +159,14 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
     _check_heat_exit(asm, len(dnodes), "solve_steady")
     D = _Dirichlet(asm, dnodes)
     free = ~D.mask
-    method = _choose(solver, int(free.sum()))
+    method = choose_solver(solver, int(free.sum()))
     nonlinear = bool(asm.nonlinear)
     if rtol is None:
         rtol = NEWTON_CG_RTOL if nonlinear else CG_RTOL
-    lin = _LinSolver(method, rtol=_check_rtol(rtol))
+    lin = LinSolver(method, rtol=check_rtol(rtol))
     L = asm.pattern.csr(asm.K_data + asm.H_data)
     F = asm.F_q + asm.F_bc
-    T = _initial_field(problem, initial_C, n)
+    T = initial_field(problem, initial_C, n)
     T[dnodes] = dvals
 
     def residual(T):

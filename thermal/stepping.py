@@ -1,8 +1,8 @@
 """The time-stepping schemes of a transient, each a generator of accepted steps.
 
-``_theta_steps`` (θ-scheme with given steps, one solve per step) and ``_trbdf2_steps`` (TR-BDF2 as an
-ESDIRK, given or error-controlled steps) yield one ``_Step`` per accepted step; what they share is set
-up once in ``_Ctx`` (fixed nodes, linear solver, power scale, solve counters), and the step matrix with
+``theta_steps`` (θ-scheme with given steps, one solve per step) and ``trbdf2_steps`` (TR-BDF2 as an
+ESDIRK, given or error-controlled steps) yield one ``AcceptedStep`` per accepted step; what they share is set
+up once in ``StepContext`` (fixed nodes, linear solver, power scale, solve counters), and the step matrix with
 its cache and preconditioner policy is ``_StepMatrix``. :func:`imutherm.thermal.transient.solve_transient`
 drives them and hands each step to the observers (:mod:`imutherm.thermal.observers`).
 """
@@ -16,7 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from imutherm.thermal.assembly import Assembly
-from imutherm.thermal.linear import _choose, _Dirichlet, _initial_field, _LinSolver
+from imutherm.thermal.linear import choose_solver, _Dirichlet, initial_field, LinSolver
 
 # TR-BDF2 as an ESDIRK (Bank et al. 1985; Hosea & Shampine 1996, Appl. Numer. Math. 20, 21-37):
 # stage 1 trapezoidal rule to t + γh, stage 2 BDF2 to t + h, both with the matrix M + d h L.
@@ -32,14 +32,14 @@ ESTIMATE_CG_RTOL = 1e-1
 _SAFETY, _GROW_MAX, _CUT_MIN = 0.9, 2.0, 0.2
 
 
-# The transient is a step generator (one per scheme: :func:`_theta_steps`, :func:`_trbdf2_steps`) whose
-# accepted steps (:class:`_Step`) are handed to observers (probe history, saved fields, energy account,
-# settle stop), as scikit-fem's example 19 does; the schemes share the set-up (:class:`_Ctx`), the step
+# The transient is a step generator (one per scheme: :func:`theta_steps`, :func:`trbdf2_steps`) whose
+# accepted steps (:class:`AcceptedStep`) are handed to observers (probe history, saved fields, energy account,
+# settle stop), as scikit-fem's example 19 does; the schemes share the set-up (:class:`StepContext`), the step
 # matrix with its cache and preconditioner policy (:class:`_StepMatrix`), the linearisation of the
 # nonlinear laws and the elimination of the fixed nodes.
 
 @dataclass
-class _Ctx:
+class StepContext:
     """What both schemes share (set up once by :func:`solve_transient`), and the solve counters."""
 
     asm: Assembly
@@ -48,7 +48,7 @@ class _Ctx:
     dnodes: np.ndarray
     free: np.ndarray
     method: str
-    lin: _LinSolver
+    lin: LinSolver
     T0: np.ndarray
     scale: object
     t_end: float
@@ -64,11 +64,11 @@ class _Ctx:
         dnodes, g0 = asm.dirichlet_values(0.0)
         D = _Dirichlet(asm, dnodes)
         free = ~D.mask
-        method = _choose(solver, int(free.sum()))
-        T = _initial_field(problem, initial_C, asm.n)
+        method = choose_solver(solver, int(free.sum()))
+        T = initial_field(problem, initial_C, asm.n)
         T[dnodes] = g0
         L_data = asm.K_data + asm.H_data
-        return cls(asm=asm, P=P, D=D, dnodes=dnodes, free=free, method=method, lin=_LinSolver(method, rtol=rtol), T0=T,
+        return cls(asm=asm, P=P, D=D, dnodes=dnodes, free=free, method=method, lin=LinSolver(method, rtol=rtol), T0=T,
                    scale=(lambda t: 1.0) if power_profile is None else (lambda t: float(power_profile(t))),
                    t_end=t_end, L_data=L_data, L=asm.pattern.csr(L_data))
 
@@ -114,10 +114,10 @@ class _StepMatrix:
 
     Linear problems keep the last four step sizes' matrices. The preconditioner (AMG) is rebuilt when the
     step leaves [0.5, 2] x the step it was built for; otherwise the linear solver reuses it, rebuilding
-    only when CG slows down (:class:`_LinSolver`).
+    only when CG slows down (:class:`LinSolver`).
     """
 
-    def __init__(self, ctx: _Ctx, form, jac):
+    def __init__(self, ctx: StepContext, form, jac):
         self.ctx, self.form, self.jac = ctx, form, jac
         self.cache = {}
         self.h_pc = None
@@ -147,7 +147,7 @@ class _StepMatrix:
 
 
 @dataclass(frozen=True)
-class _Step:
+class AcceptedStep:
     """One accepted step as the observers see it."""
 
     k: int                 # steps accepted so far, this one included
@@ -167,7 +167,7 @@ def _linear_heat_out(asm, T) -> float:
     return sum(float(np.dot(bc.hA, T[bc.corners].mean(axis=1) - bc.T_ref)) for bc in asm.linear)
 
 
-def _theta_steps(ctx: _Ctx, steps, theta):
+def theta_steps(ctx: StepContext, steps, theta):
     """θ-scheme steps in increment form, one solve each; see :func:`solve_transient`."""
     asm, lin, dnodes, L = ctx.asm, ctx.lin, ctx.dnodes, ctx.L
     Fq, Fbc = asm.F_q, asm.F_bc
@@ -202,10 +202,10 @@ def _theta_steps(ctx: _Ctx, steps, theta):
         if len(dnodes):
             q_out += float(np.sum((rhs - A_full @ dT)[dnodes]))
         T_prev, T = T, T + dT
-        yield _Step(s_i + 1, ta, tb, h, T_prev, T, theta * sb + (1 - theta) * sa, q_out)
+        yield AcceptedStep(s_i + 1, ta, tb, h, T_prev, T, theta * sb + (1 - theta) * sa, q_out)
 
 
-def _trbdf2_steps(ctx: _Ctx, steps, tol_K, dt_first, dt_max, control):
+def trbdf2_steps(ctx: StepContext, steps, tol_K, dt_first, dt_max, control):
     """TR-BDF2 steps (fixed ``steps``, or adaptive when ``steps`` is None); see :func:`solve_transient`."""
     asm, lin, dnodes, free, L = ctx.asm, ctx.lin, ctx.dnodes, ctx.free, ctx.L
     M = asm.pattern.csr(asm.M_data)
@@ -293,7 +293,8 @@ def _trbdf2_steps(ctx: _Ctx, steps, tol_K, dt_first, dt_max, control):
         T_prev, T = T, T1
         t = tb
         k += 1
-        yield _Step(k, ta, tb, h, T_prev, T, w_ * sa + w_ * sg + d_ * sb, w_ * q_n + w_ * q_g + d_ * q_1, fixed_in)
+        yield AcceptedStep(k, ta, tb, h, T_prev, T, w_ * sa + w_ * sg + d_ * sb, w_ * q_n + w_ * q_g + d_ * q_1,
+                           fixed_in)
         if adaptive:
             grow = _GROW_MAX if ratio == 0 else min(_GROW_MAX, max(_CUT_MIN, _SAFETY * ratio ** (-1.0 / 3.0)))
             h *= grow

@@ -22,13 +22,13 @@ import numpy as np
 from imutherm import InputError
 from imutherm.thermal.assembly import Assembly, assemble
 from imutherm.thermal.guards import MAX_STEPS, check_step
-from imutherm.thermal.linear import _check_rtol
+from imutherm.thermal.linear import check_rtol
 from imutherm.workers import one_blas_thread
-from imutherm.thermal.observers import _EnergyAccount, _ProbeHistory, _SavedFields, _SettleWatch
+from imutherm.thermal.observers import EnergyAccount, ProbeHistory, SavedFields, SettleWatch
 from imutherm.thermal.probes import _probes
 from imutherm.thermal.problem import ThermalProblem
 from imutherm.thermal.results import TransientResult
-from imutherm.thermal.stepping import _Ctx, _theta_steps, _trbdf2_steps
+from imutherm.thermal.stepping import StepContext, theta_steps, trbdf2_steps
 
 #: Relative residual of the per-step CG solves of a transient (relative to the step's right-hand side, i.e.
 #: to the temperature increment). 1e-5 would save ~15 % of the iterations at the same t95, but the energy
@@ -313,15 +313,15 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
     asm = assembly if assembly is not None else assemble(problem, lumped_mass=lumped_mass)
     assembly_s = time.perf_counter() - t0 if assembly is None else 0.0
     t1 = time.perf_counter()
-    ctx = _Ctx.start(problem, asm, P, solver, _check_rtol(rtol), initial_C, power_profile, t_end)
+    ctx = StepContext.start(problem, asm, P, solver, check_rtol(rtol), initial_C, power_profile, t_end)
     if scheme == "theta":
-        stepper = _theta_steps(ctx, steps, theta)
+        stepper = theta_steps(ctx, steps, theta)
     else:
-        stepper = _trbdf2_steps(ctx, steps, tol_K, dt_first, dt_max, error_control)
-    history = _ProbeHistory(P, ctx.T0)
-    saved = _SavedFields(sv, ctx.T0)
-    energy = _EnergyAccount(asm)
-    watch = _SettleWatch(settle, float(settle_fraction), history) if settle is not None else None
+        stepper = trbdf2_steps(ctx, steps, tol_K, dt_first, dt_max, error_control)
+    history = ProbeHistory(P, ctx.T0)
+    saved = SavedFields(sv, ctx.T0)
+    energy = EnergyAccount(asm)
+    watch = SettleWatch(settle, float(settle_fraction), history) if settle is not None else None
     T, settled = _run(ctx, stepper, (saved, history, energy), watch, MAX_STEPS if adaptive else None, progress)
     E_stored, ebal = energy.close(ctx.T0, T)
     times, probe_hist = history.arrays()
@@ -341,7 +341,7 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
                            rejected_steps=ctx.rejected, tol_K=tol_K if adaptive else None, settled=settled)
 
 
-def _run(ctx: _Ctx, stepper, observers, watch, max_steps, progress):
+def _run(ctx: StepContext, stepper, observers, watch, max_steps, progress):
     """Drive ``stepper``, hand each step to the observers, check it (guards) and stop on settle.
 
     Returns the final field and whether the settle stop ended the run.

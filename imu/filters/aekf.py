@@ -575,11 +575,11 @@ def _run_aekf_gnss_spec(x, p):
 
 
 register(FilterSpec("aekf", _run_aekf_spec, AEKFParams, "ours",
-                    "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple", in_study=True,
-                    varying_dt=True, linestyle=(0, (3, 1)), rank=50,
+                    "Wang et al.'s adaptive EKF (Sage-Husa R, ALS Q); AEKFParams", "tab:purple",
+                    groups={"study", "varying_dt", "real_tuned"}, linestyle=(0, (3, 1)), rank=50,
                     tuning=(Tuned("tau_acc", 1.0, 1.0, (0.1, 100.0), "tau_acc [s]; 0 = the block mean", off=(0.0,)),
                             Tuned("memory_s", 1.0, 31.6, (0.1, 1000.0), "memory_s [s] the fading memory of the "
                                                                         "adaptation laws"))))
 register(FilterSpec("aekf_gnss", _run_aekf_gnss_spec, AEKFParams, "ours",
-                    "Wang et al.'s adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True, varying_dt=True,
-                    rank=60))
+                    "Wang et al.'s adaptive EKF with GNSS velocity", "tab:brown", needs_gnss=True,
+                    groups={"varying_dt", "real_tuned"}, rank=60))

@@ -206,7 +206,8 @@ def fusion_design(x) -> FusionParams:
 
 register(FilterSpec("fusion", lambda x, p: run_fusion(x.gyro, x.accel, x.dt, p or fusion_design(x), steps=x.steps),
                     FusionParams, "peer", "x-io Fusion (imufusion) README recommended settings", "tab:red",
-                    base=fusion_design, in_study=True, varying_dt=True, linestyle="-.", rank=40, gyro_range=True,
+                    base=fusion_design, groups={"study", "varying_dt", "gyro_range", "real_tuned"}, linestyle="-.",
+                    rank=40,
                     tuning=(Tuned("gain", 3.16e-3, 1.0, (1e-4, 10.0), "gain [-] of x-io Fusion"),
                             Tuned("rejection_timeout", 3.16, 1000.0, (0.1, 1e4), "acceleration-rejection timeout "
                                                                                  "[s]"))))

@@ -469,7 +469,7 @@ def _run_kf_spec(x, p):  # the design KFParams plus the rest window's |f| refere
 
 register(FilterSpec("kf", _run_kf_spec, KFParams, "ours",
                     "the horizontal-attitude KF paper's gravity-direction KF; KFParams", "tab:green",
-                    base=kf_design, in_study=True, in_sweep=True, varying_dt=True, linestyle="--", rank=20,
+                    base=kf_design, groups={"study", "sweep", "varying_dt", "real_tuned"}, linestyle="--", rank=20,
                     tuning=(Tuned("tau_acc", 1.0, 3.16, (0.1, 1000.0), "tau_acc [s]; 0 = the KF paper's window mean "
                                                                        "and gate 1", off=(0.0,)),
                             Tuned("q", 1e-7, 3.16e-4, (1e-10, 0.1), "q [rad^2/s] the process noise of the gravity "

@@ -348,7 +348,7 @@ def run_vqf(gyro, accel, dt: float, params: VQFParams = VQFParams(), *, init_s: 
 
 register(FilterSpec("vqf", lambda x, p: run_vqf(x.gyro, x.accel, x.dt, p or VQFParams(), init_s=x.init_s), VQFParams,
                     "peer", "VQF, Laidig & Seel, Information Fusion 91, 2023 (vqf package defaults)", "black",
-                    in_study=True, linestyle=(0, (5, 1, 1, 1, 1, 1)), rank=70, reference=True,
+                    groups={"study", "reference", "real_tuned"}, linestyle=(0, (5, 1, 1, 1, 1, 1)), rank=70,
                     tuning=(Tuned("tauAcc", 1.0, 1000.0, (0.1, 1e5), "tauAcc [s], VQF's accelerometer low-pass time "
                                                                      "constant (its main tuning parameter)"),
                             Tuned("biasSigmaMotion", 0.0316, 1.0, (1e-3, 2.0),
@@ -358,19 +358,19 @@ register(FilterSpec("vqf", lambda x, p: run_vqf(x.gyro, x.accel, x.dt, p or VQFP
                                   off=(math.inf,)))))
 register(FilterSpec("madgwick", lambda x, p: run_madgwick(x.gyro, x.accel, x.dt, p or MadgwickParams(),
                                                           init_s=x.init_s, steps=x.steps), MadgwickParams, "peer",
-                    "ahrs Madgwick defaults", "tab:orange", varying_dt=True, rank=80,
+                    "ahrs Madgwick defaults", "tab:orange", groups={"varying_dt", "real_tuned"}, rank=80,
                     tuning=(Tuned("gain", 3.16e-4, 0.1, (1e-5, 10.0), "gain [rad/s] (published default 0.033)"),)))
 register(FilterSpec("mahony", lambda x, p: run_mahony(x.gyro, x.accel, x.dt, p or MahonyParams(), init_s=x.init_s,
                                                       steps=x.steps), MahonyParams, "peer",
                     "ahrs Mahony defaults (k_P 1.0, k_I 0.3), a trap on real motion: every motion profile and "
                     "recorded-log platform runs its tuned setting (studies.attitude.recorded.platform_setting); not tuned on "
                     "the real files, where the guard against its defaults keeps them (24 deg on BROAD trial 16)",
-                    "tab:pink", varying_dt=True, real_tuned=False, platform_tuned=True, rank=90,
+                    "tab:pink", groups={"varying_dt", "platform_tuned"}, rank=90,
                     tuning=(Tuned("k_P", 3.16e-3, 1.0, (1e-4, 10.0), "k_P [1/s], k_I [1/s^2] = 0.3 k_P^2 (published "
                                                                     "default (1, 0.3))",
                                   derived={"k_I": lambda k: 0.3 * k * k}),)))
 register(FilterSpec("ekf", lambda x, p: run_ekf(x.gyro, x.accel, x.dt, p or EKFParams(), init_s=x.init_s,
                                                 steps=x.steps), EKFParams,
-                    "peer", "ahrs EKF defaults", "tab:olive", varying_dt=True, rank=100,
+                    "peer", "ahrs EKF defaults", "tab:olive", groups={"varying_dt", "real_tuned"}, rank=100,
                     tuning=(Tuned("var_acc", 0.316, 3.16e4, (1e-3, 1e7), "var_acc [-] of the unit gravity vector "
                                                                         "(published default 0.25)"),)))

@@ -1,15 +1,15 @@
 """One registry of the attitude filters: each is declared once, and the study, the attitude command (profiles
 and logs), the benchmarks and the plots read it.
 
-A :class:`FilterSpec` holds the name, the runner, the parameter class (its defaults, each with its source in
-that class's docstring), the source of the design, the plot colour, whether it needs GNSS fixes, its tuning
-axes and the runs it belongs to (``in_study``: the end-to-end study's answer; ``in_sweep``: a sweep case's lean
-IMU side). The runner takes a :class:`FilterInputs` (the samples and the settings the study derived from the
-rest window) and the filter's own parameters (None: its defaults, or what ``base`` derives from the inputs)
-and returns an :class:`~imutherm.imu.filters.common.AttitudeEstimate`. :func:`register` adds one: a new filter
-appears in ``imutherm attitude --filters``, in :func:`imutherm.imu.filters.run.run_filters`, in the
-plots, in the tuning procedure (:mod:`imutherm.studies.attitude.filter_tuning`) if it declares axes, and in the study
-(:class:`imutherm.studies.end_to_end.StudyConfig`, ``imutherm compare``) if it says ``in_study``. No other
+A :class:`FilterSpec` holds the name, the runner, the parameter class (its defaults, each with its source in that
+class's docstring), the source of the design, the plot colour, whether it needs GNSS fixes, its tuning axes and the
+groups it belongs to (:data:`GROUPS`: ``study``, the end-to-end study's answer; ``sweep``, a sweep case's lean IMU
+side; ...; :func:`in_group`). The runner takes a :class:`FilterInputs` (the samples and the settings the study
+derived from the rest window) and the filter's own parameters (None: its defaults, or what ``base`` derives from the
+inputs) and returns an :class:`~imutherm.imu.filters.common.AttitudeEstimate`. :func:`register` adds one: a new
+filter appears in ``imutherm attitude --filters``, in :func:`imutherm.imu.filters.run.run_filters`, in the plots, in
+the tuning procedure (:mod:`imutherm.studies.attitude.filter_tuning`) if it declares axes, and in the study
+(:class:`imutherm.studies.end_to_end.StudyConfig`, ``imutherm compare``) if its groups say ``study``. No other
 module lists filters by name.
 """
 
@@ -34,7 +34,7 @@ class FilterInputs:
     window's levels, ``fusion``'s FusionParams with the sensor's gyro range}; lever_arm (3,) [m] or None (the
     aekf's own lever-arm correction); gnss (GnssVelocity or None); steps ((N,) [s] the true step ending at each
     sample of an irregular record, or None: ``dt`` throughout; a runner that takes it passes it on,
-    :attr:`FilterSpec.varying_dt`); gyro_sample ('point' | 'interval',
+    the group ``varying_dt`` of :data:`GROUPS`); gyro_sample ('point' | 'interval',
     :data:`~imutherm.imu.filters.common.GYRO_SAMPLES`: what a gyro sample is; ours take it into their params,
     the peers always integrate ω_k over the step ending at k)."""
 
@@ -112,6 +112,23 @@ class Tuned:
         return self.bounds[0] * (1 - 1e-9) <= self.value(k) <= self.bounds[1] * (1 + 1e-9)
 
 
+#: the groups a filter can belong to (:attr:`FilterSpec.groups`), each with what membership means
+GROUPS = {
+    "study": "shown in the end-to-end study's answer (imutherm compare, study_filters)",
+    "sweep": "run in a sweep case's lean IMU side (sweep_filters)",
+    "varying_dt": "the runner integrates over the true per-sample steps inputs.steps of an irregular record "
+                  "(otherwise it takes one sample period, dt, the median step)",
+    "real_tuned": "tuned on the real development files for the recorded-log settings (studies.attitude.real_tuning, "
+                  "real_filters); left out where the procedure's guard (no file worse than the library defaults) "
+                  "would keep defaults that are themselves a trap on real motion",
+    "reference": "the peer each filter's real-motion figures are set against (the ratio column of the tables)",
+    "platform_tuned": "its defaults are a trap on real motion, so each recorded-log platform runs its tuned "
+                      "setting (studies.attitude.recorded.platform_setting)",
+    "gyro_range": "it takes the sensor's declared gyro full scale (--gyro-range: its over-range recovery), and the "
+                  "attitude commands say what it ran with",
+}
+
+
 @dataclass(frozen=True)
 class FilterSpec:
     """One filter, declared once.
@@ -122,19 +139,9 @@ class FilterSpec:
     tuning : the axes the tuning procedure searches (:class:`Tuned`; empty: not tuned);
     base : inputs -> the params object the runner uses by default, when it is derived from the record (the
     gates' thresholds from the rest window, the sensor's gyro range); None: ``params_cls()``;
-    in_study : shown in the end-to-end study's answer (``imutherm compare``, :func:`study_filters`);
-    in_sweep : run in a sweep case's lean IMU side (:func:`sweep_filters`);
-    varying_dt : the runner integrates over the true per-sample steps ``inputs.steps`` of an irregular record
-    (False: it takes one sample period, ``dt``, the median step);
-    real_tuned : tuned on the real development files (:mod:`imutherm.studies.attitude.real_tuning`, :func:`real_filters`)
-    for the recorded-log settings; False where the procedure's guard (no file worse than the library defaults)
-    would keep defaults that are themselves a trap on real motion;
-    rank : its place in the registry, the tables and the plots (lower first; ties in registration order);
-    reference : the peer each filter's real-motion figures are set against (the ratio column of the tables);
-    platform_tuned : its defaults are a trap on real motion, so each recorded-log platform runs its tuned setting
-    (:func:`imutherm.studies.attitude.recorded.platform_setting`);
-    gyro_range : it takes the sensor's declared gyro full scale (``--gyro-range``: its over-range recovery), and
-    the attitude commands say what it ran with.
+    groups : the runs and roles it belongs to, names of :data:`GROUPS` (a frozenset; any iterable of names is
+    taken), queried by :func:`in_group`;
+    rank : its place in the registry, the tables and the plots (lower first; ties in registration order).
 
     Each filter's spec is registered at the bottom of its own module (as meshio registers each format).
     """
@@ -148,15 +155,15 @@ class FilterSpec:
     needs_gnss: bool = False
     tuning: tuple = ()
     base: Callable | None = field(default=None, repr=False)
-    in_study: bool = False
-    in_sweep: bool = False
-    varying_dt: bool = False
+    groups: frozenset = frozenset()
     linestyle: object = "-"
-    real_tuned: bool = True
     rank: int = 100
-    reference: bool = False
-    platform_tuned: bool = False
-    gyro_range: bool = False
+
+    def __post_init__(self):
+        if isinstance(self.groups, str):
+            raise InputError(f"filter {self.name!r}: groups must be a set of group names, got the string "
+                             f"{self.groups!r}")
+        object.__setattr__(self, "groups", frozenset(self.groups))
 
     def params(self, inputs: "FilterInputs"):
         """The params object the filter runs with by default on ``inputs`` (None: it takes none)."""
@@ -172,6 +179,9 @@ def register(spec: FilterSpec) -> FilterSpec:
     """Add (or replace) a filter, in the registry's order by :attr:`FilterSpec.rank`; returns it."""
     if not spec.name.isidentifier():
         raise InputError(f"filter name {spec.name!r} is invalid; valid: letters, digits, underscores")
+    unknown = sorted(spec.groups - set(GROUPS))
+    if unknown:
+        raise InputError(f"filter {spec.name!r}: group {', '.join(unknown)} unknown; valid: {', '.join(GROUPS)}")
     REGISTRY[spec.name] = spec
     ordered = sorted(REGISTRY.values(), key=lambda s: s.rank)  # stable: ties keep their registration order
     REGISTRY.clear()
@@ -190,14 +200,24 @@ def filter_names(*, gnss: bool = True, kind: str | None = None) -> tuple:
     return tuple(n for n, s in REGISTRY.items() if (gnss or not s.needs_gnss) and (kind is None or s.kind == kind))
 
 
+def in_group(group: str, names=None) -> tuple:
+    """The registered filters of ``group`` (a name of :data:`GROUPS`), in registry order; or those of ``names``
+    (in their order) that are in it."""
+    if group not in GROUPS:
+        raise InputError(f"filter group {group!r} unknown; valid: {', '.join(GROUPS)}")
+    if names is not None:
+        return tuple(n for n in names if n in REGISTRY and group in REGISTRY[n].groups)
+    return tuple(n for n, s in REGISTRY.items() if group in s.groups)
+
+
 def study_filters() -> tuple:
-    """The filters of the end-to-end study's answer (``in_study``; none that needs GNSS), registration order."""
-    return tuple(n for n, s in REGISTRY.items() if s.in_study and not s.needs_gnss)
+    """The filters of the end-to-end study's answer (group ``study``; none that needs GNSS), registry order."""
+    return tuple(n for n in in_group("study") if not REGISTRY[n].needs_gnss)
 
 
 def sweep_filters() -> tuple:
-    """The filters of a sweep case's lean IMU side (``in_sweep``), registration order."""
-    return tuple(n for n, s in REGISTRY.items() if s.in_sweep and not s.needs_gnss)
+    """The filters of a sweep case's lean IMU side (group ``sweep``; none that needs GNSS), registry order."""
+    return tuple(n for n in in_group("sweep") if not REGISTRY[n].needs_gnss)
 
 
 def tuned_filters() -> tuple:
@@ -206,8 +226,8 @@ def tuned_filters() -> tuple:
 
 
 def real_filters() -> tuple:
-    """The filters tuned on the real development files (:func:`tuned_filters` whose entry says ``real_tuned``)."""
-    return tuple(n for n in tuned_filters() if REGISTRY[n].real_tuned)
+    """The filters tuned on the real development files (:func:`tuned_filters` of the group ``real_tuned``)."""
+    return in_group("real_tuned", tuned_filters())
 
 
 def color(name: str):
@@ -239,15 +259,15 @@ def parse_filters(text: str | None, *, gnss: bool = True) -> tuple:
 
 
 def reference_filter() -> str | None:
-    """The filter each filter's real-motion figures are set against (:attr:`FilterSpec.reference`), or None."""
-    return next((n for n, s in REGISTRY.items() if s.reference), None)
+    """The filter each filter's real-motion figures are set against (group ``reference``), or None."""
+    return next(iter(in_group("reference")), None)
 
 
 def platform_tuned_filters() -> tuple:
-    """The filters each recorded-log platform runs at its tuned setting (:attr:`FilterSpec.platform_tuned`)."""
-    return tuple(n for n, s in REGISTRY.items() if s.platform_tuned)
+    """The filters each recorded-log platform runs at its tuned setting (group ``platform_tuned``)."""
+    return in_group("platform_tuned")
 
 
 def gyro_range_filters(names) -> tuple:
-    """Those of ``names`` that take the sensor's declared gyro range (:attr:`FilterSpec.gyro_range`)."""
-    return tuple(n for n in names if n in REGISTRY and REGISTRY[n].gyro_range)
+    """Those of ``names`` that take the sensor's declared gyro range (group ``gyro_range``)."""
+    return in_group("gyro_range", names)

@@ -178,8 +178,10 @@ def tune(name: str, records) -> TuneResult:
 
     t0 = time.perf_counter()
     r = tune_filter(name, lambda pt: objective(name, pt, records))
-    return TuneResult(name, dict(r["values"]), float(r["score"]), int(r["evaluations"]) + 1, float(r["default_score"]),
-                      time.perf_counter() - t0, r["grid"], tuple(r["at_bound"]), r["chosen"])
+    return TuneResult(name=name, values=dict(r["values"]), objective=float(r["score"]),
+                      n_eval=int(r["evaluations"]) + 1, default_objective=float(r["default_score"]),
+                      runtime_s=time.perf_counter() - t0, grid=r["grid"], at_bound=tuple(r["at_bound"]),
+                      chosen=r["chosen"])
 
 
 def table(names, records, tuned: dict) -> dict:

@@ -39,12 +39,12 @@ PLATFORM_PROFILE = {"handheld": "handheld", "vehicle": "vehicle", "aircraft": "f
 
 
 def platform_setting(platform: str, name: str) -> dict:
-    """The params fields of filter ``name`` (a :attr:`~imutherm.imu.filters.registry.FilterSpec.platform_tuned`
-    one) on ``platform``: its tuned setting on the platform's profile (:data:`PLATFORM_PROFILE`), never its
-    library defaults. The ``mahony`` peer's ahrs defaults (1.0, 0.3) are a trap on real motion (9.5° mean and 46°
-    on one held-out record; 3.44° on RepoIMU): the integral gain winds the bias estimate up under sustained
-    accelerations. Tuned on simulated records (the study's chain, seeds 100-101), not on the data the
-    recorded-log benchmarks score; the file names the grid, the scores and the command."""
+    """The params fields of filter ``name`` (one of the registry's group ``platform_tuned``) on ``platform``: its tuned
+    setting on the platform's profile (:data:`PLATFORM_PROFILE`), never its library defaults. The ``mahony`` peer's
+    ahrs defaults (1.0, 0.3) are a trap on real motion (9.5° mean and 46° on one held-out record; 3.44° on RepoIMU):
+    the integral gain winds the bias estimate up under sustained accelerations. Tuned on simulated records (the
+    study's chain, seeds 100-101), not on the data the recorded-log benchmarks score; the file names the grid, the
+    scores and the command."""
     from imutherm.studies.attitude.filter_settings import load_settings
 
     prof = PLATFORM_PROFILE[platform]
@@ -142,7 +142,7 @@ def sample_report(log, names) -> dict:
     (max |step - median| / median of the true samples), step_min_s / step_max_s [s], resampled (put on a uniform
     grid: spread beyond :data:`imutherm.imu.log_samples.MAX_STEP_SPREAD`), and, for an irregular log kept as it is,
     the filters that integrate its true steps and those run at the median step."""
-    from imutherm.imu.filters.registry import REGISTRY
+    from imutherm.imu.filters.registry import in_group
     from imutherm.imu.log_samples import MAX_STEP_SPREAD
 
     st = log.true_steps
@@ -154,8 +154,9 @@ def sample_report(log, names) -> dict:
            "step_max_s": float(np.max(st[1:])) if st is not None and st.size > 1 else float(log.dt),
            "resampled": bool(log.resampled), "max_step_spread": MAX_STEP_SPREAD}
     if true_steps(log) is not None:
-        out["true_steps"] = [n for n in names if REGISTRY[n].varying_dt]
-        out["median_step"] = [n for n in names if not REGISTRY[n].varying_dt]
+        true = in_group("varying_dt", names)
+        out["true_steps"] = list(true)
+        out["median_step"] = [n for n in names if n not in true]
     return out
 
 
@@ -183,7 +184,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
     L = float(L0 if turn_radius_m is None else turn_radius_m)
     if not (np.isfinite(L) and L > 0):
         raise InputError(f"--turn-radius: {turn_radius_m!r} is invalid; valid: a positive length [m]")
-    from imutherm.imu.filters.registry import REGISTRY
+    from imutherm.imu.filters.registry import in_group
 
     names = log_filters() if names is None else names
     unknown = [n for n in names if n not in log_filters()]
@@ -192,6 +193,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
                          f"fixes); valid: {', '.join(log_filters())}")
     gate = replace(GateConfig(), L=L, init_s=float(init_s))
     steps = true_steps(log)
+    true_step_filters = in_group("varying_dt", names)
     est, _ = run_filters(log.gyro, log.accel, log.dt, d, gate, names=tuple(names),
                          settings=platform_settings(platform, names), steps=steps, gyro_sample=log.gyro_sample,
                          design={"fusion": fusion})
@@ -241,7 +243,7 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
 
         m["motion_check"] = motion_check_json(log.gyro, log.accel, log.dt, e.gravity, init_s, platform=platform,
                                               steps=steps)  # the in-motion divergence check
-        m["time_steps"] = "uniform" if steps is None else ("true" if REGISTRY[n].varying_dt else "median")
+        m["time_steps"] = "uniform" if steps is None else ("true" if n in true_step_filters else "median")
         if align_info is not None:
             m["alignment"] = align_info
         metrics[n] = m
@@ -250,9 +252,12 @@ def run_recorded(log, *, platform: str = "handheld", lever_arm=None, turn_radius
         series[f"{n}_accel_used"] = e.accel_used
     from imutherm.imu.filters.fusion_peer import fusion_range_info
 
-    return RecordedResult(log.path, log.rate_hz, int(log.t.size), float(log.t[-1] + log.dt), log.units, platform, d,
-                          L, float(init_s), log.g_rest, log.has_reference, metrics, series,
-                          fusion_range_info(fusion, log.gyro), sample_report(log, names), tuple(warnings))
+    return RecordedResult(source=log.path, rate_hz=log.rate_hz, n_samples=int(log.t.size),
+                          duration_s=float(log.t[-1] + log.dt), units=log.units, platform=platform, lever_arm=d,
+                          turn_radius_m=L, init_s=float(init_s), g_rest_mps2=log.g_rest,
+                          has_reference=log.has_reference, metrics=metrics, series=series,
+                          fusion=fusion_range_info(fusion, log.gyro), samples=sample_report(log, names),
+                          warnings=tuple(warnings))
 
 
 def mounting_warning(info: dict) -> str:

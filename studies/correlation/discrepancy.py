@@ -11,7 +11,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from imutherm.unit.cavity_laws import LAW_BLEND
-from imutherm.studies.correlation.forward_model import _Forward, _residuals, _series
+from imutherm.studies.correlation.forward_model import ForwardModel, model_residuals, residual_series
 
 
 #: starting value of the discrepancy's prior scale [-] (fraction of each site's nominal rise), before the data
@@ -97,7 +97,7 @@ class Discrepancy:
         """The same term at another prior scale [-] (a float: every scheme; a dict scheme -> p)."""
         return replace(self, prior=dict(prior) if isinstance(prior, dict) else float(prior))
 
-    def profile(self, fwd: "_Forward", values: dict, mask: dict) -> tuple:
+    def profile(self, fwd: "ForwardModel", values: dict, mask: dict) -> tuple:
         """(p, C): the prior scales p (dict scheme -> [-]) that maximise the evidence of the residual at
         ``values`` over ``mask`` (type-II maximum likelihood, each scheme's searched over
         :data:`DISCREPANCY_PRIOR_RANGE`; the evidence is a sum over the schemes, so each is found apart), and
@@ -105,7 +105,7 @@ class Discrepancy:
         -2 log of the evidence up to a constant (the data term with the coefficients integrated out).
         Closed form per series from the eigen-decomposition of ΦᵀΦ (2 x 2), so the search is cheap."""
         per = {}
-        for i, j, rows, r in _series(fwd, values, mask):
+        for i, j, rows, r in residual_series(fwd, values, mask):
             F, x = self.basis[(i, j)][rows], r[rows]
             w, Q = np.linalg.eigh(F.T @ F)
             acc = per.setdefault(self.group(i), [0.0, [], []])
@@ -145,7 +145,7 @@ class Discrepancy:
         return out
 
 
-def build_discrepancy(fwd: _Forward, values: dict, sigma_K: float, ratio: float,
+def build_discrepancy(fwd: ForwardModel, values: dict, sigma_K: float, ratio: float,
                       prior: float = DISCREPANCY_PRIOR, caps: dict | None = None) -> Discrepancy:
     """The :class:`Discrepancy` basis of every series from the model at ``values`` (the nominal one); ``caps``:
     scheme -> the prior scale's largest value [-] (the model's known form error), the start prior within it."""
@@ -164,15 +164,15 @@ def build_discrepancy(fwd: _Forward, values: dict, sigma_K: float, ratio: float,
     return Discrepancy(basis, prior, float(sigma_K), float(ratio), groups, caps)
 
 
-def _residuals_disc(fwd: _Forward, values: dict, mask: dict, disc: Discrepancy | None, coefs=None):
+def residuals_with_term(fwd: ForwardModel, values: dict, mask: dict, disc: Discrepancy | None, coefs=None):
     """(residual after the discrepancy [K] over ``mask``, its prior term sqrt(λ) c [K], coefficients).
 
     ``coefs`` None: the coefficients are fitted here (posterior mean on ``mask``); else taken as given
     (a held-out prediction with the training fit's)."""
     if disc is None:
-        return _residuals(fwd, values, mask), np.zeros(0), {}
+        return model_residuals(fwd, values, mask), np.zeros(0), {}
     out, pen, cs = [], [], {}
-    for i, j, rows, r in _series(fwd, values, mask):
+    for i, j, rows, r in residual_series(fwd, values, mask):
         c = disc.coefficients(r, i, j, rows) if coefs is None else coefs.get((i, j), np.zeros(2))
         cs[(i, j)] = c
         out.append(r[rows] - disc.basis[(i, j)][rows] @ c)
@@ -180,7 +180,7 @@ def _residuals_disc(fwd: _Forward, values: dict, mask: dict, disc: Discrepancy |
     return (np.concatenate(out) if out else np.zeros(0)), (np.concatenate(pen) if pen else np.zeros(0)), cs
 
 
-def _disc_curve(disc: Discrepancy | None, coefs: dict, i: int, run) -> np.ndarray:
+def term_curve(disc: Discrepancy | None, coefs: dict, i: int, run) -> np.ndarray:
     """Φ c [K] (n, m) of run i: the discrepancy term's part of the fitted model - measured (0 without it)."""
     out = np.zeros((len(run.times_s), len(run.sites)))
     if disc is None:

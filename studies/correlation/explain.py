@@ -20,8 +20,8 @@ from __future__ import annotations
 import math
 
 from imutherm.unit.effects import effect_of
-from imutherm.studies.correlation.fit import Fit, _fit
-from imutherm.studies.correlation.holdout import _held, _pooled
+from imutherm.studies.correlation.fit import Fit, fit_candidate
+from imutherm.studies.correlation.holdout import with_heldout, pooled_heldout
 from imutherm.studies.correlation.verdict import EXPLAIN_MIN_NOISE, MARGIN_NONE, effect_words
 
 
@@ -34,8 +34,8 @@ def _entry(kind, name, value, unit, ci95, d_crit, gain, explained, noise, words,
 
 
 def _fitted(fwd, effects: tuple, free: Fit, full, folds, ratio: float, noise: float) -> Fit:
-    return _held(_fit(fwd, effects, full, None, ratio, noise, None, free.values),
-                 _pooled(fwd, effects, folds, ratio, noise, None, free.values))
+    return with_heldout(fit_candidate(fwd, effects, full, None, ratio, noise, None, free.values),
+                        pooled_heldout(fwd, effects, folds, ratio, noise, None, free.values))
 
 
 def explanations(fwd, free: Fit, found: tuple, ambiguous: tuple, full: dict, folds, ratio: float,

@@ -143,9 +143,9 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
     stated form error at the readings [K]) and that meets the evidence and gap-share rules is a :class:`Finding`
     with that interval, unless it ended at a bound of the re-tune: then it is a :class:`Symptom` of the model's
     form (:func:`symptom`), never a finding."""
-    from imutherm.studies.correlation.fit import _fit
+    from imutherm.studies.correlation.fit import fit_candidate
     from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT
-    from imutherm.studies.correlation.holdout import _held, _pooled
+    from imutherm.studies.correlation.holdout import with_heldout, pooled_heldout
     from imutherm.studies.correlation.profile import CHI2_95, profile_interval, residual_floor_K2
     from imutherm.studies.correlation.verdict import EXPLAIN_MIN_NOISE, MARGIN_NONE
     from imutherm.studies.correlation.written_model import heldout_rms
@@ -159,11 +159,12 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
         if name in free.effects or name not in fwd.nominal or name in FORM_IN_DOUBT:
             continue  # the cavity law's blend is the model's form as a weight (discrepancy section), not a finding
         nom = float(fwd.nominal[name])
-        fixed = _fit(fwd, free.effects, full, None, ratio, noise, None, free.values, fixed={name: nom})
+        fixed = fit_candidate(fwd, free.effects, full, None, ratio, noise, None, free.values, fixed={name: nom})
         d_nom = ratio * (fixed.cost_K2 - free.cost_K2) / sigma2
         if not d_nom > CHI2_95:  # the nominal lies within the profile interval: not far
             continue
-        fixed = _held(fixed, _pooled(fwd, free.effects, folds, ratio, noise, None, free.values, {name: nom}))
+        fixed = with_heldout(fixed, pooled_heldout(fwd, free.effects, folds, ratio, noise, None, free.values,
+                                                   {name: nom}))
         dC = fixed.aicc - free.aicc
         expl = math.sqrt(max(fixed.rms_K**2 - free.rms_K**2, 0.0))
         h0, h1 = fixed.heldout_rms_K, free.heldout_rms_K
@@ -180,7 +181,8 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
         k = _knob(fwd, name)
 
         def cost(x, name=name):
-            return _fit(fwd, free.effects, full, None, ratio, noise, None, free.values, fixed={name: x}).cost_K2
+            return fit_candidate(fwd, free.effects, full, None, ratio, noise, None, free.values,
+                                 fixed={name: x}).cost_K2
         prof = profile_interval(cost, float(np.clip(v, k.lo, k.hi)), k.lo, k.hi, sigma2, ratio, log=k.log)
         lo, hi = prof["ci95"]
         s_lo, s_hi, words = source_range(name)

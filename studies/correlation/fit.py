@@ -14,8 +14,8 @@ from imutherm import InputError
 from imutherm.unit import knobs
 from imutherm.unit.effects import effect_of
 from imutherm.thermal.reduced import Knob
-from imutherm.studies.correlation.discrepancy import Discrepancy, _residuals_disc
-from imutherm.studies.correlation.forward_model import _Forward
+from imutherm.studies.correlation.discrepancy import Discrepancy, residuals_with_term
+from imutherm.studies.correlation.forward_model import ForwardModel
 
 
 @dataclass(frozen=True)
@@ -67,7 +67,7 @@ class Fit:
     heldout_blocks: tuple = ()
 
 
-def _effects_of(name) -> tuple:
+def effects_of(name) -> tuple:
     """'none' -> (); 'a' -> ('a',); 'a+b' or ('a', 'b') -> ('a', 'b')."""
     if isinstance(name, (tuple, list)):
         return tuple(name)
@@ -78,13 +78,13 @@ def _label(effects: tuple) -> str:
     return "+".join(effects) if effects else "none"
 
 
-def _knobs_for(name, fwd: _Forward) -> list:
+def _knobs_for(name, fwd: ForwardModel) -> list:
     """Re-tune knobs (with the form knobs, :data:`FORM_RETUNE`) plus the candidate's (none: re-tune only); an
     emissivity effect replaces the re-tune's, a form knob given as a candidate leaves the re-tune;
     a ``power@part`` candidate cannot take the part below zero power (:func:`~imutherm.unit.knobs.power_floor_W`).
     ``name``: one effect, 'none', or several ('a+b' or a tuple: one knob each, in that order)."""
     ks = [k for k, _ in knobs.RETUNE] + [knobs.effect_knob(n, fwd.options) for n in fwd.form]
-    effects = _effects_of(name)
+    effects = effects_of(name)
     replaced = {effect_of(n).replaces for n in effects}  # an outer emissivity effect takes the re-tune's knob
     ks = [k for k in ks if k.name not in replaced]
     ks = [k for k in ks if k.name not in effects]
@@ -102,9 +102,10 @@ def _knobs_for(name, fwd: _Forward) -> list:
 
 class _Objective:
     """The least-squares problem of one fit in the knob coordinate u in [-1, 1]: the residual after the
-    discrepancy term on ``train`` plus the re-tune knobs' weak prior ``prior_K`` (u - u0) (see :func:`_fit`)."""
+    discrepancy term on ``train`` plus the re-tune knobs' weak prior ``prior_K`` (u - u0)
+    (see :func:`fit_candidate`)."""
 
-    def __init__(self, fwd: _Forward, ks: list, fixed: dict, train: dict, u0: np.ndarray, n_retune: int,
+    def __init__(self, fwd: ForwardModel, ks: list, fixed: dict, train: dict, u0: np.ndarray, n_retune: int,
                  prior_K: float, label: str):
         self.fwd, self.ks, self.fixed, self.train = fwd, ks, fixed, train
         self.u0, self.n_retune, self.prior_K, self.label = u0, n_retune, prior_K, label
@@ -114,7 +115,7 @@ class _Objective:
         return {**self.fixed, **{k.name: float(k.from_u(x)) for k, x in zip(self.ks, u)}}
 
     def fun(self, u, d):
-        res, pen, _ = _residuals_disc(self.fwd, self.vals(u), self.train, d)
+        res, pen, _ = residuals_with_term(self.fwd, self.vals(u), self.train, d)
         return np.concatenate([res, self.prior_K * (u[:self.n_retune] - self.u0[:self.n_retune]), pen])
 
     def solve(self, starts, d):
@@ -138,7 +139,7 @@ class _Objective:
         return float(u_pen @ u_pen)
 
 
-def _starts(ks: list, fwd: _Forward, n_retune: int, start: dict | None) -> tuple:
+def _starts(ks: list, fwd: ForwardModel, n_retune: int, start: dict | None) -> tuple:
     """(u0, us): the re-tune knobs' nominal (or the layout's value) and the effects' mid-range in u [-1, 1],
     and the start point, ``start``'s values where given."""
     # start at the nominal (re-tune) / mid-range (effect) in the knob coordinate u in [-1, 1]
@@ -208,7 +209,7 @@ def _intervals(ks: list, best, n: int, rss: float, ne: float) -> dict:
     return ci
 
 
-def _rms_by(fwd: _Forward, parts) -> tuple:
+def _rms_by(fwd: ForwardModel, parts) -> tuple:
     """[(run i, values)] -> RMS [K] over all, and per scheme."""
     by = {}
     for i, x in parts:
@@ -218,9 +219,9 @@ def _rms_by(fwd: _Forward, parts) -> tuple:
             {g: float(np.sqrt(np.mean(np.concatenate(xs) ** 2))) for g, xs in by.items()})
 
 
-def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float, prior_K: float,
-         disc: Discrepancy | None = None, start: dict | None = None, hint: dict | None = None,
-         fixed: dict | None = None) -> Fit:
+def fit_candidate(fwd: ForwardModel, name, train: dict, test: dict | None, n_eff_ratio: float, prior_K: float,
+                  disc: Discrepancy | None = None, start: dict | None = None, hint: dict | None = None,
+                  fixed: dict | None = None) -> Fit:
     """Bounded fit of the re-tune knobs plus candidate(s) ``name`` on ``train``; scored on ``test``.
 
     The re-tune knobs carry a weak prior towards their nominal values: a residual ``prior_K`` (u - u0)
@@ -235,7 +236,7 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
     effects' values fitted without the term, a further start (the better evidence of the two is kept).
     ``fixed``: re-tune knobs held at the given values (not fitted; :mod:`imutherm.studies.correlation.findings`).
     """
-    effects = _effects_of(name)
+    effects = effects_of(name)
     fixed = dict(fixed or {})
     ks = [k for k in _knobs_for(effects, fwd) if k.name not in fixed]
     n_retune = len(ks) - len(effects)
@@ -247,7 +248,7 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
     if disc is not None:
         best, p_hat, C_hat, disc = _fit_term(obj, best, disc, us, hint if effects else None, n_eff_ratio)
     v = obj.vals(best.x)
-    res, pen, coefs = _residuals_disc(fwd, v, train, disc)
+    res, pen, coefs = residuals_with_term(fwd, v, train, disc)
     n = len(res)
     rss = float(res @ res)
     k_par = len(ks) + 1  # + the noise variance
@@ -263,7 +264,7 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
                 + 2 * k_par * (k_par + 1) / (ne - k_par - 1) if ne > k_par + 1 else math.nan)
     hr, hm = math.nan, math.nan
     if test is not None and any(m.any() for m in test.values()):
-        rt, _, _ = _residuals_disc(fwd, v, test, disc, coefs if disc is not None else None)
+        rt, _, _ = residuals_with_term(fwd, v, test, disc, coefs if disc is not None else None)
         hr, hm = float(np.sqrt(np.mean(rt**2))), float(np.abs(rt).max())
     at_bound = tuple(k.name for k, x in zip(ks, best.x) if abs(x) > 0.995)
     ci = _intervals(ks, best, n, rss, ne)
@@ -281,6 +282,6 @@ def _fit(fwd: _Forward, name, train: dict, test: dict | None, n_eff_ratio: float
                disc_by, sig_by)
 
 
-def _with(f: Fit, **changes) -> Fit:
+def fit_with(f: Fit, **changes) -> Fit:
     from dataclasses import replace
     return replace(f, **changes)

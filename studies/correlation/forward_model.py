@@ -34,7 +34,7 @@ _FORM_NOMINAL = {"cavity_emissivity": knobs.cavity_pair_nominal,
 _DENSE = np.concatenate([[0.0], np.geomspace(0.5, 2.0e4, 240)])
 
 
-class _Forward:
+class ForwardModel:
     """Site rises of every run from knob values, through the runs' reduced models."""
 
     def __init__(self, runs, roms, geometries, options: ModelOptions | None = None, form=tuple(FORM_RETUNE)):
@@ -73,7 +73,7 @@ class _Forward:
         return out
 
 
-def _residuals(fwd: _Forward, values: dict, mask: dict) -> np.ndarray:
+def model_residuals(fwd: ForwardModel, values: dict, mask: dict) -> np.ndarray:
     """Model minus measured rise [K] over the selected points (mask: run index -> bool (n, m))."""
     out = []
     for i, m in mask.items():
@@ -84,7 +84,7 @@ def _residuals(fwd: _Forward, values: dict, mask: dict) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros(0)
 
 
-def _series(fwd: _Forward, values: dict, mask: dict):
+def residual_series(fwd: ForwardModel, values: dict, mask: dict):
     """(run i, site j, rows of run i with data in ``mask``, residual model - measured [K] of site j at every
     reading of run i) for every series with data."""
     for i, m in mask.items():

@@ -9,15 +9,15 @@ import math
 import numpy as np
 
 from imutherm import InputError
-from imutherm.studies.correlation.fit import Fit, _fit, _with
-from imutherm.studies.correlation.forward_model import _residuals, _series
+from imutherm.studies.correlation.fit import Fit, fit_candidate, fit_with
+from imutherm.studies.correlation.forward_model import model_residuals, residual_series
 
 
 #: a run with fewer readings than this is sparse (a paper's or a notebook's few figures)
 SPARSE_READINGS = 8
 
 
-def _masks(runs, holdout: str | None):
+def holdout_folds(runs, holdout: str | None):
     """[(train, test)] folds. holdout None/'auto': fit each file's first 60 % of its time and predict the
     rest (an effect seen in one scheme only cannot be predicted from another, so leaving a file out is
     asked for by name: ``holdout=FILE``); when every run is sparse (< :data:`SPARSE_READINGS`
@@ -51,7 +51,7 @@ def _masks(runs, holdout: str | None):
     return [(train, test)]
 
 
-def _test_union(folds) -> dict:
+def held_out_union(folds) -> dict:
     """run index -> bool (n, m): every reading some fold holds out."""
     out = {}
     for _, test in folds:
@@ -60,15 +60,15 @@ def _test_union(folds) -> dict:
     return out
 
 
-def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None, fixed=None) -> tuple:
+def pooled_heldout(fwd, name, folds, ratio, prior, disc=None, start=None, fixed=None) -> tuple:
     """Held-out RMS and max over the folds (each fold fitted on its training set; with the discrepancy
     term, the held-out readings are predicted with the training fit's coefficients)."""
     errs, blocks = [], []
     for k, (train, test) in enumerate(folds):
         if test is None:
             return math.nan, math.nan, ()
-        f = _fit(fwd, name, train, None, ratio, prior, disc, start, fixed=fixed)
-        for i, j, rows, r in _series(fwd, f.values, test):
+        f = fit_candidate(fwd, name, train, None, ratio, prior, disc, start, fixed=fixed)
+        for i, j, rows, r in residual_series(fwd, f.values, test):
             e = r[rows] - (disc.basis[(i, j)][rows] @ f.disc.get((i, j), np.zeros(2)) if disc is not None else 0.0)
             errs.append(e)
             blocks.append(((k, i, j), float(np.sum(e**2)), int(len(e))))
@@ -76,9 +76,9 @@ def _pooled(fwd, name, folds, ratio, prior, disc=None, start=None, fixed=None) -
     return float(np.sqrt(np.mean(e**2))), float(np.abs(e).max()), tuple(blocks)
 
 
-def _held(f: Fit, h: tuple) -> Fit:
-    """``f`` with the held-out figures of :func:`_pooled`."""
-    return _with(f, heldout_rms_K=h[0], heldout_max_K=h[1], heldout_blocks=h[2])
+def with_heldout(f: Fit, h: tuple) -> Fit:
+    """``f`` with the held-out figures of :func:`pooled_heldout`."""
+    return fit_with(f, heldout_rms_K=h[0], heldout_max_K=h[1], heldout_blocks=h[2])
 
 
 def heldout_worse_z(f: Fit, base: Fit) -> float:
@@ -102,8 +102,8 @@ def heldout_worse_z(f: Fit, base: Fit) -> float:
     return mean / se
 
 
-def _heldout_nominal(fwd, folds, nominal) -> float:
-    errs = [_residuals(fwd, nominal, test) for _, test in folds if test is not None]
+def heldout_nominal(fwd, folds, nominal) -> float:
+    errs = [model_residuals(fwd, nominal, test) for _, test in folds if test is not None]
     if not errs:
         return math.nan
     e = np.concatenate(errs)

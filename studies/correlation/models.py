@@ -35,16 +35,16 @@ class Models:
     options: ModelOptions | None = None
 
 
-def _pool(jobs: int, n: int):
+def worker_pool(jobs: int, n: int):
     """A process pool of min(jobs, n) workers with one BLAS thread each, or None for one job."""
     from imutherm.workers import process_pool
 
     return process_pool(min(jobs, n))
 
 
-def _map(fn, args, jobs: int) -> list:
-    """``[fn(*a) for a in args]``, on min(``jobs``, len(args)) worker processes (:func:`_pool`)."""
-    pool = _pool(jobs, len(args))
+def map_jobs(fn, args, jobs: int) -> list:
+    """``[fn(*a) for a in args]``, on min(``jobs``, len(args)) worker processes (:func:`worker_pool`)."""
+    pool = worker_pool(jobs, len(args))
     if pool is None:
         return [fn(*a) for a in args]
     try:
@@ -171,7 +171,7 @@ def build_models(keys, layout: LayoutSpec | str | None = None, *, mesh_size_mm: 
     each, gb = n_nodes / 175e3 * 60.0, n_nodes / 175e3 * 1.1
     say(f"{len(keys)} reduced model(s), ~{n_nodes} unknowns each: about {each:.0f} s and {gb:.1f} GB each on one "
         f"core, {len(keys)} on {max(1, min(jobs, len(keys)))} worker(s)")
-    pool = _pool(jobs, len(keys))
+    pool = worker_pool(jobs, len(keys))
     try:
         if pool is None:
             built = []
@@ -249,7 +249,7 @@ def rerun_full(runs, values: dict, models: Models, jobs: int = 1, progress=None,
     say(f"full-model re-run of {len(runs)} file(s) (one steady solve each, {how})")
     args = [(models.keyed_geometries[(r.scheme, r.ambient_C)], values, r, models.mesh_size_mm, models.min_cells,
              models.options or ModelOptions(), use_cache, transient) for r in runs]
-    out = _map(_rerun_one, args, jobs)
+    out = map_jobs(_rerun_one, args, jobs)
     return [o[0] for o in out], [o[1] for o in out]
 
 

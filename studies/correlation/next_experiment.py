@@ -56,14 +56,14 @@ def designs(fwd) -> list:
 
 def _predict(fwd, scheme: str, amb: float, ps: float, dur: float, values: dict) -> tuple:
     """(times [s], the model's rises [K] at every site of the reduced model (n, m), site names) of one design."""
-    from imutherm.studies.correlation.forward_model import _Forward
+    from imutherm.studies.correlation.forward_model import ForwardModel
     rom = fwd.roms[(scheme, amb)]
     t = np.linspace(0.0, dur, DESIGN_SAMPLES + 1)[1:]
     sites = tuple(rom.site_names)
     probe = fwd.runs[0].probe if fwd.runs else "die"
     run = MeasuredRun("next.csv", scheme, amb, ps, 0.0, probe, sites, t, np.zeros((len(t), len(sites))),
                       tuple(range(len(t))))
-    f = _Forward((run,), fwd.roms, fwd.geometries, fwd.options, fwd.form)
+    f = ForwardModel((run,), fwd.roms, fwd.geometries, fwd.options, fwd.form)
     return t, f.rise(0, values), sites
 
 

@@ -10,8 +10,8 @@ import numpy as np
 
 from imutherm.geometry.build import MM
 from imutherm.measured import MeasuredRun
-from imutherm.studies.correlation.discrepancy import _disc_curve
-from imutherm.studies.correlation.forward_model import _Forward
+from imutherm.studies.correlation.discrepancy import term_curve
+from imutherm.studies.correlation.forward_model import ForwardModel
 
 
 #: noise assumed for sparse series (fewer than 8 points) where it cannot be estimated [K]
@@ -59,12 +59,12 @@ def _noise_of_series(y: np.ndarray) -> float:
     return float(math.sqrt(np.median(P[sel] / gain) / math.log(2)))
 
 
-def n_eff_ratio(fwd: _Forward, values: dict, disc=None, coefs=None) -> float:
+def n_eff_ratio(fwd: ForwardModel, values: dict, disc=None, coefs=None) -> float:
     """n_eff / n from the lag-1 autocorrelation of the residuals of each series (>= 4 points); with a
     discrepancy term (``disc`` and its ``coefs``), of the residuals it leaves."""
     n_tot, ne_tot = 0, 0.0
     for i, run in enumerate(fwd.runs):
-        r = fwd.rise(i, values) - run.rise_K - _disc_curve(disc, coefs or {}, i, run)
+        r = fwd.rise(i, values) - run.rise_K - term_curve(disc, coefs or {}, i, run)
         for j in range(len(run.sites)):
             x = r[np.isfinite(r[:, j]) & np.isfinite(run.times_s), j]
             n = len(x)
@@ -102,7 +102,7 @@ def _lag_s(t, model, meas) -> float | None:
     return float(shifts[int(np.argmin(err))])
 
 
-def localise(fwd: _Forward, values: dict) -> tuple:
+def localise(fwd: ForwardModel, values: dict) -> tuple:
     """Per run and site: residual mean/RMS/max, per phase, lag; and the fingerprint correlations."""
     out, rows = {}, []
     for i, run in enumerate(fwd.runs):

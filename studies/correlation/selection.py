@@ -11,19 +11,20 @@ from dataclasses import replace
 from imutherm.unit import knobs
 from imutherm.unit.effects import effect_of
 from imutherm.studies.correlation.discrepancy import DISCREPANCY_PRIOR, build_discrepancy
-from imutherm.studies.correlation.fit import Fit, _effects_of, _fit
-from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, _Forward
-from imutherm.studies.correlation.holdout import _held, _pooled
-from imutherm.studies.correlation.models import _pool
+from imutherm.studies.correlation.fit import Fit, effects_of, fit_candidate
+from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, ForwardModel
+from imutherm.studies.correlation.holdout import with_heldout, pooled_heldout
+from imutherm.studies.correlation.models import worker_pool
 from imutherm.studies.correlation.noise import n_eff_ratio
-from imutherm.studies.correlation.verdict import _rank_key, verdict
+from imutherm.studies.correlation.verdict import rank_key, verdict
 
 
 def _fit_candidate(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None):
     """One candidate (or combination) fitted on all data, with its pooled held-out figures (a pure
     function: run in a worker). ``hint``: its values fitted without the discrepancy term (a further start)."""
-    f = _fit(fwd, name, full, None, ratio, noise, disc, start, hint)
-    return _held(f, _pooled(fwd, name, folds, ratio, noise, disc and disc.with_prior(f.disc_priors), start))
+    f = fit_candidate(fwd, name, full, None, ratio, noise, disc, start, hint)
+    return with_heldout(f, pooled_heldout(fwd, name, folds, ratio, noise, disc and disc.with_prior(f.disc_priors),
+                                          start))
 
 
 #: forward selection stops after this many library effects
@@ -50,13 +51,13 @@ def _timed(fn, *a):
 
 def _fit_full(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None) -> Fit:
     """The fit on all data of :func:`_fit_candidate`, without the held-out figures (a task of its own)."""
-    return _fit(fwd, name, full, None, ratio, noise, disc, start, hint)
+    return fit_candidate(fwd, name, full, None, ratio, noise, disc, start, hint)
 
 
 def _fit_heldout(fwd, name, full, folds, ratio: float, noise: float, disc=None, start=None, hint=None) -> tuple:
     """The hold-out figures of :func:`_fit_candidate` without the discrepancy term (they do not depend on the
     fit on all data then: a task of its own, run beside :func:`_fit_full`)."""
-    return _pooled(fwd, name, folds, ratio, noise, None, start)
+    return pooled_heldout(fwd, name, folds, ratio, noise, None, start)
 
 
 def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
@@ -68,7 +69,7 @@ def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
     effect -> seconds, updated here) or the effect's guessed :attr:`~imutherm.unit.effects.Effect.fit_cost`
     (before any is measured: the first step). The same fits either way: the results equal the serial ones."""
     costs = {} if costs is None else costs
-    pool = _pool(jobs, len(args))
+    pool = worker_pool(jobs, len(args))
     if pool is None:
         return [_fit_candidate(*a) for a in args]
     split = all(a[6] is None for a in args)
@@ -77,7 +78,7 @@ def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
 
     def cost(task):
         k, fn = task
-        last = _effects_of(args[k][1])[-1]
+        last = effects_of(args[k][1])[-1]
         if (fn.__name__, last) in costs:
             return costs[(fn.__name__, last)]
         if fn is _fit_candidate and ("_fit_full", last) in costs:  # the same candidate measured without the term
@@ -92,35 +93,35 @@ def _fit_candidates(args, jobs: int, costs: dict | None = None) -> list:
         pool.shutdown(cancel_futures=True)
     for t, (_, sec) in done.items():
         k, fn = tasks[t]
-        costs[(fn.__name__, _effects_of(args[k][1])[-1])] = sec
+        costs[(fn.__name__, effects_of(args[k][1])[-1])] = sec
     if not split:
         return [done[t][0] for t in range(len(tasks))]
     out = []
     for k in range(len(args)):
         f, h = done[2 * k][0], done[2 * k + 1][0]
-        out.append(_held(f, h))
+        out.append(with_heldout(f, h))
     return out
 
 
-def _with_term(runs, models, form, form_retune: bool, nominal: dict, noise: float, ratio: float, full, folds,
-               caps: dict | None = None):
+def retune_with_term(runs, models, form, form_retune: bool, nominal: dict, noise: float, ratio: float, full, folds,
+                     caps: dict | None = None):
     """The re-tuned model with the discrepancy term: (forward model, :class:`Discrepancy`, its Fit with
     held-out figures, n_eff ratio). Where the model's form is in doubt the form knobs of :data:`FORM_IN_DOUBT`
     (the cavity law's blend) are re-tuned too; the residual level σ of the evidence is what the re-tune with
     the term leaves, not below the noise, and the re-tuned model's own scales start every candidate's. ``caps``:
     scheme -> the term's largest prior scale [-] (the model's known form error, :mod:`imutherm.studies.correlation.form_error`)."""
-    fwd = _Forward(runs, models.roms, models.geometries, models.options,
-                   form + (tuple(FORM_IN_DOUBT) if form_retune else ()))
+    fwd = ForwardModel(runs, models.roms, models.geometries, models.options,
+                       form + (tuple(FORM_IN_DOUBT) if form_retune else ()))
     disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR, caps)
-    first = _fit(fwd, "none", full, None, ratio, noise, disc)
+    first = fit_candidate(fwd, "none", full, None, ratio, noise, disc)
     ratio = n_eff_ratio(fwd, first.values, disc, first.disc)  # the term takes the smooth, correlated part
     disc = replace(disc, prior=dict(first.disc_priors), sigma_K=max(noise, first.rms_K), ratio=ratio)
-    none_fit = _fit(fwd, "none", full, None, ratio, noise, disc)
+    none_fit = fit_candidate(fwd, "none", full, None, ratio, noise, disc)
     disc = disc.with_prior(none_fit.disc_priors)
-    return fwd, disc, _held(none_fit, _pooled(fwd, "none", folds, ratio, noise, disc)), ratio
+    return fwd, disc, with_heldout(none_fit, pooled_heldout(fwd, "none", folds, ratio, noise, disc)), ratio
 
 
-def _truncate(steps, chosen, k: int, verdict: str, why: str, say) -> tuple:
+def truncate_selection(steps, chosen, k: int, verdict: str, why: str, say) -> tuple:
     """(steps, chosen) of a forward selection cut to its first ``k`` effects, step k's verdict replaced by
     ``verdict`` with the reason '<effect k> <why>'."""
     say(f"named: {', '.join(c.effects[-1] for c in chosen[:k])}; not {chosen[k].effects[-1]}, which {why}")
@@ -128,7 +129,7 @@ def _truncate(steps, chosen, k: int, verdict: str, why: str, say) -> tuple:
     return steps, chosen[:k]
 
 
-def _gain_words(f: Fit, retune: Fit) -> str:
+def gain_words(f: Fit, retune: Fit) -> str:
     """'the library's choice (NAME) takes the re-tuned model's held-out error from A to B K'."""
     return (f"the library's choice ({f.name}) takes the re-tuned model's held-out error from "
             f"{retune.heldout_rms_K:.3f} to {f.heldout_rms_K:.3f} K")
@@ -162,7 +163,7 @@ def forward_select(fwd, base: Fit, candidates, full, folds, ratio: float, noise:
             f"each hold-out fold")
         ranking = sorted(_fit_candidates([(fwd, sel + (n,), full, folds, ratio, noise, disc, cur.values,
                                            (hints or {}).get(sel + (n,))) for n in names], jobs, costs),
-                         key=_rank_key)
+                         key=rank_key)
         v, named, amb, reason = verdict(cur, ranking, noise, base)
         steps.append({"base": cur, "ranking": tuple(ranking), "verdict": v, "named": named and named.split("+")[-1],
                       "ambiguous_set": tuple(a.split("+")[-1] for a in amb), "reason": reason})

@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from imutherm.unit.effects import effect_of
-from imutherm.studies.correlation.discrepancy import Discrepancy, _disc_curve
+from imutherm.studies.correlation.discrepancy import Discrepancy, term_curve
 from imutherm.studies.correlation.fit import Fit
 from imutherm.studies.correlation.holdout import heldout_worse_z
 
@@ -127,7 +127,7 @@ def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) ->
     if later and none.criterion != "evidence" and gap <= NONE_NOISE_FACTOR * noise_K and bgap > EXPLAIN_FRACTION * gap:
         # the effects named so far already meet the none standard: a further one must explain at least half of
         # what they leave, else its gain is of the size the model's form leaves (the first step's standard,
-        # _plain_explains; mild campaign of 2026-12-03: a bond line named right at 0.097 K held out, noise
+        # plain_explains; mild campaign of 2026-12-03: a bond line named right at 0.097 K held out, noise
         # 0.05 K, then power@reg_3v3, not hidden, for 0.083 K)
         return "none", None, (), (f"the effects named so far predict held-out data within {gap:.3f} K (noise "
                                   f"{noise_K:.3f} K); the best further candidate, {best.name}, takes it to {bgap:.3f} "
@@ -138,8 +138,8 @@ def verdict(none: Fit, ranking, noise_K: float, reference: Fit | None = None) ->
     if refused or close:
         why = "; ".join(f"{f.name} fits better (ΔAICc {best.aicc - f.aicc:.1f}) but was refused: "
                         + _refusal(f, none, gap, noise_K) for f in refused)
-        amb = tuple(f.name for f in sorted(refused + [best] + close, key=_rank_key))
-        tied = ", ".join([best.name] + [f"{f.name} (+{f.aicc - best.aicc:.1f})" for f in sorted(close, key=_rank_key)])
+        amb = tuple(f.name for f in sorted(refused + [best] + close, key=rank_key))
+        tied = ", ".join([best.name] + [f"{f.name} (+{f.aicc - best.aicc:.1f})" for f in sorted(close, key=rank_key)])
         return "ambiguous", None, amb, "; ".join(x for x in (why, f"{len(close) + 1} candidate(s) within ΔAICc "
                                                                f"{MARGIN_RUNNER_UP:g}: {tied}" if close else "") if x)
     return "effect", best.name, (), (f"{best.name}: ΔAICc {none.aicc - best.aicc:.1f} over none, "
@@ -158,7 +158,7 @@ def _refusal(f: Fit, none: Fit, gap: float, noise_K: float) -> str:
             f"({f.heldout_rms_K:.4f} K, z {z:.1f})")
 
 
-def _plain_explains(selection, noise_K: float, retune: Fit | None = None) -> bool:
+def plain_explains(selection, noise_K: float, retune: Fit | None = None) -> bool:
     """Whether forward selection without the discrepancy term explains the data: it names effects that predict
     held-out data within :data:`NONE_NOISE_FACTOR` noise sigmas (the standard the re-tuned model is held to
     for ``none``) **and** at most :data:`EXPLAIN_FRACTION` of the re-tuned model's held-out error (``retune``,
@@ -253,7 +253,7 @@ def effect_words(name: str | None, values: dict) -> str:
     return f"{e.name}{where}: {e.words}; fitted {p.name} = {v:.4g} {p.unit}"
 
 
-def _rank_key(f: Fit):
+def rank_key(f: Fit):
     return (f.aicc if math.isfinite(f.aicc) else math.inf,
             f.heldout_rms_K if math.isfinite(f.heldout_rms_K) else math.inf)
 
@@ -271,7 +271,7 @@ def discrepancy_summary(fwd, disc: Discrepancy, plain: Fit, with_term: Fit, afte
         with_term.disc_priors).occam(full)
     rows, per = [], {}
     for i, run in enumerate(fwd.runs):
-        d = -_disc_curve(disc, after.disc, i, run)
+        d = -term_curve(disc, after.disc, i, run)
         t = run.times_s
         for j, s in enumerate(run.sites):
             st = loc.get(run.name, {}).get(s)
@@ -287,7 +287,7 @@ def discrepancy_summary(fwd, disc: Discrepancy, plain: Fit, with_term: Fit, afte
                                                                          "rms_K": float(np.sqrt(np.mean(x**2)))}
                 if abs(mean) > noise:
                     rows.append((run.scheme, phase, s, mean))
-    rms = float(np.sqrt(np.mean(np.concatenate([(-_disc_curve(disc, after.disc, i, r))[full[i]]
+    rms = float(np.sqrt(np.mean(np.concatenate([(-term_curve(disc, after.disc, i, r))[full[i]]
                                                   for i, r in enumerate(fwd.runs)]) ** 2)))
     groups = {}
     for scheme, phase, s, mean in rows:
@@ -308,7 +308,7 @@ def discrepancy_summary(fwd, disc: Discrepancy, plain: Fit, with_term: Fit, afte
             "basis": "per run and site: dT s(t), dT 4 s(1 - s), s the nominal normalised response"}
 
 
-def _verdict_discrepancy(plain: Fit, with_term: Fit, dsum: dict, noise: float, v: str, reason: str) -> tuple:
+def verdict_discrepancy(plain: Fit, with_term: Fit, dsum: dict, noise: float, v: str, reason: str) -> tuple:
     """No library effect named: 'none' if the re-tune alone predicts held-out data within
     :data:`NONE_NOISE_FACTOR` noise sigmas and the data do not support the discrepancy term (or the term does
     not predict them better); 'discrepancy' if the data support the term and with it the re-tuned model

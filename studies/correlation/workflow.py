@@ -20,23 +20,26 @@ from imutherm.studies.correlation.findings import explain_knobs
 from imutherm.studies.correlation.plausibility import check_plausible
 from imutherm.workers import thread_limit
 from imutherm.studies.correlation.written_model import choose as choose_written
-from imutherm.studies.correlation.discrepancy import _disc_curve, form_band
+from imutherm.studies.correlation.discrepancy import term_curve, form_band
 from imutherm.studies.correlation.explain import explanations as explanations_of
 from imutherm.studies.correlation.next_experiment import next_experiment as next_experiment_of
-from imutherm.studies.correlation.fit import Fit, _fit, _with
-from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, FORM_RETUNE, _Forward, _residuals
-from imutherm.studies.correlation.holdout import SPARSE_READINGS, _held, _heldout_nominal, _masks, _pooled, _test_union
-from imutherm.studies.correlation.models import Models, _map, build_models, check_inputs, refuse_duplicates, rerun_full
+from imutherm.studies.correlation.fit import Fit, fit_candidate, fit_with
+from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, FORM_RETUNE, ForwardModel, model_residuals
+from imutherm.studies.correlation.holdout import (SPARSE_READINGS, held_out_union, heldout_nominal, holdout_folds,
+                                                  pooled_heldout, with_heldout)
+from imutherm.studies.correlation.models import (Models, build_models, check_inputs, map_jobs, refuse_duplicates,
+                                                 rerun_full)
 from imutherm.studies.correlation.noise import localise, n_eff_ratio, noise_sigma
-from imutherm.studies.correlation.selection import MAX_EFFECTS, _gain_words, _truncate, _with_term, forward_select
-from imutherm.studies.correlation.verdict import (EXPLAIN_FRACTION, NONE_NOISE_FACTOR, _plain_explains,
-                                                  _verdict_discrepancy, discrepancy_summary, effect_words,
+from imutherm.studies.correlation.selection import (MAX_EFFECTS, forward_select, gain_words, retune_with_term,
+                                                    truncate_selection)
+from imutherm.studies.correlation.verdict import (EXPLAIN_FRACTION, NONE_NOISE_FACTOR, plain_explains,
+                                                  verdict_discrepancy, discrepancy_summary, effect_words,
                                                   explains_term)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CorrelationResult:
-    """What ``correlate`` found.
+    """What ``correlate`` found (built by keyword only: 28 fields).
 
     verdict : 'effect' | 'finding' | 'none' | 'ambiguous' | 'not_in_library' | 'discrepancy'
     named_effect : str or None (the first of ``named_effects``), ambiguous_set : tuple
@@ -104,10 +107,10 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
 
     discrepancy : 'auto' (default): the library first (the re-tune, its form knobs and forward selection); where
         its choice does not predict held-out data within :data:`NONE_NOISE_FACTOR` noise sigmas
-        (:func:`_plain_explains`), the selection again with the model's own error as a term
+        (:func:`plain_explains`), the selection again with the model's own error as a term
         (:class:`Discrepancy`, its scale estimated per fit), whose verdict stands; where it names nothing and
         the re-tune is within that standard, the term is fitted on the re-tuned model alone and the verdict is
-        'discrepancy' if the data support it (:func:`_verdict_discrepancy`), else 'none'. True: always with
+        'discrepancy' if the data support it (:func:`verdict_discrepancy`), else 'none'. True: always with
         the term; False: never. The term is not fitted on sparse files (:func:`form_band` instead).
     max_effects : forward selection names at most this many library effects (1: one effect, as before)
     form_retune : re-tune the form knobs (:data:`FORM_RETUNE`: the cavity's emissivity) beside the others
@@ -135,11 +138,11 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     t_rom = time.perf_counter() - t0
     # a form knob asked for as a candidate (or every one, without form_retune) is not re-tuned
     form = tuple(n for n in FORM_RETUNE if form_retune and n not in (candidates or ()))
-    fwd = _Forward(runs, roms, geometries, models.options, form)
+    fwd = ForwardModel(runs, roms, geometries, models.options, form)
     _check_time_constants(runs, roms, geometries)
     noise = float(np.median([noise_sigma(r) for r in runs]))
     nominal = dict(fwd.nominal)
-    before_res = _residuals(fwd, nominal, {i: np.isfinite(r.values_C) for i, r in enumerate(runs)})
+    before_res = model_residuals(fwd, nominal, {i: np.isfinite(r.values_C) for i, r in enumerate(runs)})
     loc, fp = localise(fwd, nominal)
     say("re-tune")
     # the fits' small dense algebra (reduced models of ~40 unknowns) on one BLAS thread, as in the workers:
@@ -156,7 +159,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     if disc is not None:
         dsum = discrepancy_summary(sel.fwd, disc, sel.plain, none_fit, after, sel.full, noise, loc)
         if v in ("none", "not_in_library"):  # the rules again, now between the re-tune alone and with the term
-            v, reason = _verdict_discrepancy(sel.plain, none_fit, dsum, noise, v, reason)
+            v, reason = verdict_discrepancy(sel.plain, none_fit, dsum, noise, v, reason)
     if sel.disc_note:
         reason += f" ({sel.disc_note})"
     if sel.term_check and v == "none":  # the term was asked and is not needed: the re-tuned model stands as it is
@@ -189,7 +192,7 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         say(written["reason"])
     curves = _curves(sel.fwd, runs, nominal, after, disc)
     before = {"rms_K": float(np.sqrt(np.mean(before_res**2))), "max_K": float(np.abs(before_res).max()),
-              "heldout_rms_K": _heldout_nominal(sel.fwd, sel.folds, nominal)}
+              "heldout_rms_K": heldout_nominal(sel.fwd, sel.folds, nominal)}
     words = "; ".join([f.words() for f in found] + [effect_words(n, after.values) for n in named_effects]
                       + [x.words() for x in symptoms]) or reason
     if dsum is not None and dsum["supported"]:
@@ -202,14 +205,17 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     t1 = time.perf_counter()
     rerun_stats = (_rerun(runs, after, disc, models, curves, jobs, say, use_cache, rerun_transient) if rerun
                    else {})
-    return CorrelationResult(v, named, amb_set, before, after, none_fit, tuple(sel.ranking), loc, fp, noise, curves,
-                             runs, {f"{s}@{a:g}C": {"basis": r.basis_size, "unknowns": r.unknowns,
-                                                    "build_s": r.build_s, "solves": r.solves}
-                                    for (s, a), r in roms.items()},
-                             {"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
-                              "total_s": time.perf_counter() - t0, "reason": reason},
-                             words, rerun_stats, named_effects, tuple(sel.steps), dsum, sel.plain, band, found,
-                             written, fscale.summary(), free, symptoms, tuple(expl), nxt)
+    reduced = {f"{s}@{a:g}C": {"basis": r.basis_size, "unknowns": r.unknowns, "build_s": r.build_s,
+                                "solves": r.solves} for (s, a), r in roms.items()}
+    return CorrelationResult(
+        verdict=v, named_effect=named, ambiguous_set=amb_set, before=before, after=after, retune=none_fit,
+        ranking=tuple(sel.ranking), localise=loc, fingerprints=fp, noise_K=noise, curves=curves, runs=runs,
+        reduced=reduced,
+        timings={"reduced_models_s": t_rom, "fits_s": t_fits, "full_rerun_s": time.perf_counter() - t1,
+                 "total_s": time.perf_counter() - t0, "reason": reason},
+        words=words, full=rerun_stats, named_effects=named_effects, steps=tuple(sel.steps), discrepancy=dsum,
+        retune_plain=sel.plain, form_band=band, findings=found, written=written, form_scale=fscale.summary(),
+        physics=free, symptoms=symptoms, explanations=tuple(expl), next_experiment=nxt)
 
 
 def _inputs_and_models(runs: tuple, layout, holdout, mesh_size_mm: float, min_cells: int, options, models,
@@ -238,7 +244,7 @@ def _check_time_constants(runs: tuple, roms: dict, geometries: dict) -> None:
     """A file must reach the model's time constant (t63 of its slowest site) or give a steady row."""
     for run in runs:
         if not np.isinf(run.times_s).any():
-            loc, _ = localise(_Forward((run,), roms, geometries), {})
+            loc, _ = localise(ForwardModel((run,), roms, geometries), {})
             t63 = max(s["model_t63_s"] for s in loc[run.name].values())
             last = float(run.times_s[np.isfinite(run.times_s)].max())
             if last < t63:
@@ -247,7 +253,7 @@ def _check_time_constants(runs: tuple, roms: dict, geometries: dict) -> None:
                                  f"the plateau with; add later readings or a steady row (time_s = inf)")
 
 
-def _candidates(candidates, roms: dict, fwd: _Forward) -> list:
+def _candidates(candidates, roms: dict, fwd: ForwardModel) -> list:
     """The candidate effects to fit: ``candidates`` (default: every model effect some reduced model carries, and
     the signal effects), each checked to be a library effect; the form knobs re-tuned are not candidates."""
     if candidates is None:
@@ -263,7 +269,7 @@ def _candidates(candidates, roms: dict, fwd: _Forward) -> list:
 class _Selection:
     """What the re-tune and the forward selection of :func:`correlate` leave (internal)."""
 
-    fwd: _Forward
+    fwd: ForwardModel
     full: dict
     folds: list
     plain: Fit
@@ -284,11 +290,11 @@ def _select(runs, models, fwd, form, form_retune, candidates, holdout, discrepan
     """The re-tune, the candidates and the forward selection, with the discrepancy term where it is asked
     (``discrepancy``, see :func:`correlate`)."""
     full = {i: np.isfinite(r.values_C) for i, r in enumerate(runs)}
-    folds = _masks(runs, holdout)
-    none0 = _fit(fwd, "none", full, None, 1.0, noise)
+    folds = holdout_folds(runs, holdout)
+    none0 = fit_candidate(fwd, "none", full, None, 1.0, noise)
     ratio = ratio0 = n_eff_ratio(fwd, none0.values)
-    plain = _fit(fwd, "none", full, None, ratio, noise)
-    plain = _held(plain, _pooled(fwd, "none", folds, ratio, noise))
+    plain = fit_candidate(fwd, "none", full, None, ratio, noise)
+    plain = with_heldout(plain, pooled_heldout(fwd, "none", folds, ratio, noise))
     candidates = _candidates(candidates, models.roms, fwd)
     if discrepancy not in (True, False, "auto"):
         raise InputError(f"correlate: discrepancy={discrepancy!r}; valid: True, False, 'auto'")
@@ -306,12 +312,12 @@ def _select(runs, models, fwd, form, form_retune, candidates, holdout, discrepan
                                    costs=costs)
         discrepancy = _term_asked(sel, plain_sel, fscale, noise, say)
     if discrepancy:
-        sel.fwd, sel.disc, sel.none_fit, sel.ratio = _with_term(runs, models, form, form_retune, nominal, noise,
-                                                                sel.ratio, full, folds, caps)
+        sel.fwd, sel.disc, sel.none_fit, sel.ratio = retune_with_term(runs, models, form, form_retune, nominal, noise,
+                                                                      sel.ratio, full, folds, caps)
     if discrepancy or plain_sel is None:
         if plain_sel is None and sel.disc is not None:  # the library's fits without the term: starts of those with it
-            plain_sel = ([{"ranking": tuple(_map(_fit, [(sel.fwd, (n,), full, None, sel.ratio, noise)
-                                                        for n in candidates], jobs))}], [])
+            plain_sel = ([{"ranking": tuple(map_jobs(fit_candidate, [(sel.fwd, (n,), full, None, sel.ratio, noise)
+                                                                     for n in candidates], jobs))}], [])
         hints = {f.effects: f.values for st in (plain_sel[0] if plain_sel else ()) for f in st["ranking"]}
         sel.steps, sel.chosen = forward_select(sel.fwd, sel.none_fit, candidates, full, folds, sel.ratio, noise,
                                                sel.disc, jobs, max_effects, say, hints, costs)
@@ -319,8 +325,8 @@ def _select(runs, models, fwd, form, form_retune, candidates, holdout, discrepan
         sel.steps, sel.chosen = plain_sel
     sel.ranking = list(sel.steps[0]["ranking"]) if sel.steps else []
     if sel.term_check:
-        sel.fwd, sel.disc, sel.none_fit, sel.ratio = _with_term(runs, models, form, form_retune, nominal, noise,
-                                                                sel.ratio, full, folds, caps)
+        sel.fwd, sel.disc, sel.none_fit, sel.ratio = retune_with_term(runs, models, form, form_retune, nominal, noise,
+                                                                      sel.ratio, full, folds, caps)
     return sel
 
 
@@ -329,21 +335,21 @@ def _term_asked(sel: _Selection, plain_sel: tuple, fscale, noise: float, say) ->
     own (``plain_sel``); sets ``sel.disc_note`` and ``sel.term_check`` (the term fitted on the re-tuned model
     alone, to ask whether the data support it)."""
     plain = sel.plain
-    band = form_error.band_K(sel.fwd, fscale, plain.values, _test_union(sel.folds))
+    band = form_error.band_K(sel.fwd, fscale, plain.values, held_out_union(sel.folds))
     if plain_sel[1] and form_error.named_through_form(plain.heldout_rms_K, plain_sel[1][-1].heldout_rms_K, band,
                                                       noise, NONE_NOISE_FACTOR):
-        sel.disc_note = (_gain_words(plain_sel[1][-1], plain) + f", within the model's known form error ({band:.3f} "
+        sel.disc_note = (gain_words(plain_sel[1][-1], plain) + f", within the model's known form error ({band:.3f} "
                          f"K held out, {form_error.FORM_SIGMAS:g} sigmas {form_error.FORM_SIGMAS * band:.3f} K; noise "
                          f"{noise:.3f} K): named through the form error, no discrepancy term asked")
         say(sel.disc_note)
         return False
-    if _plain_explains(plain_sel, noise, plain):
+    if plain_explains(plain_sel, noise, plain):
         # nothing named and the re-tune within the noise standard: is a smooth residual left that the
         # data support all the same (the model's form, or an effect outside the library the re-tune hid)?
         sel.term_check = not plain_sel[1]
         return False
-    if _plain_explains(plain_sel, noise):  # within the noise, but no more than a form error's gain
-        sel.disc_note = (_gain_words(plain_sel[1][-1], plain) + f", less than {1 / EXPLAIN_FRACTION:g}x: a gain "
+    if plain_explains(plain_sel, noise):  # within the noise, but no more than a form error's gain
+        sel.disc_note = (gain_words(plain_sel[1][-1], plain) + f", less than {1 / EXPLAIN_FRACTION:g}x: a gain "
                          f"the model's form error could give; judged with the discrepancy term")
     else:
         sel.disc_note = ("the library effects and the re-tune do not predict held-out data within "
@@ -366,16 +372,16 @@ def _decide(sel: _Selection, noise: float, say) -> tuple:
         k = next((k for k in range(1, len(chosen)) if not explains_term(chosen[k], chosen[k - 1], noise,
                                                                        chosen[k:k + 1])), None)
         if k is not None:
-            steps, chosen = _truncate(steps, chosen, k, "none", "does not halve the discrepancy the effects before it "
-                                      "leave where it acts", say)
+            steps, chosen = truncate_selection(steps, chosen, k, "none", "does not halve the discrepancy the "
+                                               "effects before it leave where it acts", say)
     if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
         # the longest first part of the selection that does explain it (a later step may add an effect that
         # acts where the form error is and explains it not)
         keep = next((k for k in range(len(chosen) - 1, 0, -1)
                      if explains_term(chosen[k - 1], none_fit, noise, chosen[:k])), 0)
         if keep:
-            steps, chosen = _truncate(steps, chosen, keep, "not_in_library", "does not explain the model's error "
-                                      "where it acts", say)
+            steps, chosen = truncate_selection(steps, chosen, keep, "not_in_library",
+                                               "does not explain the model's error where it acts", say)
     if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
         f = chosen[-1]
         unexplained = (f"no candidate explains the model's error: the best, {f.name}, leaves a discrepancy of "
@@ -406,24 +412,24 @@ def _physics(sel: _Selection, after: Fit, disc, noise: float, nominal: dict, fsc
     with thread_limit(1):
         free = after
         if disc is not None:
-            free = _held(_fit(fwd, after.effects, full, None, ratio0, noise, None, after.values),
-                         _pooled(fwd, after.effects, folds, ratio0, noise, None, after.values))
-        held_out = _test_union(folds) if folds[0][1] is not None else full
+            free = with_heldout(fit_candidate(fwd, after.effects, full, None, ratio0, noise, None, after.values),
+                                pooled_heldout(fwd, after.effects, folds, ratio0, noise, None, after.values))
+        held_out = held_out_union(folds) if folds[0][1] is not None else full
         band = form_error.band_K(fwd, fscale, free.values, full)
         found, symptoms = explain_knobs(fwd, free, full, folds, ratio0, noise, held_out, band)
         if found:
-            free = _with(free, ci={**free.ci, **{f.parameter: f.ci95 for f in found}})
+            free = fit_with(free, ci={**free.ci, **{f.parameter: f.ci95 for f in found}})
             written = choose_written(fwd, nominal, free.values, None, held_out)
         else:
             written = choose_written(fwd, nominal, after.values, free.values if disc is not None else None, held_out)
     return free, found, symptoms, written
 
 
-def _curves(fwd: _Forward, runs: tuple, nominal: dict, after: Fit, disc) -> dict:
+def _curves(fwd: ForwardModel, runs: tuple, nominal: dict, after: Fit, disc) -> dict:
     """run name -> its sites, times [s], measured, nominal and corrected rises [K] and the term's part [K]."""
     curves = {}
     for i, run in enumerate(runs):
-        d = _disc_curve(disc, after.disc, i, run)
+        d = term_curve(disc, after.disc, i, run)
         curves[run.name] = {"sites": run.sites, "times_s": run.times_s, "measured_K": run.rise_K,
                             "before_K": fwd.rise(i, nominal), "after_K": fwd.rise(i, after.values) - d,
                             "discrepancy_K": -d}
@@ -436,10 +442,10 @@ def _rerun(runs: tuple, after: Fit, disc, models: Models, curves: dict, jobs: in
     term's correction, how each transient was computed; each run's curve gets ``after_full_K``."""
     rises, transients = rerun_full(runs, after.values, models, jobs, say, use_cache, rerun_transient)
     res_full = np.concatenate([(y - r.rise_K)[np.isfinite(r.values_C)] for y, r in zip(rises, runs)])
-    res_disc = np.concatenate([(y - _disc_curve(disc, after.disc, i, r) - r.rise_K)[np.isfinite(r.values_C)]
+    res_disc = np.concatenate([(y - term_curve(disc, after.disc, i, r) - r.rise_K)[np.isfinite(r.values_C)]
                                for i, (y, r) in enumerate(zip(rises, runs))])
     for i, (y, r) in enumerate(zip(rises, runs)):
-        curves[r.name]["after_full_K"] = y - _disc_curve(disc, after.disc, i, r)
+        curves[r.name]["after_full_K"] = y - term_curve(disc, after.disc, i, r)
     return {"rms_K": float(np.sqrt(np.mean(res_disc**2))), "max_K": float(np.abs(res_disc).max()),
             "rms_physics_K": float(np.sqrt(np.mean(res_full**2))),
             "max_physics_K": float(np.abs(res_full).max()), "transients": transients}

@@ -41,7 +41,7 @@ class StudyConfig:
     profiles : motion profiles (``flight``, ``swing``; :mod:`imutherm.imu.motion`), default durations
     compensations : subset of none, conventional, improved
     filters : registered filters that need no GNSS (:mod:`imutherm.imu.filters.registry`); default the
-        registry's ``in_study`` filters (:func:`~imutherm.imu.filters.registry.study_filters`)
+        registry's ``study`` group (:func:`~imutherm.imu.filters.registry.study_filters`)
     tuned : True: each filter runs at its tuned settings for the profile (``studies/attitude/filter_settings.toml``,
         :mod:`imutherm.studies.attitude.filter_settings`: one grid procedure for ours and the peers, tuning seeds 100-101,
         not the answer's); False: at its defaults

@@ -218,7 +218,7 @@ def reduce_cases(cases: list) -> dict:
 
 def sweep_config() -> StudyConfig:
     """The lean IMU configuration of a sweep case: the paper's compensation, one seed, the flight, and the
-    registry's ``in_sweep`` filters (:func:`~imutherm.imu.filters.registry.sweep_filters`)."""
+    registry's ``sweep`` group (:func:`~imutherm.imu.filters.registry.sweep_filters`)."""
     from imutherm.imu.filters.registry import sweep_filters
 
     return StudyConfig(seeds=1, profiles=("flight",), compensations=("improved",), filters=sweep_filters(),

@@ -253,7 +253,7 @@ def study_summary(result: StudyResult) -> dict:
     from imutherm.imu.sensor_model import SITES
     from imutherm.studies.thermal.thermal_study import model_curves
     from imutherm.studies.paper import bench_comparison, layout_paper
-    from imutherm.studies.thermal.thermal_study import _options_dict
+    from imutherm.studies.thermal.thermal_study import options_dict
 
     lay = result.layout
     schemes = {}
@@ -322,7 +322,7 @@ def study_summary(result: StudyResult) -> dict:
         "calibrations": {"unit": "assembled unit in an oven -40..70 C chamber, sensor self-heating from the "
                                  "thermal model (the two-step procedure of imu/calibration.py); each scheme its own",
                          "bare": "the same sensors calibrated on their own over -40..70 C die temperature"},
-        "model_options": _options_dict(result.options),
+        "model_options": options_dict(result.options),
         "materials": {m: asdict(get_material(m)) for m in mats},
         "powers_W": {p.name: p.power_W for p in first.parts if p.power_W},
         "mesh": {name: st.summary["mesh"] for name, st in result.schemes.items()},

@@ -76,7 +76,7 @@ def run_case(case: Case, settings: CaseSettings) -> dict:
     return row
 
 
-def _pool_case(case: Case, settings: CaseSettings) -> dict:
+def run_pooled_case(case: Case, settings: CaseSettings) -> dict:
     """``run_case`` in a local worker; a worker whose sweep was killed stops instead of running queued cases."""
     from imutherm.workers import parent_gone
 

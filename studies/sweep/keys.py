@@ -99,7 +99,7 @@ def valid_keys(raw: dict, layout, scheme: str) -> dict:
     return keys
 
 
-def _unknown_key(key: str, valid) -> InputError:
+def unknown_key_error(key: str, valid) -> InputError:
     near = difflib.get_close_matches(key, list(valid), n=5, cutoff=0.5)
     if not near:  # nearest by the last component (a right field in the wrong table, or vice versa)
         last = key.rsplit(".", 1)[-1]
@@ -118,7 +118,7 @@ def _number(text: str, key: str) -> float:
     return v
 
 
-def _tidy(v: float) -> float:
+def tidy_value(v: float) -> float:
     """12 significant digits: linspace's 0.6000000000000001 becomes 0.6; every case uses the tidied value."""
     return float(f"{v:.12g}")
 
@@ -147,7 +147,7 @@ def parse_values(key: str, text: str, method: str) -> tuple:
                 raise InputError(f"--set {key}={text}: n must be an integer >= 2, got {parts[2]!r}") from None
             if n < 2:
                 raise InputError(f"--set {key}={text}: n must be an integer >= 2, got {n}")
-            return tuple(_tidy(v) for v in np.linspace(lo, hi, n)), (lo, hi)
+            return tuple(tidy_value(v) for v in np.linspace(lo, hi, n)), (lo, hi)
         if len(parts) == 3:
             raise InputError(f"--set {key}={text}: with --method {method} give the range as lo:hi "
                              "(the number of cases comes from --samples)")
@@ -160,7 +160,7 @@ def parse_values(key: str, text: str, method: str) -> tuple:
     return values, (min(values), max(values))
 
 
-def _split_set(item: str) -> tuple:
+def split_set(item: str) -> tuple:
     if "=" not in item:
         raise InputError(f"--set {item!r}: expected KEY=VALUES, e.g. components.reg_5v.power_W=0.4,0.8,1.2")
     key, text = item.split("=", 1)

@@ -24,7 +24,7 @@ from imutherm.geometry.layout import default_layout_path, parse_layout
 from imutherm.geometry.materials import get_material, with_properties
 from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, grid_shape
 from imutherm.studies.sweep.case import attitude_columns
-from imutherm.studies.sweep.keys import _split_set, _tidy, _unknown_key, parse_values, valid_keys
+from imutherm.studies.sweep.keys import split_set, tidy_value, unknown_key_error, parse_values, valid_keys
 from imutherm.unit.model import ModelOptions
 
 try:  # Python >= 3.11
@@ -184,7 +184,7 @@ def _design_matrix(factors, method: str, samples: int | None, seed: int | None) 
     else:
         from SALib.sample import morris
         X = morris.sample(problem, samples, num_levels=MORRIS_LEVELS, seed=rng)
-    return np.vectorize(_tidy)(np.asarray(X, float)).reshape(-1, len(factors))
+    return np.vectorize(tidy_value)(np.asarray(X, float)).reshape(-1, len(factors))
 
 
 def _assign(data: dict, key: str, value: float) -> None:
@@ -333,9 +333,9 @@ def plan_sweep(layout_path=None, scheme: str | None = None, sets=(), *, method: 
 
     factors, seen = [], set()
     for item in sets:
-        key, text = _split_set(item)
+        key, text = split_set(item)
         if key not in valid:
-            raise _unknown_key(key, valid)
+            raise unknown_key_error(key, valid)
         if key in seen:
             raise InputError(f"--set {key}: given twice; give all its values in one --set")
         seen.add(key)

@@ -1,8 +1,8 @@
 """The files of a sweep: the resumable ``results.csv`` and the ``sweep.json`` record.
 
-``results.csv`` is appended one complete line per finished case (flushed and fsynced, ``_RowWriter``), so a
+``results.csv`` is appended one complete line per finished case (flushed and fsynced, ``RowWriter``), so a
 killed sweep loses only the cases in flight; :func:`read_results` reads it back checked line by line for a
-resume. Whole files are replaced through :func:`imutherm.io.atomic_write` (``_write_text``).
+resume. Whole files are replaced through :func:`imutherm.io.atomic_write` (``write_text_synced``).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def _row_line(plan: SweepPlan, row: dict) -> str:
+def row_line(plan: SweepPlan, row: dict) -> str:
     values = dict(zip(plan.keys, plan.cases[row["case"]].values))
     buf = io.StringIO()
     csv.writer(buf, lineterminator="\n").writerow(
@@ -118,7 +118,7 @@ def read_results(path: Path, columns, cases=None, keys=()) -> list:
     return rows
 
 
-class _RowWriter:
+class RowWriter:
     """Appends one complete line per call, flushed and fsynced."""
 
     def __init__(self, path: Path, plan: SweepPlan):
@@ -134,18 +134,18 @@ class _RowWriter:
         os.fsync(self.fh.fileno())
 
     def append(self, row: dict) -> None:
-        self._write(_row_line(self.plan, row))
+        self._write(row_line(self.plan, row))
 
     def close(self) -> None:
         self.fh.close()
 
 
-def _write_text(path: Path, text: str) -> None:
+def write_text_synced(path: Path, text: str) -> None:
     """Replace ``path`` by ``text`` atomically, fsynced before the rename (:func:`imutherm.io.atomic_write`)."""
     atomic_write(path, lambda tmp: Path(tmp).write_text(text, newline=""), sync=True)
 
 
-def _json_text(data) -> str:
+def json_text(data) -> str:
     def default(obj):
         if isinstance(obj, np.generic):
             return obj.item()
@@ -158,12 +158,12 @@ def _json_text(data) -> str:
     return json.dumps(data, indent=2, default=default) + "\n"
 
 
-def _design_mismatch(old: dict, new: dict) -> list:
+def design_mismatch(old: dict, new: dict) -> list:
     return [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
 
 
 
-def _defaults(plan: SweepPlan, row: dict) -> list:
+def row_values(plan: SweepPlan, row: dict) -> list:
     """The row's value for each column, inputs filled from the design (as read back from the CSV)."""
     values = dict(zip(plan.keys, plan.cases[row["case"]].values))
     return [_parse_cell(c, _fmt(row.get(c, values.get(c)))) for c in plan.columns]

@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from imutherm import InputError
-from imutherm.studies.sweep.case import _pool_case, run_case
+from imutherm.studies.sweep.case import run_pooled_case, run_case
 from imutherm.studies.sweep.plan import SweepPlan, full_case
-from imutherm.studies.sweep.results import (RESULTS_CSV, SWEEP_JSON, _defaults, _design_mismatch, _json_text,
-                                            _row_line, _RowWriter, _write_text, read_results)
+from imutherm.studies.sweep.results import (RESULTS_CSV, SWEEP_JSON, row_values, design_mismatch, json_text,
+                                            row_line, RowWriter, write_text_synced, read_results)
 from imutherm.studies.sweep.influence import sensitivity
 from imutherm.workers import process_pool, usable_workers
 
@@ -73,7 +73,7 @@ def _run_local(pending, settings, jobs, record, lost):
     # before the first task imports it, so they apply when BLAS loads
     pool = process_pool(jobs, threads=threads, spawn=True)
     try:
-        futures = {pool.submit(_pool_case, c, settings): c.case_id for c in pending}
+        futures = {pool.submit(run_pooled_case, c, settings): c.case_id for c in pending}
         for fut in as_completed(futures):
             try:
                 record(fut.result())
@@ -151,7 +151,7 @@ def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resum
         except (ValueError, KeyError, TypeError) as exc:
             raise InputError(f"--resume: {json_path} is not a sweep record ({type(exc).__name__}: {exc}); "
                              "start the sweep in a new --out") from None
-        diff = _design_mismatch(old, plan.design)
+        diff = design_mismatch(old, plan.design)
         if diff:
             raise InputError(f"--resume: this sweep's design differs from the one recorded in {json_path} "
                              f"in {', '.join(diff)}; give the same --set, --method, --samples, --seed, layout, "
@@ -163,12 +163,12 @@ def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resum
             raise InputError(f"--out {out} already holds a sweep ({RESULTS_CSV}/{SWEEP_JSON}); "
                              "add --resume to continue it or give a new directory")
         out.mkdir(parents=True, exist_ok=True)
-        _write_text(json_path, _json_text({"design": plan.design, "status": "running"}))
+        write_text_synced(json_path, json_text({"design": plan.design, "status": "running"}))
     if plan.surrogate == "reduced":
         return _run_reduced(plan, out, csv_path, json_path, jobs, dask_address, client, progress, start)
     done = {r["case"] for r in rows}
     pending = [c for c in plan.cases if c.case_id not in done]
-    writer = _RowWriter(csv_path, plan)
+    writer = RowWriter(csv_path, plan)
     lost: list = []
     ran = 0
     bar = _progress(len(plan.cases), len(done), progress)
@@ -176,7 +176,7 @@ def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resum
     def record(row):
         nonlocal ran
         writer.append(row)
-        rows.append(dict(zip(plan.columns, _defaults(plan, row))))  # as a resume would read it back
+        rows.append(dict(zip(plan.columns, row_values(plan, row))))  # as a resume would read it back
         ran += 1
         bar.update(1)
 
@@ -190,7 +190,7 @@ def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resum
         writer.close()
     rows.sort(key=lambda r: r["case"])
     # tidy: the appended file rewritten in case order (atomic replace: a kill now loses nothing)
-    _write_text(csv_path, ",".join(plan.columns) + "\n" + "".join(_row_line(plan, r) for r in rows))
+    write_text_synced(csv_path, ",".join(plan.columns) + "\n" + "".join(row_line(plan, r) for r in rows))
     sens = sensitivity(plan, rows)
     failed = sum(r["status"] == "failed" for r in rows)
     wall = time.perf_counter() - start
@@ -205,8 +205,9 @@ def _run(plan, out, csv_path, json_path, rows, jobs, dask_address, client, resum
                    "case_s_mean": float(np.mean(ok_s)) if ok_s else None,
                    "case_s_max": float(np.max(ok_s)) if ok_s else None},
     }
-    _write_text(json_path, _json_text(record_json))
-    return SweepResult(out, plan, rows, ran, len(done), failed, tuple(sorted(lost)), sens, wall)
+    write_text_synced(json_path, json_text(record_json))
+    return SweepResult(out_dir=out, plan=plan, rows=rows, ran=ran, skipped=len(done), failed=failed,
+                       lost=tuple(sorted(lost)), sensitivity=sens, wall_s=wall)
 
 
 def _run_reduced(plan, out, csv_path, json_path, jobs, dask_address, client, progress, start):
@@ -223,8 +224,8 @@ def _run_reduced(plan, out, csv_path, json_path, jobs, dask_address, client, pro
     rows = surrogate.evaluate_all(sur, plan.X, s.transient, s.t_end)
     t_eval = time.perf_counter() - t1
     say(f"reduced model: {len(rows)} cases in {t_eval:.1f} s (basis {sur.rom.basis_size}, built in {sur.build_s:.0f} s)")
-    rows = [dict(zip(plan.columns, _defaults(plan, r))) for r in rows]
-    _write_text(csv_path, ",".join(plan.columns) + "\n" + "".join(_row_line(plan, r) for r in rows))
+    rows = [dict(zip(plan.columns, row_values(plan, r))) for r in rows]
+    write_text_synced(csv_path, ",".join(plan.columns) + "\n" + "".join(row_line(plan, r) for r in rows))
     ids = surrogate.pick_cases(len(plan.cases), plan.design["verify"], plan.design["seed"])
     full_rows, lost = [], []
     t2 = time.perf_counter()
@@ -269,5 +270,6 @@ def _run_reduced(plan, out, csv_path, json_path, jobs, dask_address, client, pro
                    "case_s_mean": float(np.mean(ok_s)) if ok_s else None,
                    "case_s_max": float(np.max(ok_s)) if ok_s else None, **timings},
     }
-    _write_text(json_path, _json_text(record_json))
-    return SweepResult(out, plan, rows, len(rows), 0, failed, (), sens, wall, ver, timings)
+    write_text_synced(json_path, json_text(record_json))
+    return SweepResult(out_dir=out, plan=plan, rows=rows, ran=len(rows), skipped=0, failed=failed, lost=(),
+                       sensitivity=sens, wall_s=wall, verification=ver, timings=timings)

@@ -94,7 +94,7 @@ def case_reference_unit_refinement(schemes=("air", "grease")):
     the three-grid extrapolation at every die."""
     from imutherm.imu.sensor_model import SITES
     from imutherm.thermal.refinement import MESH_ERROR_ORDER, bracket
-    from imutherm.thermal.verification import _record
+    from imutherm.thermal.verification import checked
 
     t0 = time.perf_counter()
     studies = [refinement_study(None, s) for s in schemes]
@@ -114,7 +114,7 @@ def case_reference_unit_refinement(schemes=("air", "grease")):
                      f"answer's bound up to {float(np.max(bound)):.3f} K, its distance from the extrapolation up to "
                      f"{float(np.nanmax(off)):.3f} K")
     error = max(0.0, MESH_ERROR_ORDER - lowest) + (1.0 if bad else 0.0) + (1.0 if outside else 0.0)
-    return _record("refinement_reference_unit", "lowest observed order at the sensor dies [-]", lowest,
+    return checked("refinement_reference_unit", "lowest observed order at the sensor dies [-]", lowest,
                    MESH_ERROR_ORDER, error, 0.0,
                    f"reference unit, linear laws, base mesh {BASE_MESH_MM:g} mm / {BASE_MIN_CELLS} cell(s) refined "
                    f"{', '.join(f'{f}x' for f in LEVELS)}: " + " | ".join(notes)

@@ -218,7 +218,8 @@ def run_scheme(layout: LayoutSpec | str | None = None, scheme: str | None = None
         metrics = thermal_metrics(tr, final_rise_K=final)
     else:
         metrics = thermal_metrics(steady)
-    res = SchemeResult(geometry, grid, steady, tr, metrics, options, time.perf_counter() - start, check)
+    res = SchemeResult(geometry=geometry, grid=grid, steady=steady, transient=tr, metrics=metrics, options=options,
+                       wall_s=time.perf_counter() - start, transient_check=check)
     if estimate_mesh_error:
         if progress:
             print("  mesh error: the steady solve on the mesh refined 2x ...", flush=True)
@@ -339,7 +340,9 @@ def mesh_corrected(res: SchemeResult) -> SchemeResult:
 def with_mesh_error(res, coarse_pc=None):
     """``res`` with its mesh-error estimate and the answer corrected by it (:func:`mesh_error`,
     :func:`mesh_corrected`), the refined solve one at a time in a pool's workers
-    (:func:`imutherm.workers.one_at_a_time`: ~8x the memory of a scheme's solve); ``wall_s`` includes it.
+    (:func:`imutherm.workers.one_at_a_time`: on the reference unit it adds ~0.35 GB matrix-free, ~0.6 GB
+    assembled, to the ~0.57 GB of a scheme's steady solve, ``docs/benchmarks/mesh_estimate.md``); ``wall_s``
+    includes it.
     ``coarse_pc``: the steady solve's preconditioner (:func:`mesh_error`)."""
     import time
 
@@ -425,7 +428,7 @@ def result_summary(res: SchemeResult) -> dict:
         "solver": st.solver,
         "timings_s": {"steady_assembly": st.assembly_s, "steady_solve": st.solve_s, "wall": res.wall_s},
         "mesh": _mesh_summary(res.grid),
-        "model_options": _options_dict(res.options),
+        "model_options": options_dict(res.options),
     }
     if tr is not None:
         # transient_residual [-]: largest relative linear residual of any step (TransientResult.residual)
@@ -447,9 +450,9 @@ def result_summary(res: SchemeResult) -> dict:
 def _mesh_summary(grid: TensorGrid) -> dict:
     """Cells, nodes and the thinnest gap of the fill with its cells across
     (:func:`~imutherm.geometry.mesh.mesh_info`)."""
-    from imutherm.geometry.mesh import _gaps
+    from imutherm.geometry.mesh import grid_gaps
 
-    gaps = _gaps(grid)
+    gaps = grid_gaps(grid)
     out = {"cells": grid.n_cells, "nodes": grid.n_nodes}
     if gaps:
         out.update({"thinnest_gap_mm": gaps["thinnest_gap_mm"], "thinnest_gap_cells": gaps["thinnest_gap_cells"],
@@ -457,7 +460,7 @@ def _mesh_summary(grid: TensorGrid) -> dict:
     return out
 
 
-def _options_dict(options: ModelOptions) -> dict:
+def options_dict(options: ModelOptions) -> dict:
     d = asdict(options)
     d["interfaces"] = [dict(i) for i in d["interfaces"]]
     return d

@@ -38,16 +38,16 @@ import time
 
 from imutherm.thermal.verification.board_cavity import (BOARD_CAVITY_AMBIENT_C, BOARD_CAVITY_DEPTH_MM,  # noqa: F401
                                                          BOARD_CAVITY_PARTS, BOARD_CAVITY_POWER_W, EFFECTIVITY_RANGE,
-                                                         _board_cavity_grid, _board_cavity_solve,
+                                                         board_cavity_grid, board_cavity_solve,
                                                          case_refinement_board_cavity)
 from imutherm.thermal.verification.record import (NAFEMS_T3_TARGET_C, NAFEMS_T4_ROUNDING_K,  # noqa: F401
                                                    NAFEMS_T4_TARGET_C, RADIATION_1D_PUBLISHED_K, VerificationRecord,
-                                                   _record, box_grid, graded)
-from imutherm.thermal.verification.steady import (_l2_error, case_composite_wall, case_mms_convergence,  # noqa: F401
+                                                   checked, box_grid, graded)
+from imutherm.thermal.verification.steady import (l2_error, case_composite_wall, case_mms_convergence,  # noqa: F401
                                                    case_nafems_t4, case_natural_convection_1d, case_orthotropic_plate,
                                                    case_radiation_1d, case_slab_generation,
                                                    orthotropic_rectangle_centre)
-from imutherm.thermal.verification.transient import (_lumped_block, _semi_discrete_exact,  # noqa: F401
+from imutherm.thermal.verification.transient import (lumped_block, semi_discrete_exact,  # noqa: F401
                                                       case_lumped_backward_euler, case_lumped_capacitance,
                                                       case_lumped_trbdf2, case_lumped_trbdf2_adaptive, case_nafems_t3,
                                                       case_semi_infinite, case_transient_slab, nafems_t3_series,

@@ -11,7 +11,7 @@ import numpy as np
 from imutherm.geometry.grid import TensorGrid
 from imutherm.thermal.problem import Convection, ThermalProblem
 from imutherm.thermal.steady import solve_steady
-from imutherm.thermal.verification.record import VerificationRecord, _record
+from imutherm.thermal.verification.record import VerificationRecord, checked
 
 
 #: the board-in-cavity cross-section of case 15: (name, (x0, x1), (z0, z1)) [mm], k (kx, ky, kz) [W/m K],
@@ -43,7 +43,7 @@ BOARD_CAVITY_AMBIENT_C = 70.0
 EFFECTIVITY_RANGE = (1.0, 3.0)
 
 
-def _board_cavity_grid(factor: int = 1) -> TensorGrid:
+def board_cavity_grid(factor: int = 1) -> TensorGrid:
     """The board-in-cavity slice on lines at every part face, each interval split into max(2, ceil(w / 2 mm))
     cells (every part and every gap >= 2 cells, the study mesh's rule), then each into ``factor`` more along x
     and z (the slice stays one cell deep)."""
@@ -61,7 +61,7 @@ def _board_cavity_grid(factor: int = 1) -> TensorGrid:
                       tuple(p[0] for p in BOARD_CAVITY_PARTS), {})
 
 
-def _board_cavity_solve(grid: TensorGrid, points) -> np.ndarray:
+def board_cavity_solve(grid: TensorGrid, points) -> np.ndarray:
     """(die centre, board top at x = 40 mm, hot spot) [°C] of the slice on ``grid``: the base held by a 500
     W/m² K contact to 70 °C (the fixture), the other outer faces 10 W/m² K to 70 °C."""
     k = np.array([p[3] for p in BOARD_CAVITY_PARTS])[grid.cell_part].reshape(-1, 3)
@@ -91,8 +91,8 @@ def case_refinement_board_cavity(reference=(4, 8, 16)) -> VerificationRecord:
 
     t0 = time.perf_counter()
     pts = {"die": (23.5e-3, 5e-3, 7.95e-3), "board": (40e-3, 5e-3, 7.6e-3)}
-    base, fine = (_board_cavity_solve(_board_cavity_grid(f), pts) for f in (1, 2))
-    levels = np.array([_board_cavity_solve(_board_cavity_grid(f), pts) for f in reference])
+    base, fine = (board_cavity_solve(board_cavity_grid(f), pts) for f in (1, 2))
+    levels = np.array([board_cavity_solve(board_cavity_grid(f), pts) for f in reference])
     p_ref = observed_order(levels, reference)
     ref = levels[-1] + (levels[-1] - levels[-2]) / ((reference[-1] / reference[-2]) ** p_ref - 1.0)
     est, _ = richardson(base, fine, 2, MESH_ERROR_ORDER)
@@ -102,9 +102,9 @@ def case_refinement_board_cavity(reference=(4, 8, 16)) -> VerificationRecord:
     outside = float(np.max(np.maximum(0.0, np.maximum(lo - eff, eff - hi))))
     i = 0   # the die: the quantity recorded
     rise = base[i] - BOARD_CAVITY_AMBIENT_C
-    nx, _, nz = _board_cavity_grid(1).shape
+    nx, _, nz = board_cavity_grid(1).shape
     gap = BOARD_CAVITY_PARTS[4][1][0] - BOARD_CAVITY_PARTS[1][1][0]   # board edge to wall [mm]
-    return _record("refinement_board_cavity", "estimated / true error of the base grid's die temperature [-]",
+    return checked("refinement_board_cavity", "estimated / true error of the base grid's die temperature [-]",
                    float(eff[i]), 1.0, outside, 0.0,
                    f"2-D board in an air cavity ({len(BOARD_CAVITY_PARTS)} parts, {BOARD_CAVITY_POWER_W:g} W die, "
                    f"gaps of {gap:g} mm); base grid {nx}x{nz} cells, die rise {rise:.3f} K; reference: grids "

@@ -57,7 +57,9 @@ class VerificationRecord:
         return d
 
 
-def _record(case, quantity, computed, exact, error, tolerance, note, t0) -> VerificationRecord:
+def checked(case, quantity, computed, exact, error, tolerance, note, t0) -> VerificationRecord:
+    """The record of one case, checked: passed if ``error`` is finite and within ``tolerance``; ``t0`` its
+    :func:`time.perf_counter` start."""
     error = float(error)
     return VerificationRecord(case=case, quantity=quantity, computed=float(computed), exact=float(exact),
                               error=error, tolerance=float(tolerance),

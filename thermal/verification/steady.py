@@ -16,7 +16,7 @@ from imutherm.thermal.problem import (NATURAL_CONVECTION_C, SIGMA, ZERO_C_K, Con
                                       natural_convection_h)
 from imutherm.thermal.steady import solve_steady
 from imutherm.thermal.verification.record import (NAFEMS_T4_ROUNDING_K, NAFEMS_T4_TARGET_C, RADIATION_1D_PUBLISHED_K,
-                                                   VerificationRecord, _record, box_grid, graded)
+                                                   VerificationRecord, checked, box_grid, graded)
 
 
 def case_slab_generation() -> VerificationRecord:
@@ -35,7 +35,7 @@ def case_slab_generation() -> VerificationRecord:
     x = g.node_coordinates()[:, 0]
     exact = Ta + (Tb - Ta) * x / L + q * x * (L - x) / (2 * k)
     err = np.abs(r.T_C - exact).max()
-    return _record("slab_generation", "max nodal |T − T_exact| [K]; computed/exact = peak T [°C]",
+    return checked("slab_generation", "max nodal |T − T_exact| [K]; computed/exact = peak T [°C]",
                    r.T_C.max(), exact.max(), err, tol,
                    f"Q1 in 1-D with consistent load is nodally exact: only round-off ({tol:g} K on a "
                    f"{exact.max() - exact.min():.0f} K range; observed {err:.1e} K). Non-uniform grid (ratio "
@@ -72,7 +72,7 @@ def case_composite_wall() -> VerificationRecord:
     area = 0.01 * 0.01
     q_fem = r.heat_out_W["xmax"] / area
     err = max(np.abs(r.T_C - exact).max() / (T1 - T2), abs(q_fem - qf) / qf)
-    return _record("composite_wall", "heat flux [W/m^2]; error = max(nodal |ΔT|/(T1−T2), flux rel. error)",
+    return checked("composite_wall", "heat flux [W/m^2]; error = max(nodal |ΔT|/(T1−T2), flux rel. error)",
                    q_fem, qf, err, 1e-9,
                    "Piecewise-linear exact field is in the Q1 space: nodally exact, round-off only (observed "
                    f"{err:.1e}). Contact resistance {1 / hc:g} m^2K/W as a {tc * 1e3:g} mm layer "
@@ -91,7 +91,7 @@ def case_nafems_t4() -> VerificationRecord:
     r = solve_steady(pr, probes={"E": (0.6, 0.2, 0.0)})
     T = r.probe_C[0]
     ref = NAFEMS_T4_TARGET_C
-    return _record("nafems_t4", "T at E (0.6, 0.2) m [°C]", T, ref, abs(T - ref), tol,
+    return checked("nafems_t4", "T at E (0.6, 0.2) m [°C]", T, ref, abs(T - ref), tol,
                    f"Reference {ref:.2f} °C (rounding ±{NAFEMS_T4_ROUNDING_K:g} K); {nx}x{ny} Q1 cells "
                    f"give {T:.4f} °C (|T − {ref:.2f}| = {abs(T - ref):.4f} K; O(h^2) despite the corner singularity "
                    f"at B). Tolerance {tol:g} K: the reference's rounding plus this mesh's O(h^2) discretisation "
@@ -114,13 +114,13 @@ def case_radiation_1d() -> VerificationRecord:
     TL = r.probe_C[0] + ZERO_C_K
     exact = brentq(lambda T: k * (T0 - T) / L - eps * SIGMA * (T ** 4 - Ts ** 4), Ts, T0, xtol=1e-13)
     pub = RADIATION_1D_PUBLISHED_K
-    return _record("radiation_1d", "T at the radiating end [K]", TL, exact, abs(TL - exact), 1e-6,
+    return checked("radiation_1d", "T at the radiating end [K]", TL, exact, abs(TL - exact), 1e-6,
                    f"Linear exact field: Q1 exact, Newton to tol {newton_tol:g} ({r.newton_iterations} iterations): "
                    f"{TL:.6f} K against the root {exact:.6f} K; published {pub:g} K, |T − {pub:g}| = "
                    f"{abs(TL - pub):.2f} K (σ = {SIGMA}).", t0)
 
 
-def _l2_error(g: TensorGrid, T: np.ndarray, exact) -> float:
+def l2_error(g: TensorGrid, T: np.ndarray, exact) -> float:
     """L2 norm of (T_h − exact) over the grid with 2x2x2 Gauss points per cell."""
     gp = np.array([0.5 - 0.5 / math.sqrt(3), 0.5 + 0.5 / math.sqrt(3)])
     nx, ny, nz = g.shape
@@ -164,10 +164,10 @@ def case_mms_convergence(levels=(4, 8, 16, 32)) -> VerificationRecord:
                                                               ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")})
         r = solve_steady(pr)
         hs.append(1.0 / n)
-        errs.append(_l2_error(g, np.asarray(r.T_C), exact))
+        errs.append(l2_error(g, np.asarray(r.T_C), exact))
     rate = float(np.polyfit(np.log(hs), np.log(errs), 1)[0])
     tol = 0.1
-    return _record("mms_convergence", "observed L2 convergence rate [-]", rate, 2.0, abs(rate - 2.0), tol,
+    return checked("mms_convergence", "observed L2 convergence rate [-]", rate, 2.0, abs(rate - 2.0), tol,
                    f"Q1 elements converge at O(h^2) in L2; levels {list(levels)}, errors "
                    f"{', '.join(f'{e:.2e}' for e in errs)}, rate {rate:.3f}; like scikit-fem's test_convergence "
                    f"(rate within {tol:g} of the theory).", t0)
@@ -207,7 +207,7 @@ def case_orthotropic_plate() -> VerificationRecord:
     exact = orthotropic_rectangle_centre(a, b, kx, kz, q)
     iso = orthotropic_rectangle_centre(a, b, kx, kx, q)
     err = abs(T - exact) / exact
-    return _record("orthotropic_plate", "centre temperature rise [K]; error relative", T, exact, err, tol,
+    return checked("orthotropic_plate", "centre temperature rise [K]; error relative", T, exact, err, tol,
                    f"Series by anisotropic scaling (b' = b sqrt(kx/kz) = {b * math.sqrt(kx / kz) * 1e3:.2f} mm). "
                    f"{nx}x{nz} Q1 cells; observed {err:.1e} relative (O(h^2)); {tol:g} tolerance. The isotropic "
                    f"k = {kx:g} answer would be {iso:.3g} K, so the test is sensitive to kz.", t0)
@@ -252,7 +252,7 @@ def case_natural_convection_1d() -> VerificationRecord:
         iters.append(r.newton_iterations)
         if name == "b":
             Ts_b = (Ts, exact)
-    return _record("natural_convection_1d", "end temperature Ts of (b) [°C]; error = max over (a), (b), (c) of "
+    return checked("natural_convection_1d", "end temperature Ts of (b) [°C]; error = max over (a), (b), (c) of "
                    "|Ts − Ts_exact| [K]", Ts_b[0], Ts_b[1], err, tol,
                    "Linear exact field: Q1 exact (uniform face temperature, so the face quadrature of the "
                    f"nonlinear flux is exact too); Newton stops at max|ΔT| <= {newton_tol:g} x {span:g} K = "

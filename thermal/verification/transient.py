@@ -15,7 +15,7 @@ from scipy.special import erfc, erfcx
 from imutherm.thermal.metrics import T63_FRACTION, settle_time
 from imutherm.thermal.problem import Convection, FixedTemperature, ThermalProblem
 from imutherm.thermal.transient import solve_transient
-from imutherm.thermal.verification.record import NAFEMS_T3_TARGET_C, VerificationRecord, _record, box_grid, graded
+from imutherm.thermal.verification.record import NAFEMS_T3_TARGET_C, VerificationRecord, checked, box_grid, graded
 
 
 def slab_convection_series(x_over_L, Fo, Bi, terms: int = 80) -> np.ndarray:
@@ -50,7 +50,7 @@ def case_transient_slab() -> VerificationRecord:
         exact = Tinf + (Ti - Tinf) * slab_convection_series(x / L, Fo, Bi, terms)
         err = max(err, np.abs(T - exact).max() / (Tinf - Ti))
     surf = Tinf + (Ti - Tinf) * slab_convection_series(1.0, Fos[-1], Bi, terms)
-    return _record("transient_slab", "max nodal |ΔT|/(T∞ − Ti) at Fo = 0.05, 0.2, 1 [-]; computed/exact = "
+    return checked("transient_slab", "max nodal |ΔT|/(T∞ − Ti) at Fo = 0.05, 0.2, 1 [-]; computed/exact = "
                    "surface T at Fo = 1 [°C]", r.saved_C[-1][np.argmax(x)], surf, err, tol,
                    f"Bi = {Bi:.3f}, {terms}-term series. {g.shape[0]} cells, Crank–Nicolson with Fo-step {dFo:g}: "
                    f"observed {err:.1e} (O(h^2 + dt^2)); {tol:g} tolerance. Energy balance "
@@ -89,7 +89,7 @@ def case_semi_infinite() -> VerificationRecord:
         err = max(err, np.abs(T - exact).max() / (Tinf - Ti))
     surf = Ti + (Tinf - Ti) * semi_infinite_convection(0.0, times[-1], k, alpha, h)
     far = float(semi_infinite_convection(depth, times[-1], k, alpha, h))
-    return _record("semi_infinite", "max nodal |ΔT|/(T∞ − Ti) at t = 5, 20, 60 s [-]; computed/exact = surface "
+    return checked("semi_infinite", "max nodal |ΔT|/(T∞ − Ti) at t = 5, 20, 60 s [-]; computed/exact = surface "
                    "T at 60 s [°C]", r.saved_C[-1][np.argmin(x)], float(surf), err, tol,
                    f"Depth {depth:g} m = {depth / math.sqrt(alpha * times[-1]):.1f} sqrt(α t_end) (the "
                    f"semi-infinite solution there, the order of the adiabatic end's effect: {far:.1e} of the "
@@ -98,7 +98,7 @@ def case_semi_infinite() -> VerificationRecord:
                    f"{tol:g} = {100 * tol:g} % of the driving difference.", t0)
 
 
-def _lumped_block():
+def lumped_block():
     """The lumped-capacitance block: 20 x 20 x 10 mm, k = 1e4 W/m K, ρc = 2.4e6 J/m^3 K, P = 1 W,
     h = 10 W/m^2 K on all faces to T∞ = 25 °C (Bi = 1e-5).
 
@@ -120,7 +120,7 @@ def case_lumped_capacitance() -> VerificationRecord:
     t63 of the rise reached at t_end = 5τ.
     """
     t0 = time.perf_counter()
-    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = lumped_block()
     m = 200
     r = solve_transient(pr, 5 * tau, tau / m, theta=0.5, probes={"centre": centre})
     exact = rise_inf * (1 - np.exp(-r.times / tau))
@@ -128,7 +128,7 @@ def case_lumped_capacitance() -> VerificationRecord:
     t63 = settle_time(r.times, r.probe_C[:, 0], T63_FRACTION)
     t63_exact = -tau * math.log(1 - T63_FRACTION * (1 - math.exp(-5)))
     err = max(err_T, abs(t63 - t63_exact) / t63_exact)
-    return _record("lumped_capacitance", "max |ΔT|/ΔT∞ over time and t63 rel. error [-]; computed/exact = t63 [s]",
+    return checked("lumped_capacitance", "max |ΔT|/ΔT∞ over time and t63 rel. error [-]; computed/exact = t63 [s]",
                    t63, t63_exact, err, 1e-3,
                    f"Bi = hL/k = {Bi:.0e} (lumped model exact to O(Bi)); CN with dt = τ/{m}: O((dt/τ)^2) "
                    f"error, observed {err_T:.1e} in ΔT and {abs(t63 - t63_exact) / t63_exact:.1e} in t63 (interpolated "
@@ -172,7 +172,7 @@ def case_nafems_t3() -> VerificationRecord:
     exact = nafems_t3_series(0.08, 32.0)
     err = abs(T - exact)
     ref = NAFEMS_T3_TARGET_C
-    return _record("nafems_t3", "T at x = 0.08 m, t = 32 s [°C]", T, exact, err, tol,
+    return checked("nafems_t3", "T at x = 0.08 m, t = 32 s [°C]", T, exact, err, tol,
                    f"Exact series {exact:.3f} °C (NAFEMS target {ref:.2f}). {n_cells} Q1 cells, CN dt = {dt:g} s: "
                    f"error {err:.4f} K (O(h^2 + dt^2)); {tol:g} K tolerance. "
                    f"|T − {ref:.2f}| = {abs(T - ref):.3f} K. End A fixed at {T_A:g} °C, "
@@ -189,7 +189,7 @@ def case_lumped_backward_euler(divisions=(20, 40, 80)) -> VerificationRecord:
     The observed order p = log2(e(dt)/e(dt/2)) of both pairs must lie in [0.9, 1.1].
     """
     t0 = time.perf_counter()
-    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = lumped_block()
     errs = []
     theta, tol = 1.0, 3e-3
     for m in divisions:
@@ -201,7 +201,7 @@ def case_lumped_backward_euler(divisions=(20, 40, 80)) -> VerificationRecord:
     lo, hi = 0.9, 1.1
     order_ok = all(lo <= p <= hi for p in orders)
     estimate = 1 / (2 * math.e * divisions[-1])
-    rec = _record("lumped_backward_euler", "max |ΔT|/ΔT∞ over 0..3τ at the finest dt [-]; computed/exact = "
+    rec = checked("lumped_backward_euler", "max |ΔT|/ΔT∞ over 0..3τ at the finest dt [-]; computed/exact = "
                   "observed temporal order of backward Euler (finest pair) [-]", orders[-1], 1.0, errs[-1], tol,
                   f"θ = {theta:g}, dt = τ/{', τ/'.join(str(m) for m in divisions)}: errors "
                   f"{', '.join(f'{e:.3e}' for e in errs)}, observed orders {', '.join(f'{p:.3f}' for p in orders)} "
@@ -213,7 +213,7 @@ def case_lumped_backward_euler(divisions=(20, 40, 80)) -> VerificationRecord:
     return replace(rec, passed=rec.passed and order_ok)
 
 
-def _semi_discrete_exact(problem, points):
+def semi_discrete_exact(problem, points):
     """Exact solution of the semi-discrete (space-discretised, time-exact) linear system M T' = F − L T.
 
     For a small linear problem: generalised eigenpairs of (L, M) [dense]. Returns
@@ -252,8 +252,8 @@ def case_lumped_trbdf2(divisions=(10, 20, 40)) -> VerificationRecord:
     closed form P/(hA)(1 − exp(−t/τ)) at the finest step is the compared error.
     """
     t0 = time.perf_counter()
-    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
-    exact_sd = _semi_discrete_exact(pr, [centre])
+    pr, tau, rise_inf, Tinf, centre, Bi = lumped_block()
+    exact_sd = semi_discrete_exact(pr, [centre])
     errs, errs_a = [], []
     ebal = 0.0
     for m in divisions:
@@ -268,7 +268,7 @@ def case_lumped_trbdf2(divisions=(10, 20, 40)) -> VerificationRecord:
     order_ok = all(lo <= p <= hi for p in orders)
     tol, m = 3e-5, divisions[-1]
     c2 = errs[-1] * m ** 2           # the observed second-order constant: e ≈ c2 (dt/τ)^2
-    rec = _record("lumped_trbdf2", "max |ΔT|/ΔT∞ over 0..3τ against the closed form at the finest dt [-]; "
+    rec = checked("lumped_trbdf2", "max |ΔT|/ΔT∞ over 0..3τ against the closed form at the finest dt [-]; "
                   "computed/exact = observed temporal order of TR-BDF2 (finest pair) [-]", orders[-1], 2.0,
                   errs_a[-1], tol,
                   f"TR-BDF2, dt = τ/{', τ/'.join(str(m) for m in divisions)}: errors against the semi-discrete "
@@ -292,7 +292,7 @@ def case_lumped_trbdf2_adaptive(tol_fraction: float = 1e-3) -> VerificationRecor
     rise is the ratio of the default 0.01 K to the reference unit's ~10 K site rises.
     """
     t0 = time.perf_counter()
-    pr, tau, rise_inf, Tinf, centre, Bi = _lumped_block()
+    pr, tau, rise_inf, Tinf, centre, Bi = lumped_block()
     tol = tol_fraction * rise_inf
     r = solve_transient(pr, 6 * tau, None, scheme="trbdf2", tol_K=tol, probes={"centre": centre})
     exact = rise_inf * (1 - np.exp(-r.times / tau))
@@ -302,7 +302,7 @@ def case_lumped_trbdf2_adaptive(tol_fraction: float = 1e-3) -> VerificationRecor
     e63, e95 = t63 / tau - 1, t95 / (tau * math.log(20)) - 1
     settle_tol, tol_ratio = 0.01, 2.0
     settle_ok = abs(e63) <= settle_tol and abs(e95) <= settle_tol
-    rec = _record("lumped_trbdf2_adaptive", "max |ΔT − ΔT_exact| / tol_K over 0..6τ [-]; computed/exact = t95 [s]",
+    rec = checked("lumped_trbdf2_adaptive", "max |ΔT − ΔT_exact| / tol_K over 0..6τ [-]; computed/exact = t95 [s]",
                   t95, tau * math.log(20), err, tol_ratio,
                   f"tol_K = {tol:.4g} K ({tol_fraction:g} ΔT∞), {r.steps} steps ({r.rejected_steps} rejected), "
                   f"largest {np.diff(r.times).max():.0f} s = {np.diff(r.times).max() / tau:.2f} τ; t63 error "
