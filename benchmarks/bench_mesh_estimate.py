@@ -58,8 +58,8 @@ def case(layout: str, scheme: str, mode: str) -> dict:
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
     rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     start = prolong @ np.asarray(st.T_C)   # the sites' prolonged values: history is the change from them
-    from imutherm.thermal.probes import _probes
-    _, Pm = _probes(fp.grid, probes)
+    from imutherm.thermal.probes import named_probes
+    _, Pm = named_probes(fp.grid, probes)
     p0 = Pm @ start
     return {"layout": layout, "scheme": scheme, "mode": mode, "nodes": int(res.grid.n_nodes),
             "fine_nodes": est.fine_nodes, "cpu_s": cpu, "wall_s": wall, "rss_before_MB": rss0, "rss_peak_MB": rss1,

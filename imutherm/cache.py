@@ -53,8 +53,8 @@ def _package_dir(pkg: str) -> Path:
 
 def source_version(files) -> str:
     """SHA-256 (16 hex) of the named source files, each ``(subpackage, path inside it)``, e.g.
-    ``("studies", "thermal/thermal_study.py")``; a folder's path (``("unit", "effects")``) takes its ``.py`` and ``.toml``
-    files, recursively. Files are read, never imported (the key of a cached value stays cheap to compute)."""
+    ``("studies", "thermal/thermal_study.py")``; a folder's path (``("unit", "effects")``) takes its ``.py`` and
+    ``.toml`` files, recursively. Files are read, never imported (the key of a cached value stays cheap to compute)."""
     h = hashlib.sha256()
     for pkg, rel in files:
         base = _package_dir(pkg) if pkg != "imutherm" else Path(__file__).resolve().parent

@@ -7,10 +7,10 @@ import numpy as np
 
 
 def real_motion_figure(fig, rs) -> None:
-    """Two panels from a :class:`~imutherm.studies.attitude.real_settings.RealSettings`: (left) each filter's mean inclination
-    RMS [deg] over the files at its library defaults, at its dev setting (tuned on all files) and cross-validated
-    (each file scored by the setting tuned on the others); (right) each file's cross-validated RMS as a ratio to
-    VQF's (tuned by the same procedure), log scale, with the issue's 2x line."""
+    """Two panels from a :class:`~imutherm.studies.attitude.real_settings.RealSettings`: (left) each filter's mean
+    inclination RMS [deg] over the files at its library defaults, at its dev setting (tuned on all files) and
+    cross-validated (each file scored by the setting tuned on the others); (right) each file's cross-validated RMS as a
+    ratio to VQF's (tuned by the same procedure), log scale, with the issue's 2x line."""
     from imutherm.imu.filters.registry import color, linestyle, reference_filter
 
     e = rs.entries

@@ -182,7 +182,8 @@ def _inputs_page(pdf, unc: dict) -> None:
 
 
 def uncertainty_pages(pdf, unc: dict) -> None:
-    """Append the uncertainty pages of ``unc`` (:func:`imutherm.studies.uncertainty.uncertainty.run_uncertainty`) to ``pdf``."""
+    """Append the uncertainty pages of ``unc`` (:func:`imutherm.studies.uncertainty.uncertainty.run_uncertainty`) to
+    ``pdf``."""
     _summary_page(pdf, unc)
     _imu_page(pdf, unc)
     _sobol_page(pdf, unc)

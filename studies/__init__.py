@@ -2,8 +2,8 @@
 
 Start with :mod:`~imutherm.studies.compare` (``imutherm compare``: the cooling schemes of a layout side by side,
 and with the IMU chain the end-to-end answer), or run the end-to-end study as a script
-(:mod:`~imutherm.studies.study`; ``study_reference.py`` and ``study_cardguide.py`` beside it are copyable
-examples). The subpackages: :mod:`~imutherm.studies.thermal` (one scheme's thermal chain, ``imutherm solve``; the
+(:mod:`~imutherm.studies.study`; ``study_reference.py`` beside it is a copyable
+example). The subpackages: :mod:`~imutherm.studies.thermal` (one scheme's thermal chain, ``imutherm solve``; the
 mesh study, the full model's site rises, a fitted model read back), :mod:`~imutherm.studies.end_to_end` (scheme ->
 sensor temperatures -> calibration -> attitude error), :mod:`~imutherm.studies.attitude` (the attitude filters on
 simulated and recorded motion, their tuning and settings; the calibration and overload studies),

@@ -14,7 +14,7 @@ writes into the folder ``summary.json``, ``curves_<scheme>.csv``, ``residuals_<s
 ``attitude_<scheme>.csv``, ``steady_<scheme>.vtu``, ``maps_<scheme>.npz``, ``layout_<scheme>.png``
 and ``report.pdf``, then prints
 the answer: how hot each scheme runs and what that does to the attitude error.
-``studies/study_reference.py`` and ``studies/study_cardguide.py`` are this script with the layout fixed.
+``studies/study_reference.py`` is this script with the layout fixed, a template to copy.
 """
 
 from __future__ import annotations
@@ -93,10 +93,15 @@ def main(argv=None, layout: str | None = None) -> int:
     return 0
 
 
-if __name__ == "__main__":
+def run_as_script(main_fn=main) -> None:
+    """Exit with ``main_fn()``'s status; a bad layout, option or output folder ends in one line, exit status 1."""
     from imutherm import InputError
 
     try:
-        sys.exit(main())
-    except (InputError, OSError) as exc:   # bad layout, option or output folder: one line, exit status 1
+        sys.exit(main_fn())
+    except (InputError, OSError) as exc:
         sys.exit(f"error: {exc}")
+
+
+if __name__ == "__main__":
+    run_as_script()

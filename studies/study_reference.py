@@ -9,8 +9,6 @@ or run :mod:`imutherm.studies.study` with ``--layout``. Run it with an output fo
 
 from __future__ import annotations
 
-import sys
-
 from imutherm.studies import study
 
 LAYOUT = "imu_reference"            # <- your layout: a path to a .toml file, or a built-in name
@@ -22,9 +20,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    from imutherm import InputError
-
-    try:
-        sys.exit(main())
-    except (InputError, OSError) as exc:   # bad layout, option or output folder: one line, exit status 1
-        sys.exit(f"error: {exc}")
+    study.run_as_script(main)

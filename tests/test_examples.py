@@ -1,4 +1,5 @@
-"""The copyable study scripts in studies/ (one per built-in layout) run end to end on a coarse mesh, one per built-in layout."""
+"""The copyable study script in studies/ (the reference unit) and the study script with ``--layout`` (the card-guide
+unit) run end to end on a coarse mesh."""
 
 import contextlib
 import importlib.util
@@ -26,10 +27,13 @@ def load_script(name: str):
 def runs(tmp_path_factory):
     """Each script run once on the coarse settings: its output folder, stdout and summary.json."""
     out = {}
-    for name in ("study_reference", "study_cardguide"):
+    from imutherm.studies import study
+
+    for name, main in (("study_reference", load_script("study_reference").main),
+                       ("study_cardguide", lambda argv: study.main(argv + ["--layout", "imu_cardguide"]))):
         folder = tmp_path_factory.mktemp(name) / "out"
         with contextlib.redirect_stdout(io.StringIO()) as text:
-            assert load_script(name).main([str(folder)] + COARSE) == 0
+            assert main([str(folder)] + COARSE) == 0
         out[name] = folder, text.getvalue(), json.loads((folder / "summary.json").read_text())
     return out
 
@@ -86,7 +90,7 @@ def test_metal_guides_couple_the_boards_better_than_nylon_standoffs(runs):
 def test_script_layout_is_a_builtin_or_an_error(monkeypatch, tmp_path):
     from imutherm import InputError
 
-    script = load_script("study_cardguide")
+    script = load_script("study_reference")
     monkeypatch.setattr(script, "LAYOUT", "my_unit")
     with pytest.raises(InputError, match="built-in layouts: .*imu_cardguide"):
         script.main([str(tmp_path / "o")])
@@ -94,7 +98,8 @@ def test_script_layout_is_a_builtin_or_an_error(monkeypatch, tmp_path):
 
 
 def test_one_study_script_serves_every_layout(monkeypatch, tmp_path):
-    """studies/study_<layout>.py are imutherm.studies.study with the layout fixed; --layout picks it there."""
+    """studies/study_reference.py (and a copy of it with LAYOUT set) is imutherm.studies.study with the layout fixed;
+    --layout picks it there."""
     from imutherm.studies import study
 
     seen = []
@@ -107,8 +112,10 @@ def test_one_study_script_serves_every_layout(monkeypatch, tmp_path):
         raise Stop
 
     monkeypatch.setattr(study, "run_study", fake_run_study)
+    copied = load_script("study_reference")              # the template copied, LAYOUT set to another layout
+    monkeypatch.setattr(copied, "LAYOUT", "imu_cardguide")
     calls = [lambda: load_script("study_reference").main([str(tmp_path / "a"), "--mesh-size", "6"]),
-             lambda: load_script("study_cardguide").main([str(tmp_path / "b"), "--mesh-size", "6"]),
+             lambda: copied.main([str(tmp_path / "b"), "--mesh-size", "6"]),
              lambda: study.main([str(tmp_path / "c"), "--mesh-size", "6"]),
              lambda: study.main([str(tmp_path / "d"), "--layout", "imu_cardguide", "--mesh-size", "6"])]
     for call in calls:

@@ -28,7 +28,7 @@ FORBIDDEN = {
     "studies": {"reports", "cli"},
     "reports": {"cli"},
 }
-ENTRY_POINTS = {"studies/study_reference.py", "studies/study_cardguide.py", "studies/study.py"}
+ENTRY_POINTS = {"studies/study_reference.py", "studies/study.py"}
 #: the unit model's old homes in thermal/: each only re-exports its module of unit/
 FACADES = {"thermal/model.py", "thermal/effects.py", "thermal/knobs.py"}
 
@@ -175,12 +175,8 @@ def test_the_workers_module_imports_only_the_base():
 
 
 # ------------------------------------------------------------------ public seams
-#: the folders whose modules import no underscore name of another module (issue 60 item 2; the rest follow)
+#: the folders whose modules import no underscore name of another module (issue 60 item 2)
 PUBLIC_SEAMS = ("ecad", "geometry", "imu", "imutherm", "layouts", "unit", "reports", "studies", "thermal")
-#: not yet held: modules that still import _Dirichlet (linear), _probes (probes), the reduced transient's or the
-#: steady solve's private helpers (the list shrinks)
-SEAMS_LATER = ("thermal/reduced_steady.py", "thermal/refinement.py", "thermal/steady.py",
-               "thermal/stepping.py", "thermal/transient.py")
 
 
 def private_imports(path: Path) -> list:
@@ -197,7 +193,6 @@ def private_imports(path: Path) -> list:
 def test_no_underscore_name_is_imported_across_modules():
     bad = [f"{p.relative_to(ROOT).as_posix()}:{line} imports {name} from {mod}"
            for layer in PUBLIC_SEAMS for p in sorted((ROOT / layer).rglob("*.py"))
-           if not p.relative_to(ROOT).as_posix().startswith(SEAMS_LATER)
            for line, mod, name in private_imports(p)]
     assert bad == []
 

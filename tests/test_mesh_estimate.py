@@ -14,7 +14,7 @@ from imutherm.geometry.mesh import prolongation, refine_grid
 from imutherm.thermal import Convection, FixedTemperature, HeatFlux, Radiation, ThermalProblem, solve_steady
 from imutherm.thermal.assembly import assemble
 from imutherm.thermal.fine_operator import FineOperator
-from imutherm.thermal.linear import _Dirichlet
+from imutherm.thermal.linear import Dirichlet
 from imutherm.thermal.mesh_estimate import refined_steady_matrix_free
 from imutherm.thermal.refinement import _newton_matrix, refined_steady
 
@@ -56,7 +56,7 @@ def test_the_matrix_free_operator_is_the_assembled_one(fixed):
     assert np.abs(op.linear_apply(x) - L @ x).max() <= 1e-12 * scale
     assert np.allclose(op.diagonal_linear(), L.diagonal(), rtol=1e-13)
     T = 20.0 + 40.0 * rng.random(asm.n)
-    D = _Dirichlet(asm, asm.dirichlet_values(None)[0])
+    D = Dirichlet(asm, asm.dirichlet_values(None)[0])
     T[D.mask] = 30.0
     r = asm.F_q + asm.F_bc - L @ T - asm.nonlinear_flux(T)[0]
     r[D.mask] = 0.0

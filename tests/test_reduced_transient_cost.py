@@ -58,8 +58,8 @@ def test_the_exchange_term_is_the_product_it_replaces(air):
     from imutherm.thermal.problem import SIGMA, ZERO_C_K
     res, asm, _, M, _ = air
     x = np.asarray(res.steady.T_C) - res.steady.problem.ambient_C
-    V = reduced_transient._m_orthonormal([x, np.ones(asm.n), M @ x], M)
-    red = reduced_transient._Reduced(asm, V, res.steady.problem.ambient_C)
+    V = reduced_transient.m_orthonormal([x, np.ones(asm.n), M @ x], M)
+    red = reduced_transient.ProjectedModel(asm, V, res.steady.problem.ambient_C)
     ex = [law for law in red.laws if law[0] == "exchange"]
     assert len(ex) == 1
     _, bc, Q, _ = ex[0]

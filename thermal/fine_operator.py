@@ -7,7 +7,7 @@ outer faces' laws: the conduction of each Q1 box cell by its closed form (``K_e 
 :mod:`imutherm.thermal.assembly`; the tensor structure ``KX = k1 ⊗ m1 ⊗ m1`` applied as a difference along x and
 a 2x2 face mass across it), the linear laws' consistent face mass, the nonlinear laws' lumped nodal flux and its
 diagonal slope, each surface-to-surface exchange's symmetric Jacobian (as the steady solve linearises it,
-:func:`imutherm.thermal.steady._with_exchanges`), fixed-temperature nodes as identity rows. It equals the
+:func:`imutherm.thermal.steady.with_exchanges`), fixed-temperature nodes as identity rows. It equals the
 assembled matrix to rounding (``tests/test_mesh_estimate.py``). The conduction is one numba pass over the cells
 (:func:`_volume_kernel`), no temporary array.
 """

@@ -5,7 +5,7 @@
 * ``LinSolver``: solves ``A x = b`` for a sequence of matrices near the one its preconditioner (LU or
   AMG) was built on, rebuilding it when CG slows down; ``choose_solver`` picks the method (sparse LU below
   ``DIRECT_LIMIT`` unknowns, else AMG-CG), ``check_rtol`` checks a tolerance.
-* ``_Dirichlet``: symmetric elimination of the fixed-temperature nodes on the shared CSR pattern.
+* ``Dirichlet``: symmetric elimination of the fixed-temperature nodes on the shared CSR pattern.
 * ``initial_field``: the start field of a Newton iteration or a transient.
 """
 
@@ -304,7 +304,7 @@ def choose_solver(solver: str, n_free: int) -> str:
     return solver
 
 
-class _Dirichlet:
+class Dirichlet:
     """Symmetric elimination of fixed-temperature nodes on the shared CSR pattern."""
 
     def __init__(self, asm: Assembly, nodes: np.ndarray):

@@ -1,7 +1,7 @@
 """Probes: temperatures at points, by trilinear interpolation of the nodal field.
 
 :func:`probe_matrix` is the sparse operator (n_points, n_nodes) that both solves, the reduced models and
-the studies apply to a field; ``_probes`` reads the ``probes`` argument of the solves (a dict or
+the studies apply to a field; :func:`named_probes` reads the ``probes`` argument of the solves (a dict or
 pairs of name and point [m]) into names and that operator.
 """
 
@@ -46,7 +46,9 @@ def probe_matrix(grid, points) -> sp.csr_matrix:
                          shape=(len(pts), grid.n_nodes))
 
 
-def _probes(grid, probes):
+def named_probes(grid, probes) -> tuple:
+    """(names, probe operator (n_probes, n_nodes)) of the solves' ``probes`` argument: None, a dict or pairs of
+    name and point (x, y, z) [m]; names must be unique."""
     if probes is None:
         return (), sp.csr_matrix((0, grid.n_nodes))
     items = list(probes.items()) if isinstance(probes, dict) else list(probes)

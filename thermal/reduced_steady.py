@@ -11,7 +11,7 @@ more than it needs:
 2. **Reduced solve**: Newton's method (exact reduced Jacobian, backtracking) on the *nonlinear* model
    projected on the basis, V^T (F - L T - N(T)) = 0, T = T_amb + V y: the nonlinear laws (natural
    convection, radiation, the s2s cavity exchange) are evaluated exactly on their own nodes
-   (:class:`imutherm.thermal.reduced_transient._Reduced`), so the only error is the basis's.
+   (:class:`imutherm.thermal.reduced_transient.ProjectedModel`), so the only error is the basis's.
 3. **Check** (a posteriori, against the full model): the full nonlinear residual r = F - L T - N(T) of the
    reduced field and the full model's Newton step there, e = J^-1 r (J the full Jacobian at T, the s2s
    exchange's dense coupling included as in :func:`imutherm.thermal.steady.solve_steady`; CG to
@@ -33,10 +33,10 @@ import scipy.sparse.linalg as spla
 from imutherm import InputError
 from imutherm.thermal.cavity_radiation import CavityExchange
 from imutherm.thermal.linear import amg_preconditioner
-from imutherm.thermal.probes import _probes
-from imutherm.thermal.reduced_transient import _m_orthonormal, _Reduced
+from imutherm.thermal.probes import named_probes
+from imutherm.thermal.reduced_transient import m_orthonormal, ProjectedModel
 from imutherm.thermal.results import SteadyResult
-from imutherm.thermal.steady import _steady_balance, _with_exchanges
+from imutherm.thermal.steady import steady_balance, with_exchanges
 
 #: probe error the check accepts [K]: the study's oven self-heating at the sensor dies. Forty times below what
 #: the self-heating table's own two-point interpolation leaves (0.4 K against a three-point table,
@@ -79,7 +79,7 @@ class ReducedSteadyCheck:
                 "timings_s": {k: float(v) for k, v in self.timings_s.items()}}
 
 
-def _reduced_newton(red: _Reduced, y: np.ndarray, scale_K: float, max_iter: int = 50) -> np.ndarray:
+def _reduced_newton(red: ProjectedModel, y: np.ndarray, scale_K: float, max_iter: int = 50) -> np.ndarray:
     """Solve red.rhs(y) = 0 (the projected steady residual) by Newton's method with backtracking."""
     V = red.V
     g = red.rhs(0.0, y)
@@ -117,7 +117,7 @@ def reduced_steady(problem, asm, known_rise, probes, *, tol_K: float | None = No
     if asm.dirichlet:
         raise InputError("reduced steady: fixed-temperature faces are not supported")
     amb = problem.ambient_C
-    names, P = _probes(problem.grid, probes)
+    names, P = named_probes(problem.grid, probes)
     M = asm.M
     L = asm.pattern.csr(asm.K_data + asm.H_data)
     F = asm.F_q + asm.F_bc
@@ -131,8 +131,8 @@ def reduced_steady(problem, asm, known_rise, probes, *, tol_K: float | None = No
     T_start = amb + x0
     for rnd in range(1, max_rounds + 2):
         t1 = time.perf_counter()
-        V = _m_orthonormal(cols, M)
-        red = _Reduced(asm, V, amb, L)
+        V = m_orthonormal(cols, M)
+        red = ProjectedModel(asm, V, amb, L)
         y = _reduced_newton(red, V.T @ (M @ (T_start - amb)), scale)
         T = amb + V @ y
         timings["reduced"] += time.perf_counter() - t1
@@ -146,7 +146,7 @@ def reduced_steady(problem, asm, known_rise, probes, *, tol_K: float | None = No
         A = L
         if pc is None:
             pc = amg_preconditioner(A)
-        Op = _with_exchanges(A, exchanges, T, no_fixed) if exchanges else A
+        Op = with_exchanges(A, exchanges, T, no_fixed) if exchanges else A
         n_it = [0]
         try:
             e, info = spla.cg(Op, r, rtol=CHECK_RTOL, M=pc, maxiter=3000,
@@ -169,7 +169,7 @@ def reduced_steady(problem, asm, known_rise, probes, *, tol_K: float | None = No
     if not ok:
         return None, check
     LT = L @ T
-    P_in, heat, ebal = _steady_balance(asm, T, np.array([], int), F, LT, N)
+    P_in, heat, ebal = steady_balance(asm, T, np.array([], int), F, LT, N)
     scale_r = np.linalg.norm(F) + np.linalg.norm(N) + np.linalg.norm(LT)
     probe_C = np.asarray(P @ T)
     for a in (T, probe_C):

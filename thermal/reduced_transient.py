@@ -191,7 +191,7 @@ class _Shifted(spla.LinearOperator):
         return out
 
 
-def _m_orthonormal(cols, M) -> np.ndarray:
+def m_orthonormal(cols, M) -> np.ndarray:
     """An M-orthonormal basis V (V^T M V = I) of the span of ``cols`` (near-dependent columns dropped)."""
     X = np.column_stack([c / (np.linalg.norm(c) or 1.0) for c in cols])
     U, s, _ = np.linalg.svd(X, full_matrices=False)
@@ -213,7 +213,7 @@ class _Conduction:
         return self.S @ x - (self.D * x if x.ndim == 1 else self.D[:, None] * x)
 
 
-class _Reduced:
+class ProjectedModel:
     """The nonlinear model projected on V: y' = f0 - L_r y - sum over laws V_b^T w q(T_amb + V_b y).
     ``L``: the operator K + H (a matrix or :class:`_Conduction`; default assembled from ``asm``)."""
 
@@ -264,7 +264,7 @@ class _Reduced:
         return J
 
 
-def _integrate(red: _Reduced, t_end: float, scale_K: float):
+def _integrate(red: ProjectedModel, t_end: float, scale_K: float):
     sol = solve_ivp(red.rhs, (0.0, t_end), np.zeros(red.V.shape[1]), method="BDF", jac=red.jac,
                     rtol=ODE_RTOL, atol=ODE_RTOL * scale_K, dense_output=True, first_step=1e-3)
     if not sol.success:
@@ -347,8 +347,8 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
     F_norm = float(np.linalg.norm(asm.F_q)) or 1.0
     for rnd in range(1, max_rounds + 2):
         t1 = time.perf_counter()
-        V = _m_orthonormal(cols, M)
-        red = _Reduced(asm, V, amb, L)
+        V = m_orthonormal(cols, M)
+        red = ProjectedModel(asm, V, amb, L)
         sol = _integrate(red, t_end, scale)
         PV = np.asarray(P @ V)
         times = sol.t

@@ -223,9 +223,9 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
     from imutherm import ConvergenceError
     from imutherm.thermal.assembly import assemble
     from imutherm.thermal.cavity_radiation import CavityExchange
-    from imutherm.thermal.linear import _Dirichlet, amg_preconditioner
-    from imutherm.thermal.probes import _probes
-    from imutherm.thermal.steady import _with_exchanges
+    from imutherm.thermal.linear import Dirichlet as _Dirichlet, amg_preconditioner
+    from imutherm.thermal.probes import named_probes as _probes
+    from imutherm.thermal.steady import with_exchanges as _with_exchanges
 
     t0, c0 = time.perf_counter(), time.process_time()
     Tc = np.asarray(coarse_T_C, float)

@@ -33,8 +33,8 @@ from imutherm import ConvergenceError, InputError
 from imutherm.thermal.assembly import Assembly, assemble
 from imutherm.thermal.cavity_radiation import CavityExchange
 from imutherm.thermal.guards import DIVERGED_RISE_K  # a steady rise beyond it is divergence, not physics
-from imutherm.thermal.linear import CG_RTOL, check_rtol, choose_solver, _Dirichlet, initial_field, LinSolver
-from imutherm.thermal.probes import _probes
+from imutherm.thermal.linear import CG_RTOL, check_rtol, choose_solver, Dirichlet, initial_field, LinSolver
+from imutherm.thermal.probes import named_probes
 from imutherm.workers import one_blas_thread
 from imutherm.thermal.problem import ThermalProblem
 from imutherm.thermal.results import SteadyResult
@@ -153,11 +153,11 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
     asm = assembly if assembly is not None else assemble(problem, mass=False)   # a steady solve needs no M
     assembly_s = time.perf_counter() - t0 if assembly is None else 0.0
     t1 = time.perf_counter()
-    names, P = _probes(problem.grid, probes)
+    names, P = named_probes(problem.grid, probes)
     n = asm.n
     dnodes, dvals = asm.dirichlet_values(None)
     _check_heat_exit(asm, len(dnodes), "solve_steady")
-    D = _Dirichlet(asm, dnodes)
+    D = Dirichlet(asm, dnodes)
     free = ~D.mask
     method = choose_solver(solver, int(free.sum()))
     nonlinear = bool(asm.nonlinear)
@@ -182,7 +182,7 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
     LT = L @ T
     scale = np.linalg.norm(F[free]) + np.linalg.norm(np.asarray(N + 0 * T)[free]) + np.linalg.norm(LT[free])
     res = float(np.linalg.norm(r[free]) / scale) if scale > 0 else 0.0
-    P_in, heat_bnd, ebal = _steady_balance(asm, T, dnodes, F, LT, N)
+    P_in, heat_bnd, ebal = steady_balance(asm, T, dnodes, F, LT, N)
     probe_C = P @ T
     T.setflags(write=False)
     probe_C.setflags(write=False)
@@ -216,7 +216,7 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
             data[D.free_diag] += J[free]
             A = asm.pattern.csr(data)
         # the exchange's coupling itself, not its diagonal slope (cavity_radiation's docstring)
-        op = _with_exchanges(A, exchanges, T, D.mask) if exchanges else A
+        op = with_exchanges(A, exchanges, T, D.mask) if exchanges else A
         pc = A if exchanges else None
         dT = None
         if nonlinear and eta > lin.rtol:   # inexact Newton: the step solved no tighter than it is worth
@@ -255,7 +255,7 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
                            f"raise max_iter or check the boundary laws")
 
 
-def _with_exchanges(A, exchanges, T, fixed) -> spla.LinearOperator:
+def with_exchanges(A, exchanges, T, fixed) -> spla.LinearOperator:
     """The Newton matrix ``A`` (sparse, each exchange's diagonal slope in it) with each surface-to-surface
     exchange's symmetric Jacobian at ``T`` [°C] in place of that slope, as an SPD operator for CG
     (fixed-temperature nodes, ``fixed`` True, keep their identity rows)."""
@@ -277,7 +277,7 @@ def _with_exchanges(A, exchanges, T, fixed) -> spla.LinearOperator:
     return spla.LinearOperator(A.shape, matvec=matvec, dtype=float)
 
 
-def _steady_balance(asm: Assembly, T, dnodes, F, LT, N):
+def steady_balance(asm: Assembly, T, dnodes, F, LT, N):
     """(power in [W], heat out per face [W], relative energy-balance error [-]) of the steady field ``T``.
 
     ``F`` the load, ``LT`` the linear operator applied to ``T``, ``N`` the nonlinear flux there

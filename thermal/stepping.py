@@ -16,7 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from imutherm.thermal.assembly import Assembly
-from imutherm.thermal.linear import choose_solver, _Dirichlet, initial_field, LinSolver
+from imutherm.thermal.linear import choose_solver, Dirichlet, initial_field, LinSolver
 
 # TR-BDF2 as an ESDIRK (Bank et al. 1985; Hosea & Shampine 1996, Appl. Numer. Math. 20, 21-37):
 # stage 1 trapezoidal rule to t + γh, stage 2 BDF2 to t + h, both with the matrix M + d h L.
@@ -44,7 +44,7 @@ class StepContext:
 
     asm: Assembly
     P: sp.csr_matrix
-    D: _Dirichlet
+    D: Dirichlet
     dnodes: np.ndarray
     free: np.ndarray
     method: str
@@ -62,7 +62,7 @@ class StepContext:
     @classmethod
     def start(cls, problem, asm, P, solver, rtol, initial_C, power_profile, t_end):
         dnodes, g0 = asm.dirichlet_values(0.0)
-        D = _Dirichlet(asm, dnodes)
+        D = Dirichlet(asm, dnodes)
         free = ~D.mask
         method = choose_solver(solver, int(free.sum()))
         T = initial_field(problem, initial_C, asm.n)

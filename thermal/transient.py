@@ -25,7 +25,7 @@ from imutherm.thermal.guards import MAX_STEPS, check_step
 from imutherm.thermal.linear import check_rtol
 from imutherm.workers import one_blas_thread
 from imutherm.thermal.observers import EnergyAccount, ProbeHistory, SavedFields, SettleWatch
-from imutherm.thermal.probes import _probes
+from imutherm.thermal.probes import named_probes
 from imutherm.thermal.problem import ThermalProblem
 from imutherm.thermal.results import TransientResult
 from imutherm.thermal.stepping import StepContext, theta_steps, trbdf2_steps
@@ -305,7 +305,7 @@ def solve_transient(problem: ThermalProblem, t_end: float, dt=None, *, scheme: s
     sv = np.sort(np.atleast_1d(np.asarray([] if save_times is None else save_times, dtype=float)))
     if sv.size and (not np.all(np.isfinite(sv)) or sv[0] < 0 or sv[-1] > t_end * (1 + 1e-12)):
         raise InputError(f"save_times must lie in [0, t_end = {t_end}] s, got {sv.tolist()}")
-    names, P = _probes(problem.grid, probes)
+    names, P = named_probes(problem.grid, probes)
     settle = _settle_targets(settle_C, names)
     if adaptive and error_control == "probes" and not names:
         raise InputError("error_control='probes' needs probes")

@@ -64,8 +64,9 @@ class CavityLaw:
     faces (view factors, a radiosity solve: its cost grows with the patches); blendable : ``cavity_law_blend`` w
     mixes the effective law into it (the exchange times 1 - w plus w times the effective conductivity);
     form_partner : the other verified law, with which a model-form case generates its data
-    (:func:`imutherm.studies.correlation.hidden_effect.model_form_options`); build : ``(law, CavitySetting) -> CavityTerms``,
-    what it adds to an air-filled cavity's problem (None: :func:`standard_terms`)
+    (:func:`imutherm.studies.correlation.hidden_effect.model_form_options`);
+    build : ``(law, CavitySetting) -> CavityTerms``, what it adds to an air-filled cavity's problem (None:
+    :func:`standard_terms`)
     """
 
     name: str

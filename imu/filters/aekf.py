@@ -25,12 +25,12 @@ adaptation laws instead:
 * **R bounded, divergence monitored** (issue 57): the adapted R stays within ``[r_min_x, r_max_x]`` times the
   accelerometer noise measured on the rest window. Unbounded, it ran away on slow turns through upside down
   and vertical: a correlated attitude error (a degree, normal while turning) read as noise raised R, the
-  accelerometer was trusted less, the error grew (a simulated 5-20 °/s tumble, :mod:`imutherm.studies.attitude.filter_stress`:
-  18° inclination RMS, 72° peak; bounded 0.7°, VQF 0.6°), while on other axes R fell to its 1e-8 floor.
-  In the low-pass mode a **NIS monitor** (windowed mean of νᵀ S_m⁻¹ ν over the quasi-static updates, S_m with
-  the accelerometer allowed ``monitor_deg`` of error) declares divergence above the chi-square bound, re-levels
-  the attitude on the measured vertical, resets P's attitude block and R, and reports the sample
-  (``AttitudeEstimate.resets``); the block-mean mode keeps its own chi-square gate and re-level (reported too).
+  accelerometer was trusted less, the error grew (a simulated 5-20 °/s tumble,
+  :mod:`imutherm.studies.attitude.filter_stress`: 18° inclination RMS, 72° peak; bounded 0.7°, VQF 0.6°), while on other
+  axes R fell to its 1e-8 floor. In the low-pass mode a **NIS monitor** (windowed mean of νᵀ S_m⁻¹ ν over the
+  quasi-static updates, S_m with the accelerometer allowed ``monitor_deg`` of error) declares divergence above the
+  chi-square bound, re-levels the attitude on the measured vertical, resets P's attitude block and R, and reports the
+  sample (``AttitudeEstimate.resets``); the block-mean mode keeps its own chi-square gate and re-level (reported too).
 * **Q: autocovariance least squares** (Odelson, Rajamani, Rawlings, Automatica 42, 2006;
   :mod:`imutherm.imu.filters.noise_als`): on every stretch of rest (SHOE detector, Skog et al. 2010) of at
   least ``als_window_s``, the gyro white-noise density² ``q_g`` is re-estimated from the autocovariances of

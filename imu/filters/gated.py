@@ -55,7 +55,8 @@ from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, estimate_from_gravity,
                                          initial_bias, initial_quat, sample_steps, step_rates)
-from imutherm.imu.filters.quat_step import gravity_error, gravity_error_jit, quat_step, quat_step_jit
+from imutherm.imu.filters.quat_step import (down_axis_jit, gravity_error, gravity_error_jit, pi_correction,
+                                            pi_correction_jit, quat_step, quat_step_jit)
 from imutherm.imu.filters.inertial_lp import REST_BIAS_TAU, REST_STATE, REST_TAU, butter2_coeffs, lp3, lp3_init, rest_step
 from imutherm.imu.filters.gate import (GateThresholds, lowpass, gate_noise_level, gate_signals, gate_thresholds,
                                       lowpass_alpha, rest_reference)
@@ -183,12 +184,7 @@ def _update(q, b, wbx, wby, wbz, fx, fy, fz, is_open, kp, ki, dt):
         fn = math.sqrt(fx * fx + fy * fy + fz * fz)
         mx, my, mz = -fx / fn, -fy / fn, -fz / fn
         ex, ey, ez = gravity_error(w, x, y, z, mx, my, mz)
-        wx += kp * ex
-        wy += kp * ey
-        wz += kp * ez
-        bx -= ki * ex * dt
-        by -= ki * ey * dt
-        bz -= ki * ez * dt
+        wx, wy, wz, bx, by, bz = pi_correction(wx, wy, wz, bx, by, bz, ex, ey, ez, kp, ki, dt)
     return quat_step(w, x, y, z, 0.5 * dt * wx, 0.5 * dt * wy, 0.5 * dt * wz), (bx, by, bz)
 
 
@@ -324,16 +320,9 @@ def _loop_core(wbar, m, gate_in, use_rate, lpw, ok_aw, sig_w, n_hold, n_rec, dts
         if gl[k]:
             mx, my, mz = m[k, 0], m[k, 1], m[k, 2]
             ex, ey, ez = gravity_error_jit(w, x, y, z, mx, my, mz)
-            wx += kp * ex
-            wy += kp * ey
-            wz += kp * ez
-            bx -= ki * ex * dt
-            by -= ki * ey * dt
-            bz -= ki * ez * dt
+            wx, wy, wz, bx, by, bz = pi_correction_jit(wx, wy, wz, bx, by, bz, ex, ey, ez, kp, ki, dt)
         w, x, y, z = quat_step_jit(w, x, y, z, hdt * wx, hdt * wy, hdt * wz)
-        out[k, 0] = 2 * (x * z - w * y)
-        out[k, 1] = 2 * (y * z + w * x)
-        out[k, 2] = 1 - 2 * (x * x + y * y)
+        out[k, 0], out[k, 1], out[k, 2] = down_axis_jit(w, x, y, z)
     return out, gl
 
 
@@ -495,17 +484,9 @@ def _lp_core(gyro, accel, dts, kp, ki, g, sa, sw, swd, c, S, trap, rest, dt0, g_
         if mn > 0.0 and q_w > 0.0:
             mx, my, mz = -mbx / mn, -mby / mn, -mbz / mn
             ex, ey, ez = gravity_error_jit(w, x, y, z, mx, my, mz)
-            kpw, kiw = kp * q_w, ki * q_w
-            wx += kpw * ex
-            wy += kpw * ey
-            wz += kpw * ez
-            bx -= kiw * ex * dt
-            by -= kiw * ey * dt
-            bz -= kiw * ez * dt
+            wx, wy, wz, bx, by, bz = pi_correction_jit(wx, wy, wz, bx, by, bz, ex, ey, ez, kp * q_w, ki * q_w, dt)
         w, x, y, z = quat_step_jit(w, x, y, z, hdt * wx, hdt * wy, hdt * wz)
-        out[k, 0] = 2 * (x * z - w * y)
-        out[k, 1] = 2 * (y * z + w * x)
-        out[k, 2] = 1 - 2 * (x * x + y * y)
+        out[k, 0], out[k, 1], out[k, 2] = down_axis_jit(w, x, y, z)
     S[0], S[1], S[2], S[3] = w, x, y, z
     S[4], S[5], S[6] = bx, by, bz
     S[38], S[39], S[40], S[41] = qw, qx, qy, qz

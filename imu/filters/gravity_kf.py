@@ -47,7 +47,7 @@ from imutherm import InputError
 from imutherm.imu.attitude_math import G0
 from imutherm.imu.filters.common import (AttitudeEstimate, check_gyro_sample, check_samples, estimate_from_gravity,
                                          initial_bias, initial_quat, sample_steps, step_rates)
-from imutherm.imu.filters.quat_step import quat_step_jit
+from imutherm.imu.filters.quat_step import quat_step_jit, rotate, rotate_jit
 from imutherm.imu.filters.inertial_lp import REST_BIAS_TAU, REST_STATE, REST_TAU, lp3, lp3_init, rest_step
 
 
@@ -157,19 +157,7 @@ def kf_params_from_rest(gyro, accel, dt: float, init_s: float, params: KFParams)
 
 def _propagate(rx, ry, rz, wx, wy, wz, dt):
     """r ← exp(-[ω dt]×) r (Rodrigues), plain floats."""
-    ax, ay, az = -wx * dt, -wy * dt, -wz * dt
-    th2 = ax * ax + ay * ay + az * az
-    if th2 > 1e-24:
-        th = math.sqrt(th2)
-        s = math.sin(th) / th
-        c1 = (1.0 - math.cos(th)) / th2
-    else:
-        s = 1.0 - th2 / 6.0
-        c1 = 0.5 - th2 / 24.0
-    cx, cy, cz = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx
-    dot = ax * rx + ay * ry + az * rz
-    c = 1.0 - c1 * th2
-    return (rx * c + s * cx + c1 * dot * ax, ry * c + s * cy + c1 * dot * ay, rz * c + s * cz + c1 * dot * az)
+    return rotate(rx, ry, rz, -wx * dt, -wy * dt, -wz * dt)
 
 
 def _measure(rx, ry, rz, p, b, sx, sy, sz, R, innov_max, reject_t, period, timeout, kb, p0):
@@ -302,20 +290,8 @@ def _kf_loop(wbar, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, bias0,
     used = np.zeros(n, np.bool_)
     for k in range(n):
         h = dts[k]
-        ax, ay, az = -(wbar[k, 0] - b[0]) * h, -(wbar[k, 1] - b[1]) * h, -(wbar[k, 2] - b[2]) * h
-        th2 = ax * ax + ay * ay + az * az
-        if th2 > 1e-24:
-            th = math.sqrt(th2)
-            s = math.sin(th) / th
-            c1 = (1.0 - math.cos(th)) / th2
-        else:
-            s = 1.0 - th2 / 6.0
-            c1 = 0.5 - th2 / 24.0
-        cx, cy, cz = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx
-        dot = ax * rx + ay * ry + az * rz
-        c = 1.0 - c1 * th2
-        rx, ry, rz = (rx * c + s * cx + c1 * dot * ax, ry * c + s * cy + c1 * dot * ay,
-                      rz * c + s * cz + c1 * dot * az)
+        rx, ry, rz = rotate_jit(rx, ry, rz, -(wbar[k, 0] - b[0]) * h, -(wbar[k, 1] - b[1]) * h,
+                                -(wbar[k, 2] - b[2]) * h)
         p = p + q * h
         fx, fy, fz = accel[k, 0], accel[k, 1], accel[k, 2]
         ea = abs(math.sqrt(fx * fx + fy * fy + fz * fz) - g)
@@ -380,20 +356,7 @@ def _kf_lp_core(gyro, accel, dt, dts, nw, a, g, q, R, imax, timeout, kb, p0, c, 
         else:
             wx, wy, wz = gx - bx, gy - by, gz - bz
         S[23], S[24], S[25] = gx, gy, gz
-        ax, ay, az = -wx * h, -wy * h, -wz * h
-        th2 = ax * ax + ay * ay + az * az
-        if th2 > 1e-24:
-            th = math.sqrt(th2)
-            s = math.sin(th) / th
-            c1 = (1.0 - math.cos(th)) / th2
-        else:
-            s = 1.0 - th2 / 6.0
-            c1 = 0.5 - th2 / 24.0
-        cx, cy, cz = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx
-        dot = ax * rx + ay * ry + az * rz
-        cc = 1.0 - c1 * th2
-        rx, ry, rz = (rx * cc + s * cx + c1 * dot * ax, ry * cc + s * cy + c1 * dot * ay,
-                      rz * cc + s * cz + c1 * dot * az)
+        rx, ry, rz = rotate_jit(rx, ry, rz, -wx * h, -wy * h, -wz * h)
         p = p + q * h + sf2 * h * (wx * wx + wy * wy + wz * wz)
         # strapdown frame q_I <- q_I ⊗ exp(ω dt / 2)
         qw, qx, qy, qz = quat_step_jit(qw, qx, qy, qz, 0.5 * h * wx, 0.5 * h * wy, 0.5 * h * wz)

@@ -363,8 +363,9 @@ register(FilterSpec("madgwick", lambda x, p: run_madgwick(x.gyro, x.accel, x.dt,
 register(FilterSpec("mahony", lambda x, p: run_mahony(x.gyro, x.accel, x.dt, p or MahonyParams(), init_s=x.init_s,
                                                       steps=x.steps), MahonyParams, "peer",
                     "ahrs Mahony defaults (k_P 1.0, k_I 0.3), a trap on real motion: every motion profile and "
-                    "recorded-log platform runs its tuned setting (studies.attitude.recorded.platform_setting); not tuned on "
-                    "the real files, where the guard against its defaults keeps them (24 deg on BROAD trial 16)",
+                    "recorded-log platform runs its tuned setting (studies.attitude.recorded.platform_setting); "
+                    "not tuned on the real files, where the guard against its defaults keeps them (24 deg on BROAD "
+                    "trial 16)",
                     "tab:pink", groups={"varying_dt", "platform_tuned"}, rank=90,
                     tuning=(Tuned("k_P", 3.16e-3, 1.0, (1e-4, 10.0), "k_P [1/s], k_I [1/s^2] = 0.3 k_P^2 (published "
                                                                     "default (1, 0.3))",

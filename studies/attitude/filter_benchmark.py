@@ -41,8 +41,9 @@ TRAIN = (("flight", (100, 101)), ("shake", (100, 101)))
 HELD_OUT = (("flight", tuple(range(6))), ("swing", tuple(range(6))), ("vehicle", tuple(range(6))),
             ("handheld", tuple(range(6))))
 
-#: the gates' design turn radius L [m] per profile: the platform's (:data:`imutherm.studies.attitude.recorded.PLATFORMS`,
-#: as ``--imu-csv --platform`` uses), GateConfig.L (the aircraft's 1146 m) for the others
+#: the gates' design turn radius L [m] per profile: the platform's
+#: (:data:`imutherm.studies.attitude.recorded.PLATFORMS`, as ``--imu-csv --platform`` uses), GateConfig.L (the
+#: aircraft's 1146 m) for the others
 TURN_RADIUS = {"vehicle": 50.0, "handheld": 0.5}
 
 

@@ -43,6 +43,32 @@ def target_class(name: str):
     return spec.params_cls
 
 
+def checked_values(where: str, name: str, entry) -> dict:
+    """A settings entry's ``values`` table for filter ``name``, every key a field of its registry ``params_cls``;
+    otherwise a one-line InputError that starts with ``where`` (the file and the entry)."""
+    cls = target_class(name)
+    values = entry.get("values") if isinstance(entry, dict) else None
+    if not isinstance(values, dict):
+        raise InputError(f"{where} 'values' missing; valid: a table of {cls.__name__} fields")
+    fields = {f.name for f in dataclasses.fields(cls)}
+    bad = [k for k in values if k not in fields]
+    if bad:
+        raise InputError(f"{where} {', '.join(bad)} not a {cls.__name__} field; valid: {', '.join(sorted(fields))}")
+    return dict(values)
+
+
+def read_toml(path: str, what: str, writer: str) -> dict:
+    """The TOML file ``path`` as a dict; a one-line InputError naming ``what`` it holds for a file missing (and
+    the ``writer`` that writes it) or not valid TOML."""
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError(f"{what}: {path} not found; valid: a TOML file written by {writer}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{what}: {path} is not valid TOML ({exc})") from None
+
+
 @dataclass(frozen=True)
 class FilterSettings:
     """Tuned filter settings.
@@ -79,36 +105,19 @@ def parse_settings(data: dict, path: str = "<dict>") -> FilterSettings:
             raise InputError(f"{path}: [{prof}] must be a table of filters")
         for name, entry in filters.items():
             where = f"{path}: [{prof}.{name}]"
-            cls = target_class(name)
-            values = entry.get("values")
-            if not isinstance(values, dict):
-                raise InputError(f"{where}: 'values' missing; valid: a table of {cls.__name__} fields")
-            fields = {f.name for f in dataclasses.fields(cls)}
-            bad = [k for k in values if k not in fields]
-            if bad:
-                raise InputError(f"{where}: {', '.join(bad)} not a {cls.__name__} field; valid: "
-                                 f"{', '.join(sorted(fields))}")
+            values = checked_values(where + ":", name, entry)
             missing = [k for k in PROVENANCE if k not in entry]
             if missing:
                 raise InputError(f"{where}: provenance {', '.join(missing)} missing; valid entries carry "
                                  f"{', '.join(PROVENANCE)}")
-            profiles.setdefault(prof, {})[name] = dict(values)
+            profiles.setdefault(prof, {})[name] = values
             prov.setdefault(prof, {})[name] = {k: v for k, v in entry.items() if k != "values"}
     return FilterSettings(str(path), dict(meta), profiles, prov)
 
 
 @lru_cache(maxsize=8)
 def _load(path: str) -> FilterSettings:
-    p = Path(path)
-    try:
-        with p.open("rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(f"filter settings: {path} not found; valid: a TOML file written by "
-                         "benchmarks/tune_study_filters.py") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"filter settings: {path} is not valid TOML ({exc})") from None
-    return parse_settings(data, str(p))
+    return parse_settings(read_toml(path, "filter settings", "benchmarks/tune_study_filters.py"), path)
 
 
 def load_settings(path=None) -> FilterSettings:

@@ -114,8 +114,9 @@ def prepare(path, *, init_s: float | None = None, skip_s: float = SKIP_S) -> Rea
 def prepare_log(log, *, init_s: float | None = None, skip_s: float = SKIP_S, name: str | None = None,
                 level: bool = True) -> RealRecord:
     """:func:`prepare` of a log already read (:class:`~imutherm.imu.reference_log.ReferenceLog`, e.g. a
-    simulated or transformed one: :mod:`imutherm.studies.attitude.filter_stress`); name None: the file's stem; level False:
-    step 2 skipped (the IMU axes kept, so the filters start in the mounting's attitude, upside down or on a side)."""
+    simulated or transformed one: :mod:`imutherm.studies.attitude.filter_stress`); name None: the file's stem; level
+    False: step 2 skipped (the IMU axes kept, so the filters start in the mounting's attitude, upside down or on a
+    side)."""
     path = log.path
     init_s = INIT_S[log.layout] if init_s is None else float(init_s)
     ts = true_samples(log.t, log.gyro, log.accel)
@@ -181,10 +182,11 @@ def _platform():
 
 
 def run(names, rec: RealRecord, settings=None, *, fusion=None) -> dict:
-    """Run ``names`` on ``rec`` (:func:`imutherm.studies.attitude.attitude_study.run_filters`: the handheld lever arm and
-    turn radius, the record's rest window, interval gyro samples) with ``settings`` {name: {field: value}} on top
-    of the library defaults (None: every filter at its defaults; :func:`imutherm.studies.attitude.recorded.platform_settings`
-    gives a platform's), and score each: {name: score dict + accel_used_fraction, runtime_s}."""
+    """Run ``names`` on ``rec`` (:func:`imutherm.studies.attitude.attitude_study.run_filters`: the handheld lever arm
+    and turn radius, the record's rest window, interval gyro samples) with ``settings`` {name: {field: value}} on top
+    of the library defaults (None: every filter at its defaults;
+    :func:`imutherm.studies.attitude.recorded.platform_settings` gives a platform's), and score each: {name: score
+    dict + accel_used_fraction, runtime_s}."""
     from imutherm.imu.filters import FusionParams
     from imutherm.imu.filters.run import GateConfig, run_filters
 
@@ -233,8 +235,8 @@ def table(names, recs, settings=None) -> dict:
 def run_reference_log(path, *, names, init_s: float | None = None, skip_s: float = SKIP_S, fusion=None) -> dict:
     """``imutherm attitude --imu-csv`` on a reference log (``;``-separated RepoIMU layout or a BROAD HDF5 trial):
     :func:`prepare`, every filter in ``names`` at the handheld platform's settings
-    (:func:`imutherm.studies.attitude.recorded.platform_settings`), the inclination scores. fusion : FusionParams or None
-    (its defaults: gyro range not declared, over-range recovery off; never the data's peak). Returns a JSON-ready
+    (:func:`imutherm.studies.attitude.recorded.platform_settings`), the inclination scores. fusion : FusionParams or
+    None (its defaults: gyro range not declared, over-range recovery off; never the data's peak). Returns a JSON-ready
     dict."""
     from imutherm.imu.filters.fusion_peer import fusion_range_info
     from imutherm.studies.attitude.recorded import platform_settings

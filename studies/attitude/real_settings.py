@@ -13,17 +13,11 @@ the evidence that they generalise.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
 from imutherm import InputError
-
-try:
-    import tomllib
-except ModuleNotFoundError:  # Python < 3.11
-    import tomli as tomllib
 
 REAL_SETTINGS_PATH = Path(__file__).with_name("real_settings.toml")
 
@@ -46,38 +40,23 @@ class RealSettings:
 def parse_real_settings(data: dict, path: str = "<dict>") -> RealSettings:
     """Check the TOML content (every value a field of the filter's registry ``params_cls``) and build
     :class:`RealSettings`; one-line InputError naming the file, the filter and the field."""
-    from imutherm.studies.attitude.filter_settings import target_class
+    from imutherm.studies.attitude.filter_settings import checked_values
 
     meta = data.get("meta", {})
     values, entries = {}, {}
     for name, entry in data.items():
         if name == "meta":
             continue
-        cls = target_class(name)
-        v = entry.get("values") if isinstance(entry, dict) else None
-        if not isinstance(v, dict):
-            raise InputError(f"{path}: [{name}] 'values' missing; valid: a table of {cls.__name__} fields")
-        fields = {f.name for f in dataclasses.fields(cls)}
-        bad = [k for k in v if k not in fields]
-        if bad:
-            raise InputError(f"{path}: [{name}] {', '.join(bad)} not a {cls.__name__} field; valid: "
-                             f"{', '.join(sorted(fields))}")
-        values[name] = dict(v)
+        values[name] = checked_values(f"{path}: [{name}]", name, entry)
         entries[name] = dict(entry)
     return RealSettings(str(path), dict(meta), values, entries)
 
 
 @lru_cache(maxsize=4)
 def _load(path: str) -> RealSettings:
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(f"real-motion settings: {path} not found; valid: a TOML file written by "
-                         "benchmarks/bench_real_motion.py --write") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"real-motion settings: {path} is not valid TOML ({exc})") from None
-    return parse_real_settings(data, path)
+    from imutherm.studies.attitude.filter_settings import read_toml
+
+    return parse_real_settings(read_toml(path, "real-motion settings", "benchmarks/bench_real_motion.py --write"), path)
 
 
 def load_real_settings(path=None) -> RealSettings:

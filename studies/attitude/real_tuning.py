@@ -1,20 +1,20 @@
 """The filters' real-motion settings: the one tuning procedure on the real development files, cross-validated by
 file.
 
-Data: every file of :func:`imutherm.studies.attitude.real_benchmark.data_files` (six RepoIMU pendulum trials, three BROAD
-trials), prepared and scored as :mod:`imutherm.studies.attitude.real_benchmark` does (inclination RMS per file).
+Data: every file of :func:`imutherm.studies.attitude.real_benchmark.data_files` (six RepoIMU pendulum trials, three
+BROAD trials), prepared and scored as :mod:`imutherm.studies.attitude.real_benchmark` does (inclination RMS per file).
 
 Procedure, the same for every filter with tuning axes, ours and the peers (:func:`tune`):
 
-* the search is :func:`imutherm.studies.attitude.filter_tuning.tune_filter`: the registry's axes on one x3.16 ladder, the
-  product grown while the best lies on an open edge, the library defaults a candidate too;
+* the search is :func:`imutherm.studies.attitude.filter_tuning.tune_filter`: the registry's axes on one x3.16 ladder,
+  the product grown while the best lies on an open edge, the library defaults a candidate too;
 * a point runs the filter at ``BASE`` (physical settings of our low-pass modes that are not tuned) plus the point;
   the defaults candidate runs the library defaults alone;
 * objective: the mean over the training files of ln(RMS) (a geometric mean: the files' RMS span 0.3-8°, and an
   arithmetic mean would let the hardest file choose for all); the arithmetic mean is what the benchmark reports;
 * guard: a point that makes any training file worse than the library defaults by more than that file's noise
-  (:func:`imutherm.studies.attitude.real_benchmark.score`'s ``noise_deg``, the standard error of its RMS over ten blocks)
-  is not eligible: its score is raised by :data:`GUARD_PENALTY` plus its excess (the sum of ln(RMS / (default +
+  (:func:`imutherm.studies.attitude.real_benchmark.score`'s ``noise_deg``, the standard error of its RMS over ten
+  blocks) is not eligible: its score is raised by :data:`GUARD_PENALTY` plus its excess (the sum of ln(RMS / (default +
   noise)) over the files it breaks), so it ranks behind every eligible point and behind the defaults (which are
   eligible by definition), while the search still knows which ineligible points come nearer;
 * development figures (:func:`tune` ``dev``): tuned on all files, scored on the same files: a fitted figure;
@@ -83,8 +83,8 @@ class Runs:
 
 
 def chosen_settings(name: str, r: dict) -> dict:
-    """The settings {field: value} a :func:`~imutherm.studies.attitude.filter_tuning.tune_filter` result stands for ({}: the
-    library defaults)."""
+    """The settings {field: value} a :func:`~imutherm.studies.attitude.filter_tuning.tune_filter` result stands for ({}:
+    the library defaults)."""
     return {} if r["chosen"] == "defaults" else {**BASE.get(name, {}), **r["values"]}
 
 

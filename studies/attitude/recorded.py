@@ -32,9 +32,9 @@ PLATFORMS = {
     "aircraft": ((0.3, 0.0, 0.05), GateConfig.L),
 }
 
-#: the simulated motion profile whose tuned settings (``studies/attitude/filter_settings.toml``, the one tuning procedure
-#: of :mod:`imutherm.studies.attitude.filter_tuning` on seeds 100-101) stand for each platform where a setting is taken
-#: from the file: handheld -> the handheld profile, vehicle -> the vehicle profile, aircraft -> the flight
+#: the simulated motion profile whose tuned settings (``studies/attitude/filter_settings.toml``, the one tuning
+#: procedure of :mod:`imutherm.studies.attitude.filter_tuning` on seeds 100-101) stand for each platform where a setting
+#: is taken from the file: handheld -> the handheld profile, vehicle -> the vehicle profile, aircraft -> the flight
 PLATFORM_PROFILE = {"handheld": "handheld", "vehicle": "vehicle", "aircraft": "flight"}
 
 
@@ -58,8 +58,8 @@ def platform_setting(platform: str, name: str) -> dict:
 def platform_settings(platform: str, names=None) -> dict:
     """{filter: {field: value}} of ``platform`` for :func:`~imutherm.studies.attitude.attitude_study.run_filters`'s
     ``settings`` (fields of each filter's registry ``params_cls`` on top of its library defaults). handheld: the
-    real-motion settings of every filter in :mod:`imutherm.studies.attitude.real_settings` (the one tuning procedure on the
-    nine real development files, cross-validated by file; ours and the peers alike), and ``mahony``'s tuned
+    real-motion settings of every filter in :mod:`imutherm.studies.attitude.real_settings` (the one tuning procedure on
+    the nine real development files, cross-validated by file; ours and the peers alike), and ``mahony``'s tuned
     profile setting where that file has none; vehicle / aircraft: the library defaults (the papers' filters) but
     ``mahony``, at its profile's tuned setting (:func:`platform_setting`: every filter whose registry entry
     says ``platform_tuned``). names None: every filter."""

@@ -40,8 +40,8 @@
    **Through the model's own error**: the term's prior scale is capped at twice the model's known
    form error (:mod:`imutherm.studies.correlation.form_error`: the grid's and the reduced model's, per scheme), library
    effects that take the re-tuned model's held-out error from far beyond that level to within it are named
-   without the term (:func:`imutherm.studies.correlation.form_error.named_through_form`), and on the term's path a further
-   effect must halve the term the effects before it leave. A re-tuned parameter that moved far and explains
+   without the term (:func:`imutherm.studies.correlation.form_error.named_through_form`), and on the term's path a
+   further effect must halve the term the effects before it leave. A re-tuned parameter that moved far and explains
    most of the gap is named as a finding (:mod:`imutherm.studies.correlation.findings`; verdict ``finding``
    when no library effect is named); the model written is never worse than the nominal one on held-out data
    without the term (:mod:`imutherm.studies.correlation.written_model`); implausible readings are refused before any fit

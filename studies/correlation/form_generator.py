@@ -1,7 +1,7 @@
 """The correlation campaign's hardest model-form path: contacts as thin solid layers, another grid, every law off.
 
-The ``layered`` path of :func:`imutherm.studies.correlation.hidden_effect.model_form_options` generates the "measured" data
-with a model that differs from the inversion's in form in several ways at once, as a real bench's unit does:
+The ``layered`` path of :func:`imutherm.studies.correlation.hidden_effect.model_form_options` generates the "measured"
+data with a model that differs from the inversion's in form in several ways at once, as a real bench's unit does:
 
 - **contacts as thin solid layers** (:func:`refine_contact_layers`): every contact conductance (bond lines,
   standoffs, the lid joint, the boards' joints, a hidden contact effect) is a resolved layer of

@@ -234,8 +234,8 @@ def make_case(out_dir, hidden: str, rng: np.random.Generator, *, layout: LayoutS
             cyc = (v, extra["period_s"], extra["phase_rad"][e]) if hidden == CHAMBER_CYCLING else None
             if variant.options.contact_layers and cyc is None:
                 # the layered path: its own checked reduced transient (within 0.01 K of a tight full TR-BDF2 run
-                # on the re-run's cases, in a third of the time: studies/thermal/forward.checked_rise), the full adaptive
-                # one where the check fails
+                # on the re-run's cases, in a third of the time: studies/thermal/forward.checked_rise), the full
+                # adaptive one where the check fails
                 rise = checked_rise(variant, grid, probes, times, sig)[0]
             else:
                 rise = full_rise(variant, grid, probes, times, sig, ambient_cycle=cyc)

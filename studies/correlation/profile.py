@@ -11,8 +11,8 @@ point of the best (Venzon & Moolgavkar 1988; Pawitan 2001, *In All Likelihood*, 
 
 J the fit's objective [K²] (residual sum of squares and the knobs' weak prior), σ² the residual variance,
 **not below the model's stated form error**: σ² = max(J_min / (n - k), noise² + band²) (band: the known form
-error at the readings, :func:`imutherm.studies.correlation.form_error.band_K`), so a model whose form is off by more than
-the noise does not claim the noise's precision. For a linear model with Gaussian noise of known σ the profile
+error at the readings, :func:`imutherm.studies.correlation.form_error.band_K`), so a model whose form is off by more
+than the noise does not claim the noise's precision. For a linear model with Gaussian noise of known σ the profile
 interval is the analytic one, x̂ ± 1.96 σ sqrt((XᵀX)⁻¹ⱼⱼ) (tests/test_correlation_explain.py).
 """
 

@@ -109,7 +109,8 @@ def retune_with_term(runs, models, form, form_retune: bool, nominal: dict, noise
     held-out figures, n_eff ratio). Where the model's form is in doubt the form knobs of :data:`FORM_IN_DOUBT`
     (the cavity law's blend) are re-tuned too; the residual level σ of the evidence is what the re-tune with
     the term leaves, not below the noise, and the re-tuned model's own scales start every candidate's. ``caps``:
-    scheme -> the term's largest prior scale [-] (the model's known form error, :mod:`imutherm.studies.correlation.form_error`)."""
+    scheme -> the term's largest prior scale [-] (the model's known form error,
+    :mod:`imutherm.studies.correlation.form_error`)."""
     fwd = ForwardModel(runs, models.roms, models.geometries, models.options,
                        form + (tuple(FORM_IN_DOUBT) if form_retune else ()))
     disc = build_discrepancy(fwd, nominal, noise, ratio, DISCREPANCY_PRIOR, caps)

@@ -81,7 +81,7 @@ class CorrelationResult:
     findings: tuple = ()
     #: which model ``updated_model.toml`` carries and why (:mod:`imutherm.studies.correlation.written_model`)
     written: dict | None = None
-    #: the model's known form error (:mod:`imutherm.studies.correlation.form_error`): the term's cap, the band of the rules
+    #: the model's known form error (:mod:`imutherm.studies.correlation.form_error`): the term's cap, the rules' band
     form_scale: dict | None = None
     #: the corrected model's physics alone: its effects and the re-tune fitted without the discrepancy term, with
     #: pooled held-out figures (``after`` itself where no term was fitted); its intervals are the findings'

@@ -43,8 +43,8 @@ class StudyConfig:
     filters : registered filters that need no GNSS (:mod:`imutherm.imu.filters.registry`); default the
         registry's ``study`` group (:func:`~imutherm.imu.filters.registry.study_filters`)
     tuned : True: each filter runs at its tuned settings for the profile (``studies/attitude/filter_settings.toml``,
-        :mod:`imutherm.studies.attitude.filter_settings`: one grid procedure for ours and the peers, tuning seeds 100-101,
-        not the answer's); False: at its defaults
+        :mod:`imutherm.studies.attitude.filter_settings`: one grid procedure for ours and the peers, tuning seeds
+        100-101, not the answer's); False: at its defaults
     out_of_range : compensation policy beyond the calibrated range (error|hold|linear)
     chamber_C : [°C] oven temperatures at which the self-heating is solved (linear between them). The
         compensation looks up *reported* temperatures, so the rise between the ends only moves where the

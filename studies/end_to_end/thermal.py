@@ -111,7 +111,8 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
 
 #: the study's own source a thermal case depends on, beside the models' (:data:`imutherm.cache.CODE_VERSION`:
 #: thermal, unit, geometry, layouts, the constants); files read, not imported
-CASE_SOURCES = (("studies", "thermal/thermal_study.py"), ("studies", "end_to_end/thermal.py"), ("imutherm", "site_table.py"))
+CASE_SOURCES = (("studies", "thermal/thermal_study.py"), ("studies", "end_to_end/thermal.py"),
+                ("imutherm", "site_table.py"))
 
 
 def thermal_key(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, **thermal_kwargs) -> str:
