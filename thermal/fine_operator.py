@@ -3,7 +3,8 @@
 :func:`imutherm.thermal.refinement.refined_steady` assembles the refined problem's 27-point matrix: on the
 reference unit's 2x refined mesh (1.5e6 nodes) ~500 MB of indices and data, the study's memory peak, and ~2 CPU-s.
 :class:`FineOperator` applies the same operator from the cells' conductivity and 1-D sizes (each cell's
-coefficients formed as it is visited, none stored) and the outer faces' laws: the conduction of each Q1 box cell by its closed form (``K_e = cx KX + cy KY + cz KZ``,
+coefficients formed as it is visited, none stored) and the outer faces' laws: the conduction of each Q1 box
+cell by its closed form (``K_e = cx KX + cy KY + cz KZ``,
 :mod:`imutherm.thermal.assembly`; the tensor structure ``KX = k1 ⊗ m1 ⊗ m1`` applied as a difference along x and
 a 2x2 face mass across it), the linear laws' consistent face mass, the nonlinear laws' lumped nodal flux and its
 diagonal slope, each surface-to-surface exchange's symmetric Jacobian (as the steady solve linearises it,

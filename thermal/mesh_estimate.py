@@ -10,8 +10,9 @@ default-mesh field) to the same tolerance, with
   the assembled one to rounding), its residual likewise;
 * CG preconditioned by a symmetric two-level cycle: a symmetric Gauss-Seidel sweep on a 7-point matrix spectrally
   equivalent to the Newton matrix (:meth:`~imutherm.thermal.fine_operator.FineOperator.seven_point`, 7 of the 27
-  entries a row; swept on its stencil by a numba kernel, no CSR matrix formed), the default mesh's own AMG V-cycle through the prolongation as the coarse level (the steady
-  solve's hierarchy: nothing set up), a symmetric sweep on the residual.
+  entries a row; swept on its stencil by a numba kernel, no CSR matrix formed), the default mesh's own AMG
+  V-cycle through the prolongation as the coarse level (the steady solve's hierarchy: nothing set up), a
+  symmetric sweep on the residual.
 
 It gives the refined values to the CG tolerance of the assembled solve (:data:`REFINED_CG_RTOL` of the prolonged
 field's residual): the same Richardson estimate, answer and bound (``docs/benchmarks/mesh_estimate.md``).
