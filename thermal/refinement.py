@@ -223,20 +223,20 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
     from imutherm import ConvergenceError
     from imutherm.thermal.assembly import assemble
     from imutherm.thermal.cavity_radiation import CavityExchange
-    from imutherm.thermal.linear import Dirichlet as _Dirichlet, amg_preconditioner
-    from imutherm.thermal.probes import named_probes as _probes
-    from imutherm.thermal.steady import with_exchanges as _with_exchanges
+    from imutherm.thermal.linear import Dirichlet, amg_preconditioner
+    from imutherm.thermal.probes import named_probes
+    from imutherm.thermal.steady import with_exchanges
 
     t0, c0 = time.perf_counter(), time.process_time()
     Tc = np.asarray(coarse_T_C, float)
     if coarse_pc is None:
         asm_c = assemble(coarse_problem, mass=False)
-        Dc = _Dirichlet(asm_c, asm_c.dirichlet_values(None)[0])
+        Dc = Dirichlet(asm_c, asm_c.dirichlet_values(None)[0])
         coarse_pc = amg_preconditioner(_newton_matrix(asm_c, Dc, Tc))
         del asm_c
     asm = assemble(fine_problem, mass=False, cache_pattern=False, merge_linear=True)   # K_data: K + H
     dnodes, dvals = asm.dirichlet_values(None)
-    D = _Dirichlet(asm, dnodes)
+    D = Dirichlet(asm, dnodes)
     L = asm.pattern.csr(asm.K_data)
     # the Newton matrix's data: L's own array where no node is fixed (its diagonal slopes added for the solve and
     # taken off again: the refined matrices are the run's largest arrays), else the eliminated copy
@@ -258,7 +258,7 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
         diag = A.data[D.free_diag]
         if J is not None:
             A.data[D.free_diag] += J[~D.mask]
-        op = _with_exchanges(A, exchanges, T, D.mask) if exchanges else A
+        op = with_exchanges(A, exchanges, T, D.mask) if exchanges else A
         dT, info = spla.cg(op, r, rtol=0.0, atol=atol, M=_two_level(A, prolong, coarse_pc), maxiter=500,
                            callback=lambda _x: count.__setitem__(0, count[0] + 1))
         A.data[D.free_diag] = diag
@@ -267,7 +267,7 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
         T += dT
         if not asm.nonlinear or np.abs(dT).max() <= REFINED_STEP_K:
             break
-    names, Pm = _probes(fine_problem.grid, probes)
+    names, Pm = named_probes(fine_problem.grid, probes)
     names = tuple(names) + (HOT_SPOT,)
     coarse = np.append(np.asarray(coarse_probe_C, float), coarse_max_C)
     fine = np.append(Pm @ T, float(np.max(T)))
