@@ -152,11 +152,11 @@ def run(args) -> int:
             score = "no reference"
         print(f"{name:8s} {score}  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  "
               f"runtime {m['runtime_s']:.2f} s")
-        _print_divergence(name, m.get("resets_s"), m.get("rest_off_deg"), m.get("motion_check"))
+        print_divergence(name, m.get("resets_s"), m.get("rest_off_deg"), m.get("motion_check"))
     return 0
 
 
-def _print_divergence(name: str, resets_s, rest_off=None, motion=None) -> None:
+def print_divergence(name: str, resets_s, rest_off=None, motion=None) -> None:
     """One line when a filter's innovations said it diverged (its monitor reset it; aekf's NIS monitor), one when
     its vertical was off the accelerometer's at rest (:func:`imutherm.imu.filters.rest_check.rest_disagreement`),
     one when it was off the accelerometer averaged over windows of motion
@@ -256,5 +256,5 @@ def _run_reference(args) -> int:
         print(f"{name:8s} inclination rms {m['inclination_rms_deg']:.3f} deg{here}  max {m['inclination_max_deg']:.2f} "
               f"deg  accelerometer used on {100 * m['accel_used_fraction']:.1f} % of samples  runtime "
               f"{m['runtime_s']:.2f} s{dev}")
-        _print_divergence(name, m["resets_s"], m["rest_off_deg"], m["motion_check"])
+        print_divergence(name, m["resets_s"], m["rest_off_deg"], m["motion_check"])
     return 0

@@ -75,7 +75,7 @@ def test_answers_say_the_worst_case_and_a_divergence(tmp_path, capsys):
     carries the resets (none here); a divergence is one warning line naming the filter and the times; the
     printed real-motion lines carry the worst file beside the mean."""
     h5py = pytest.importorskip("h5py")
-    from imutherm.cli._attitude_csv import _print_divergence
+    from imutherm.cli._attitude_csv import print_divergence
     from imutherm.cli.attitude import main
     from imutherm.studies.attitude.real_settings import real_motion_lines
 
@@ -100,7 +100,7 @@ def test_answers_say_the_worst_case_and_a_divergence(tmp_path, capsys):
     assert res["filters"]["aekf"]["resets_s"] == [] and res["filters"]["kf"]["resets_s"] is None
     assert all(res["filters"][n]["rest_off_deg"] == [] for n in ("kf", "aekf", "gated", "vqf"))
     assert all(res["filters"][n]["motion_check"]["flagged"] == [] for n in ("kf", "aekf", "gated", "vqf"))
-    _print_divergence("aekf", [12.5, 40.0])
+    print_divergence("aekf", [12.5, 40.0])
     warn = capsys.readouterr().out.strip().splitlines()
     assert len(warn) == 1 and "aekf diverged" in warn[0] and "t = 12.5, 40.0 s" in warn[0]
     lines = real_motion_lines(["kf", "aekf", "vqf"])

@@ -16,7 +16,7 @@ from imutherm.thermal.assembly import assemble
 from imutherm.thermal.fine_operator import FineOperator
 from imutherm.thermal.linear import Dirichlet
 from imutherm.thermal.mesh_estimate import refined_steady_matrix_free
-from imutherm.thermal.refinement import _newton_matrix, refined_steady
+from imutherm.thermal.refinement import newton_matrix, refined_steady
 
 
 def _box(n=(5, 4, 3), fixed=True, seed=0):
@@ -62,7 +62,7 @@ def test_the_matrix_free_operator_is_the_assembled_one(fixed):
     r[D.mask] = 0.0
     assert np.abs(op.residual(T) - r).max() <= 1e-12 * np.abs(r).max()
     op.linearise(T)
-    A = _newton_matrix(asm, D, T)
+    A = newton_matrix(asm, D, T)
     assert np.abs(op.apply(x) - A @ x).max() <= 1e-12 * np.abs(A @ x).max()
     S = op.seven_point()   # the smoother's matrix: symmetric, positive definite, its diagonal dominant
     assert abs(S - S.T).max() <= 1e-12 * abs(S).max()

@@ -106,7 +106,7 @@ def test_injected_tilt_flagged_on_real_motion_and_kf_vqf_pass():
 
 
 def test_cli_prints_one_warning_line():
-    from imutherm.cli._attitude_csv import _print_divergence
+    from imutherm.cli._attitude_csv import print_divergence
 
     m = {"window_s": 30.0, "bound_deg": 1.74, "dv_max_mps": 3.0, "accel_bias_mps2": ACCEL_BIAS, "worst_deg": 20.3,
          "n_windows": 11, "flagged": [(0.0, 19.0), (15.0, 20.3)]}
@@ -115,8 +115,8 @@ def test_cli_prints_one_warning_line():
 
     buf = io.StringIO()
     with redirect_stdout(buf):
-        _print_divergence("kf", None, [], m)
-        _print_divergence("vqf", None, [], {**m, "flagged": []})
+        print_divergence("kf", None, [], m)
+        print_divergence("vqf", None, [], {**m, "flagged": []})
     lines = buf.getvalue().strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("warning: kf off the vertical in motion")
     assert "20.3°" in lines[0] and "t = 15.0 s" in lines[0] and "2 of 11 windows" in lines[0] and "20 mg" in lines[0]

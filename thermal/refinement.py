@@ -189,7 +189,7 @@ def _two_level(A, prolong, coarse_pc):
     return spla.LinearOperator(A.shape, matvec=apply, dtype=float)
 
 
-def _newton_matrix(asm, D, T):
+def newton_matrix(asm, D, T):
     """The sparse Newton matrix at ``T`` [°C]: conduction and linear laws, the nonlinear laws' diagonal slopes (each
     s2s exchange's too, its coupling is applied beside it), fixed nodes eliminated. ``asm``: an assembly with its
     own ``H_data`` (not ``merge_linear``)."""
@@ -232,7 +232,7 @@ def refined_steady(fine_problem, coarse_problem, coarse_T_C, prolong, probes: di
     if coarse_pc is None:
         asm_c = assemble(coarse_problem, mass=False)
         Dc = Dirichlet(asm_c, asm_c.dirichlet_values(None)[0])
-        coarse_pc = amg_preconditioner(_newton_matrix(asm_c, Dc, Tc))
+        coarse_pc = amg_preconditioner(newton_matrix(asm_c, Dc, Tc))
         del asm_c
     asm = assemble(fine_problem, mass=False, cache_pattern=False, merge_linear=True)   # K_data: K + H
     dnodes, dvals = asm.dirichlet_values(None)
