@@ -84,6 +84,20 @@ KINDS = {"none": None, "power@reg_5v": (0.3, 0.8), "power@processor": (0.3, 0.8)
 SCHEMES = ("air", "grease")
 
 
+def _verdict_fields(res, j: dict) -> dict:
+    """A campaign row's fields from one correlation (``res``) and its JSON (``j``): verdict, names, findings,
+    symptoms, the written model's held-out RMS [K] against nominal's, the proposed next experiment."""
+    w = j["written_model"] or {}
+    nx = res.next_experiment
+    return {"verdict": res.verdict, "named_first": j["named_first"], "named_effects": list(res.named_effects),
+            "findings": [f.parameter for f in res.findings], "symptoms": [x.parameter for x in res.symptoms],
+            "ambiguous_set": list(res.ambiguous_set),
+            "written_heldout_K": w.get("heldout_rms_K"), "nominal_heldout_K": w.get("nominal_heldout_rms_K"),
+            "next_experiment": nx and {k: nx[k] for k in ("scheme", "power_scale", "duration_s", "probes",
+                                                          "separation_K", "separation_sigmas")},
+            "settled_first": None}
+
+
 def _truth(kind: str, rng) -> tuple:
     """(truth values, hidden value): ±5 % nuisance on the board, mount and convection, and the hidden value."""
     nz = {"k_board_W_mK": 17.7 * rng.uniform(0.95, 1.05), "mount_h_W_m2K": 500.0 * rng.uniform(0.95, 1.05),
@@ -140,17 +154,8 @@ def one_case(kind: str, level: float, seed: int, models) -> dict:
     t0 = time.perf_counter()
     res = correlate(runs, models=models, candidates=CANDIDATES, rerun=False)
     j = result_json(res)
-    w = j["written_model"] or {}
-    row = {"kind": kind, "value": value, "level": level, "seed": seed, "verdict": res.verdict,
-           "named_first": j["named_first"], "named_effects": list(res.named_effects),
-           "findings": [f.parameter for f in res.findings], "symptoms": [x.parameter for x in res.symptoms],
-           "ambiguous_set": list(res.ambiguous_set),
-           "signature_sigmas": None if value is None else _signature(truth, kind),
-           "written_heldout_K": w.get("heldout_rms_K"), "nominal_heldout_K": w.get("nominal_heldout_rms_K"),
-           "next_experiment": res.next_experiment and {k: res.next_experiment[k] for k in
-                                                       ("scheme", "power_scale", "duration_s", "probes",
-                                                        "separation_K", "separation_sigmas")},
-           "settled_first": None}
+    row = {"kind": kind, "value": value, "level": level, "seed": seed, **_verdict_fields(res, j),
+           "signature_sigmas": None if value is None else _signature(truth, kind)}
     if res.verdict == "ambiguous" and res.next_experiment:
         nx = res.next_experiment
         tn = np.linspace(0.0, nx["duration_s"], 40)
@@ -256,21 +261,12 @@ def fem_case(case: FemCase, level: float, models) -> dict:
     t0 = time.perf_counter()
     res = correlate(runs, models=models, candidates=FEM_CANDIDATES, rerun=False)
     j = result_json(res)
-    w = j["written_model"] or {}
     rise = float(np.sqrt(np.mean(np.concatenate([r.rise_K.ravel() for r in runs]) ** 2)))
     plain = res.retune_plain or res.retune
-    row = {"kind": case.kind, "value": case.value, "level": level, "seed": case.seed, "verdict": res.verdict,
-           "named_first": j["named_first"], "named_effects": list(res.named_effects),
-           "findings": [f.parameter for f in res.findings], "symptoms": [x.parameter for x in res.symptoms],
-           "ambiguous_set": list(res.ambiguous_set), "signature_sigmas": case.signature(),
-           "natural_form_level": case.natural, "rms_rise_K": rise,
+    row = {"kind": case.kind, "value": case.value, "level": level, "seed": case.seed, **_verdict_fields(res, j),
+           "signature_sigmas": case.signature(), "natural_form_level": case.natural, "rms_rise_K": rise,
            "retune_rms_K": plain.rms_K, "noise_K": res.noise_K,
-           "retuned": {k: float(v) for k, v in plain.values.items()},
-           "written_heldout_K": w.get("heldout_rms_K"), "nominal_heldout_K": w.get("nominal_heldout_rms_K"),
-           "next_experiment": res.next_experiment and {k: res.next_experiment[k] for k in
-                                                       ("scheme", "power_scale", "duration_s", "probes",
-                                                        "separation_K", "separation_sigmas")},
-           "settled_first": None}
+           "retuned": {k: float(v) for k, v in plain.values.items()}}
     if res.verdict == "ambiguous" and res.next_experiment:
         from imutherm.studies.correlation.next_experiment import DESIGN_SAMPLES
         nx = res.next_experiment
