@@ -128,6 +128,56 @@ def _sgs_kernel(rd, ex, ey, ez, b, x):
                     x[i, j, k] = xl
 
 
+def _zline_factor_kernel(d, ez, m, g):
+    """The tridiagonal factors of each z line of the 7-point matrix (diagonal ``d``, couplings ``-ez``): ``m`` the
+    reciprocal pivots, ``g = ez m`` (Thomas algorithm; numba), for :func:`_zline_sgs_kernel`."""
+    Nx, Ny, Nz = d.shape
+    for i in range(Nx):
+        for j in range(Ny):
+            gl = 0.0
+            for k in range(Nz):
+                piv = d[i, j, k] - (ez[i, j, k - 1] * gl if k > 0 else 0.0)
+                mk = 1.0 / piv
+                m[i, j, k] = mk
+                gl = ez[i, j, k] * mk if k < Nz - 1 else 0.0
+                if k < Nz - 1:
+                    g[i, j, k] = gl
+
+
+def _zline_sgs_kernel(m, g, ex, ey, ez, b, x):
+    """One symmetric z-line Gauss-Seidel sweep on the 7-point matrix (each (i, j) line solved exactly with its
+    x and y neighbours' latest values, lines forward in C order, then backward): ``x`` updated in place (numba)."""
+    Nx, Ny, Nz = m.shape
+    w = np.empty(Nz)
+    for sweep in range(2):
+        for ii in range(Nx):
+            i = ii if sweep == 0 else Nx - 1 - ii
+            for jj in range(Ny):
+                j = jj if sweep == 0 else Ny - 1 - jj
+                wl = 0.0
+                for k in range(Nz):
+                    s = b[i, j, k]
+                    if i > 0:
+                        s += ex[i - 1, j, k] * x[i - 1, j, k]
+                    if i < Nx - 1:
+                        s += ex[i, j, k] * x[i + 1, j, k]
+                    if j > 0:
+                        s += ey[i, j - 1, k] * x[i, j - 1, k]
+                    if j < Ny - 1:
+                        s += ey[i, j, k] * x[i, j + 1, k]
+                    if k > 0:
+                        s += ez[i, j, k - 1] * wl
+                    wl = s * m[i, j, k]
+                    w[k] = wl
+                xl = w[Nz - 1]
+                x[i, j, Nz - 1] = xl
+                for k in range(Nz - 2, -1, -1):
+                    xl = w[k] + g[i, j, k] * xl
+                    x[i, j, k] = xl
+
+
+_zline_factor_kernel = njit(cache=True)(_zline_factor_kernel)
+_zline_sgs_kernel = njit(cache=True)(_zline_sgs_kernel)
 _mass4_jit = njit(inline="always", cache=True)(_mass4)
 _volume_kernel = njit(cache=True)(_volume_kernel)
 _sgs_kernel = njit(cache=True)(_sgs_kernel)
@@ -320,15 +370,27 @@ class FineOperator:
             d[self.fixed] = 1.0
         return (d.reshape(self.node_shape), *edges)
 
-    def smoother(self, dtype=np.float64):
+    def smoother(self, dtype=np.float64, lines: bool = False):
         """``smooth(x, b)``: one symmetric Gauss-Seidel sweep on the 7-point matrix (:meth:`seven_point_stencil`,
         set up now, at the current linearisation) for ``b`` [W], updating the nodal field ``x`` [K] in place.
         ``dtype``: the stencil's storage (``np.float32`` halves it; the sweep's sums stay in double precision, and
-        the sweep is still a symmetric Gauss-Seidel, of the stencil rounded to single precision)."""
+        the sweep is still a symmetric Gauss-Seidel, of the stencil rounded to single precision). ``lines``: a
+        z-line sweep instead (each line of nodes along z solved exactly, :func:`_zline_sgs_kernel`: a block
+        Gauss-Seidel, its blocks the z lines; stronger on the thin layers' cells, ~1.5x a point sweep's cost)."""
         d, ex, ey, ez = (a.astype(dtype, copy=False) for a in self.seven_point_stencil())
+        shape = self.node_shape
+        if lines:
+            m = np.empty(shape, dtype)
+            g = np.zeros((shape[0], shape[1], shape[2] - 1), dtype)
+            _zline_factor_kernel(d.astype(float), ez.astype(float), m, g)
+            del d
+
+            def smooth(x: np.ndarray, b: np.ndarray) -> None:
+                _zline_sgs_kernel(m, g, ex, ey, ez, np.ascontiguousarray(b, float).reshape(shape), x.reshape(shape))
+
+            return smooth
         rd = (1.0 / d.astype(float)).astype(dtype)   # the diagonal's reciprocal (of the stored diagonal)
         del d
-        shape = self.node_shape
 
         def smooth(x: np.ndarray, b: np.ndarray) -> None:
             _sgs_kernel(rd, ex, ey, ez, np.ascontiguousarray(b, float).reshape(shape), x.reshape(shape))
