@@ -21,7 +21,8 @@ its steady field (solved anyway) and a handful of solves give a reduced model th
    t95's (error over the curve's slope there) within ``t95_rel``; otherwise the error fields join the basis
    and the reduced transient is run again (at most ``max_rounds`` times), and if it still fails the caller
    falls back to the full adaptive FEM. The estimate's effectivity against the true error is measured in
-   ``tests/test_reduced_transient.py``.
+   ``tests/test_reduced_transient.py``. Each error solve starts from the Galerkin solution on the earlier error
+   fields (:meth:`_Solver.warm_start`) and stops at the same residual relative to r_k as from zero.
 """
 
 from __future__ import annotations
