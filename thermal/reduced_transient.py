@@ -79,9 +79,9 @@ CHECK_RTOL = 1e-2
 #: latest t95. Fewer full check solves with a calibrated cheap indicator at the others was measured and not taken
 #: (reference unit, default mesh, the 9-10 check times of each scheme): the ratio of the indicator to the check's
 #: site estimate spread 0.05-1.10 for one V-cycle of the solve's preconditioner, 0.22-1.12 for 2 CG iterations,
-#: 0.004-0.71 for a Jacobi step and 0.3 to over 40 for t |r| (unscaled); a bound from any of them needs a safety factor of ~20, i.e.
-#: a full solve wherever the estimate exceeds ~2.5 mK (most check times). The late times' solves cost 1-7
-#: iterations with the Galerkin start (:meth:`_Solver.warm_start`)
+#: 0.004-0.71 for a Jacobi step and 0.3 to over 40 for t |r| (unscaled); a bound from any of them needs a safety
+#: factor of ~20, i.e. a full solve wherever the estimate exceeds ~2.5 mK (most check times). The late times'
+#: solves cost 1-7 iterations with the Galerkin start (:meth:`_Solver.warm_start`)
 CHECK_TIMES = 8
 #: the reduced integrator's relative tolerance (its absolute one: this times the largest steady rise)
 ODE_RTOL = 1e-7
