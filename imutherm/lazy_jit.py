@@ -9,12 +9,58 @@ loaded from numba's cache), only when a kernel is first called.
 
 A kernel called from another kernel works too: numba types a global that has a ``_numba_type_`` as that
 type, here the compiled dispatcher's. Usage is numba's: ``@njit(cache=True)`` or ``njit(cache=True)(f)``.
+
+Compiled once per machine, not once per process: a kernel's first call in a process (the compile, or the load
+from numba's on-disk cache, and that first run) holds a lock shared by the user's processes on the machine
+(:func:`compile_lock`). Without it, on a cold cache (after an install, or after a filter's source changed)
+both of ``imutherm compare``'s workers compiled every filter kernel side by side, ~47 CPU-s each on the
+project's machine (2026-12-07, load ~9); with it the second worker waits and loads what the first wrote.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib
+import os
+import tempfile
+import threading
+
+#: environment variable naming the lock file of the kernels' first calls (default: in the temporary folder)
+LOCK_ENV = "IMUTHERM_JIT_LOCK"
+_LOCAL = threading.local()
+
+
+def lock_path() -> str:
+    """The lock file [path] the first calls of kernels hold: ``$IMUTHERM_JIT_LOCK``, else one per user in the
+    temporary folder."""
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    return os.environ.get(LOCK_ENV) or os.path.join(tempfile.gettempdir(), f"imutherm-jit-{uid}.lock")
+
+
+@contextlib.contextmanager
+def compile_lock():
+    """A section one process of the machine at a time runs (an exclusive ``flock`` on :func:`lock_path`),
+    re-entrant in a thread; where the lock cannot be had (no ``fcntl``, the file not writable) it does nothing."""
+    depth = getattr(_LOCAL, "depth", 0)
+    fd = None
+    if depth == 0:
+        try:
+            import fcntl
+
+            fd = os.open(lock_path(), os.O_RDWR | os.O_CREAT, 0o600)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        except (ImportError, OSError):
+            if fd is not None:
+                os.close(fd)
+            fd = None
+    _LOCAL.depth = depth + 1
+    try:
+        yield
+    finally:
+        _LOCAL.depth = depth
+        if fd is not None:
+            os.close(fd)   # closing the descriptor releases the lock
 
 
 class LazyKernel:
@@ -30,11 +76,19 @@ class LazyKernel:
         if self._dispatcher is None:
             import numba
 
-            self._dispatcher = numba.njit(*self.signatures, **self.options)(self.func)
+            if self.signatures:   # numba compiles the given signatures at once: one process at a time
+                with compile_lock():
+                    self._dispatcher = numba.njit(*self.signatures, **self.options)(self.func)
+            else:
+                self._dispatcher = numba.njit(**self.options)(self.func)
         return self._dispatcher
 
     def __call__(self, *args, **kwargs):
-        return self.dispatcher(*args, **kwargs)
+        d = self.dispatcher
+        if d.signatures:   # compiled or loaded in this process already
+            return d(*args, **kwargs)
+        with compile_lock():   # the first call: one process of the machine at a time compiles (or loads)
+            return d(*args, **kwargs)
 
     @property
     def _numba_type_(self):

@@ -61,3 +61,36 @@ def test_importing_the_study_and_the_filters_does_not_import_numba():
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
+
+
+_RACE = textwrap.dedent("""
+    import os, sys, time
+    sys.path.insert(0, sys.argv[1])
+    import kernel_mod
+    open(os.path.join(sys.argv[1], f"ready-{os.getpid()}"), "w").close()
+    while len([f for f in os.listdir(sys.argv[1]) if f.startswith("ready-")]) < 2:   # both start together
+        time.sleep(0.01)
+    assert kernel_mod.poly(2.0) == 11.0
+    st = kernel_mod.poly.dispatcher.stats
+    print(sum(st.cache_misses.values()), sum(st.cache_hits.values()))
+""")
+
+
+def test_two_processes_on_a_cold_cache_compile_a_kernel_once(tmp_path):
+    """The first calls hold a lock of the machine: of two processes started together on an empty numba cache,
+    one compiles (a cache miss) and the other loads what it wrote (a hit), instead of both compiling."""
+    (tmp_path / "kernel_mod.py").write_text(textwrap.dedent("""
+        from imutherm.lazy_jit import njit
+
+        @njit(cache=True)
+        def poly(x):
+            return 1.0 + x + 2.0 * x * x
+    """))
+    env = dict(__import__("os").environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
+               IMUTHERM_JIT_LOCK=str(tmp_path / "jit.lock"))
+    procs = [subprocess.Popen([sys.executable, "-c", _RACE, str(tmp_path)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, env=env) for _ in range(2)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [o[1] for o in outs]
+    counts = sorted(tuple(map(int, o[0].split())) for o in outs)
+    assert counts == [(0, 1), (1, 0)], counts   # (misses, hits): one compiled, the other loaded

@@ -5,6 +5,8 @@ case's lean IMU side.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import replace
 
 import numpy as np
@@ -36,6 +38,24 @@ def bare_calibration(grade: str, seed: int):
     return calibrate_unit(unit, np.random.default_rng(cal_ss))
 
 
+@functools.lru_cache(maxsize=16)
+def _profile_inputs(profile: str, rate: float, filters: tuple, tuned: bool) -> tuple:
+    """(trajectory, gate, tuned settings or None) of motion ``profile`` at ``rate`` [Hz]: the same in every scheme
+    and seed, so made once per process (:func:`imu_case`); the trajectory's arrays read-only (shared)."""
+    from imutherm.imu import motion
+    from imutherm.imu.filters.run import GateConfig
+    from imutherm.studies.attitude.attitude_study import leveling_window_s
+    from imutherm.studies.attitude.filter_settings import load_settings
+
+    traj = motion.make_profile(profile, None, rate, lever_arm=motion.DEFAULT_LEVER_ARM[profile])
+    for f in dataclasses.fields(traj):
+        value = getattr(traj, f.name)
+        if isinstance(value, np.ndarray):
+            value.flags.writeable = False
+    gate = replace(GateConfig(), init_s=leveling_window_s(traj, GateConfig()))
+    return traj, gate, load_settings().for_profile(profile, filters) if tuned else None
+
+
 def _block_mean(x: np.ndarray, n: int) -> np.ndarray:
     m = (x.shape[0] // n) * n
     return x[:m].reshape(-1, n, *x.shape[1:]).mean(axis=1)
@@ -63,14 +83,12 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     runs), ``range_C[cal] -> (lo (6,), hi (6,))`` reported-temperature ranges [°C], ``max_reported_C`` (6,)
     [°C], and ``series`` (residual and attitude-error curves of the flight warm-up).
     """
-    from imutherm.imu import motion
     from imutherm.imu.compensation import compensate, out_of_range_mask
     from imutherm.imu.sensor_model import simulate_imu
-    from imutherm.imu.filters.run import GateConfig, run_filters
+    from imutherm.imu.filters.run import run_filters
     from imutherm.imu.motion import DEFAULT_LEVER_ARM
-    from imutherm.studies.attitude.attitude_study import error_metrics, leveling_window_s
+    from imutherm.studies.attitude.attitude_study import error_metrics
     from imutherm.imu.filters.fusion_peer import fusion_params_of_grade
-    from imutherm.studies.attitude.filter_settings import load_settings
 
     unit, cal_ss, run_ss = _draw(grade, seed)
     cals = _calibrations(unit, cal_ss, chamber_C, rise_K, config, bare_cal)
@@ -86,9 +104,7 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     series_profile = "flight" if "flight" in config.profiles else config.profiles[0]  # residuals, curves
     for p_i, profile in enumerate(config.profiles):
         d = DEFAULT_LEVER_ARM[profile]
-        traj = motion.make_profile(profile, None, rate, lever_arm=d)
-        gate = replace(GateConfig(), init_s=leveling_window_s(traj, GateConfig()))
-        tuned = load_settings().for_profile(profile, config.filters) if config.tuned else None
+        traj, gate, tuned = _profile_inputs(profile, rate, tuple(config.filters), bool(config.tuned))
         fusion = fusion_params_of_grade(grade)  # the grade's full scale, not the data's peak
         for ph_i, phase in enumerate(PHASES):
             temp = _die_temperatures(phase, traj.t, curves_t, curves_T, steady_T)
