@@ -60,6 +60,7 @@ issue 58 item 3 on seed 61, the held-out figure on one fresh seed run once.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
 import time
@@ -176,6 +177,9 @@ FEM_CANDIDATES = ("power@reg_5v", "power@processor", "power@reg_3v3", "contact@b
                   "fixture_leak")
 FEM_SITES = ("tp1", "tp2", "tp3", "gyro_x", "gyro_y", "gyro_z")
 FEM_MESH_MM, FEM_MIN_CELLS = 4.0, 1
+#: directory of cached FEM pairs (``--pair-cache``; None: no cache): a pair depends on the truth and the design
+#: only, not on the correlation's rules, so a campaign re-run after a rule change costs only the correlations
+PAIR_CACHE = None
 
 
 class FemCase:
@@ -189,7 +193,7 @@ class FemCase:
         from imutherm.unit import knobs
         rng = np.random.default_rng(seed)
         self.layout = load_layout(None)
-        self.models, self.kind, self.seed = models, kind, seed
+        self.models, self.kind, self.seed, self.form = models, kind, seed, form
         self.geo = {s: build_geometry(self.layout, s) for s in SCHEMES}
         nom = knobs.nominal_values(self.geo["air"], models.options)
         self.truth = {k: nom[k] * (1 + rng.uniform(-0.10, 0.10))
@@ -220,8 +224,22 @@ class FemCase:
         from imutherm.studies.correlation.form_generator import form_pair
         geo = self.geo[scheme]
         values = dict(self.truth, **({"power_scale": power_scale} if power_scale != 1.0 else {}))
-        return form_pair(geo, values, self.models.options, self.gen, FEM_MESH_MM, FEM_MIN_CELLS, self.gen_mesh,
+        path = None
+        if PAIR_CACHE is not None:  # keyed by everything that determines the pair, never by the rules
+            key = repr((self.form, self.kind, self.seed, scheme, float(power_scale), tuple(sites),
+                        np.round(np.asarray(times, float), 6).tolist(), sorted(values.items()), self.lid,
+                        repr(self.models.options), repr(self.gen), self.gen_mesh, FEM_MESH_MM, FEM_MIN_CELLS))
+            path = PAIR_CACHE / f"pair_{hashlib.sha256(key.encode()).hexdigest()[:24]}.npz"
+            if path.exists():
+                with np.load(path) as z:
+                    return z["inversion"], z["generator"]
+        a, b = form_pair(geo, values, self.models.options, self.gen, FEM_MESH_MM, FEM_MIN_CELLS, self.gen_mesh,
                          {s: geo.sites[s] for s in sites}, times, self.lid)
+        if path is not None:
+            tmp = path.with_suffix(".tmp.npz")
+            np.savez(tmp, inversion=a, generator=b)
+            tmp.replace(path)
+        return a, b
 
     def run(self, level: float, scheme: str, rng, power_scale=1.0, sites=FEM_SITES, times=None, name=None):
         """A measured file: the inversion-form rise plus k x the form's difference, k set on the standard file."""
@@ -318,6 +336,11 @@ def main(argv=None) -> int:
     ap.add_argument("--form", choices=("layered", "cavity_law", "grid", "nuisance"), default="layered",
                     help="--generator fem: the generator's one other form")
     ap.add_argument("--kinds", nargs="*", default=None, help="--generator fem: only these hidden kinds")
+    ap.add_argument("--pair-cache", default=None, help="--generator fem: directory caching the FEM pairs")
+    ap.add_argument("--levels", nargs="*", type=float, default=None,
+                    help="form error levels as fractions of the rise (default 0.02 0.05 0.10)")
+    ap.add_argument("--pairs-only", action="store_true",
+                    help="--generator fem with --pair-cache: only generate the standard files' FEM pairs (no correlation)")
     ap.add_argument("--table", nargs="*", default=None, help="print the markdown table of these forms_fem_*.json, stop")
     args = ap.parse_args(argv)
     if args.table is not None:
@@ -330,7 +353,7 @@ def main(argv=None) -> int:
     from _toy_reduced import toy_models
     models = toy_models()
     rows = []
-    for level in LEVELS:
+    for level in (tuple(args.levels) if args.levels else LEVELS):
         for kind in KINDS:
             for c in range(args.cases):
                 seed = args.seed * 10000 + list(KINDS).index(kind) * 100 + c  # the same truth at every level
@@ -367,6 +390,11 @@ def table(paths) -> str:
 
 def _main_fem(args, out: Path) -> int:
     """The FEM campaign of one form (module docstring): each case generated once, correlated at every level."""
+    global PAIR_CACHE
+    if args.pair_cache:
+        PAIR_CACHE = Path(args.pair_cache)
+        PAIR_CACHE.mkdir(parents=True, exist_ok=True)
+    levels = tuple(args.levels) if args.levels else LEVELS
     from imutherm.studies.correlation import build_models
     models = build_models(tuple((s, 70.0) for s in SCHEMES), mesh_size_mm=FEM_MESH_MM, min_cells=FEM_MIN_CELLS)
     kinds = args.kinds or list(FEM_KINDS)
@@ -377,7 +405,10 @@ def _main_fem(args, out: Path) -> int:
             t0 = time.process_time()
             case = FemCase(kind, args.form, seed, models)
             t_gen = time.process_time() - t0
-            for level in LEVELS:
+            if args.pairs_only:
+                print(f"{args.form} {kind:<18} seed {seed}: pairs cached ({t_gen:.0f} CPU-s)", flush=True)
+                continue
+            for level in levels:
                 r = fem_case(case, level, models)
                 r.update(form=args.form, gen_cpu_s=t_gen)
                 rows.append(r)
@@ -386,6 +417,8 @@ def _main_fem(args, out: Path) -> int:
                       f"(natural {100 * case.natural['both']:.2f} %, gen {t_gen:.0f} s, {r['seconds']:.0f} s)",
                       flush=True)
                 write_json(out / f"forms_fem_{args.form}_rows.json", rows)
+    if args.pairs_only:
+        return 0
     summary = summarise(rows)
     write_json(out / f"forms_fem_{args.form}.json", {"rows": rows, "summary": summary, "args": vars(args)})
     print(json.dumps(summary, indent=1))

@@ -80,6 +80,17 @@ def test_the_matrix_free_operator_is_the_assembled_one(fixed):
     x32 = x0.copy()   # the stencil stored in single precision: the same sweep to that precision
     op.smoother(np.float32)(x32, b)
     assert np.abs(x32 - x_csr).max() <= 1e-6 * np.abs(x_csr).max()
+    # the z-line sweep: a block Gauss-Seidel, its blocks the z lines (consecutive in C order), each solved densely,
+    # lines forward then backward
+    Sd, nz = S.toarray(), op.node_shape[2]
+    x_blk, x_line = x0.copy(), x0.copy()
+    for order in (range(asm.n // nz), reversed(range(asm.n // nz))):
+        for line in order:
+            sl = slice(line * nz, (line + 1) * nz)
+            x_blk[sl] = np.linalg.solve(Sd[sl, sl], b[sl] - Sd[sl] @ x_blk + Sd[sl, sl] @ x_blk[sl])
+    op.smoother(lines=True)(x_line, b)
+    assert np.abs(x_line - x_blk).max() <= 1e-12 * np.abs(x_blk).max()
+    assert np.abs(x_line - x_csr).max() > 1e-3 * np.abs(x_csr).max()   # not the point sweep
 
 
 def test_the_matrix_free_refined_solve_gives_the_assembled_answer():

@@ -100,3 +100,29 @@ def test_the_shifted_operators_share_the_pattern(air):
         assert np.shares_memory(o.sparse.indices, S.indices) and np.shares_memory(o.sparse.indptr, S.indptr)
     assert op.sparse.dtype == np.float64 and single.sparse.dtype == np.float32
     assert np.abs(single.sparse.data - op.sparse.data).max() <= 1e-6 * np.abs(op.sparse.data).max()
+
+
+def test_the_recycled_warm_start_is_the_galerkin_solution_on_the_earlier_fields(air):
+    """The check's solves start from the Galerkin solution of (A + s M) x = b on the span of the earlier error
+    fields: exact when the solution lies in that span, never worse than zero in A + s M's energy norm, and the
+    solve still meets |b - Op x| <= rtol |b| (the start changes the cost, not the accuracy)."""
+    _, asm, A, M, pc = air
+    lin = reduced_transient._Solver(A, M, pc)
+    rng = np.random.default_rng(3)
+    b1, b2 = asm.F_q, M @ rng.standard_normal(asm.n)
+    x1 = lin.solve(reduced_transient._Shifted(A, M, 0.5), b1, 1e-8, recycle=True)
+    x2 = lin.solve(reduced_transient._Shifted(A, M, 0.05), b2, 1e-8, recycle=True)
+    assert lin.XAX.shape == (2, 2) and np.allclose(lin.XAX, lin.XAX.T)
+    op = reduced_transient._Shifted(A, M, 0.2)
+    target = 2.0 * x1 - 0.5 * x2
+    x0 = lin.warm_start(op, op @ target)
+    assert np.linalg.norm(x0 - target) <= 1e-6 * np.linalg.norm(target)
+    b = asm.F_q + 0.1 * b2   # a right-hand side whose solution is not in the span: the start beats zero
+    x0 = lin.warm_start(op, b)
+    assert x0 is not None and np.linalg.norm(b - op @ x0) < 0.5 * np.linalg.norm(b)
+    its0 = lin.its
+    x = lin.solve(op, b, 1e-2, recycle=True)
+    assert np.linalg.norm(b - op @ x) <= 1e-2 * np.linalg.norm(b)
+    n = [0]
+    spla.cg(op, b, rtol=1e-2, atol=0.0, M=lin._preconditioner(op), callback=lambda _: n.__setitem__(0, n[0] + 1))
+    assert lin.its - its0 < n[0], ("the Galerkin start should save iterations here", lin.its - its0, n[0])

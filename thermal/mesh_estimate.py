@@ -8,7 +8,8 @@ default-mesh field) to the same tolerance, with
 
 * the refined Newton matrix applied matrix-free (:class:`~imutherm.thermal.fine_operator.FineOperator`: equal to
   the assembled one to rounding), its residual likewise;
-* CG preconditioned by a symmetric two-level cycle: a symmetric Gauss-Seidel sweep on a 7-point matrix spectrally
+* CG preconditioned by a symmetric two-level cycle: a symmetric z-line Gauss-Seidel sweep (each line of nodes
+  along z solved exactly) on a 7-point matrix spectrally
   equivalent to the Newton matrix (:meth:`~imutherm.thermal.fine_operator.FineOperator.seven_point`, 7 of the 27
   entries a row; swept on its stencil by a numba kernel, no CSR matrix formed), the default mesh's own AMG
   V-cycle through the prolongation as the coarse level (the steady solve's hierarchy: nothing set up), a
@@ -46,16 +47,20 @@ SWEEP_ITERATIONS = 1
 #: residual and CG stay double); on the reference unit the same CG steps and refined values to 1e-5 K as in double
 #: (w59-memory, docs/benchmarks/mesh_estimate.md), 24 MB less on its refined mesh
 SMOOTHER_DTYPE = np.float32
+#: the smoother sweeps z lines (each solved exactly), not points: on the reference unit 12/13/12 CG steps instead
+#: of 15/16/15 (air/grease/potted) at ~1.5x a point sweep's cost; refined values within 6e-4 K of the point
+#: smoother's (r59-refined, docs/benchmarks/mesh_estimate.md)
+LINE_SMOOTHER = True
 
 
 def _two_level(op: FineOperator, prolong, coarse_pc):
-    """The symmetric two-level cycle on ``op`` at its current linearisation: symmetric Gauss-Seidel on the 7-point
-    stencil (:meth:`~imutherm.thermal.fine_operator.FineOperator.smoother`), the coarse grid's V-cycle ``coarse_pc``
-    through ``prolong`` on the residual, symmetric Gauss-Seidel on the residual."""
+    """The symmetric two-level cycle on ``op`` at its current linearisation: symmetric (z-line, :data:`LINE_SMOOTHER`)
+    Gauss-Seidel on the 7-point stencil (:meth:`~imutherm.thermal.fine_operator.FineOperator.smoother`), the coarse
+    grid's V-cycle ``coarse_pc`` through ``prolong`` on the residual, symmetric Gauss-Seidel on the residual."""
     import scipy.sparse.linalg as spla
 
     R = prolong.T
-    smooth = op.smoother(SMOOTHER_DTYPE)
+    smooth = op.smoother(SMOOTHER_DTYPE, lines=LINE_SMOOTHER)
 
     def apply(b):
         b = np.ravel(np.asarray(b, float))

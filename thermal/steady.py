@@ -18,7 +18,10 @@ steady problem; for a nonlinear one an inexact Newton method whose outer
 loop drives the error to ``tol``: each step's CG forced by the outer contraction,
 1e-2 for the first step and down to 1e-4 (Eisenstat & Walker 1996; the field agrees
 with 1e-10 inner solves to ~1e-11 K on the reference unit; the forcing takes 25-29 %
-fewer CG iterations than 1e-4 at every step, which took ~25 % fewer than 1e-6).
+fewer CG iterations than 1e-4 at every step, which took ~25 % fewer than 1e-6). Newton stops on the error
+left, estimated from the last two steps' contraction (:func:`remaining_error`), not on the last step's size:
+on the reference unit grease 3 Newton steps instead of 5 (47 CG iterations instead of 87), potted 3 instead
+of 4 (48 instead of 67), air unchanged (5, 77); fields within 1.2e-6 K of the classic test's.
 """
 
 from __future__ import annotations
@@ -92,7 +95,8 @@ def solve_steady(problem: ThermalProblem, *, tol: float = 1e-8, max_iter: int = 
     ----------
     problem : ThermalProblem
     tol : float [-]
-        Newton stops when max|ΔT| <= tol * max(1 K, max|T − ambient|).
+        Newton stops when the error left, estimated from the last two steps' max|ΔT| (:func:`remaining_error`),
+        is <= tol * max(1 K, max|T − ambient|).
     max_iter : int
         Newton iteration limit; exceeding it raises :class:`ConvergenceError`.
     solver : {'auto', 'direct', 'amg'}
@@ -197,8 +201,8 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
 
     A linear problem takes one solve with the matrix ``L`` (fixed nodes eliminated). Returns the
     converged field, the Newton iterations and the total linear iterations; raises
-    :class:`ConvergenceError` when ``max_iter`` iterations do not bring max|ΔT| below
-    ``tol * max(1 K, max|T − ambient|)``, or when an iterate diverges.
+    :class:`ConvergenceError` when ``max_iter`` iterations do not bring the error left
+    (:func:`remaining_error`) below ``tol * max(1 K, max|T − ambient|)``, or when an iterate diverges.
     """
     nonlinear = bool(asm.nonlinear)
     free = ~D.mask
@@ -210,6 +214,7 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
     lin_its = 0
     it = 0
     eta = FORCING_MAX
+    last_change = math.inf
     for it in range(1, max_iter + 1):
         if nonlinear:
             data = base.copy()
@@ -248,11 +253,22 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
         T, r, N, J = T_new, r_new, N_new, J_new
         _check_diverging(problem, T, amb, it)
         change = step * np.abs(dT).max()
-        if change <= tol * max(1.0, float(np.abs(T - amb).max())):
+        if remaining_error(change, last_change) <= tol * max(1.0, float(np.abs(T - amb).max())):
             return T, it, lin_its
+        last_change = change
     raise ConvergenceError(f"solve_steady: Newton did not converge in {max_iter} iterations "
                            f"(last max|ΔT| = {change:.3g} K, residual norm {np.linalg.norm(r):.3g} W); "
                            f"raise max_iter or check the boundary laws")
+
+
+def remaining_error(change: float, last_change: float) -> float:
+    """The error [K] left after a Newton step that changed the field by ``change`` (max|ΔT|) after one of
+    ``last_change``: with the contraction ``q = change / last_change`` of a linearly converging iteration, the
+    steps still to come sum to ``change q / (1 - q)``; ``change`` itself (the classic test) while ``q > 1/2``
+    or on the first step (Deuflhard, "Newton Methods for Nonlinear Problems", Springer 2004, sec. 2.1: the
+    a-posteriori estimate of a contractive iteration)."""
+    q = change / last_change if 0 < last_change < math.inf else math.inf
+    return change * q / (1.0 - q) if q <= 0.5 else change
 
 
 def with_exchanges(A, exchanges, T, fixed) -> spla.LinearOperator:

@@ -35,7 +35,11 @@ Each finding is flagged ``contradicts_source`` when its value lies outside its s
 (:func:`source_range`). A knob that meets the rules **at a bound of the re-tune** is not a finding: the data
 push it past what its source allows, which is the model's form speaking (issue 58: a ``power_scale`` "finding"
 at its bound took a probe lag's place); it is a :class:`Symptom`, reported with how far the re-tuned model is
-off and where (scheme, site, phase; :func:`form_off`).
+off and where (scheme, site, phase; :func:`form_off`). Likewise a form knob (the cavity's emissivity) moved in a
+fit that still leaves more than twice the stated form error (:func:`form_visibly_off`, the discrepancy term's
+cap): such a knob takes up what it can of a form error it cannot match (issue 58's FEM campaign, seed 61: cavity
+emissivity "findings" where a regulator's power was hidden), so it is a symptom (bound 'form') with how far the
+model is off and where.
 """
 
 from __future__ import annotations
@@ -175,6 +179,9 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
             if evidence:
                 sym.append(symptom(fwd, free, name, nom, float(dC)))
             continue
+        if name in knobs.FORM_RETUNE and evidence and form_visibly_off(free, noise, band_K):
+            sym.append(symptom(fwd, free, name, nom, float(dC), "form", band_K))
+            continue
         if not (evidence and math.isfinite(share) and share >= GAP_SHARE and not h1 >= h0
                 and not expl < FORM_SIGMAS * (band_K if math.isfinite(band_K) else 0.0)):
             continue
@@ -193,6 +200,19 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
     return tuple(sorted(out, key=lambda f: -f.gap_share)), tuple(sym)
 
 
+def form_visibly_off(free, noise: float, band: float) -> bool:
+    """Whether the re-tuned physics ``free`` leaves a residual (its RMS [K], the noise ``noise`` [K] removed in
+    quadrature) above :data:`~imutherm.studies.correlation.form_error.FORM_SIGMAS` times ``band`` [K], the model's
+    stated form error at the readings: the level a model right in every effect and knob still leaves (the
+    discrepancy term's cap). A form knob (:data:`~imutherm.unit.knobs.FORM_RETUNE`) re-tuned in such a fit has
+    taken up what it can of a form error it cannot match, and its move is not a finding (issue 58, FEM campaign
+    seed 61: a cavity emissivity "finding" where a regulator's power was hidden on a grid 2x finer at 10 %)."""
+    from imutherm.studies.correlation.form_error import FORM_SIGMAS
+    if not (math.isfinite(band) and math.isfinite(free.rms_K)):
+        return False
+    return math.sqrt(max(free.rms_K**2 - noise**2, 0.0)) > FORM_SIGMAS * band
+
+
 def _knob(fwd, name: str):
     """The re-tune's :class:`~imutherm.thermal.reduced.Knob` ``name`` (a form knob's from the reduced models)."""
     k = next((k for k, _ in knobs.RETUNE if k.name == name), None)
@@ -203,9 +223,12 @@ def _knob(fwd, name: str):
 
 @dataclass(frozen=True)
 class Symptom:
-    """A re-tuned knob that ended at a bound of its source's range while the data pull it there: a symptom of the
-    model's form, not a finding. ``form_off``: how far the re-tuned physics is off and where ({'rms_K',
-    'fraction_of_rise', 'where': [{'scheme', 'site', 'phase', 'rms_K', 'mean_K'}], largest first})."""
+    """A re-tuned knob that moved while the model's form speaks: a symptom of the model's form, not a finding.
+    ``bound``: 'lower' / 'upper' (it ended at that bound of its source's range while the data pull it there) or
+    'form' (a form knob moved in a fit whose residual is above twice the stated form error,
+    :func:`form_visibly_off`; ``form_band_K`` that stated error at the readings [K]). ``form_off``: how far the
+    re-tuned physics is off and where ({'rms_K', 'fraction_of_rise', 'where': [{'scheme', 'site', 'phase',
+    'rms_K', 'mean_K'}], largest first})."""
 
     parameter: str
     unit: str
@@ -214,19 +237,25 @@ class Symptom:
     nominal: float
     delta_criterion: float
     form_off: dict
+    form_band_K: float = math.nan
 
     def words(self) -> str:
         u = "" if self.unit == "-" else f" {self.unit}"
         fo = self.form_off
         where = ", ".join(f"{w['scheme']} {w['site']} {w['phase']} ({w['mean_K']:+.2f} K)" for w in fo["where"][:3])
+        off = (f"the re-tuned model is off by {fo['rms_K']:.2f} K RMS ({100 * fo['fraction_of_rise']:.1f} % of the "
+               f"rise), most at {where}")
+        if self.bound == "form":
+            return (f"{self.parameter} re-tuned to {self.value:.3g}{u} (nominal {self.nominal:.3g}) is not a finding: "
+                    f"{off}, above twice the model's stated form error ({self.form_band_K:.2f} K): the model's form is "
+                    f"off there, and a form knob takes up what it can of it")
         return (f"{self.parameter} ends at its {self.bound} bound {self.value:.3g}{u} (nominal {self.nominal:.3g}): "
-                f"a symptom of the model's form, not a finding; the re-tuned model is off by {fo['rms_K']:.2f} K RMS "
-                f"({100 * fo['fraction_of_rise']:.1f} % of the rise), most at {where}")
+                f"a symptom of the model's form, not a finding; {off}")
 
     def as_dict(self) -> dict:
         return {"parameter": self.parameter, "unit": self.unit, "value": self.value, "bound": self.bound,
                 "nominal": self.nominal, "delta_criterion": self.delta_criterion, "form_off": self.form_off,
-                "in_words": self.words()}
+                "form_band_K": self.form_band_K, "in_words": self.words()}
 
 
 def form_off(fwd, values: dict) -> dict:
@@ -257,9 +286,10 @@ def form_off(fwd, values: dict) -> dict:
             "where": sorted(where, key=lambda w: -w["rms_K"])[:6]}
 
 
-def symptom(fwd, free, name: str, nominal: float, dC: float) -> Symptom:
-    """The :class:`Symptom` of knob ``name`` at a bound of ``free``."""
+def symptom(fwd, free, name: str, nominal: float, dC: float, why: str = "bound", band: float = math.nan) -> Symptom:
+    """The :class:`Symptom` of knob ``name`` of ``free``: at a bound (``why`` 'bound') or moved in a fit whose
+    form is visibly off (``why`` 'form', ``band`` the stated form error [K])."""
     k = _knob(fwd, name)
     v = float(free.values[name])
-    bound = "lower" if abs(v - k.lo) <= abs(v - k.hi) else "upper"
-    return Symptom(name, _unit(name), v, bound, nominal, dC, form_off(fwd, free.values))
+    bound = "form" if why == "form" else ("lower" if abs(v - k.lo) <= abs(v - k.hi) else "upper")
+    return Symptom(name, _unit(name), v, bound, nominal, dC, form_off(fwd, free.values), band)
