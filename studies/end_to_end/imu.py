@@ -39,21 +39,20 @@ def bare_calibration(grade: str, seed: int):
 
 
 @functools.lru_cache(maxsize=16)
-def _profile_inputs(profile: str, rate: float, filters: tuple, tuned: bool) -> tuple:
-    """(trajectory, gate, tuned settings or None) of motion ``profile`` at ``rate`` [Hz]: the same in every scheme
-    and seed, so made once per process (:func:`imu_case`); the trajectory's arrays read-only (shared)."""
+def _profile_motion(profile: str, rate: float) -> tuple:
+    """(trajectory, gate) of motion ``profile`` at ``rate`` [Hz]: the same in every scheme and seed, so made once
+    per process (:func:`imu_case`); the trajectory's arrays read-only (shared). The tuned settings are not cached
+    here: they are read from their file at every case, so an edit of the file (or a test's) takes effect."""
     from imutherm.imu import motion
     from imutherm.imu.filters.run import GateConfig
     from imutherm.studies.attitude.attitude_study import leveling_window_s
-    from imutherm.studies.attitude.filter_settings import load_settings
 
     traj = motion.make_profile(profile, None, rate, lever_arm=motion.DEFAULT_LEVER_ARM[profile])
     for f in dataclasses.fields(traj):
         value = getattr(traj, f.name)
         if isinstance(value, np.ndarray):
             value.flags.writeable = False
-    gate = replace(GateConfig(), init_s=leveling_window_s(traj, GateConfig()))
-    return traj, gate, load_settings().for_profile(profile, filters) if tuned else None
+    return traj, replace(GateConfig(), init_s=leveling_window_s(traj, GateConfig()))
 
 
 def _block_mean(x: np.ndarray, n: int) -> np.ndarray:
@@ -102,9 +101,12 @@ def imu_case(grade: str, seed: int, curves_t, curves_T, steady_T, chamber_C, ris
     max_rep = np.full(6, -np.inf)
     run_seeds = run_ss.spawn(len(config.profiles) * len(PHASES))
     series_profile = "flight" if "flight" in config.profiles else config.profiles[0]  # residuals, curves
+    from imutherm.studies.attitude import filter_settings  # read at every case: a file edit takes effect
+
     for p_i, profile in enumerate(config.profiles):
         d = DEFAULT_LEVER_ARM[profile]
-        traj, gate, tuned = _profile_inputs(profile, rate, tuple(config.filters), bool(config.tuned))
+        traj, gate = _profile_motion(profile, rate)
+        tuned = filter_settings.load_settings().for_profile(profile, tuple(config.filters)) if config.tuned else None
         fusion = fusion_params_of_grade(grade)  # the grade's full scale, not the data's peak
         for ph_i, phase in enumerate(PHASES):
             temp = _die_temperatures(phase, traj.t, curves_t, curves_T, steady_T)
