@@ -205,33 +205,18 @@ def explains_term(f: Fit, none: Fit, noise_K: float, chosen=()) -> bool:
     effective cavity law's, 4.4 K RMS off the s2s model) a -0.9 W regulator error takes the term from 1.9 to
     1.2 K (25 noise sigmas left) and wins on the evidence through the term's smaller Occam factor, while a real
     effect on data of the model's form takes nearly all of it (toy: its scale falls from 3 % to 0.09 % of the
-    rise). Judged on the set, not per step: two effects hidden together each leave the other in the term.
-
-    Or, in a scheme, **far beyond the term left** there: every chosen effect acting there changes the readings by
-    at least :data:`~imutherm.studies.correlation.form_error.FAR_FACTOR` (3) times the term it leaves (the factor
-    by which a residue is "far beyond" a form error, :func:`~imutherm.studies.correlation.form_error.named_through_form`).
-    Where the form error is larger than an effect's share of the term (issue 58's FEM campaign, seed 61, grid 2x
-    finer at 5 % of the rise: a processor power named first with ΔAICc 62.6 and 50 over the runner-up, its
-    signature 2.5 K in air, halved the term only to 0.53 of it and was refused), halving cannot be asked of it;
-    an effect three times larger than all the form error left is not that form error handed on."""
+    rise). Judged on the set, not per step: two effects hidden together each leave the other in the term."""
     if not (math.isfinite(none.disc_rms_K) and math.isfinite(f.disc_rms_K)):
         return True
-    from imutherm.studies.correlation.form_error import FAR_FACTOR
-    chosen = tuple(chosen or (f,))
 
-    def far(g, left):
-        # every chosen effect acting in g changes the readings there by FAR_FACTOR times the term left, or more
-        sig = [c.signature_by.get(g, 0.0) for c in chosen if c.signature_by.get(g, 0.0) >= EXPLAIN_NOISE_FACTOR * noise_K]
-        return bool(sig) and math.isfinite(left) and min(sig) >= FAR_FACTOR * left
+    def ok(left, before):
+        return left <= max(NONE_NOISE_FACTOR * noise_K, EXPLAIN_FRACTION * before)
 
-    def ok(left, before, g=None):
-        return left <= max(NONE_NOISE_FACTOR * noise_K, EXPLAIN_FRACTION * before) or (g is not None and far(g, left))
-
-    acting = {g for c in chosen for g, x in c.signature_by.items() if x >= EXPLAIN_NOISE_FACTOR * noise_K}
+    acting = {g for c in (chosen or (f,)) for g, x in c.signature_by.items() if x >= EXPLAIN_NOISE_FACTOR * noise_K}
     acting &= set(f.disc_rms_by) & set(none.disc_rms_by)
     if not acting:
         return ok(f.disc_rms_K, none.disc_rms_K)
-    return all(ok(f.disc_rms_by[g], none.disc_rms_by[g], g) for g in acting)
+    return all(ok(f.disc_rms_by[g], none.disc_rms_by[g]) for g in acting)
 
 
 def _verdict_sparse(none: Fit, ranking, noise_K: float) -> tuple:
