@@ -405,8 +405,10 @@ def test_with_the_discrepancy_term_a_real_effect_is_named_and_the_term_vanishes(
     (it was ~3 % on the re-tuned model, which the error made wrong): the failure that kept the term opt-in at a
     fixed 5 % prior (the term took the effect: 'ambiguous') does not occur. With a smooth form error on top the
     effect is named when it explains the model's error (the term it leaves within 2 noise sigmas or halved:
-    0.6 W on a 12 % form error), and the verdict abstains ('discrepancy', the best candidate said) when the
-    effect is smaller than the form error where it acts (0.15 W on 12 %)."""
+    0.6 W on a 12 % form error) or when it is far beyond what the term leaves where it acts and the plain re-tune
+    misses held-out data by more than 2 noise sigmas (issue 58: 0.15 W on 12 %, its signature 0.86 K in air
+    against 0.25 K of term left, the plain re-tune ~0.22 K held out at noise 0.06 K: named, at its value), and
+    the verdict abstains ('discrepancy', the best candidate said) when it is neither (0.08 W on 12 %)."""
     from _toy_reduced import toy_models, toy_runs
     models = toy_models()
     runs = toy_runs({**_TOY_NUISANCE, "power@reg_5v": 0.3}, np.random.default_rng(1))
@@ -419,10 +421,14 @@ def test_with_the_discrepancy_term_a_real_effect_is_named_and_the_term_vanishes(
     res = correlate(big, models=models, candidates=_TOY_CANDIDATES, rerun=False, discrepancy=True)
     assert res.named_effects[:1] == ("power@reg_5v",), res.timings["reason"]
     assert res.after.disc_rms_K <= 0.5 * res.retune.disc_rms_K
-    same = toy_runs({**_TOY_NUISANCE, "power@reg_5v": 0.15}, np.random.default_rng(3), _toy_form(0.12))
+    far = toy_runs({**_TOY_NUISANCE, "power@reg_5v": 0.15}, np.random.default_rng(3), _toy_form(0.12))
+    res = correlate(far, models=models, candidates=_TOY_CANDIDATES, rerun=False, discrepancy=True)
+    assert res.named_effects[:1] == ("power@reg_5v",), res.timings["reason"]
+    assert res.after.values["power@reg_5v"] == pytest.approx(0.15, abs=0.03)
+    same = toy_runs({**_TOY_NUISANCE, "power@reg_5v": 0.08}, np.random.default_rng(3), _toy_form(0.12))
     res = correlate(same, models=models, candidates=_TOY_CANDIDATES, rerun=False, discrepancy=True)
     assert res.named_effects == () and res.verdict == "discrepancy", res.timings["reason"]
-    assert "no candidate explains the model's error: the best, power@reg_5v" in res.timings["reason"]
+    assert "no library effect qualifies" in res.timings["reason"]
 
 
 def test_an_effect_is_judged_where_it_acts_under_another_schemes_gross_form_error():
@@ -490,6 +496,18 @@ def test_what_an_effect_must_gain_without_the_term_and_leave_with_it():
     assert explains_term(with_term("contact@bond", {"air": 0.5, "grease": 0.05}, {"grease": 1.1}),
                          with_term("none", {"air": 0.6, "grease": 0.3}), noise)
     assert not explains_term(both, with_term("none", {"air": 0.6, "grease": 0.3}), noise, (both,))
+    # far beyond the term it leaves where it does not explain it, anchored where it does (issue 58): the toy's
+    # 0.15 W regulator under a 12 % form error (noise 0.055 K, plain re-tune 0.218 K held out) is named; the slow
+    # null case's -0.28 W regulator (noise 0.041 K, plain 0.227 K), explaining the term in neither scheme, is not
+    n = 0.0553
+    toy = with_term("power@reg_5v", {"air": 0.251, "grease": 0.064}, {"air": 0.862, "grease": 0.491})
+    toy_none = with_term("none", {"air": 0.342, "grease": 0.129})
+    assert not explains_term(toy, toy_none, n, (toy,))  # the standard alone: air neither halved nor within 2 sigmas
+    assert explains_term(toy, toy_none, n, (toy,), plain_gap_K=0.218)
+    assert not explains_term(toy, toy_none, n, (toy,), plain_gap_K=0.10)  # the plain re-tune within 2 sigmas
+    null = with_term("power@reg_3v3", {"air": 0.241, "grease": 0.105}, {"air": 2.43, "grease": 1.46})
+    assert not explains_term(null, with_term("none", {"air": 0.280, "grease": 0.143}), 0.0407, (null,),
+                             plain_gap_K=0.227)
 
 
 def test_the_discrepancy_term_is_not_fitted_on_sparse_files():

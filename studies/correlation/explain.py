@@ -33,18 +33,31 @@ def _entry(kind, name, value, unit, ci95, d_crit, gain, explained, noise, words,
             "in_words": words, **more}
 
 
+def knob_entry(s, noise: float) -> dict:
+    """The explanation entry of a knob at its bound in an ambiguous set (``s`` its
+    :class:`~imutherm.studies.correlation.findings.Symptom`): its value at the bound, the direction it wants, no
+    criterion (it cannot be fitted past the bound)."""
+    from imutherm.studies.correlation.in_place import direction_words
+    return _entry("parameter", s.parameter, s.value, s.unit, None, math.nan, math.nan, math.nan, noise,
+                  f"{direction_words(s)}: {s.words()}", ambiguous=True, at_bound=s.bound)
+
+
 def _fitted(fwd, effects: tuple, free: Fit, full, folds, ratio: float, noise: float) -> Fit:
     return with_heldout(fit_candidate(fwd, effects, full, None, ratio, noise, None, free.values),
                         pooled_heldout(fwd, effects, folds, ratio, noise, None, free.values))
 
 
 def explanations(fwd, free: Fit, found: tuple, ambiguous: tuple, full: dict, folds, ratio: float,
-                 noise: float) -> list:
+                 noise: float, symptoms: tuple = ()) -> list:
     """The ranked list of explanations (see the module docstring): one dict per named effect of ``free``, per
     finding of ``found`` and per effect of ``ambiguous`` not in ``free``: kind ('effect' | 'parameter'), name,
     value, unit, ci95, delta_criterion [-], heldout_gain_K, explained_K, qualifies, in_words; an ambiguous
-    candidate also its predicted change at the readings (``change_K``)."""
-    out = []
+    candidate also its predicted change at the readings (``change_K``). A re-tune knob in ``ambiguous`` (one at
+    its bound, :mod:`imutherm.studies.correlation.in_place`) is a 'parameter' entry from its symptom (of
+    ``symptoms``): its value at the bound, the direction it wants, and no criterion (it cannot be fitted past
+    the bound)."""
+    out = [knob_entry(s, noise) for s in symptoms if s.parameter in ambiguous]
+    ambiguous = tuple(e for e in ambiguous if e not in {s.parameter for s in symptoms})
     for f in found:
         out.append(_entry("parameter", f.parameter, f.value, f.unit, f.ci95, f.delta_criterion,
                           f.heldout_fixed_K - f.heldout_free_K, f.explained_K, noise, f.words(), nominal=f.nominal,

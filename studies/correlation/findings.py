@@ -185,7 +185,7 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
         if not (evidence and math.isfinite(share) and share >= GAP_SHARE and not h1 >= h0
                 and not expl < FORM_SIGMAS * (band_K if math.isfinite(band_K) else 0.0)):
             continue
-        k = _knob(fwd, name)
+        k = knob_of(fwd, name)
 
         def cost(x, name=name):
             return fit_candidate(fwd, free.effects, full, None, ratio, noise, None, free.values,
@@ -213,7 +213,7 @@ def form_visibly_off(free, noise: float, band: float) -> bool:
     return math.sqrt(max(free.rms_K**2 - noise**2, 0.0)) > FORM_SIGMAS * band
 
 
-def _knob(fwd, name: str):
+def knob_of(fwd, name: str):
     """The re-tune's :class:`~imutherm.thermal.reduced.Knob` ``name`` (a form knob's from the reduced models)."""
     k = next((k for k, _ in knobs.RETUNE if k.name == name), None)
     if k is not None:
@@ -289,7 +289,7 @@ def form_off(fwd, values: dict) -> dict:
 def symptom(fwd, free, name: str, nominal: float, dC: float, why: str = "bound", band: float = math.nan) -> Symptom:
     """The :class:`Symptom` of knob ``name`` of ``free``: at a bound (``why`` 'bound') or moved in a fit whose
     form is visibly off (``why`` 'form', ``band`` the stated form error [K])."""
-    k = _knob(fwd, name)
+    k = knob_of(fwd, name)
     v = float(free.values[name])
     bound = "form" if why == "form" else ("lower" if abs(v - k.lo) <= abs(v - k.hi) else "upper")
     return Symptom(name, _unit(name), v, bound, nominal, dC, form_off(fwd, free.values), band)

@@ -17,11 +17,12 @@ from imutherm.unit.effects import EFFECTS, effect_of, signal_effect_names
 from imutherm.studies.correlation import form_error
 from imutherm.unit.model import ModelOptions
 from imutherm.studies.correlation.findings import explain_knobs
+from imutherm.studies.correlation.in_place import named_in_place
 from imutherm.studies.correlation.plausibility import check_plausible
 from imutherm.workers import thread_limit
 from imutherm.studies.correlation.written_model import choose as choose_written
 from imutherm.studies.correlation.discrepancy import term_curve, form_band
-from imutherm.studies.correlation.explain import explanations as explanations_of
+from imutherm.studies.correlation.explain import explanations as explanations_of, knob_entry
 from imutherm.studies.correlation.next_experiment import next_experiment as next_experiment_of
 from imutherm.studies.correlation.fit import Fit, fit_candidate, fit_with
 from imutherm.studies.correlation.forward_model import FORM_IN_DOUBT, FORM_RETUNE, ForwardModel, model_residuals
@@ -165,16 +166,29 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     if sel.term_check and v == "none":  # the term was asked and is not needed: the re-tuned model stands as it is
         after, none_fit, disc = sel.plain, sel.plain, None
     free, found, symptoms, written = _physics(sel, after, disc, noise, nominal, fscale)
+    in_place = named_in_place(sel.fwd, free, symptoms, sel.full, noise,
+                              form_error.band_K(sel.fwd, fscale, free.values, sel.full)) if named_effects else {}
+    leading = None
+    if in_place:  # a library effect named merely in the place of a knob at its bound: both ambiguous, no name
+        v, named, amb_set, reason, named_effects, leading = _in_place(sel, in_place, named_effects, reason, say)
+        after, none_fit = (sel.chosen[-1] if sel.chosen else sel.none_fit), sel.none_fit
+        free, found, symptoms, written = _physics(sel, after, disc, noise, nominal, fscale)
+        if disc is not None:
+            dsum = discrepancy_summary(sel.fwd, disc, sel.plain, none_fit, after, sel.full, noise, loc)
     if found:
         # a knob that explains the data is the explanation: the physics it was found in (no term) is the corrected
         # model, so the verdict, the words, page 1, updated_model.toml and `parameters` carry the same value
         after, disc = free, None
-    expl = explanations_of(sel.fwd, free, found, amb_set, sel.full, sel.folds, sel.ratio0, noise)
+    expl = explanations_of(sel.fwd, free, found, amb_set, sel.full, sel.folds, sel.ratio0, noise, symptoms)
+    if v == "ambiguous" and leading is None and symptoms and not found:
+        amb_set, leading, expl, joined = _knobs_join(sel, free, amb_set, expl, symptoms, noise, fscale, say)
+        reason += "".join(f"; {w}" for w in joined)
     nxt = None
     if amb_set and not found:
         step = next((st for st in reversed(sel.steps) if st["verdict"] == "ambiguous"), None)
         fits = [f for f in (step["ranking"] if step else ()) if f.effects and f.effects[-1] in amb_set]
-        nxt = next_experiment_of(sel.fwd, [(f.effects[-1], f.values) for f in fits], noise, fscale.fraction)
+        nxt = next_experiment_of(sel.fwd, leading or [(f.effects[-1], f.values) for f in fits], noise,
+                                 fscale.fraction)
         if nxt is not None:
             say(nxt["in_words"])
     if symptoms:
@@ -363,6 +377,7 @@ def _decide(sel: _Selection, noise: float, say) -> tuple:
     the chosen effects are cut where they do not explain the model's error (``sel.steps``, ``sel.chosen`` set)."""
     steps, chosen, disc, none_fit = sel.steps, sel.chosen, sel.disc, sel.none_fit
     unexplained = ""
+    pg = sel.plain.heldout_rms_K  # the plain re-tune's held-out error: is there an error to explain at all
     if disc is not None and len(chosen) > 1:
         # with the term capped at the model's known form error, a further effect must itself explain what the
         # effects before it leave of the term, where it acts (halve it or leave it within 2 noise sigmas): the
@@ -370,19 +385,19 @@ def _decide(sel: _Selection, noise: float, say) -> tuple:
         # piece, to further library effects (toy, 6 % form error and a 0.5 W regulator error: power@processor named
         # second, not hidden)
         k = next((k for k in range(1, len(chosen)) if not explains_term(chosen[k], chosen[k - 1], noise,
-                                                                       chosen[k:k + 1])), None)
+                                                                       chosen[k:k + 1], pg)), None)
         if k is not None:
             steps, chosen = truncate_selection(steps, chosen, k, "none", "does not halve the discrepancy the "
                                                "effects before it leave where it acts", say)
-    if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
+    if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen, pg):
         # the longest first part of the selection that does explain it (a later step may add an effect that
         # acts where the form error is and explains it not)
         keep = next((k for k in range(len(chosen) - 1, 0, -1)
-                     if explains_term(chosen[k - 1], none_fit, noise, chosen[:k])), 0)
+                     if explains_term(chosen[k - 1], none_fit, noise, chosen[:k], pg)), 0)
         if keep:
             steps, chosen = truncate_selection(steps, chosen, keep, "not_in_library",
                                                "does not explain the model's error where it acts", say)
-    if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen):
+    if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen, pg):
         f = chosen[-1]
         unexplained = (f"no candidate explains the model's error: the best, {f.name}, leaves a discrepancy of "
                        f"{f.disc_rms_K:.2f} K of the re-tuned model's {none_fit.disc_rms_K:.2f} K (more than "
@@ -401,6 +416,54 @@ def _decide(sel: _Selection, noise: float, say) -> tuple:
     if steps:
         return steps[0]["verdict"], None, steps[0]["ambiguous_set"], steps[0]["reason"], named_effects
     return "none", None, (), "no candidate effect applies", named_effects
+
+
+def _in_place(sel: _Selection, in_place: dict, named_effects: tuple, reason: str, say) -> tuple:
+    """(verdict, named, ambiguous set, reason, named effects, leading candidates) once the first effect named in
+    the place of a knob at its bound (:func:`named_in_place`) is cut with every effect after it; ``sel.steps``
+    and ``sel.chosen`` cut. The ambiguous set: that effect and the knob, the knob's candidate the model without
+    the effect (the knob at its bound); the leading candidates, (name, fitted values), for the next experiment."""
+    k = min(named_effects.index(e) for e in in_place)
+    e, x = named_effects[k], in_place[named_effects[k]]
+    why = (f"{e} was named in the place of {x['knob']}, at its {x['bound']} bound: {x['words']}, and freed past it "
+           f"the re-tune takes {e}'s signature ({x['signature_K']:.2f} K RMS) to within {x['left_free_K']:.2f} K (held at "
+           f"the bound {x['left_held_K']:.2f} K; the level a right model leaves {x['level_K']:.2f} K): ambiguous")
+    say(why)
+    amb = (e, x["knob"])
+    base = sel.chosen[k - 1] if k else sel.none_fit
+    leading = [(e, sel.chosen[k].values), (x["knob"], base.values)]
+    sel.steps = sel.steps[:k] + [dict(sel.steps[k], verdict="ambiguous", named=None, ambiguous_set=amb, reason=why)]
+    sel.chosen = sel.chosen[:k]
+    kept = named_effects[:k]
+    if kept:
+        return "effect", kept[0], (), f"{reason}; then {why}", kept, leading
+    return "ambiguous", None, amb, why, kept, leading
+
+
+def _knobs_join(sel: _Selection, free: Fit, amb_set: tuple, expl: list, symptoms: tuple, noise: float, fscale,
+                say) -> tuple:
+    """(ambiguous set, leading candidates or None, explanations, words) of an ambiguous verdict with knobs at a bound: a
+    knob whose move past its bound would take an ambiguous candidate's signature (:func:`named_in_place`, on the
+    physics with that candidate, ``expl``'s fit of it) joins the set as a candidate of its own, its predicted
+    readings the physics without the candidates (the knob at its bound), so the next experiment separates it too."""
+    band = form_error.band_K(sel.fwd, fscale, free.values, sel.full)
+    joined = {}
+    for e in expl:
+        if e.get("ambiguous") and e["kind"] == "effect" and "values" in e:
+            alt = fit_with(free, values=e["values"], effects=free.effects + (e["name"],))
+            x = named_in_place(sel.fwd, alt, symptoms, sel.full, noise, band).get(e["name"])
+            if x is not None and x["knob"] not in joined:
+                joined[x["knob"]] = (f"{e['name']} shares its evidence with {x['knob']} at its {x['bound']} bound "
+                                     f"({x['words']}): the knob joins the ambiguous set")
+                say(joined[x["knob"]])
+    if not joined:
+        return amb_set, None, expl, ()
+    step = next((st for st in reversed(sel.steps) if st["verdict"] == "ambiguous"), None)
+    fits = [f for f in (step["ranking"] if step else ()) if f.effects and f.effects[-1] in amb_set]
+    leading = [(f.effects[-1], f.values) for f in fits] + [(k, free.values) for k in joined]
+    sym = {s.parameter: s for s in symptoms}
+    expl = list(expl) + [knob_entry(sym[k], noise) for k in joined]
+    return tuple(amb_set) + tuple(joined), leading, expl, tuple(joined.values())
 
 
 def _physics(sel: _Selection, after: Fit, disc, noise: float, nominal: dict, fscale) -> tuple:
