@@ -58,6 +58,7 @@ from scipy import ndimage
 from imutherm import InputError
 from imutherm.geometry.grid import TensorGrid
 from imutherm.thermal.problem import SIGMA, ZERO_C_K
+from imutherm.thermal.ray_march import march
 
 #: default patch edge [mm]: the convergence study in docs/benchmarks/cavity_radiation.md (air scheme tp1 within 0.1 K of 2 mm patches)
 DEFAULT_PATCH_MM = 5.0
@@ -345,68 +346,23 @@ def _emit(patches: Patches, grid: TensorGrid, rays: int, rng: np.random.Generato
     return pos, dirs, cell, src
 
 
-def _march(grid: TensorGrid, air: np.ndarray, face_patch: tuple, pos, dirs, cell) -> np.ndarray:
-    """Patch hit by each ray (-1: none), marching cell by cell through ``air`` (3-D DDA, Amanatides & Woo 1987)."""
-    lines = (grid.xs, grid.ys, grid.zs)
-    shape = np.array(grid.shape)
-    R = len(pos)
-    hit = np.full(R, -1, dtype=np.int64)
-    step = np.where(dirs > 0, 1, -1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = np.where(dirs != 0, 1.0 / dirs, np.inf)
-    tmax = np.empty((R, 3))
-    for a in range(3):
-        nxt = lines[a][cell[:, a] + (step[:, a] > 0)]
-        tmax[:, a] = np.where(dirs[:, a] != 0, (nxt - pos[:, a]) * inv[:, a], np.inf)
-    act = np.arange(R)
-    cell = cell.copy()
-    while len(act):
-        tm = tmax[act]
-        a = np.argmin(tm, axis=1)
-        c = cell[act]
-        s = step[act, a]
-        c[np.arange(len(act)), a] += s
-        out = (c < 0).any(axis=1) | (c >= shape).any(axis=1)
-        inside = ~out
-        solid = np.zeros(len(act), dtype=bool)
-        solid[inside] = ~air[c[inside, 0], c[inside, 1], c[inside, 2]]
-        if solid.any():
-            ia, aa, cc, ss = act[solid], a[solid], c[solid], s[solid]
-            for ax in range(3):
-                m = aa == ax
-                if not m.any():
-                    continue
-                ind = [cc[m, 0], cc[m, 1], cc[m, 2]]
-                ind[ax] = cc[m, ax] + (ss[m] < 0)  # node plane of the face crossed
-                hit[ia[m]] = face_patch[ax][tuple(ind)]
-        go = inside & ~solid
-        cell[act] = c
-        act, a, c = act[go], a[go], c[go]
-        if len(act):
-            for ax in range(3):
-                m = a == ax
-                if m.any():
-                    i = act[m]
-                    nxt = lines[ax][c[m, ax] + (step[i, ax] > 0)]
-                    tmax[i, ax] = (nxt - pos[i, ax]) * inv[i, ax]
-    return hit
-
-
 def _enforce(F: np.ndarray, area: np.ndarray, tol: float = 1e-13, max_iter: int = 5000) -> np.ndarray:
     """Reciprocal, closed view factors nearest the estimate.
 
     S = A F is symmetrised (reciprocity), then scaled symmetrically, S <- D S D, until its row sums are the
     areas (closure; the symmetric matrix-balancing iteration d <- sqrt(d A / (S d)), Sinkhorn-Knopp type).
-    A patch that sees nothing (no ray hit anything) keeps a zero row.
+    A patch that sees nothing (no ray hit anything) keeps a zero row. The products are sparse (a patch's rays
+    reach ~8 % of the reference unit's patches; ~700 iterations there).
     """
     S = area[:, None] * F
     S = 0.5 * (S + S.T)
     d = np.ones(len(area))
     ok = S.sum(axis=1) > 0
-    rs = S @ d
+    Ss = sp.csr_matrix(S)
+    rs = Ss @ d
     for _ in range(max_iter):   # one product an iteration: the test's S d is the next update's
         d[ok] = np.sqrt(d[ok] * area[ok] / rs[ok])
-        rs = S @ d
+        rs = Ss @ d
         if np.max(np.abs(d[ok] * rs[ok] / area[ok] - 1.0), initial=0.0) < tol:
             break
     S = d[:, None] * S * d[None, :]
@@ -437,7 +393,7 @@ def view_factors(grid: TensorGrid, air: np.ndarray, patches: Patches, rays: int 
         sub = np.arange(p0, min(n, p0 + per))
         sel = _subset(patches, sub)
         pos, dirs, cell, src = _emit(sel, grid, rays, rng)
-        hit = _march(grid, air, patches.face_patch, pos, dirs, cell)
+        hit = march(grid, air, patches.face_patch, pos, dirs, cell)
         ok = hit >= 0
         lost += int((~ok).sum())
         np.add.at(counts, (sub[src[ok]], hit[ok]), 1.0)
