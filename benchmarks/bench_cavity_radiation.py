@@ -5,6 +5,7 @@ Usage::
 
     python benchmarks/bench_cavity_radiation.py [--scheme air] [--mesh-size 2.0]
         [--patch-mm 10 5 2.5] [--rays 100 400 1600] [--transient]
+    python benchmarks/bench_cavity_radiation.py --view-factors [--scheme air] [--mesh-size 2.0]
 
 For each law (``effective``, ``s2s``, ``none``) at the default patch size and rays: the
 steady rises of tp1 and the three gyros, the steady solve time and its Newton / CG
@@ -14,6 +15,11 @@ convergence of the s2s rises with the patch size and the rays per patch. ``--tra
 the power-on transient with s2s (adaptive TR-BDF2, default and 10x tighter tolerance): tp1's
 t63/t95 and the largest site difference between the two, which bounds the error of the lagged
 exchange together with the time discretisation.
+
+``--view-factors`` (only this): where the s2s view factors' time goes at the study's patch choice, paired in one
+run: the rays' emission, the compiled ray march (its first call, numba's import and load or compile, apart) and
+the kept numpy march on the same rays (the hits compared), the reciprocity/closure enforcement, and the whole
+:func:`view_factors` with each march.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ import numpy as np
 from imutherm.geometry.build import build_geometry
 from imutherm.geometry.layout import load_layout
 from imutherm.geometry.mesh import build_mesh
+from imutherm.thermal import cavity_radiation
 from imutherm.thermal.cavity_radiation import DEFAULT_PATCH_MM, DEFAULT_RAYS
 from imutherm.thermal.metrics import thermal_metrics
 from imutherm.unit.model import ModelOptions, build_problem
@@ -55,6 +62,61 @@ def line(label, pb, r, rise, build_s):
     print(s, flush=True)
 
 
+def _dense_enforce(F, area, tol=1e-13, max_iter=5000):
+    """The enforcement's balancing with dense products, as :func:`cavity_radiation._enforce` did before it used
+    sparse ones (for the paired time)."""
+    S = area[:, None] * F
+    S = 0.5 * (S + S.T)
+    d = np.ones(len(area))
+    ok = S.sum(axis=1) > 0
+    rs = S @ d
+    for _ in range(max_iter):
+        d[ok] = np.sqrt(d[ok] * area[ok] / rs[ok])
+        rs = S @ d
+        if np.max(np.abs(d[ok] * rs[ok] / area[ok] - 1.0), initial=0.0) < tol:
+            break
+    return d[:, None] * S * d[None, :] / area[:, None]
+
+
+def view_factor_times(geometry, grid, options, repeat=3):
+    """The view factors' parts on ``grid`` [s], each the least of ``repeat`` runs (the numpy march once)."""
+    from imutherm.thermal.ray_march import march, march_numpy
+    from imutherm.unit.model import _patch_choice
+
+    air = grid.cell_part == grid.part_names.index("fill")
+    pt = _patch_choice(grid, air, options).patches
+    rays = options.cavity_rays
+
+    def best(f, n=repeat):
+        out, times = None, []
+        for _ in range(n):
+            t0 = time.perf_counter()
+            out = f()
+            times.append(time.perf_counter() - t0)
+        return out, min(times)
+    (pos, dirs, cell, src), t_emit = best(lambda: cavity_radiation._emit(pt, grid, rays, np.random.default_rng(0)))
+    _, t_first = best(lambda: march(grid, air, pt.face_patch, pos[:1], dirs[:1], cell[:1]), 1)
+    (hit, crossed), t_jit = best(lambda: march(grid, air, pt.face_patch, pos, dirs, cell, counts=True))
+    ref, t_np = best(lambda: march_numpy(grid, air, pt.face_patch, pos, dirs, cell), 1)
+    F = np.zeros((pt.n, pt.n))
+    np.add.at(F, (src, hit), 1.0 / rays)
+    _, t_enf = best(lambda: cavity_radiation._enforce(F, pt.area))
+    _, t_dense = best(lambda: _dense_enforce(F, pt.area), 1)
+    vf, t_vf = best(lambda: cavity_radiation.view_factors(grid, air, pt, rays, np.random.default_rng(0)))
+    cavity_radiation.march = march_numpy
+    try:
+        vf_np, t_vf_np = best(lambda: cavity_radiation.view_factors(grid, air, pt, rays, np.random.default_rng(0)), 1)
+    finally:
+        cavity_radiation.march = march
+    print(f"{pt.n} patches x {rays} rays = {len(pos):,} rays, {crossed:,} cells crossed "
+          f"({crossed / len(pos):.1f} a ray)")
+    print(f"emission {t_emit:.3f} s | march compiled {t_jit:.3f} s (first call {t_first:.2f} s: numba's import and "
+          f"load or compile), numpy {t_np:.3f} s, x{t_np / t_jit:.1f}, the same hits: {np.array_equal(hit, ref)} | "
+          f"enforcement {t_enf:.3f} s (with dense products, as before: {t_dense:.3f} s)")
+    print(f"view factors: {t_vf:.2f} s with the compiled march, {t_vf_np:.2f} s with the numpy march; "
+          f"F the same: {np.array_equal(vf.F, vf_np.F)}", flush=True)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scheme", default="air")
@@ -62,11 +124,15 @@ def main(argv=None):
     ap.add_argument("--patch-mm", type=float, nargs="*", default=[])
     ap.add_argument("--rays", type=int, nargs="*", default=[])
     ap.add_argument("--transient", action="store_true")
+    ap.add_argument("--view-factors", action="store_true", help="only the view factors' times (module docstring)")
     a = ap.parse_args(argv)
     lay = load_layout(None)
     geometry = build_geometry(lay, a.scheme)
     grid = build_mesh(geometry, a.mesh_size, 2)
     print(f"reference unit, scheme {a.scheme}, mesh {a.mesh_size} mm: {grid.n_nodes} nodes")
+    if a.view_factors:
+        view_factor_times(geometry, grid, ModelOptions(cavity_law="s2s"))
+        return 0
     for law in ("effective", "s2s", "none"):
         line(law, *steady(geometry, grid, ModelOptions(cavity_law=law)))
     for pm in a.patch_mm:
@@ -99,4 +165,6 @@ if __name__ == "__main__":
     import sys
 
     import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
-    sys.exit(_record.run(main, "cavity_radiation", "the cavity radiation laws"))
+    vf_only = "--view-factors" in sys.argv
+    sys.exit(_record.run(main, "cavity_view_factors" if vf_only else "cavity_radiation",
+                         "the s2s view factors' time by part" if vf_only else "the cavity radiation laws"))
