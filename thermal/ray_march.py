@@ -83,49 +83,60 @@ def march_numpy(grid, air: np.ndarray, face_patch: tuple, pos, dirs, cell) -> np
 
 
 def _march_kernel(xs, ys, zs, air, fpx, fpy, fpz, pos, dirs, cell, hit):
-    """The DDA of :func:`march_numpy`, one ray at a time: ``hit`` (R,) filled with the patch hit (-1: none);
-    returns the cells crossed by all rays together."""
+    """The DDA of :func:`march_numpy`, one ray at a time in scalars: ``hit`` (R,) filled with the patch hit (-1:
+    none); returns the cells crossed by all rays together."""
     nx, ny, nz = air.shape
-    shape = (nx, ny, nz)
     crossed = 0
-    c = np.empty(3, np.int64)
-    st = np.empty(3, np.int64)
-    inv = np.empty(3)
-    tmax = np.empty(3)
     for r in range(pos.shape[0]):
         hit[r] = -1
-        for a in range(3):
-            c[a] = cell[r, a]
-            d = dirs[r, a]
-            st[a] = 1 if d > 0 else -1
-            if d != 0:
-                inv[a] = 1.0 / d
-                line = xs if a == 0 else (ys if a == 1 else zs)
-                tmax[a] = (line[c[a] + (1 if st[a] > 0 else 0)] - pos[r, a]) * inv[a]
-            else:
-                inv[a] = np.inf
-                tmax[a] = np.inf
+        cx, cy, cz = cell[r, 0], cell[r, 1], cell[r, 2]
+        dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+        px, py, pz = pos[r, 0], pos[r, 1], pos[r, 2]
+        sx = 1 if dx > 0 else -1
+        sy = 1 if dy > 0 else -1
+        sz = 1 if dz > 0 else -1
+        ox = 1 if dx > 0 else 0   # the next node line is the cell's upper one
+        oy = 1 if dy > 0 else 0
+        oz = 1 if dz > 0 else 0
+        ix = 1.0 / dx if dx != 0 else np.inf
+        iy = 1.0 / dy if dy != 0 else np.inf
+        iz = 1.0 / dz if dz != 0 else np.inf
+        tx = (xs[cx + ox] - px) * ix if dx != 0 else np.inf
+        ty = (ys[cy + oy] - py) * iy if dy != 0 else np.inf
+        tz = (zs[cz + oz] - pz) * iz if dz != 0 else np.inf
         while True:
-            a = 0   # the first smallest, as numpy's argmin
-            if tmax[1] < tmax[a]:
-                a = 1
-            if tmax[2] < tmax[a]:
-                a = 2
-            c[a] += st[a]
             crossed += 1
-            if c[0] < 0 or c[1] < 0 or c[2] < 0 or c[0] >= shape[0] or c[1] >= shape[1] or c[2] >= shape[2]:
-                break   # left the grid: no hit
-            if not air[c[0], c[1], c[2]]:
-                back = 1 if st[a] < 0 else 0   # node plane of the face crossed
-                if a == 0:
-                    hit[r] = fpx[c[0] + back, c[1], c[2]]
-                elif a == 1:
-                    hit[r] = fpy[c[0], c[1] + back, c[2]]
-                else:
-                    hit[r] = fpz[c[0], c[1], c[2] + back]
-                break
-            line = xs if a == 0 else (ys if a == 1 else zs)
-            tmax[a] = (line[c[a] + (1 if st[a] > 0 else 0)] - pos[r, a]) * inv[a]
+            # the axis of the smallest tmax, the first on a tie (numpy's argmin)
+            if ty < tx:
+                a = 2 if tz < ty else 1
+            elif tz < tx:
+                a = 2
+            else:
+                a = 0
+            if a == 0:
+                cx += sx
+                if cx < 0 or cx >= nx:
+                    break   # left the grid: no hit
+                if not air[cx, cy, cz]:
+                    hit[r] = fpx[cx + 1 - ox, cy, cz]   # the node plane of the face crossed
+                    break
+                tx = (xs[cx + ox] - px) * ix
+            elif a == 1:
+                cy += sy
+                if cy < 0 or cy >= ny:
+                    break
+                if not air[cx, cy, cz]:
+                    hit[r] = fpy[cx, cy + 1 - oy, cz]
+                    break
+                ty = (ys[cy + oy] - py) * iy
+            else:
+                cz += sz
+                if cz < 0 or cz >= nz:
+                    break
+                if not air[cx, cy, cz]:
+                    hit[r] = fpz[cx, cy, cz + 1 - oz]
+                    break
+                tz = (zs[cz + oz] - pz) * iz
     return crossed
 
 
