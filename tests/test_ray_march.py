@@ -5,7 +5,7 @@ import pytest
 
 from imutherm.geometry.grid import TensorGrid
 from imutherm.thermal.cavity_radiation import _emit, find_patches, view_factors
-from imutherm.thermal.ray_march import march, march_numpy
+from imutherm.thermal.ray_march import march, march_numpy, place_rays
 
 
 def _cavity_with_obstacles():
@@ -122,3 +122,26 @@ def test_sparse_enforcement_equals_the_dense_iteration():
     F = _enforce(F_raw, pt.area)
     assert (F_raw != 0).mean() < 0.5          # sparse rows: the case the sparse products are for
     assert np.abs(F - dense).max() < 1e-12 and np.abs(F.sum(axis=1) - 1.0).max() < 1e-12
+
+
+def test_compiled_placement_equals_the_numpy_placement(monkeypatch):
+    """The rays' origins, directions and start cells from the compiled placement and from the numpy one, given
+    the same random numbers: identical (and so are the hits and view factors downstream)."""
+    import imutherm.thermal.cavity_radiation as cr
+    from imutherm.thermal.ray_march import place_rays_numpy
+
+    g = _cavity_with_obstacles()
+    air = g.cell_part == 1
+    pt = find_patches(g, air, 3.0)
+    seen = {}
+
+    def spy(*args):
+        seen["args"] = args
+        return place_rays(*args)
+    monkeypatch.setattr(cr, "place_rays", spy)
+    pos, dirs, cell, _ = _emit(pt, g, 50, np.random.default_rng(8))
+    ref = place_rays_numpy(*seen["args"])
+    for a, b in zip((pos, dirs, cell), ref):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    assert np.allclose(np.linalg.norm(dirs, axis=1), 1.0)
+    assert air[cell[:, 0], cell[:, 1], cell[:, 2]].all()   # every ray starts in an air cell

@@ -58,7 +58,7 @@ from scipy import ndimage
 from imutherm import InputError
 from imutherm.geometry.grid import TensorGrid
 from imutherm.thermal.problem import SIGMA, ZERO_C_K
-from imutherm.thermal.ray_march import march
+from imutherm.thermal.ray_march import march, place_rays
 
 #: default patch edge [mm]: the convergence study in docs/benchmarks/cavity_radiation.md (air scheme tp1 within 0.1 K of 2 mm patches)
 DEFAULT_PATCH_MM = 5.0
@@ -316,14 +316,6 @@ def _emit(patches: Patches, grid: TensorGrid, rays: int, rng: np.random.Generato
     # stratified choice of face cells in proportion to area: u in [0, 1) per ray, stratified per patch
     k = np.tile((np.arange(rays) + 0.0), n)
     u = (k + rng.random(n * rays)) / rays
-    lo, hi = base[starts[src]], base[starts[src + 1]]
-    target = lo + u * (hi - lo)
-    fc_sorted = np.clip(np.searchsorted(cum, target, side="right"), starts[src], starts[src + 1] - 1)
-    fci = order[fc_sorted]
-    ax = patches.fc_axis[fci]
-    sign = patches.sign[src]
-    pos = np.empty((n * rays, 3))
-    cell = np.empty((n * rays, 3), dtype=np.int64)
     d_loc = np.empty((n * rays, 2))
     for p in range(n):  # stratified directions per patch (a k x k grid on the unit square)
         d_loc[p * rays:(p + 1) * rays] = _stratified_unit(rays, rng)
@@ -331,18 +323,7 @@ def _emit(patches: Patches, grid: TensorGrid, rays: int, rng: np.random.Generato
     r = np.sqrt(d_loc[:, 0])
     phi = 2 * np.pi * d_loc[:, 1]
     t1, t2, nn = r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(0.0, 1.0 - d_loc[:, 0]))
-    dirs = np.zeros((n * rays, 3))
-    for a in range(3):
-        m = ax == a
-        u_ax, v_ax = [d for d in range(3) if d != a]
-        pl, iu, iv = patches.fc_plane[fci[m]], patches.fc_u[fci[m]], patches.fc_v[fci[m]]
-        pos[m, a] = lines[a][pl]
-        pos[m, u_ax] = lines[u_ax][iu] + w[m, 0] * (lines[u_ax][iu + 1] - lines[u_ax][iu])
-        pos[m, v_ax] = lines[v_ax][iv] + w[m, 1] * (lines[v_ax][iv + 1] - lines[v_ax][iv])
-        cell[m, a] = np.where(sign[m] > 0, pl, pl - 1)
-        cell[m, u_ax], cell[m, v_ax] = iu, iv
-        dirs[m, a] = sign[m] * nn[m]
-        dirs[m, u_ax], dirs[m, v_ax] = t1[m], t2[m]
+    pos, dirs, cell = place_rays(grid, patches, order, starts, cum, base, rays, u, w, np.column_stack([t1, t2, nn]))
     return pos, dirs, cell, src
 
 

@@ -157,3 +157,94 @@ def march(grid, air: np.ndarray, face_patch: tuple, pos, dirs, cell, *, counts: 
     crossed = _march_kernel(np.ascontiguousarray(grid.xs, float), np.ascontiguousarray(grid.ys, float),
                             np.ascontiguousarray(grid.zs, float), air, fp[0], fp[1], fp[2], pos, dirs, cell, hit)
     return (hit, int(crossed)) if counts else hit
+
+
+# ---------------------------------------------------------------- where the rays start
+def place_rays_numpy(grid, patches, order, starts, cum, base, rays: int, u, w, local):
+    """Origins (R, 3) [m], directions (R, 3) and start air cells (R, 3) of ``rays`` rays per patch, vectorised
+    with numpy (the reference of :func:`place_rays`; the random numbers drawn by the caller,
+    :func:`imutherm.thermal.cavity_radiation._emit`).
+
+    patches : Patches; order : face cells in patch order; starts (n+1,) : each patch's first place in ``order``;
+    cum (F,), base (F+1,) [m^2] : cumulative face-cell areas in that order (``base`` with a leading 0);
+    u (R,) in [0, 1) : the stratified area coordinate of each ray in its patch; w (R, 2) in [0, 1) : its point
+    on the face cell; local (R, 3) : its direction's two tangential components and its normal one.
+    """
+    lines = (grid.xs, grid.ys, grid.zs)
+    n = patches.n
+    src = np.repeat(np.arange(n), rays)
+    lo, hi = base[starts[src]], base[starts[src + 1]]
+    target = lo + u * (hi - lo)
+    fc_sorted = np.clip(np.searchsorted(cum, target, side="right"), starts[src], starts[src + 1] - 1)
+    fci = order[fc_sorted]
+    ax = patches.fc_axis[fci]
+    sign = patches.sign[src]
+    pos = np.empty((n * rays, 3))
+    cell = np.empty((n * rays, 3), dtype=np.int64)
+    t1, t2, nn = local[:, 0], local[:, 1], local[:, 2]
+    dirs = np.zeros((n * rays, 3))
+    for a in range(3):
+        m = ax == a
+        u_ax, v_ax = [d for d in range(3) if d != a]
+        pl, iu, iv = patches.fc_plane[fci[m]], patches.fc_u[fci[m]], patches.fc_v[fci[m]]
+        pos[m, a] = lines[a][pl]
+        pos[m, u_ax] = lines[u_ax][iu] + w[m, 0] * (lines[u_ax][iu + 1] - lines[u_ax][iu])
+        pos[m, v_ax] = lines[v_ax][iv] + w[m, 1] * (lines[v_ax][iv + 1] - lines[v_ax][iv])
+        cell[m, a] = np.where(sign[m] > 0, pl, pl - 1)
+        cell[m, u_ax], cell[m, v_ax] = iu, iv
+        dirs[m, a] = sign[m] * nn[m]
+        dirs[m, u_ax], dirs[m, v_ax] = t1[m], t2[m]
+    return pos, dirs, cell
+
+
+def _line(xs, ys, zs, a):
+    if a == 0:
+        return xs
+    return ys if a == 1 else zs
+
+
+def _place_kernel(xs, ys, zs, fc_axis, fc_plane, fc_u, fc_v, psign, order, starts, cum, base, rays, u, w, local,
+                  pos, dirs, cell):
+    """:func:`place_rays_numpy` one ray at a time (the same operations on each ray's numbers)."""
+    for r in range(u.shape[0]):
+        p = r // rays
+        s0, s1 = starts[p], starts[p + 1]
+        lo, hi = base[s0], base[s1]
+        target = lo + u[r] * (hi - lo)
+        k = np.searchsorted(cum, target, side="right")   # as numpy's: the first place with cum > target
+        f = order[min(max(k, s0), s1 - 1)]
+        a = fc_axis[f]
+        ua = 1 if a == 0 else 0   # the two other axes in increasing order
+        va = 1 if a == 2 else 2
+        pl, iu, iv = fc_plane[f], fc_u[f], fc_v[f]
+        la, lu, lv = _line(xs, ys, zs, a), _line(xs, ys, zs, ua), _line(xs, ys, zs, va)
+        sg = psign[p]
+        pos[r, a] = la[pl]
+        pos[r, ua] = lu[iu] + w[r, 0] * (lu[iu + 1] - lu[iu])
+        pos[r, va] = lv[iv] + w[r, 1] * (lv[iv + 1] - lv[iv])
+        cell[r, a] = pl if sg > 0 else pl - 1
+        cell[r, ua], cell[r, va] = iu, iv
+        dirs[r, a] = sg * local[r, 2]
+        dirs[r, ua], dirs[r, va] = local[r, 0], local[r, 1]
+
+
+_line = njit(inline="always", cache=True)(_line)
+_place_kernel = njit(cache=True)(_place_kernel)
+
+
+def place_rays(grid, patches, order, starts, cum, base, rays: int, u, w, local):
+    """:func:`place_rays_numpy` compiled, one loop over the rays (the same origins, directions and cells)."""
+    R = patches.n * rays
+    u, w, local = (np.ascontiguousarray(x, float) for x in (u, w, local))
+    if u.shape != (R,) or w.shape != (R, 2) or local.shape != (R, 3):
+        raise ValueError(f"ray placement: u, w, local must be ({R},), ({R}, 2), ({R}, 3) for {patches.n} patches "
+                         f"x {rays} rays, got {u.shape}, {w.shape}, {local.shape}")
+    pos, dirs = np.empty((R, 3)), np.zeros((R, 3))
+    cell = np.empty((R, 3), dtype=np.int64)
+    i64 = (lambda x: np.ascontiguousarray(x, np.int64))
+    _place_kernel(np.ascontiguousarray(grid.xs, float), np.ascontiguousarray(grid.ys, float),
+                  np.ascontiguousarray(grid.zs, float), i64(patches.fc_axis), i64(patches.fc_plane),
+                  i64(patches.fc_u), i64(patches.fc_v), i64(patches.sign), i64(order), i64(starts),
+                  np.ascontiguousarray(cum, float), np.ascontiguousarray(base, float), int(rays), u, w, local,
+                  pos, dirs, cell)
+    return pos, dirs, cell
