@@ -16,10 +16,10 @@ the power-on transient with s2s (adaptive TR-BDF2, default and 10x tighter toler
 t63/t95 and the largest site difference between the two, which bounds the error of the lagged
 exchange together with the time discretisation.
 
-``--view-factors`` (only this): where the s2s view factors' time goes at the study's patch choice, paired in one
-run: the rays' emission, the compiled ray march (its first call, numba's import and load or compile, apart) and
-the kept numpy march on the same rays (the hits compared), the reciprocity/closure enforcement, and the whole
-:func:`view_factors` with each march.
+``--view-factors`` (only this): where the s2s view factors' time goes at the study's patch choice, each part
+compiled (:mod:`imutherm.thermal.ray_march`) against its numpy version as before, paired in one run: the rays'
+emission, the ray march (the hits compared), the reciprocity/closure balancing (sparse against dense products),
+and the whole view factors each way (the kernels' first calls, numba's import and load or compile, apart).
 """
 
 from __future__ import annotations
@@ -62,6 +62,9 @@ def line(label, pb, r, rise, build_s):
     print(s, flush=True)
 
 
+_enforce = cavity_radiation._enforce
+
+
 def _dense_enforce(F, area, tol=1e-13, max_iter=5000):
     """The enforcement's balancing with dense products, as :func:`cavity_radiation._enforce` did before it used
     sparse ones (for the paired time)."""
@@ -79,13 +82,15 @@ def _dense_enforce(F, area, tol=1e-13, max_iter=5000):
 
 
 def view_factor_times(geometry, grid, options, repeat=3):
-    """The view factors' parts on ``grid`` [s], each the least of ``repeat`` runs (the numpy march once)."""
-    from imutherm.thermal.ray_march import march, march_numpy
+    """The view factors' parts on ``grid`` [s], each the least of ``repeat`` runs (the numpy versions once), and
+    the whole with every part compiled against the whole as before (numpy placement and march, dense balancing)."""
+    from imutherm.thermal.ray_march import march, march_numpy, place_rays, place_rays_numpy
     from imutherm.unit.model import _patch_choice
 
     air = grid.cell_part == grid.part_names.index("fill")
     pt = _patch_choice(grid, air, options).patches
     rays = options.cavity_rays
+    cr = cavity_radiation
 
     def best(f, n=repeat):
         out, times = None, []
@@ -94,27 +99,38 @@ def view_factor_times(geometry, grid, options, repeat=3):
             out = f()
             times.append(time.perf_counter() - t0)
         return out, min(times)
-    (pos, dirs, cell, src), t_emit = best(lambda: cavity_radiation._emit(pt, grid, rays, np.random.default_rng(0)))
-    _, t_first = best(lambda: march(grid, air, pt.face_patch, pos[:1], dirs[:1], cell[:1]), 1)
+
+    def emit():
+        return cr._emit(pt, grid, rays, np.random.default_rng(0))
+
+    def whole():
+        return cr.view_factors(grid, air, pt, rays, np.random.default_rng(0))
+    _, t_first = best(lambda: (emit(), march(grid, air, pt.face_patch, np.zeros((1, 3)), np.ones((1, 3)),
+                                             np.zeros((1, 3), np.int64))), 1)
+    (pos, dirs, cell, src), t_emit = best(emit)
     (hit, crossed), t_jit = best(lambda: march(grid, air, pt.face_patch, pos, dirs, cell, counts=True))
     ref, t_np = best(lambda: march_numpy(grid, air, pt.face_patch, pos, dirs, cell), 1)
     F = np.zeros((pt.n, pt.n))
     np.add.at(F, (src, hit), 1.0 / rays)
-    _, t_enf = best(lambda: cavity_radiation._enforce(F, pt.area))
+    _, t_enf = best(lambda: cr._enforce(F, pt.area))
     _, t_dense = best(lambda: _dense_enforce(F, pt.area), 1)
-    vf, t_vf = best(lambda: cavity_radiation.view_factors(grid, air, pt, rays, np.random.default_rng(0)))
-    cavity_radiation.march = march_numpy
+    vf, t_vf = best(whole)
+    cr.march, cr.place_rays, cr._enforce = march_numpy, place_rays_numpy, _dense_enforce
     try:
-        vf_np, t_vf_np = best(lambda: cavity_radiation.view_factors(grid, air, pt, rays, np.random.default_rng(0)), 1)
+        _, t_emit_np = best(emit, 1)
+        before, t_before = best(whole, 1)
     finally:
-        cavity_radiation.march = march
+        cr.march, cr.place_rays, cr._enforce = march, place_rays, _enforce
     print(f"{pt.n} patches x {rays} rays = {len(pos):,} rays, {crossed:,} cells crossed "
-          f"({crossed / len(pos):.1f} a ray)")
-    print(f"emission {t_emit:.3f} s | march compiled {t_jit:.3f} s (first call {t_first:.2f} s: numba's import and "
-          f"load or compile), numpy {t_np:.3f} s, x{t_np / t_jit:.1f}, the same hits: {np.array_equal(hit, ref)} | "
-          f"enforcement {t_enf:.3f} s (with dense products, as before: {t_dense:.3f} s)")
-    print(f"view factors: {t_vf:.2f} s with the compiled march, {t_vf_np:.2f} s with the numpy march; "
-          f"F the same: {np.array_equal(vf.F, vf_np.F)}", flush=True)
+          f"({crossed / len(pos):.1f} a ray); the kernels' first calls (numba's import and load or compile) "
+          f"{t_first:.2f} s")
+    print("| part | compiled [s] | numpy, as before [s] | ratio |\n|---|---|---|---|")
+    for name, a, b in (("rays' emission", t_emit, t_emit_np), ("ray march", t_jit, t_np),
+                       ("reciprocity and closure (sparse / dense products)", t_enf, t_dense),
+                       ("view factors, all", t_vf, t_before)):
+        print(f"| {name} | {a:.3f} | {b:.3f} | {b / a:.1f} |")
+    print(f"the same hits: {np.array_equal(hit, ref)}; F largest difference {np.abs(vf.F - before.F).max():.1g}",
+          flush=True)
 
 
 def main(argv=None):
