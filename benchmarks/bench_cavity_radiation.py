@@ -82,7 +82,7 @@ def _dense_enforce(F, area, tol=1e-13, max_iter=5000):
 
 
 def view_factor_times(geometry, grid, options, repeat=3):
-    """The view factors' parts on ``grid`` [s], each the least of ``repeat`` runs (the numpy versions once), and
+    """The view factors' parts on ``grid`` [s], each the least of ``repeat`` runs, and
     the whole with every part compiled against the whole as before (numpy placement and march, dense balancing)."""
     from imutherm.thermal.ray_march import march, march_numpy, place_rays, place_rays_numpy
     from imutherm.unit.model import _patch_choice
@@ -109,16 +109,16 @@ def view_factor_times(geometry, grid, options, repeat=3):
                                              np.zeros((1, 3), np.int64))), 1)
     (pos, dirs, cell, src), t_emit = best(emit)
     (hit, crossed), t_jit = best(lambda: march(grid, air, pt.face_patch, pos, dirs, cell, counts=True))
-    ref, t_np = best(lambda: march_numpy(grid, air, pt.face_patch, pos, dirs, cell), 1)
+    ref, t_np = best(lambda: march_numpy(grid, air, pt.face_patch, pos, dirs, cell))
     F = np.zeros((pt.n, pt.n))
     np.add.at(F, (src, hit), 1.0 / rays)
     _, t_enf = best(lambda: cr._enforce(F, pt.area))
-    _, t_dense = best(lambda: _dense_enforce(F, pt.area), 1)
+    _, t_dense = best(lambda: _dense_enforce(F, pt.area))
     vf, t_vf = best(whole)
     cr.march, cr.place_rays, cr._enforce = march_numpy, place_rays_numpy, _dense_enforce
     try:
-        _, t_emit_np = best(emit, 1)
-        before, t_before = best(whole, 1)
+        _, t_emit_np = best(emit)
+        before, t_before = best(whole)
     finally:
         cr.march, cr.place_rays, cr._enforce = march, place_rays, _enforce
     print(f"{pt.n} patches x {rays} rays = {len(pos):,} rays, {crossed:,} cells crossed "
