@@ -145,3 +145,24 @@ def test_compiled_placement_equals_the_numpy_placement(monkeypatch):
         assert a.dtype == b.dtype and np.array_equal(a, b)
     assert np.allclose(np.linalg.norm(dirs, axis=1), 1.0)
     assert air[cell[:, 0], cell[:, 1], cell[:, 2]].all()   # every ray starts in an air cell
+
+
+def test_exchange_matrix_equals_the_direct_radiosity_form():
+    """exchange_matrix's push-through form against X = A (I - F) M^-1 E solved directly (M = I - (I - E) F), on
+    the box with its obstacles, emissivities from 0 to 1: the same X to round-off."""
+    from imutherm.thermal.cavity_radiation import exchange_matrix
+
+    g = _cavity_with_obstacles()
+    air = g.cell_part == 1
+    pt = find_patches(g, air, 3.0)
+    F = view_factors(g, air, pt, rays=64, rng=np.random.default_rng(1)).F
+    eps = np.random.default_rng(5).uniform(0.0, 1.0, pt.n)
+    eps[:5], eps[5:10] = 1.0, 0.0
+    n = pt.n
+    Minv_E = np.linalg.solve(np.eye(n) - (1.0 - eps)[:, None] * F, np.diag(eps))
+    ref = pt.area[:, None] * (Minv_E - F @ Minv_E)
+    ref = 0.5 * (ref + ref.T)
+    ref[np.diag_indices(n)] -= ref.sum(axis=1)
+    X = exchange_matrix(F, pt.area, eps)
+    assert np.abs(X - ref).max() < 1e-12 * np.abs(ref).max()
+    assert np.abs(X - X.T).max() == 0.0 and np.abs(X.sum(axis=1)).max() < 1e-12 * np.abs(X).max()

@@ -403,13 +403,18 @@ def exchange_matrix(F: np.ndarray, area: np.ndarray, emissivity: np.ndarray) -> 
 
     F : (n, n) view factors, area : (n,) [m^2], emissivity : (n,) [-] in [0, 1].
     Returned symmetrised, with its row sums (zero in exact arithmetic) removed from the diagonal.
+
+    With ``M = I - (I - E) F`` (radiosity ``J = M^-1 E Eb``), ``X = A (I - F) M^-1 E``; as ``I - F = M - E F`` and
+    ``F M^-1 = (I - F (I - E))^-1 F`` (push-through), ``X = A (E - E (I - F (I - E))^-1 F E)``: one solve with n
+    right-hand sides and no n x n product (~40 % less work than solving for ``M^-1 E`` and multiplying by F).
     """
     eps = np.asarray(emissivity, float)
     if np.any(~np.isfinite(eps)) or np.any(eps < 0) or np.any(eps > 1):
         raise InputError("cavity radiation: emissivities must be in [0, 1]")
     n = len(area)
-    Minv_E = np.linalg.solve(np.eye(n) - (1.0 - eps)[:, None] * F, np.diag(eps))   # J = Minv_E Eb
-    X = area[:, None] * (Minv_E - F @ Minv_E)
+    Y = np.linalg.solve(np.eye(n) - F * (1.0 - eps)[None, :], F * eps[None, :])   # (I - F (I - E))^-1 F E
+    X = -(area * eps)[:, None] * Y
+    X[np.diag_indices(n)] += area * eps
     X = 0.5 * (X + X.T)
     X[np.diag_indices(n)] -= X.sum(axis=1)
     return X
