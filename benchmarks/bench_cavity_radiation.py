@@ -19,7 +19,8 @@ exchange together with the time discretisation.
 ``--view-factors`` (only this): where the s2s view factors' time goes at the study's patch choice, each part
 compiled (:mod:`imutherm.thermal.ray_march`) against its numpy version as before, paired in one run: the rays'
 emission, the ray march (the hits compared), the reciprocity/closure balancing (sparse against dense products),
-and the whole view factors each way (the kernels' first calls, numba's import and load or compile, apart).
+and the whole view factors each way (the kernels' first calls, numba's import and load or compile, apart); then
+the exchange matrix the law builds from them (push-through form against the direct radiosity solve).
 """
 
 from __future__ import annotations
@@ -81,6 +82,16 @@ def _dense_enforce(F, area, tol=1e-13, max_iter=5000):
     return d[:, None] * S * d[None, :] / area[:, None]
 
 
+def _direct_exchange(F, area, eps):
+    """exchange_matrix's X solved for ``M^-1 E`` and multiplied by F, as before its push-through form."""
+    n = len(area)
+    Minv_E = np.linalg.solve(np.eye(n) - (1.0 - eps)[:, None] * F, np.diag(eps))
+    X = area[:, None] * (Minv_E - F @ Minv_E)
+    X = 0.5 * (X + X.T)
+    X[np.diag_indices(n)] -= X.sum(axis=1)
+    return X
+
+
 def view_factor_times(geometry, grid, options, repeat=3):
     """The view factors' parts on ``grid`` [s], each the least of ``repeat`` runs, and
     the whole with every part compiled against the whole as before (numpy placement and march, dense balancing)."""
@@ -129,8 +140,12 @@ def view_factor_times(geometry, grid, options, repeat=3):
                        ("reciprocity and closure (sparse / dense products)", t_enf, t_dense),
                        ("view factors, all", t_vf, t_before)):
         print(f"| {name} | {a:.3f} | {b:.3f} | {b / a:.1f} |")
-    print(f"the same hits: {np.array_equal(hit, ref)}; F largest difference {np.abs(vf.F - before.F).max():.1g}",
-          flush=True)
+    eps = np.random.default_rng(0).uniform(0.05, 0.95, pt.n)   # the exchange's cost does not depend on the values
+    X, t_x = best(lambda: cavity_radiation.exchange_matrix(vf.F, pt.area, eps))
+    X0, t_x0 = best(lambda: _direct_exchange(vf.F, pt.area, eps))
+    print(f"| exchange matrix X (push-through / direct radiosity solve) | {t_x:.3f} | {t_x0:.3f} | {t_x0 / t_x:.1f} |")
+    print(f"the same hits: {np.array_equal(hit, ref)}; F largest difference {np.abs(vf.F - before.F).max():.1g}; "
+          f"X relative difference {np.abs(X - X0).max() / np.abs(X0).max():.1g}", flush=True)
 
 
 def main(argv=None):
