@@ -6,6 +6,7 @@ Usage::
     python benchmarks/bench_cavity_radiation.py [--scheme air] [--mesh-size 2.0]
         [--patch-mm 10 5 2.5] [--rays 100 400 1600] [--transient]
     python benchmarks/bench_cavity_radiation.py --view-factors [--scheme air] [--mesh-size 2.0]
+    python benchmarks/bench_cavity_radiation.py --thermal-case [--scheme air]
 
 For each law (``effective``, ``s2s``, ``none``) at the default patch size and rays: the
 steady rises of tp1 and the three gyros, the steady solve time and its Newton / CG
@@ -21,6 +22,12 @@ compiled (:mod:`imutherm.thermal.ray_march`) against its numpy version as before
 emission, the ray march (the hits compared), the reciprocity/closure balancing (sparse against dense products),
 and the whole view factors each way (the kernels' first calls, numba's import and load or compile, apart); then
 the exchange matrix the law builds from them (push-through form against the direct radiosity solve).
+
+``--thermal-case`` (only this): the study's thermal case of the scheme (``imutherm compare``'s: steady, reduced
+power-on transient and its check, oven self-heating, the mesh-error estimate), each in a fresh process, first
+with the view factors and exchange matrix as before (numpy placement and march, dense balancing, direct
+radiosity solve), then as now: wall and CPU seconds of each, and the largest difference of the sensor dies'
+rises between the two.
 """
 
 from __future__ import annotations
@@ -148,6 +155,46 @@ def view_factor_times(geometry, grid, options, repeat=3):
           f"X relative difference {np.abs(X - X0).max() / np.abs(X0).max():.1g}", flush=True)
 
 
+def _thermal_case_once(scheme: str, before: bool) -> None:
+    """One thermal case in this process; prints a JSON line (wall, CPU [s], the dies' steady rises [K])."""
+    import json
+
+    from imutherm.imu.sensor_model import SITES
+    from imutherm.studies.end_to_end.thermal import thermal_case
+    from imutherm.thermal import ray_march
+
+    if before:
+        cr = cavity_radiation
+        cr.march, cr.place_rays, cr._enforce = ray_march.march_numpy, ray_march.place_rays_numpy, _dense_enforce
+        cr.exchange_matrix = _direct_exchange
+    c0, t0 = time.process_time(), time.perf_counter()
+    res, _, rise, _ = thermal_case(load_layout(None), scheme, ModelOptions(), (-40.0, 70.0),
+                                   transient_model="reduced", estimate_mesh_error=True)
+    st = res.steady
+    dies = [float(st.probe_C[st.probe_names.index(s)]) for s in SITES]
+    print(json.dumps({"wall": time.perf_counter() - t0, "cpu": time.process_time() - c0, "dies": dies,
+                      "oven": np.asarray(rise).ravel().tolist()}))
+
+
+def thermal_case_times(scheme: str) -> None:
+    """:func:`_thermal_case_once` as before and as now, each in a fresh process (module docstring)."""
+    import json
+    import subprocess
+    import sys
+
+    runs = {}
+    for label in ("before", "now"):
+        out = subprocess.run([sys.executable, __file__, "--scheme", scheme, "--_case", label], check=True,
+                             capture_output=True, text=True).stdout
+        runs[label] = json.loads(out.strip().splitlines()[-1])
+    b, n = runs["before"], runs["now"]
+    print(f"thermal case of {scheme} (steady, reduced transient and check, oven, mesh-error estimate), each in a "
+          f"fresh process: before {b['wall']:.1f} s wall / {b['cpu']:.1f} CPU-s, now {n['wall']:.1f} s / "
+          f"{n['cpu']:.1f} CPU-s; CPU ratio {b['cpu'] / n['cpu']:.2f}, CPU saved {b['cpu'] - n['cpu']:.1f} s")
+    print(f"largest difference: sensor dies' steady values {np.abs(np.subtract(b['dies'], n['dies'])).max():.1g} K, "
+          f"oven rises {np.abs(np.subtract(b['oven'], n['oven'])).max():.1g} K", flush=True)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scheme", default="air")
@@ -156,7 +203,13 @@ def main(argv=None):
     ap.add_argument("--rays", type=int, nargs="*", default=[])
     ap.add_argument("--transient", action="store_true")
     ap.add_argument("--view-factors", action="store_true", help="only the view factors' times (module docstring)")
+    ap.add_argument("--thermal-case", action="store_true", help="only the thermal case as before and now")
+    ap.add_argument("--_case", choices=("before", "now"), help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
+    if a._case:
+        return _thermal_case_once(a.scheme, a._case == "before")
+    if a.thermal_case:
+        return thermal_case_times(a.scheme)
     lay = load_layout(None)
     geometry = build_geometry(lay, a.scheme)
     grid = build_mesh(geometry, a.mesh_size, 2)
@@ -196,6 +249,7 @@ if __name__ == "__main__":
     import sys
 
     import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
-    vf_only = "--view-factors" in sys.argv
-    sys.exit(_record.run(main, "cavity_view_factors" if vf_only else "cavity_radiation",
-                         "the s2s view factors' time by part" if vf_only else "the cavity radiation laws"))
+    vf_only, case = "--view-factors" in sys.argv, "--thermal-case" in sys.argv
+    sys.exit(_record.run(main, "cavity_view_factors" if vf_only else "cavity_thermal_case" if case else "cavity_radiation",
+                         "the s2s view factors' time by part" if vf_only else
+                         "a scheme's thermal case, view factors as before and now" if case else "the cavity radiation laws"))
