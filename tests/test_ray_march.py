@@ -166,3 +166,23 @@ def test_exchange_matrix_equals_the_direct_radiosity_form():
     X = exchange_matrix(F, pt.area, eps)
     assert np.abs(X - ref).max() < 1e-12 * np.abs(ref).max()
     assert np.abs(X - X.T).max() == 0.0 and np.abs(X.sum(axis=1)).max() < 1e-12 * np.abs(X).max()
+
+
+def test_the_refined_law_forms_no_exchange_matrix(monkeypatch):
+    """CavityExchange.refined takes the coarse law's X (a scaled law's too) instead of solving for it again."""
+    import imutherm.thermal.cavity_radiation as cr
+    from imutherm.geometry.mesh import refine_grid
+
+    g = _cavity_with_obstacles()
+    law = cr.cavity_exchange(g, g.cell_part == 1, [0.8, 0.0, 0.9, 0.6, 0.3], patch_mm=3.0, rays=32)
+    half = law.scaled(0.5)
+
+    def refused(*args, **kwargs):
+        raise AssertionError("exchange_matrix called")
+    monkeypatch.setattr(cr, "exchange_matrix", refused)
+    fine = refine_grid(g, 2)
+    a, b = law.refined(fine, 2), half.refined(fine, 2)
+    assert a.X is law.X and b.X is half.X and np.array_equal(b.X, 0.5 * law.X)
+    assert np.array_equal(a._absX, np.abs(law.X)) and a.patches.P.shape == (law.patches.n, fine.n_nodes)
+    with pytest.raises(Exception, match="exchange matrix of shape"):
+        cr.CavityExchange(law.patches, law.view, law.emissivity, X=law.X[:-1])

@@ -431,7 +431,9 @@ class CavityExchange:
     patches, view (ViewFactors), emissivity (n,) [-]
     """
 
-    def __init__(self, patches: Patches, view: ViewFactors, emissivity: np.ndarray):
+    def __init__(self, patches: Patches, view: ViewFactors, emissivity: np.ndarray, X: np.ndarray | None = None):
+        """``X``: the exchange matrix [m^2] when known (:meth:`refined`'s, the same patches'), else
+        :func:`exchange_matrix` of the view factors and emissivities."""
         P = patches.P.tocsc()
         nodes = np.flatnonzero(np.diff(P.indptr))
         self.nodes = nodes
@@ -442,7 +444,9 @@ class CavityExchange:
         self.patches = patches
         self.view = view
         self.emissivity = np.asarray(emissivity, float)
-        self.X = exchange_matrix(view.F, patches.area, self.emissivity)
+        if X is not None and X.shape != view.F.shape:
+            raise InputError(f"cavity radiation: an exchange matrix of shape {X.shape} for {view.F.shape[0]} patches")
+        self.X = exchange_matrix(view.F, patches.area, self.emissivity) if X is None else X
         self._absX = np.abs(self.X)
 
     def scaled(self, factor: float) -> "CavityExchange":
@@ -458,9 +462,8 @@ class CavityExchange:
         """The same exchange (patches, view factors, emissivities: the same X) on ``fine``, this law's grid with
         every interval split into ``factor`` parts: a mesh-refinement study then sees the conduction's
         discretisation alone, not a new ray sample (:func:`refined_patches`)."""
-        out = CavityExchange(refined_patches(self.patches, fine, factor), self.view, self.emissivity)
-        out.X, out._absX = self.X, self._absX   # a scaled law keeps its scale
-        return out
+        # the same X, not formed again (a dense radiosity solve of the patches); a scaled law keeps its scale
+        return CavityExchange(refined_patches(self.patches, fine, factor), self.view, self.emissivity, X=self.X)
 
     @property
     def region(self):  # a law's region (the whole set of nodes)
