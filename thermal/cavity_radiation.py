@@ -463,7 +463,9 @@ class CavityExchange:
         every interval split into ``factor`` parts: a mesh-refinement study then sees the conduction's
         discretisation alone, not a new ray sample (:func:`refined_patches`)."""
         # the same X, not formed again (a dense radiosity solve of the patches); a scaled law keeps its scale
-        return CavityExchange(refined_patches(self.patches, fine, factor), self.view, self.emissivity, X=self.X)
+        out = CavityExchange(refined_patches(self.patches, fine, factor), self.view, self.emissivity, X=self.X)
+        out._absX = self._absX   # shared, as X is: one copy of each n x n array in memory and in a pickle
+        return out
 
     @property
     def region(self):  # a law's region (the whole set of nodes)
