@@ -249,7 +249,9 @@ if __name__ == "__main__":
     import sys
 
     import _record  # benchmarks/_record.py: --write records what the run printed in docs/benchmarks/tables/
-    vf_only, case = "--view-factors" in sys.argv, "--thermal-case" in sys.argv
-    sys.exit(_record.run(main, "cavity_view_factors" if vf_only else "cavity_thermal_case" if case else "cavity_radiation",
-                         "the s2s view factors' time by part" if vf_only else
-                         "a scheme's thermal case, view factors as before and now" if case else "the cavity radiation laws"))
+    name, title = "cavity_radiation", "the cavity radiation laws"
+    if "--view-factors" in sys.argv:
+        name, title = "cavity_view_factors", "the s2s view factors' time by part"
+    elif "--thermal-case" in sys.argv:
+        name, title = "cavity_thermal_case", "a scheme's thermal case, view factors as before and now"
+    sys.exit(_record.run(main, name, title))

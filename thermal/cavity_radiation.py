@@ -6,8 +6,8 @@ into tiles of ``patch_mm`` along the two in-plane axes. View factors between the
 patches come from seeded Monte-Carlo ray casting: from every patch, rays leave
 with stratified, cosine-weighted (diffuse) directions from stratified points on
 its face cells and are marched cell by cell through the grid's air cells (an
-exact 3-D DDA on the non-uniform tensor grid, compiled: :mod:`imutherm.thermal.ray_march`) until they hit a solid face, so
-occlusion by every part inside the region is exact. The estimate is then made
+exact 3-D DDA on the non-uniform tensor grid, compiled: :mod:`imutherm.thermal.ray_march`)
+until they hit a solid face, so occlusion by every part inside the region is exact. The estimate is then made
 reciprocal (A_i F_ij = A_j F_ji) and closed (sum_j F_ij = 1) by a symmetric
 scaling; both residuals are reported before and after (:class:`ViewFactors`).
 

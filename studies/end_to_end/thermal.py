@@ -117,9 +117,9 @@ CASE_SOURCES = (("studies", "thermal/thermal_study.py"), ("studies", "end_to_end
 
 def thermal_key(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, **thermal_kwargs) -> str:
     """The disk-cache key (hex SHA-256, :func:`imutherm.cache.key_of`) of :func:`thermal_case`'s value: the
-    layout's content (:func:`layout_content`: not its file's path, name or time), the scheme, the model options (materials, laws), the oven
-    temperatures, the mesh, time and estimate settings, the sensor-die names and the source of the code that
-    computes it. The IMU side (grade, seeds, profiles, filters) is not in it: a sweep over those re-uses it."""
+    layout's content (:func:`layout_content`: not its file's path, name or time), the scheme, the model options
+    (materials, laws), the oven temperatures, the mesh, time and estimate settings, the sensor-die names and the
+    source of the code that computes it. The IMU side (grade, seeds, profiles, filters) is not in it: a sweep over those re-uses it."""
     from imutherm.cache import key_of, source_version
     from imutherm.site_table import SITES
 
