@@ -323,7 +323,10 @@ class PowerOn:
 
 def _curve(params: np.ndarray, T_C) -> np.ndarray:
     """Evaluate the per-axis smooth curve; params (3,6), T_C (...,3) [°C] -> (...,3), zero at 25 °C."""
-    x = (np.asarray(T_C, dtype=float) - T_REF_C) / _X_SCALE
+    T = np.asarray(T_C, dtype=float)
+    if T.ndim == 2 and T.shape[0] > 1 and T.strides[0] == 0:   # one row broadcast (a soak, a steady phase):
+        return np.broadcast_to(_curve(params, T[:1]), T.shape)  # evaluated once, the same values
+    x = (T - T_REF_C) / _X_SCALE
     c1, c2, c3, w, nu, phi = (params[:, k] for k in range(6))
     return x * (c1 + x * (c2 + x * c3)) + w * (np.sin(2 * np.pi * nu * x + phi) - np.sin(phi))  # Horner: x**3 is a pow call
 

@@ -10,11 +10,13 @@ loaded from numba's cache), only when a kernel is first called.
 A kernel called from another kernel works too: numba types a global that has a ``_numba_type_`` as that
 type, here the compiled dispatcher's. Usage is numba's: ``@njit(cache=True)`` or ``njit(cache=True)(f)``.
 
-Compiled once per machine, not once per process: a kernel's first call in a process (the compile, or the load
-from numba's on-disk cache, and that first run) holds a lock shared by the user's processes on the machine
-(:func:`compile_lock`). Without it, on a cold cache (after an install, or after a filter's source changed)
-both of ``imutherm compare``'s workers compiled every filter kernel side by side, ~47 CPU-s each on the
-project's machine (2026-12-07, load ~9); with it the second worker waits and loads what the first wrote.
+Compiled once per machine, not once per process: a kernel's first call in a process compiles it, or loads it
+from numba's on-disk cache, for its arguments' types while holding a lock shared by the user's processes on the
+machine (:func:`compile_lock`), and runs it after releasing the lock (held through the run, as it was until
+2026-12-07, it serialised two workers' first runs of a long kernel even on a warm cache). Without the lock, on
+a cold cache (after an install, or after a filter's source changed) both of ``imutherm compare``'s workers
+compiled every filter kernel side by side, ~47 CPU-s each on the project's machine (2026-12-07, load ~9); with
+it the second worker waits and loads what the first wrote.
 """
 
 from __future__ import annotations
@@ -87,8 +89,12 @@ class LazyKernel:
         d = self.dispatcher
         if d.signatures:   # compiled or loaded in this process already
             return d(*args, **kwargs)
-        with compile_lock():   # the first call: one process of the machine at a time compiles (or loads)
-            return d(*args, **kwargs)
+        if kwargs:   # numba folds keyword arguments itself: the whole first call under the lock
+            with compile_lock():
+                return d(*args, **kwargs)
+        with compile_lock():   # the first call: one process of the machine at a time compiles (or loads) ...
+            d.compile(tuple(d.typeof_pyval(a) for a in args))   # ... for these arguments' types (numba's own typing)
+        return d(*args)   # ... and runs outside the lock: two workers' first runs side by side
 
     @property
     def _numba_type_(self):

@@ -94,3 +94,31 @@ def test_two_processes_on_a_cold_cache_compile_a_kernel_once(tmp_path):
     assert all(p.returncode == 0 for p in procs), [o[1] for o in outs]
     counts = sorted(tuple(map(int, o[0].split())) for o in outs)
     assert counts == [(0, 1), (1, 0)], counts   # (misses, hits): one compiled, the other loaded
+
+
+import numba  # noqa: E402  (the kernel below leaves nopython mode through numba.objmode)
+
+_LOCK_DEPTHS = []
+
+
+def _record_lock_depth():
+    from imutherm import lazy_jit
+
+    _LOCK_DEPTHS.append(getattr(lazy_jit._LOCAL, "depth", 0))
+
+
+@njit(cache=False)
+def _reports_the_lock(x):
+    with numba.objmode():   # back in Python during the kernel's run: is this thread inside the lock?
+        _record_lock_depth()
+    return x + 1.0
+
+
+def test_a_first_call_runs_outside_the_lock():
+    """The lock covers the compile (or the cache load) for the arguments' types, not the first run: two workers'
+    first runs of a long kernel are not serialised."""
+    _LOCK_DEPTHS.clear()
+    assert not _reports_the_lock.dispatcher.signatures   # this is the first call
+    assert _reports_the_lock(1.0) == 2.0 and _reports_the_lock(2.0) == 3.0
+    assert _LOCK_DEPTHS == [0, 0], _LOCK_DEPTHS
+    assert len(_reports_the_lock.dispatcher.signatures) == 1   # compiled once, for float64

@@ -126,3 +126,48 @@ def test_the_recycled_warm_start_is_the_galerkin_solution_on_the_earlier_fields(
     n = [0]
     spla.cg(op, b, rtol=1e-2, atol=0.0, M=lin._preconditioner(op), callback=lambda _: n.__setitem__(0, n[0] + 1))
     assert lin.its - its0 < n[0], ("the Galerkin start should save iterations here", lin.its - its0, n[0])
+
+
+def test_pcg_is_scipys_cg_step_for_step(air):
+    """The solver's own CG (issue 59: a start's residual passed in, the updated residual returned) takes scipy's
+    iterates and stopping test: the same iteration count and solution to rounding, from zero and from a start."""
+    _, asm, A, M, pc = air
+    op = reduced_transient._Shifted(A, M, 0.5)
+    b = asm.F_q
+    x0 = 0.5 * reduced_transient.pcg(op, b, None, None, pc, 1e-3, 500)[0]
+    for start in (None, x0):
+        n = [0]
+        ref, info = spla.cg(op, b, x0=None if start is None else start.copy(), rtol=1e-6, atol=0.0, M=pc,
+                            maxiter=500, callback=lambda _: n.__setitem__(0, n[0] + 1))
+        assert info == 0
+        r0 = None if start is None else b - op @ start
+        x, r, its, info = reduced_transient.pcg(op, b, start, r0, pc, 1e-6, 500)
+        assert info == 0 and its == n[0] > 3
+        assert np.abs(x - ref).max() <= 1e-10 * np.abs(ref).max()
+        # the updated residual is the true one to rounding, and meets the test
+        assert np.linalg.norm(r - (b - op @ x)) <= 1e-9 * np.linalg.norm(b)
+        assert np.linalg.norm(r) < 1e-6 * np.linalg.norm(b)
+    # not converged within maxiter: info is maxiter, as scipy's
+    assert reduced_transient.pcg(op, b, None, None, pc, 1e-12, 2)[2:] == (2, 2)
+
+
+def test_the_shifted_operators_share_one_buffer_and_the_gram_rows_are_exact(air):
+    """:meth:`_Solver.shifted` forms A + s M in one reused nnz-sized buffer (the same operator as a fresh one), and
+    the warm starts' Gram rows, taken from the solve's own residual (Op x = b - r), equal X^T A X and X^T M X."""
+    _, asm, A, M, pc = air
+    lin = reduced_transient._Solver(A, M, pc)
+    x = np.random.default_rng(5).standard_normal(asm.n)
+    op1 = lin.shifted(0.3)
+    y1 = op1 @ x
+    assert np.abs(y1 - reduced_transient._Shifted(A, M, 0.3) @ x).max() <= 1e-12 * np.abs(y1).max()
+    op2 = lin.shifted(2.0)
+    assert np.shares_memory(op1.sparse.data, op2.sparse.data)
+    y2 = op2 @ x
+    assert np.abs(y2 - reduced_transient._Shifted(A, M, 2.0) @ x).max() <= 1e-12 * np.abs(y2).max()
+    b1, b2 = asm.F_q, M @ x
+    x1 = lin.solve(lin.shifted(0.5), b1, 1e-6, recycle=True)
+    x2 = lin.solve(lin.shifted(0.05), b2, 1e-6, recycle=True)
+    X = np.column_stack([x1, x2])
+    XAX, XMX = X.T @ (A @ X), X.T @ (M @ X)
+    assert np.abs(lin.XAX - XAX).max() <= 1e-6 * np.abs(XAX).max()
+    assert np.abs(lin.XMX - XMX).max() <= 1e-12 * np.abs(XMX).max()

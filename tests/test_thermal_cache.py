@@ -89,6 +89,64 @@ def test_the_key_is_the_content():
     assert k0 not in misses and len(set(misses)) == len(misses)
 
 
+def _copies(tmp_path, edit=None):
+    """The reference layout, without its ``name`` field (so named after its file), copied into two folders as if
+    into two checkouts: a bench CSV beside each copy (its reference data) and the package's paper digest at
+    another path for the second (another checkout's); the second's text edited by ``edit`` (old, new) if given.
+    Returns the two loaded layouts."""
+    import shutil
+
+    from imutherm import reference_data
+    from imutherm.geometry.layout_files import default_layout_path
+
+    text = default_layout_path().read_text(encoding="utf-8")
+    text = text.replace('paper_figures = "liu2012"', 'paper_figures = "liu2012"\nmeasured = ["bench.csv"]')
+    text = text.replace('name = "imu_reference"\n', "", 1)
+    out = []
+    for i, name in enumerate(("one/unit.toml", "two/checkout/layouts/other_name.toml")):
+        f = tmp_path / name
+        f.parent.mkdir(parents=True)
+        (f.parent / "bench.csv").write_text(f"time_s,tp1_C\n0,{20 + i}\n", encoding="utf-8")
+        with pytest.MonkeyPatch.context() as mp:
+            if i == 1:
+                digest = f.parent / "paper_targets.toml"
+                shutil.copy(reference_data.BUILTIN_PAPERS["liu2012"], digest)
+                mp.setitem(reference_data.BUILTIN_PAPERS, "liu2012", digest)
+                if edit is not None:
+                    assert text.count(edit[0]) == 1
+                    text = text.replace(*edit)
+            f.write_text(text, encoding="utf-8")
+            out.append(load_layout(f))
+    return out
+
+
+def test_a_copy_of_the_layout_elsewhere_is_the_same_key(tmp_path):
+    """The key is the layout's content: a copy in another folder, under another file name, beside other bench
+    files and with the package's digest at another checkout's path is the same key; one number changed is not."""
+    a, b = _copies(tmp_path)
+    assert a.path != b.path and a.reference_data != b.reference_data and a.name != b.name   # the paths differ ...
+    assert _key(a) == _key(b) == _key(load_layout(None))                # ... the key does not
+    a, c = _copies(tmp_path / "edited", ("ambient_C = 70.0", "ambient_C = 70.5"))
+    assert _key(a) != _key(c)
+
+
+def test_a_copy_of_the_layout_in_another_checkout_hits_the_cache(folder, tmp_path, monkeypatch, capsys):
+    """A study of the copy reads the first copy's thermal case (solves nothing) and carries its own path, name
+    and reference data."""
+    a, b = _copies(tmp_path)
+    first = run_study(a, ("potted",), config=CONFIG, jobs=1, **KW)
+    capsys.readouterr()
+    monkeypatch.setattr(thermal_mod, "thermal_case", _no_solve)
+    second = run_study(b, ("potted",), config=CONFIG, jobs=1, **KW)
+    assert f"potted: thermal: cached (key {_key(b)[:12]})" in capsys.readouterr().out
+    lay = second.schemes["potted"].thermal.geometry.layout
+    assert (lay.path, lay.name, lay.reference_data) == (b.path, b.name, b.reference_data)
+    assert np.array_equal(first.schemes["potted"].thermal.steady.T_C, second.schemes["potted"].thermal.steady.T_C)
+    _, c = _copies(tmp_path / "edited", ("ambient_C = 70.0", "ambient_C = 70.5"))
+    with pytest.raises(AssertionError, match="thermal solve"):
+        run_study(c, ("potted",), config=CONFIG, jobs=1, **KW)
+
+
 def test_the_code_is_in_the_key(monkeypatch):
     k0 = _key()
     monkeypatch.setattr(cache, "CODE_VERSION", "0" * 16)

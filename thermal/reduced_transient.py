@@ -22,7 +22,10 @@ its steady field (solved anyway) and a handful of solves give a reduced model th
    and the reduced transient is run again (at most ``max_rounds`` times), and if it still fails the caller
    falls back to the full adaptive FEM. The estimate's effectivity against the true error is measured in
    ``tests/test_reduced_transient.py``. Each error solve starts from the Galerkin solution on the earlier error
-   fields (:meth:`_Solver.warm_start`) and stops at the same residual relative to r_k as from zero.
+   fields (:meth:`_Solver.warm_start`) and stops at the same residual relative to r_k as from zero. CG is
+   scipy's step for step (:func:`pcg`) but takes a start's residual and returns its own, so neither a start's
+   residual nor a warm-start field's product with A is formed again, and A + s M is formed in one reused buffer
+   (:meth:`_Solver.shifted`).
 """
 
 from __future__ import annotations
@@ -49,7 +52,11 @@ from imutherm.thermal.transient import SETTLE_FRACTION
 CHECK_TOL_K = 0.05
 #: relative t95 error the check accepts [-] (the study's t95 target: 1 %)
 CHECK_T95_REL = 0.01
-#: Krylov vectors A^-1 M ... of the first basis
+#: Krylov vectors A^-1 M ... of the first basis. A basis shared across schemes was measured and not taken (reference
+#: unit, default mesh, 2026-12-07): air and potted have the same mesh (193,550 nodes; grease 204,610), but potted's
+#: reduced transient on air's 8 basis vectors (and its own steady field) took 3 rounds, 28 full solves and 275 CG
+#: iterations where its own basis takes 1 round, 17 and 243 (air's on potted's: 30 and 276): the filled cavity
+#: changes the slow modes
 KRYLOV_ORDER = 3
 #: time scales [s] of the shifted solves (A + M / tau)^-1 b that join the basis for the first seconds. 0.1 s joined
 #: (0.3 s was the first) when the grease scheme's first basis failed its check at the earliest check time (0.22 s:
@@ -139,6 +146,7 @@ class _Solver:
         self.X = []                      # the recycled solutions (the check's error fields, kept by the caller anyway)
         self.XAX = np.zeros((0, 0))      # X^T A X and X^T M X [W/K], [J/K]: the Galerkin system of any shift
         self.XMX = np.zeros((0, 0))
+        self._same_pattern = self._buffer = None   # :meth:`shifted`
 
     def _preconditioner(self, Op):
         s = getattr(Op, "s", 0.0)
@@ -152,10 +160,11 @@ class _Solver:
             self.pc_shifted = like if like is not None else amg_preconditioner(S)
         return self.pc_shifted
 
-    def _remember(self, x):
-        """Add ``x`` to the warm starts' space: one product with A and one with M (their Gram rows kept, not them)."""
-        Ax = self.A @ x
+    def _remember(self, x, Ox, s):
+        """Add ``x`` to the warm starts' space given ``Ox`` = (A + s M) x (the solve's own b - r: no product with A),
+        one product with M (their Gram rows kept, not them)."""
         Mx = self.M @ x if self.M is not None else x
+        Ax = Ox - s * Mx if s else Ox
         k = len(self.X)
         XAX, XMX = np.zeros((k + 1, k + 1)), np.zeros((k + 1, k + 1))
         XAX[:k, :k], XMX[:k, :k] = self.XAX, self.XMX
@@ -169,8 +178,12 @@ class _Solver:
         """The Galerkin solution of ``Op x = b`` on the span of every earlier solution (Op = A + s M: its k x k
         system from the kept Gram matrices, k dot products with b), or None when there is none or it does not
         beat zero. Op's A-norm error is the least over that span, so it never starts worse than x = 0."""
+        return self._warm_start(Op, b)[0]
+
+    def _warm_start(self, Op, b):
+        """(x0, b - Op x0) of :meth:`warm_start`, or (None, None)."""
         if not self.X:
-            return None
+            return None, None
         s = getattr(Op, "s", 0.0)
         G = self.XAX + s * self.XMX
         c = np.array([float(v @ b) for v in self.X])
@@ -179,7 +192,18 @@ class _Solver:
         keep = w > 1e-10 * w.max()
         z = d * (Q[:, keep] @ ((Q[:, keep].T @ (d * c)) / w[keep]))
         x0 = np.column_stack(self.X) @ z
-        return x0 if np.linalg.norm(b - Op @ x0) < np.linalg.norm(b) else None
+        r0 = b - Op @ x0
+        return (x0, r0) if np.linalg.norm(r0) < np.linalg.norm(b) else (None, None)
+
+    def shifted(self, s):
+        """A + s M (:class:`_Shifted`), its sparse part's values in one buffer that every call reuses (the solves
+        run one at a time: no nnz-sized allocation a solve) and the shared pattern tested once."""
+        if self._same_pattern is None:
+            self._same_pattern = _Shifted.same_pattern(sparse_part(self.A), self.M)
+        if self._same_pattern and self._buffer is None:
+            self._buffer = np.empty(self.M.nnz)
+        return _Shifted(self.A, self.M, s, out=self._buffer if self._same_pattern else None,
+                        same=self._same_pattern)
 
     def solve(self, Op, b, rtol, guess=None, recycle=False):
         """x with |b - Op x| <= rtol |b| (CG); the stopping test is relative to |b| as from zero, so a start changes
@@ -190,43 +214,75 @@ class _Solver:
         Galerkin start from the span of the earlier basis vectors resolves the part of the new vector outside
         that span (what a basis vector adds) only to the tolerance relative to the whole vector, and it raised
         the check's estimate (air 0.028 -> 0.042 K, grease 0.016 -> 0.043 K of the 0.05 K accepted)."""
-        n = [0]
-
-        def count(_):
-            n[0] += 1
-        x0 = None
+        x0 = r0 = None
         if recycle:
-            x0 = self.warm_start(Op, b)
+            x0, r0 = self._warm_start(Op, b)
         elif guess is not None:   # the best multiple of a nearby solution, if it beats zero (one product)
             w = Op @ guess
             ww = float(w @ w)
             alpha = float(w @ b) / ww if ww > 0 else 0.0
-            if alpha != 0.0 and np.linalg.norm(b - alpha * w) < np.linalg.norm(b):
-                x0 = alpha * guess
-        x, info = spla.cg(Op, b, x0=x0, rtol=rtol, atol=0.0, M=self._preconditioner(Op), maxiter=3000, callback=count)
+            if alpha != 0.0:
+                r0 = b - alpha * w
+                if np.linalg.norm(r0) < np.linalg.norm(b):
+                    x0 = alpha * guess
+                else:
+                    r0 = None
+        x, r, its, info = pcg(Op, b, x0, r0, self._preconditioner(Op), rtol, maxiter=3000)
         self.solves += 1
-        self.its += n[0]
+        self.its += its
         if info:
             raise InputError(f"reduced transient: CG did not converge (info {info})")
         if recycle:
-            self._remember(x)
+            self._remember(x, b - r, getattr(Op, "s", 0.0))
         return x
+
+
+def pcg(Op, b, x0, r0, pc, rtol, maxiter):
+    """Preconditioned CG, scipy's ``cg`` step for step (its iterates and its stopping test |r| < rtol |b| on the
+    updated residual r), from ``x0`` with its residual ``r0`` = b - Op x0 given (a start's residual, known to the
+    caller, is not formed again; both None: from zero). Returns (x, r, iterations, info: 0 converged, else
+    ``maxiter``); r is the updated residual, b - Op x to rounding (the warm starts' Gram rows use b - r as Op x)."""
+    x = np.zeros_like(b) if x0 is None else np.array(x0, float)
+    r = b.copy() if r0 is None else np.array(r0, float)
+    tol = rtol * float(np.linalg.norm(b))
+    rho_prev, p = None, None
+    for it in range(maxiter):
+        if np.linalg.norm(r) < tol or tol == 0.0:
+            return x, r, it, 0
+        z = pc @ r
+        rho = float(np.dot(r, z))
+        if p is None:
+            p = np.array(z, float)
+        else:
+            p *= rho / rho_prev
+            p += z
+        q = Op @ p
+        alpha = rho / float(np.dot(p, q))
+        x += alpha * p
+        r -= alpha * q
+        rho_prev = rho
+    return x, r, maxiter, maxiter
 
 
 class _Shifted(spla.LinearOperator):
     """A + s M (A may be sparse plus low rank): its sparse part sparse(A) + s M formed once where both share one
     pattern (the assembly's: one sparse product an iteration instead of two), else applied term by term."""
 
-    def __init__(self, A, M, s, dtype=float):
+    def __init__(self, A, M, s, dtype=float, out=None, same=None):
         super().__init__(float, A.shape)
         self.A, self.M, self.s = A, M, s
         S = sparse_part(A)
         self.sparse = None
-        if sp.isspmatrix_csr(S) and sp.isspmatrix_csr(M) and S.nnz == M.nnz and (S.indices is M.indices or (
-                np.array_equal(S.indptr, M.indptr) and np.array_equal(S.indices, M.indices))):
-            data = np.multiply(M.data, s, dtype=dtype)
+        if same if same is not None else self.same_pattern(S, M):
+            data = np.multiply(M.data, s, dtype=dtype, out=out)
             data += S.data
             self.sparse = sp.csr_matrix((data, S.indices, S.indptr), shape=S.shape, copy=False)
+
+    @staticmethod
+    def same_pattern(S, M) -> bool:
+        """Whether the CSR matrices ``S`` and ``M`` share one sparsity pattern (then A + s M is one CSR matrix)."""
+        return bool(sp.isspmatrix_csr(S) and sp.isspmatrix_csr(M) and S.nnz == M.nnz and (S.indices is M.indices or (
+            np.array_equal(S.indptr, M.indptr) and np.array_equal(S.indices, M.indices))))
 
     def _matvec(self, x):
         x = np.ravel(x)
@@ -384,7 +440,7 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
         cols.append(v)
     prev = None
     for tau in EARLY_S:   # the first seconds: (A + M / tau)^-1 b, well conditioned, a few CG iterations each
-        prev = lin.solve(_Shifted(A, M, 1.0 / tau), asm.F_q, BASIS_RTOL, guess=prev)
+        prev = lin.solve(lin.shifted(1.0 / tau), asm.F_q, BASIS_RTOL, guess=prev)
         cols.append(prev)
     timings = {"basis": time.perf_counter() - t0, "integrate": 0.0, "check": 0.0}
     final = P @ x_ss
@@ -417,7 +473,7 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
             T = amb + V @ y
             r = F - M @ (V @ red.rhs(t, y)) - L @ T - asm.nonlinear_flux(T)[0]
             res_max = max(res_max, float(np.linalg.norm(r)) / F_norm)
-            e = lin.solve(_Shifted(A, M, 1.0 / t), r, CHECK_RTOL, recycle=True)
+            e = lin.solve(lin.shifted(1.0 / t), r, CHECK_RTOL, recycle=True)
             err[i] = P @ e
             fields.append(e)
         rel95 = 0.0   # each t95's error: the site's estimated error there over the curve's slope

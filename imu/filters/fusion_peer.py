@@ -180,18 +180,29 @@ def run_fusion(gyro, accel, dt: float, params: FusionParams = FusionParams(), *,
     dts = None if steps is None else sample_steps(steps, len(gyro), dt).tolist()
     t0 = time.perf_counter()
     ahrs = make_ahrs(dt, params)
-    gd = np.ascontiguousarray(np.degrees(gyro) * _FLU)
-    ag = np.ascontiguousarray(accel * (_FLU / G0))
+    # the library works in float32 and casts what it is given: rows already float32 (the same rounding, done once
+    # for the record) cost it ~160 ns an update instead of ~570 ns, and the Bias ~110 instead of ~290
+    gd = np.ascontiguousarray(np.degrees(gyro) * _FLU, dtype=np.float32)
+    ag = np.ascontiguousarray(accel * (_FLU / G0), dtype=np.float32)
     upd, getq, st = ahrs.update_no_magnetometer, ahrs.get_quaternion, ahrs.get_internal_states
     bias = make_bias(dt, params)
     period = ahrs.set_sample_period
-    q, ignored = [], []   # lists, not rows of an array: this loop is the peer's cost (~1 us per sample)
-    for k, (g, a) in enumerate(zip(gd, ag)):
-        if dts is not None:
-            period(dts[k])
-        upd(g if bias is None else bias.update(g), a)
-        q.append(getq())
-        ignored.append(st().accelerometer_ignored)
+    q, ignored = [], []   # lists, not rows of an array: this loop is the peer's cost (~0.5 us per sample)
+    qa, ia = q.append, ignored.append
+    rows = zip(list(gd), list(ag))
+    if bias is not None and dts is None:   # the study's records: the loop with nothing else in it
+        bupd = bias.update
+        for g, a in rows:
+            upd(bupd(g), a)
+            qa(getq())
+            ia(st().accelerometer_ignored)
+    else:
+        for k, (g, a) in enumerate(rows):
+            if dts is not None:
+                period(dts[k])
+            upd(g if bias is None else bias.update(g), a)
+            qa(getq())
+            ia(st().accelerometer_ignored)
     return estimate_from_gravity("fusion", _down_frd(np.array(q).reshape(-1, 4)), ~np.array(ignored, bool),
                                  time.perf_counter() - t0)
 

@@ -166,7 +166,7 @@ def _die_temperatures(phase: str, t, curves_t, curves_T, steady_T) -> np.ndarray
     if phase == "warmup":
         temp = np.column_stack([np.interp(t, curves_t, curves_T[:, j]) for j in range(6)])
     else:
-        temp = np.tile(np.asarray(steady_T, float), (t.size, 1))
+        temp = np.broadcast_to(np.asarray(steady_T, float), (t.size, 6))   # one row: its curves evaluated once
     lo, hi = T_MODEL_RANGE_C
     if temp.min() < lo or temp.max() > hi:
         raise InputError(f"die temperature {temp.max():.1f} °C is outside the sensor model's range "

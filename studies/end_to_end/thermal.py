@@ -117,16 +117,26 @@ CASE_SOURCES = (("studies", "thermal/thermal_study.py"), ("studies", "end_to_end
 
 def thermal_key(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C, **thermal_kwargs) -> str:
     """The disk-cache key (hex SHA-256, :func:`imutherm.cache.key_of`) of :func:`thermal_case`'s value: the
-    layout's content (not its file's path or time), the scheme, the model options (materials, laws), the oven
-    temperatures, the mesh, time and estimate settings, the sensor-die names and the source of the code that
-    computes it. The IMU side (grade, seeds, profiles, filters) is not in it: a sweep over those re-uses it."""
+    layout's content (:func:`layout_content`: not its file's path, name or time), the scheme, the model options
+    (materials, laws), the oven temperatures, the mesh, time and estimate settings, the sensor-die names and the
+    source of the code that computes it. The IMU side (grade, seeds, profiles, filters) is not in it: a sweep over those re-uses it."""
     from imutherm.cache import key_of, source_version
     from imutherm.site_table import SITES
 
     kw = {k: v for k, v in thermal_kwargs.items() if k != "progress"}
     chamber = tuple(sorted(float(c) for c in chamber_C))
-    return key_of("thermal_case", replace(layout, path=""), str(scheme), options, chamber, kw, SITES,
+    return key_of("thermal_case", layout_content(layout), str(scheme), options, chamber, kw, SITES,
                   source_version(CASE_SOURCES))
+
+
+def layout_content(layout: LayoutSpec) -> LayoutSpec:
+    """``layout`` as the disk cache's keys see it: what the unit is, not where its file is. Without the file's
+    path, the name (a file without a ``name`` field is named after the file) and the reference data (the paths
+    of the figures beside the layout, or of the package's own digest: another checkout's are other paths; no
+    thermal solve reads them). A cached value read back gets these three of the layout asked for
+    (:func:`_as_read`). The materials library and the model code are in every key by their source
+    (:data:`imutherm.cache.CODE_VERSION`); the layout's own materials are in its content."""
+    return replace(layout, path="", name="", reference_data=None)
 
 
 def cached_thermal_case(key: str | None, layout: LayoutSpec):
@@ -140,7 +150,7 @@ def cached_thermal_case(key: str | None, layout: LayoutSpec):
     value, status = load_status(key)
     if status != "hit":
         return None, status
-    return (_at_path(value[0], layout),) + tuple(value[1:]), status
+    return (_as_read(value[0], layout),) + tuple(value[1:]), status
 
 
 def stored_thermal_case(key: str | None, layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C,
@@ -155,12 +165,14 @@ def stored_thermal_case(key: str | None, layout: LayoutSpec, scheme: str, option
     return out
 
 
-def _at_path(res, layout: LayoutSpec):
-    """``res`` (a SchemeResult) with its geometry's layout at ``layout``'s path (a cached result of the same
-    content read from another file)."""
-    if res.geometry.layout.path == layout.path:
+def _as_read(res, layout: LayoutSpec):
+    """``res`` (a SchemeResult) with its geometry's layout given ``layout``'s path, name and reference data (a
+    cached result of the same content, :func:`layout_content`, perhaps read from another file or checkout)."""
+    lay = res.geometry.layout
+    if (lay.path, lay.name, lay.reference_data) == (layout.path, layout.name, layout.reference_data):
         return res
-    return replace(res, geometry=replace(res.geometry, layout=replace(res.geometry.layout, path=layout.path)))
+    lay = replace(lay, path=layout.path, name=layout.name, reference_data=layout.reference_data)
+    return replace(res, geometry=replace(res.geometry, layout=lay))
 
 
 def cached_scheme_run(layout: LayoutSpec, scheme: str, run_kwargs: dict, use_cache: bool = True):
@@ -175,11 +187,11 @@ def cached_scheme_run(layout: LayoutSpec, scheme: str, run_kwargs: dict, use_cac
     kw = {k: v for k, v in run_kwargs.items() if k != "progress"}
     key = None
     if use_cache and enabled():
-        key = key_of("scheme_run", replace(layout, path=""), str(scheme), kw, source_version(CASE_SOURCES))
+        key = key_of("scheme_run", layout_content(layout), str(scheme), kw, source_version(CASE_SOURCES))
         value, status = load_status(key)
         if status == "hit":
             print(f"{scheme}: thermal: cached (key {key[:12]})", flush=True)
-            return _at_path(value, layout)
+            return _as_read(value, layout)
         if status == "unreadable":
             print(f"{scheme}: thermal: the cache entry {key[:12]} could not be read: recomputed", flush=True)
     estimate = kw.pop("estimate_mesh_error", False)

@@ -269,9 +269,10 @@ def build_scheme_model(layout, scheme: str, ins, *, options=None, mesh_size_mm=N
     if progress:
         progress(f"uncertainty: reduced model of {scheme} ({len(rom_knobs)} knobs, {grid.n_nodes} unknowns)")
     from imutherm.cache import cached
+    from imutherm.studies.end_to_end.thermal import layout_content
 
     probes = {s: geo.sites[s] for s in sites}
-    parts = (replace(layout, path=""), scheme, options, grid.shape,
+    parts = (layout_content(layout), scheme, options, grid.shape,
              float(DEFAULT_MAX_CELL_MM if mesh_size_mm is None else mesh_size_mm),
              int(DEFAULT_MIN_CELLS if min_cells is None else min_cells), rom_knobs, pairs, probes, "load_directions")
     rom, _ = cached("uncertainty_model", parts,
