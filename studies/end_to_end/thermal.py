@@ -154,15 +154,47 @@ def cached_thermal_case(key: str | None, layout: LayoutSpec):
 
 
 def stored_thermal_case(key: str | None, layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C,
-                        progress: bool = False, **thermal_kwargs):
+                        progress: bool = False, lean: bool = False, **thermal_kwargs):
     """:func:`thermal_case`, its value written to the disk cache under ``key`` (:func:`thermal_key`; None: not
-    written). Run in a worker: the write happens there, beside the other schemes' solves."""
+    written). Run in a worker: the write happens there, beside the other schemes' solves. ``lean``: once the
+    entry is written, the value returned is :func:`lean_case`'s (the full one is read back from the cache when
+    needed, :func:`full_case`); not written (no key, or the folder cannot be written): the full value."""
     from imutherm.cache import store
 
     out = thermal_case(layout, scheme, options, chamber_C, progress=progress, **thermal_kwargs)
-    if key is not None:
-        store(key, out)
+    if key is not None and store(key, out) is not None and lean:
+        return lean_case(out)
     return out
+
+
+def lean_case(value) -> tuple:
+    """:func:`thermal_case`'s ``value`` without its thermal problem (per-cell conductivity, capacity, power and
+    boundary arrays: ~55 MB of a ~60 MB reference-unit result), what a worker sends back while the other schemes'
+    solves still run; the sites' values and curves, the oven table and the fields stay. Marked by the steady
+    result's ``problem`` None (:func:`is_lean`)."""
+    res = value[0]
+    tr = res.transient
+    res = replace(res, steady=replace(res.steady, problem=None),
+                  transient=None if tr is None else replace(tr, problem=None))
+    return (res,) + tuple(value[1:])
+
+
+def is_lean(value) -> bool:
+    """Whether ``value`` (of :func:`thermal_case`) is :func:`lean_case`'s."""
+    return value[0].steady.problem is None
+
+
+def full_case(value, key: str | None, layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C,
+              **thermal_kwargs) -> tuple:
+    """``value`` itself, or for a :func:`lean_case` the full value read back from the disk cache under ``key``
+    (solved again here, said in one line, if the entry has gone meanwhile, e.g. evicted)."""
+    if not is_lean(value):
+        return value
+    full, status = cached_thermal_case(key, layout)
+    if status == "hit":
+        return full
+    print(f"{scheme}: thermal: the cache entry {str(key)[:12]} was {status} when read back: recomputed", flush=True)
+    return thermal_case(layout, scheme, options, chamber_C, **thermal_kwargs)
 
 
 def _as_read(res, layout: LayoutSpec):
