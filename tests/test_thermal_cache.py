@@ -217,3 +217,26 @@ def test_the_thermal_comparison_is_kept(folder, monkeypatch, capsys):
 def test_a_value_that_does_not_pickle_is_not_stored(folder):
     assert cache.store("0" * 64, lambda: 1) is None and not list(folder.glob("*.pkl"))
     assert cache.cached("m", (1,), lambda: (lambda: 2))[1] is False
+
+
+def test_a_worker_sends_back_a_lean_case_the_full_one_is_read_back(folder, capsys):
+    """Issue 59's memory peak: a worker's thermal case comes back without its thermal problem (per-cell arrays)
+    once its cache entry is written; the full value is read back from the cache, or solved again if it is gone."""
+    lay, opts = load_layout(None), ModelOptions()
+    key = _key()
+    lean = thermal_mod.stored_thermal_case(key, lay, "potted", opts, CONFIG.chamber_C, lean=True, **KW)
+    assert thermal_mod.is_lean(lean)
+    assert lean[0].steady.problem is None and lean[0].transient.problem is None
+    full = thermal_mod.full_case(lean, key, lay, "potted", opts, CONFIG.chamber_C, **KW)
+    assert not thermal_mod.is_lean(full) and full[0].steady.problem is not None
+    assert np.array_equal(full[0].steady.T_C, lean[0].steady.T_C)
+    assert np.array_equal(full[0].transient.probe_C, lean[0].transient.probe_C)
+    assert np.array_equal(full[1], lean[1]) and np.array_equal(full[2], lean[2])
+    assert thermal_mod.full_case(full, key, lay, "potted", opts, CONFIG.chamber_C, **KW) is full
+    (folder / f"{key}.pkl").unlink()   # gone meanwhile (evicted): solved again, said in one line
+    again = thermal_mod.full_case(lean, key, lay, "potted", opts, CONFIG.chamber_C, **KW)
+    assert capsys.readouterr().out == f"potted: thermal: the cache entry {key[:12]} was absent when read back: recomputed\n"
+    assert np.array_equal(again[0].steady.T_C, full[0].steady.T_C)
+    # not written (no key: the cache off): the full value comes back
+    assert not thermal_mod.is_lean(thermal_mod.stored_thermal_case(None, lay, "potted", opts, CONFIG.chamber_C,
+                                                                   lean=True, **KW))

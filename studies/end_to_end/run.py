@@ -15,8 +15,8 @@ from imutherm.geometry.layout import LayoutSpec, load_layout
 from imutherm.unit.model import ModelOptions
 from imutherm.studies.end_to_end.config import SchemeStudy, StudyConfig, StudyResult
 from imutherm.studies.end_to_end.imu import bare_calibration, imu_case, reduce_cases
-from imutherm.studies.end_to_end.thermal import (cached_thermal_case, longest_first, site_curves, stored_thermal_case,
-                                                 thermal_key)
+from imutherm.studies.end_to_end.thermal import (cached_thermal_case, full_case, longest_first, site_curves,
+                                                 stored_thermal_case, thermal_key)
 from imutherm.workers import check_jobs, process_pool, usable_workers
 
 
@@ -38,9 +38,10 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     config : StudyConfig (IMU side)
     options : ModelOptions (thermal laws; default :class:`ModelOptions`)
     jobs : int, worker processes (default: min(2, CPUs)); 1 runs everything in this process. With
-        ``jobs`` > 1 the schemes' thermal solves run side by side in the workers, the longest first
-        (:func:`longest_first`), and each scheme's IMU cases (one per seed) are queued as soon as its thermal
-        result is in, whichever finishes first.
+        ``jobs`` > 1 the schemes' thermal cases run side by side in the workers, the longest first
+        (:func:`longest_first`; their steady + transient solves one at a time,
+        :func:`~imutherm.studies.end_to_end.thermal.thermal_case`), and each scheme's IMU cases (one per seed)
+        are queued as soon as its thermal result is in, whichever finishes first.
     progress : bool, print one line per stage
     use_cache : bool, read each scheme's thermal case from the disk cache (:mod:`imutherm.cache`) when one of the
         same content is there (:func:`~imutherm.studies.end_to_end.thermal.thermal_key`: layout, scheme,
@@ -127,8 +128,9 @@ def _thermal_then_imu(pool, jobs: int, layout, schemes, options, config: StudyCo
         if progress and todo:
             print(f"thermal (steady, power-on transient, oven self-heating) of {', '.join(todo)} "
                   f"in {jobs} processes ...", flush=True)
+        # lean: the heavy thermal problem stays in the worker's cache entry while the other solves run (issue 59)
         thermal_futs = {pool.submit(stored_thermal_case, keys[sch], layout, sch, options, config.chamber_C,
-                                    **thermal_kwargs): sch
+                                    lean=keys[sch] is not None, **thermal_kwargs): sch
                         for sch in longest_first(layout, todo, options)}
         bare_futs = {s: pool.submit(bare_calibration, config.grade, s) if need_bare else None for s in seeds}
         bare = None   # the bare-sensor calibrations' results, collected with the first scheme's thermal case
@@ -159,4 +161,7 @@ def _thermal_then_imu(pool, jobs: int, layout, schemes, options, config: StudyCo
             print(f"scheme {sch}: thermal {done}; IMU and attitude, {len(seeds)} seeds ...", flush=True)
         pending[sch] = _imu_jobs(pool, config, seeds, bare, (t, T, steady_T, chamber, rise))
         thermal[sch] = (res, chamber, rise, oven)
+    # every solve done: the full values of the lean ones (read back from the cache) for the report and files
+    thermal = {sch: full_case(v, keys[sch], layout, sch, options, config.chamber_C, **thermal_kwargs)
+               for sch, v in thermal.items()}
     return pending, thermal

@@ -84,7 +84,10 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     """The thermal side of one scheme: (SchemeResult, chamber (k,) [°C], rise (k, 6) [K], oven solves).
 
     Steady field, power-on transient (always run) and the oven self-heating table; a pure function of its
-    arguments, so schemes can run in separate processes. With ``estimate_mesh_error``, the sites' values and
+    arguments, so schemes can run in separate processes. In a pool with the shared lock
+    (:func:`imutherm.workers.one_at_a_time`) the steady and transient solves run one scheme at a time (the other
+    worker meanwhile on its oven table, mesh-error estimate or IMU cases): two of them side by side were the
+    command's memory peak. With ``estimate_mesh_error``, the sites' values and
     curves and the oven's rises are the estimate's corrected answer
     (:func:`~imutherm.studies.thermal.thermal_study.mesh_corrected`). The oven solves are reduced and checked when the
     transient is (``transient_model`` 'reduced'), else full. Returns (SchemeResult, chamber, rise, oven solves
@@ -93,10 +96,13 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     from imutherm.budget import release_freed_memory
     from imutherm.imu.sensor_model import SITES
     from imutherm.studies.thermal.thermal_study import mesh_factors, run_scheme
+    from imutherm.workers import one_at_a_time
 
     estimate = thermal_kwargs.pop("estimate_mesh_error", False)
     kept = {}   # the steady solve's preconditioner: the oven's check and the estimate's coarse level use it too
-    res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, keep=kept, **thermal_kwargs)
+    with one_at_a_time():   # in a pool: two schemes' steady + transient solves never side by side (issue 59's peak)
+        res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, keep=kept,
+                         **thermal_kwargs)
     solves = []
     chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
                                        solves=solves, preconditioner=kept.get("preconditioner"),
@@ -154,15 +160,47 @@ def cached_thermal_case(key: str | None, layout: LayoutSpec):
 
 
 def stored_thermal_case(key: str | None, layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C,
-                        progress: bool = False, **thermal_kwargs):
+                        progress: bool = False, lean: bool = False, **thermal_kwargs):
     """:func:`thermal_case`, its value written to the disk cache under ``key`` (:func:`thermal_key`; None: not
-    written). Run in a worker: the write happens there, beside the other schemes' solves."""
+    written). Run in a worker: the write happens there, beside the other schemes' solves. ``lean``: once the
+    entry is written, the value returned is :func:`lean_case`'s (the full one is read back from the cache when
+    needed, :func:`full_case`); not written (no key, or the folder cannot be written): the full value."""
     from imutherm.cache import store
 
     out = thermal_case(layout, scheme, options, chamber_C, progress=progress, **thermal_kwargs)
-    if key is not None:
-        store(key, out)
+    if key is not None and store(key, out) is not None and lean:
+        return lean_case(out)
     return out
+
+
+def lean_case(value) -> tuple:
+    """:func:`thermal_case`'s ``value`` without its thermal problem (per-cell conductivity, capacity, power and
+    boundary arrays: ~55 MB of a ~60 MB reference-unit result), what a worker sends back while the other schemes'
+    solves still run; the sites' values and curves, the oven table and the fields stay. Marked by the steady
+    result's ``problem`` None (:func:`is_lean`)."""
+    res = value[0]
+    tr = res.transient
+    res = replace(res, steady=replace(res.steady, problem=None),
+                  transient=None if tr is None else replace(tr, problem=None))
+    return (res,) + tuple(value[1:])
+
+
+def is_lean(value) -> bool:
+    """Whether ``value`` (of :func:`thermal_case`) is :func:`lean_case`'s."""
+    return value[0].steady.problem is None
+
+
+def full_case(value, key: str | None, layout: LayoutSpec, scheme: str, options: ModelOptions, chamber_C,
+              **thermal_kwargs) -> tuple:
+    """``value`` itself, or for a :func:`lean_case` the full value read back from the disk cache under ``key``
+    (solved again here, said in one line, if the entry has gone meanwhile, e.g. evicted)."""
+    if not is_lean(value):
+        return value
+    full, status = cached_thermal_case(key, layout)
+    if status == "hit":
+        return full
+    print(f"{scheme}: thermal: the cache entry {str(key)[:12]} was {status} when read back: recomputed", flush=True)
+    return thermal_case(layout, scheme, options, chamber_C, **thermal_kwargs)
 
 
 def _as_read(res, layout: LayoutSpec):
