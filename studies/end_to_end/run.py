@@ -38,10 +38,9 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     config : StudyConfig (IMU side)
     options : ModelOptions (thermal laws; default :class:`ModelOptions`)
     jobs : int, worker processes (default: min(2, CPUs)); 1 runs everything in this process. With
-        ``jobs`` > 1 the schemes' thermal cases run side by side in the workers, the longest first
-        (:func:`longest_first`; their steady + transient solves one at a time,
-        :func:`~imutherm.studies.end_to_end.thermal.thermal_case`), and each scheme's IMU cases (one per seed)
-        are queued as soon as its thermal result is in, whichever finishes first.
+        ``jobs`` > 1 the schemes' thermal solves run side by side in the workers, the longest first
+        (:func:`longest_first`), and each scheme's IMU cases (one per seed) are queued as soon as its thermal
+        result is in, whichever finishes first.
     progress : bool, print one line per stage
     use_cache : bool, read each scheme's thermal case from the disk cache (:mod:`imutherm.cache`) when one of the
         same content is there (:func:`~imutherm.studies.end_to_end.thermal.thermal_key`: layout, scheme,

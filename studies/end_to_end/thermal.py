@@ -84,10 +84,7 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     """The thermal side of one scheme: (SchemeResult, chamber (k,) [°C], rise (k, 6) [K], oven solves).
 
     Steady field, power-on transient (always run) and the oven self-heating table; a pure function of its
-    arguments, so schemes can run in separate processes. In a pool with the shared lock
-    (:func:`imutherm.workers.one_at_a_time`) the steady and transient solves run one scheme at a time (the other
-    worker meanwhile on its oven table, mesh-error estimate or IMU cases): two of them side by side were the
-    command's memory peak. With ``estimate_mesh_error``, the sites' values and
+    arguments, so schemes can run in separate processes. With ``estimate_mesh_error``, the sites' values and
     curves and the oven's rises are the estimate's corrected answer
     (:func:`~imutherm.studies.thermal.thermal_study.mesh_corrected`). The oven solves are reduced and checked when the
     transient is (``transient_model`` 'reduced'), else full. Returns (SchemeResult, chamber, rise, oven solves
@@ -96,13 +93,10 @@ def thermal_case(layout: LayoutSpec, scheme: str, options: ModelOptions, chamber
     from imutherm.budget import release_freed_memory
     from imutherm.imu.sensor_model import SITES
     from imutherm.studies.thermal.thermal_study import mesh_factors, run_scheme
-    from imutherm.workers import one_at_a_time
 
     estimate = thermal_kwargs.pop("estimate_mesh_error", False)
     kept = {}   # the steady solve's preconditioner: the oven's check and the estimate's coarse level use it too
-    with one_at_a_time():   # in a pool: two schemes' steady + transient solves never side by side (issue 59's peak)
-        res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, keep=kept,
-                         **thermal_kwargs)
+    res = run_scheme(layout, scheme, options=options, progress=progress, transient=True, keep=kept, **thermal_kwargs)
     solves = []
     chamber, rise = self_heating_table(res, chamber_C, model=thermal_kwargs.get("transient_model", "full"),
                                        solves=solves, preconditioner=kept.get("preconditioner"),
