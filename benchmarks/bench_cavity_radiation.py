@@ -103,10 +103,9 @@ def view_factor_times(geometry, grid, options, repeat=3):
     """The view factors' parts on ``grid`` [s], each the least of ``repeat`` runs, and
     the whole with every part compiled against the whole as before (numpy placement and march, dense balancing)."""
     from imutherm.thermal.ray_march import march, march_numpy, place_rays, place_rays_numpy
-    from imutherm.unit.model import _patch_choice
 
     air = grid.cell_part == grid.part_names.index("fill")
-    pt = _patch_choice(grid, air, options).patches
+    pt = cavity_radiation.choose_patch_mm(grid, air, options.cavity_patch_mm, options.cavity_max_patches).patches
     rays = options.cavity_rays
     cr = cavity_radiation
 

@@ -79,12 +79,14 @@ def test_compiled_march_on_the_reference_unit_air_scheme():
     from imutherm.geometry.build import build_geometry
     from imutherm.geometry.layout import load_layout
     from imutherm.geometry.mesh import DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS, build_mesh
-    from imutherm.unit.model import ModelOptions, _patch_choice
+    from imutherm.thermal.cavity_radiation import choose_patch_mm
+    from imutherm.unit.model import ModelOptions
 
     geo = build_geometry(load_layout(None), "air")
     g = build_mesh(geo, DEFAULT_MAX_CELL_MM, DEFAULT_MIN_CELLS)
     air = g.cell_part == g.part_names.index("fill")
-    pt = _patch_choice(g, air, ModelOptions()).patches
+    opt = ModelOptions()
+    pt = choose_patch_mm(g, air, opt.cavity_patch_mm, opt.cavity_max_patches).patches
     pos, dirs, cell, _ = _emit(pt, g, 400, np.random.default_rng(0))
     assert np.array_equal(march(g, air, pt.face_patch, pos, dirs, cell),
                           march_numpy(g, air, pt.face_patch, pos, dirs, cell))
