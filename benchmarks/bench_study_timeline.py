@@ -11,6 +11,8 @@ else changed) and samples its process tree's CPU every 0.1 s from /proc. Writes 
 * ``cpu.csv``: the tree's busy cores per 0.1 s sample, per process;
 * ``timeline.png``: the spans as bars, one lane per process, over the busy cores.
 
+and the peak of the tree's summed VmRSS (every 0.1 s; ``bench_study.py`` samples every 0.2 s).
+
 It prints the serial phases (the command alone before the first worker task, after the last), the core-seconds
 left idle on the machine's CPUs (``--cores``, default min(2, CPUs)) while the command ran, and each worker's
 tasks. The wrappers cost a few ms a run; the figures are the machine's, at its load (printed):
@@ -184,6 +186,13 @@ def _tree(pid: int) -> list:
     return out
 
 
+def _rss_mb(pid: int) -> float:
+    try:
+        return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (FileNotFoundError, ProcessLookupError):
+        return 0.0
+
+
 def _cpu_ticks(pid: int) -> int | None:
     try:
         fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
@@ -205,10 +214,12 @@ def run_timeline(extra: list, out: Path, cache_dir: str | None, dt: float = 0.1)
     t_start = time.time()
     env[SPAN_ENV + "_T0"] = repr(t_start)
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
-    last, samples = {}, []
+    last, samples, peak = {}, [], 0.0
     while proc.poll() is None:
         t = time.time()
-        for p in _tree(proc.pid):
+        tree = _tree(proc.pid)
+        peak = max(peak, sum(_rss_mb(p) for p in tree))
+        for p in tree:
             ticks = _cpu_ticks(p)
             if ticks is None:
                 continue
@@ -225,7 +236,7 @@ def run_timeline(extra: list, out: Path, cache_dir: str | None, dt: float = 0.1)
     for line in spans_file.read_text().splitlines():
         pid, ppid, name, t0, t1, cpu = json.loads(line)
         spans.append(dict(pid=pid, ppid=ppid, stage=name, start_s=t0 - t_start, end_s=t1 - t_start, cpu_s=cpu))
-    return dict(text=text, wall_s=wall, spans=spans, samples=samples, main=proc.pid,
+    return dict(text=text, wall_s=wall, spans=spans, samples=samples, main=proc.pid, peak_mb=peak,
                 load=f"{load0:.1f} before, {os.getloadavg()[0]:.1f} after")
 
 
@@ -361,7 +372,8 @@ def main(argv=None) -> int:
     write_outputs(run, summ, out, args.cores)
     roles = summ["roles"]
     print(f"imutherm compare {' '.join(args.extra)}: {summ['wall_s']:.1f} s wall, "
-          f"{sum(summ['cpu_s'].values()):.1f} CPU-s (sampled), load average {run['load']}")
+          f"{sum(summ['cpu_s'].values()):.1f} CPU-s (sampled), peak {run['peak_mb']:.0f} MB (summed VmRSS), "
+          f"load average {run['load']}")
     print(f"  the command alone before the first worker task: {summ['first_task_s']:.1f} s; after the last one: "
           f"{summ['wall_s'] - summ['last_task_end_s']:.1f} s")
     print(f"  idle core-seconds of {args.cores} cores: {summ['idle_core_s']:.1f} (before the first task "
