@@ -39,7 +39,7 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     options : ModelOptions (thermal laws; default :class:`ModelOptions`)
     jobs : int, worker processes (default: min(2, CPUs)); 1 runs everything in this process. With
         ``jobs`` > 1 the schemes' thermal solves run side by side in the workers, the longest first
-        (:func:`worker_order`), and each scheme's IMU cases (one per seed) are queued as soon as its thermal
+        (:func:`longest_first`), and each scheme's IMU cases (one per seed) are queued as soon as its thermal
         result is in, whichever finishes first.
     progress : bool, print one line per stage
     use_cache : bool, read each scheme's thermal case from the disk cache (:mod:`imutherm.cache`) when one of the
@@ -78,19 +78,6 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
             pool.shutdown(cancel_futures=True)
     return StudyResult(layout=layout, config=config, options=options, schemes=out,
                        wall_s=time.perf_counter() - start)
-
-
-def worker_order(layout, schemes, options, jobs: int) -> tuple:
-    """``schemes`` in the order their thermal cases go to ``jobs`` workers: :func:`longest_first`'s, but the last
-    (the shortest) among the first ``jobs``, which start together. The mesh-error estimates' refined solves run one
-    at a time (:func:`imutherm.workers.one_at_a_time`): two cases of the same length started together reach them
-    together and one worker waits for the other's (reference unit, 2 workers: air and grease side by side, one
-    waited ~3 s of an idle machine's ~9 s), where the longest beside the shortest reach them apart (air beside
-    potted, grease after potted)."""
-    order = tuple(longest_first(layout, schemes, options))
-    if jobs < 2 or len(order) <= jobs:
-        return order
-    return order[:jobs - 1] + order[-1:] + order[jobs - 1:-1]
 
 
 def _study_inputs(layout, schemes, options, jobs, config: StudyConfig) -> tuple:
@@ -148,7 +135,7 @@ def _thermal_then_imu(pool, jobs: int, layout, schemes, options, config: StudyCo
         # lean: the heavy thermal problem stays in the worker's cache entry while the other solves run (issue 59)
         thermal_futs = {pool.submit(stored_thermal_case, keys[sch], layout, sch, options, config.chamber_C,
                                     lean=keys[sch] is not None, **thermal_kwargs): sch
-                        for sch in worker_order(layout, todo, options, jobs)}
+                        for sch in longest_first(layout, todo, options)}
         bare_futs = {s: pool.submit(bare_calibration, config.grade, s) if need_bare else None for s in seeds}
         bare = None   # the bare-sensor calibrations' results, collected with the first scheme's thermal case
     pending, thermal = {}, {}
