@@ -294,12 +294,11 @@ def _end_to_end(args, schemes, config) -> int:
 
 
 def _report_imports() -> None:
-    """Import what the report and the scheme files use (matplotlib, the filters' registry for their colours, meshio):
-    ~2 CPU-s, called while the workers run the IMU cases (:func:`run_study`'s ``while_imu``) instead of after them,
+    """Import what the report and the scheme files use (matplotlib and the report, the layout drawings, meshio):
+    ~0.5 CPU-s, called while the workers run the IMU cases (:func:`run_study`'s ``while_imu``) instead of after them,
     when the report is drawn alone (issue 59). Not before the workers start: it would be in their memory too."""
     import meshio  # noqa: F401  (the VTU files)
 
-    import imutherm.imu.filters.registry  # noqa: F401  (the report's filter colours: imports every filter)
     import imutherm.reports.board_plot  # noqa: F401
     import imutherm.reports.layout_plot  # noqa: F401
     import imutherm.reports.study_report  # noqa: F401
