@@ -58,10 +58,11 @@ def memory_mb(pid: int) -> tuple[float, float]:
 
 def sample(cmd: list[str], env: dict, period_s: float = 0.2) -> dict:
     """Run ``cmd``, sampling its tree: dict(returncode, wall_s, cpu_s, peak_mb, pss_mb (at the peak), at_s, split
-    (pid -> RSS at the peak), own (pid -> its own peak RSS), main (the command's pid))."""
+    (pid -> RSS at the peak), own (pid -> its own peak RSS), main (the command's pid), stdout (with stderr))."""
     ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    out = tempfile.TemporaryFile("w+")
+    proc = subprocess.Popen(cmd, env=env, stdout=out, stderr=subprocess.STDOUT, text=True)
     peak, own = dict(peak_mb=0.0, pss_mb=0.0, at_s=0.0, split={}), {}
     while proc.poll() is None:
         mem = {p: memory_mb(p) for p in tree(proc.pid)}
@@ -72,25 +73,30 @@ def sample(cmd: list[str], env: dict, period_s: float = 0.2) -> dict:
             peak = dict(peak_mb=rss, pss_mb=sum(m[1] for m in mem.values()), at_s=time.perf_counter() - t0,
                         split={p: m[0] for p, m in mem.items()})
         time.sleep(period_s)
-    err = proc.stderr.read()
+    out.seek(0)
+    text = out.read()
     ru = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = ru.ru_utime + ru.ru_stime - ru0.ru_utime - ru0.ru_stime
     return dict(returncode=proc.returncode, wall_s=time.perf_counter() - t0, cpu_s=cpu, own=own, main=proc.pid,
-                stderr=err, **peak)
+                stdout=text, **peak)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", help="the command's output folder, kept (default: a temporary one), and its printout "
+                    "in out/printout.txt: to compare the answers of two runs")
     ap.add_argument("extra", nargs="*", help="arguments for imutherm compare (after --)")
     args = ap.parse_args(argv)
     load0 = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="imutherm-mem-") as tmp:
         env = dict(os.environ, IMUTHERM_CACHE_DIR=str(Path(tmp) / "cache"))
-        cmd = [sys.executable, "-m", "imutherm.cli", "compare", "--no-progress", "--out", str(Path(tmp) / "out"),
-               *args.extra]
+        out = Path(args.out) if args.out else Path(tmp) / "out"
+        cmd = [sys.executable, "-m", "imutherm.cli", "compare", "--no-progress", "--out", str(out), *args.extra]
         r = sample(cmd, env)
+        if args.out:
+            (out / "printout.txt").write_text(r["stdout"])
     if r["returncode"] != 0:
-        print(r["stderr"][-2000:], file=sys.stderr)
+        print(r["stdout"][-2000:], file=sys.stderr)
         print(f"imutherm compare failed (exit {r['returncode']})", file=sys.stderr)
         return 1
     name = lambda p: "command" if p == r["main"] else f"worker {p}"   # noqa: E731
