@@ -79,3 +79,31 @@ def test_a_name_is_settled_by_a_file_it_was_not_fitted_to():
     rank = sorted(fits.values(), key=lambda f: f.aicc)
     for n in names:
         assert settled_by_file(fwd, disc, fits[n], none, rank, full, ratio, noise) is None, n
+
+
+def test_the_next_experiment_must_tell_each_candidate_from_the_re_tuned_model():
+    """Two candidates the toy's designs tell apart, one of them fitted at the re-tuned model's own values (it changes
+    nothing): without the re-tuned model as the reference the design is promised to settle; with it, no design
+    can (that candidate and the model's own error read the same), and the words say so. The term a fit carries is
+    subtracted, as fractions of the nominal rise, at the sites the design's scheme measured."""
+    from _toy_reduced import toy_models
+    from imutherm.studies.correlation.forward_model import ForwardModel
+    from imutherm.studies.correlation.next_experiment import _predict, carried_term, next_experiment
+    models = toy_models()
+    rng = np.random.default_rng(3)
+    runs = [_run(NUISANCE, rng, "air"), _run(NUISANCE, rng, "grease")]
+    fwd = ForwardModel(runs, models.roms, models.geometries, models.options)
+    base = dict(fwd.nominal)
+    a, b = ("power@reg_5v", {**base, "power@reg_5v": 0.3}), ("power@processor", {**base, "power@processor": 0.0})
+    free = next_experiment(fwd, [a, b], 0.05, {"air": 0.02, "grease": 0.02})
+    assert free["settles"] and free["reference"] is None
+    held = next_experiment(fwd, [a, b], 0.05, {"air": 0.02, "grease": 0.02}, ("the re-tuned model", base))
+    assert not held["settles"] and held["separation_sigmas"] < 1e-6 and "the re-tuned model" in held["pair"]
+    assert "no design on the grid is expected to settle it" in held["in_words"]
+    coefs = {(0, j): np.array([0.1, 0.0]) for j in range(6)}  # the air run's term: 10 % of each site's rise
+    assert set(carried_term(fwd, coefs, "air", 70.0)) == set(runs[0].sites) and not carried_term(fwd, coefs, "grease",
+                                                                                                   70.0)
+    t, y, _ = _predict(fwd, "air", 70.0, 1.0, 1500.0, base)
+    _, yc, _ = _predict(fwd, "air", 70.0, 1.0, 1500.0, base, coefs)
+    y_inf = fwd.roms[("air", 70.0)].rise({**base, "power_scale": 1.0}, [np.inf])[0]
+    assert np.allclose(y - yc, 0.1 * y_inf * np.clip(y / y_inf, 0, 1), rtol=1e-6)  # ΔT s(t) at the nominal values
