@@ -25,9 +25,9 @@ named when, on the held-out file, it meets against every rival the standard the 
 :data:`~imutherm.studies.correlation.verdict.EXPLAIN_MIN_NOISE` noise sigmas of the file over the re-tuned model
 (the verdict's own standards, no new margin). A paired test over the file's series (Diebold & Mariano 1995,
 :func:`~imutherm.studies.correlation.holdout.heldout_worse_z`) was tried first: with 6 series and an effect at one
-or two sites it resolves nothing (toy, 0.25 W at the 5 V regulator: the re-tuned model misses the half-power file by
-1.0 K RMS, the regulator by 0.33 K, z about 1). With one file per scheme and ambient (a first correlation) nothing is held out and
-the verdict is unchanged.
+or two sites it resolves nothing (toy, 0.25 W at the 5 V regulator and a half-power air file added: with the air
+file held out the re-tuned model misses it by 1.0 K RMS, the regulator by 0.33 K, z 1.1). With one file per scheme
+and ambient (a first correlation) nothing is held out and the verdict is unchanged.
 """
 
 from __future__ import annotations
@@ -74,7 +74,8 @@ def predict_file(fwd, disc, f: Fit, i: int, full: dict, ratio: float, noise_K: f
 
 def settled_by_file(fwd, disc, f: Fit, none: Fit, ranking, full: dict, ratio: float, noise_K: float) -> dict | None:
     """The evidence that ``f`` (one effect on the re-tuned model ``none``) is settled by a file it was not fitted
-    to (see the module docstring), or None: {'file', 'rms_K' (name -> held-out RMS [K] of the file), 'words'}. ``ranking``: the step's candidates; rivals are those that beat ``none`` on the evidence."""
+    to (see the module docstring), or None: {'file', 'rms_K' (name -> held-out RMS [K] of the file), 'words'}.
+    ``ranking``: the step's candidates; rivals are those that beat ``none`` on the evidence."""
     from imutherm.studies.correlation.verdict import EXPLAIN_FRACTION, EXPLAIN_MIN_NOISE, NONE_NOISE_FACTOR
     if disc is None or len(f.effects) != 1:
         return None

@@ -86,7 +86,8 @@ def carried_term(fwd, coefs: dict, scheme: str, amb: float) -> dict:
     return {s: np.mean(cs, axis=0) for s, cs in acc.items()}
 
 
-def _predict(fwd, scheme: str, amb: float, ps: float, dur: float, values: dict, coefs: dict | None = None) -> tuple:
+def predicted_readings(fwd, scheme: str, amb: float, ps: float, dur: float, values: dict,
+                       coefs: dict | None = None) -> tuple:
     """(times [s], the rises [K] at every site (n, m) a file of the design would read by the model at ``values``
     with the term ``coefs`` carried over (:func:`carried_term`), site names) of one design."""
     t, f = _design_model(fwd, scheme, amb, ps, dur)
@@ -105,7 +106,8 @@ def _predict(fwd, scheme: str, amb: float, ps: float, dur: float, values: dict, 
 def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference=None) -> dict | None:
     """The design that best separates ``leading`` (a list of (name, fitted values[, the fit's term coefficients,
     ``Fit.disc``]) of two or more candidates) from each other and from ``reference`` (the same form: the re-tuned
-    model alone; None: not asked), see the module docstring; None with fewer than two candidates. Returns the design (scheme, ambient_C, power_scale,
+    model alone; None: not asked), see the module docstring; None with fewer than two candidates. Returns the
+    design (scheme, ambient_C, power_scale,
     duration_s, probes, added_probe), ``separation_K`` and ``separation_sigmas`` (of the worst-separated pair),
     ``pair``, ``site`` and ``time_s`` where that pair differs most, ``settles`` (>= :data:`SETTLE_SIGMAS`),
     ``candidates`` and ``in_words``: a sentence a test engineer can act on."""
@@ -118,7 +120,7 @@ def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference
     for d in designs(fwd):
         key = (d["scheme"], d["ambient_C"], d["power_scale"], d["duration_s"])
         if key not in cache:
-            cache[key] = [_predict(fwd, *key, *x[1:]) for x in leading]
+            cache[key] = [predicted_readings(fwd, *key, *x[1:]) for x in leading]
         preds = cache[key]
         t, sites = preds[0][0], preds[0][2]
         cols = [sites.index(s) for s in d["probes"]]
@@ -152,7 +154,8 @@ def _words(x: dict, noise_K: float) -> str:
     logged = ", ".join(kept) + (f" and one more probe at {x['added_probe']}" if x["added_probe"] else "")
     verdict = ("expected to settle it" if x["settles"] else
                f"below {SETTLE_SIGMAS:g} sigmas: no design on the grid is expected to settle it")
-    return (f"Next experiment: run the {x['scheme']} scheme at {x['ambient_C']:g} °C ambient and {x['power_scale']:g}x "
+    return (f"Next experiment: run the {x['scheme']} scheme at {x['ambient_C']:g} °C ambient and "
+            f"{x['power_scale']:g}x "
             f"power for {x['duration_s']:.0f} s, logging {logged}. "
             f"{x['pair'][0]} and {x['pair'][1]} then differ by {x['separation_K']:.2f} K at {x['site']} after "
             f"{x['time_s']:.0f} s ({x['separation_sigmas']:.1f} sigmas of noise {noise_K:.3f} K and form error): "
