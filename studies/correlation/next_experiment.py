@@ -6,12 +6,14 @@ and the re-tune, as fitted) predicts what any further experiment would read. Ove
 duration, the probes of the files so far plus at most one more at a named site), the one chosen maximises the
 smallest pairwise separation of the leading candidates' predicted readings against what blurs them:
 
-    z = max over readings |y_a - y_b| / s,   s² = noise² + (form fraction × rise)²
+    z = RMS over the file's readings of (y_a - y_b) / RMS of s,   s² = noise² + (form fraction × rise)²
 
 (the form fraction: the model's stated form error per scheme, :mod:`imutherm.studies.correlation.form_error`, applied to
-the mean predicted rise: a smooth model error of that size could mimic the difference there). The pointwise
-maximum is the conservative reading of a separation: a smooth form error does not average away over readings.
-A design is expected to settle the question when z >= :data:`SETTLE_SIGMAS` for every pair.
+the mean predicted rise: a smooth model error of that size could mimic the difference there). Both are taken over
+the whole file, as the test that settles it does (:mod:`~imutherm.studies.correlation.file_test`: a candidate
+must halve its rivals' RMS miss of the file): a pointwise maximum (until issue 58's seed 63) promised designs
+whose difference sat at one probe for one minute (0.87 K at an added probe after 75 s, 10 sigmas pointwise) and
+settled none. A design is expected to settle the question when z >= :data:`SETTLE_SIGMAS` for every pair.
 
 What separates is what the second correlation will test (issue 58, seed 63: four designs promised at 10-17
 sigmas settled none). With the discrepancy term a candidate is named where it explains the model's error
@@ -108,7 +110,8 @@ def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference
     ``Fit.disc``]) of two or more candidates) from each other and from ``reference`` (the same form: the re-tuned
     model alone; None: not asked), see the module docstring; None with fewer than two candidates. Returns the
     design (scheme, ambient_C, power_scale,
-    duration_s, probes, added_probe), ``separation_K`` and ``separation_sigmas`` (of the worst-separated pair),
+    duration_s, probes, added_probe), ``separation_sigmas`` (z of the worst-separated pair), its
+    ``separation_rms_K`` and largest difference ``separation_K``,
     ``pair``, ``site`` and ``time_s`` where that pair differs most, ``settles`` (>= :data:`SETTLE_SIGMAS`),
     ``candidates`` and ``in_words``: a sentence a test engineer can act on."""
     leading = list(leading)
@@ -129,19 +132,21 @@ def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference
         s = np.sqrt(noise_K**2 + (frac * np.mean(ys, axis=0)) ** 2)
         worst = None
         for a, b in itertools.combinations(range(len(ys)), 2):
-            z = np.abs(ys[a] - ys[b]) / s
-            k = np.unravel_index(int(np.argmax(z)), z.shape)
-            cand = (float(z[k]), float(abs(ys[a] - ys[b])[k]), (leading[a][0], leading[b][0]), d["probes"][k[1]],
-                    float(t[k[0]]))
+            diff = np.abs(ys[a] - ys[b])
+            z = float(np.sqrt(np.mean(diff**2) / np.mean(s**2)))
+            k = np.unravel_index(int(np.argmax(diff)), diff.shape)  # where the pair differs most, for the words
+            cand = (z, float(diff[k]), (leading[a][0], leading[b][0]), d["probes"][k[1]], float(t[k[0]]),
+                    float(np.sqrt(np.mean(diff**2))))
             if worst is None or cand[0] < worst[0]:
                 worst = cand
         scored.append((worst, d))
     # the best design; of those within 2 % of it, the shortest, nearest the nominal power, without an added probe
     top = max(w[0] for w, _ in scored)
-    (z, sep, pair, site, t_at), d = min((x for x in scored if x[0][0] >= top / 1.02),
+    (z, sep, pair, site, t_at, sep_rms), d = min((x for x in scored if x[0][0] >= top / 1.02),
                                         key=lambda x: (x[1]["duration_s"], abs(x[1]["power_scale"] - 1.0),
                                                        x[1]["added_probe"] is not None))
-    out = {**d, "probes": list(d["probes"]), "separation_K": sep, "separation_sigmas": z, "pair": list(pair),
+    out = {**d, "probes": list(d["probes"]), "separation_K": sep, "separation_rms_K": sep_rms, "separation_sigmas": z,
+           "pair": list(pair),
            "site": site, "time_s": t_at, "settles": z >= SETTLE_SIGMAS, "candidates": names,
            "reference": reference[0] if reference is not None else None,
            "sigma_includes": "noise and the stated form error of the rise (each model's term carried over)"}
@@ -157,6 +162,7 @@ def _words(x: dict, noise_K: float) -> str:
     return (f"Next experiment: run the {x['scheme']} scheme at {x['ambient_C']:g} °C ambient and "
             f"{x['power_scale']:g}x "
             f"power for {x['duration_s']:.0f} s, logging {logged}. "
-            f"{x['pair'][0]} and {x['pair'][1]} then differ by {x['separation_K']:.2f} K at {x['site']} after "
-            f"{x['time_s']:.0f} s ({x['separation_sigmas']:.1f} sigmas of noise {noise_K:.3f} K and form error): "
+            f"{x['pair'][0]} and {x['pair'][1]} then differ by {x['separation_rms_K']:.2f} K RMS over the file "
+            f"({x['separation_sigmas']:.1f} sigmas of noise {noise_K:.3f} K and form error), most at {x['site']}: "
+            f"{x['separation_K']:.2f} K after {x['time_s']:.0f} s: "
             f"{verdict}. Add the file and run correlate again.")
