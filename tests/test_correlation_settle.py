@@ -83,8 +83,9 @@ def test_a_name_is_settled_by_a_file_it_was_not_fitted_to():
 
 def test_the_next_experiment_must_tell_each_candidate_from_the_re_tuned_model():
     """Two candidates the toy's designs tell apart, one of them fitted at the re-tuned model's own values (it changes
-    nothing): without the re-tuned model as the reference the design is promised to settle; with it, no design
-    can (that candidate and the model's own error read the same), and the words say so. The term a fit carries is
+    nothing): unless that candidate is asked to be told from the re-tuned model (``against``: one the term's
+    standard refuses) the design is promised to settle; asked, no design can (that candidate and the model's own
+    error read the same), and the words say so. The term a fit carries is
     subtracted, as fractions of the nominal rise, at the sites the design's scheme measured."""
     from _toy_reduced import toy_models
     from imutherm.studies.correlation.forward_model import ForwardModel
@@ -97,7 +98,9 @@ def test_the_next_experiment_must_tell_each_candidate_from_the_re_tuned_model():
     a, b = ("power@reg_5v", {**base, "power@reg_5v": 0.3}), ("power@processor", {**base, "power@processor": 0.0})
     free = next_experiment(fwd, [a, b], 0.05, {"air": 0.02, "grease": 0.02})
     assert free["settles"] and free["reference"] is None
-    held = next_experiment(fwd, [a, b], 0.05, {"air": 0.02, "grease": 0.02}, ("the re-tuned model", base))
+    ref = ("the re-tuned model", base)
+    assert next_experiment(fwd, [a, b], 0.05, {"air": 0.02, "grease": 0.02}, ref)["settles"]  # none asked against it
+    held = next_experiment(fwd, [a, b], 0.05, {"air": 0.02, "grease": 0.02}, ref, ["power@processor"])
     assert not held["settles"] and held["separation_sigmas"] < 1e-6 and "the re-tuned model" in held["pair"]
     assert "no design on the grid is expected to settle it" in held["in_words"]
     coefs = {(0, j): np.array([0.1, 0.0]) for j in range(6)}  # the air run's term: 10 % of each site's rise

@@ -22,8 +22,11 @@ its rivals and the re-tuned model, the term carried over from the files of the s
 (:mod:`~imutherm.studies.correlation.file_test`). So each candidate's readings of a design are predicted as that
 test predicts them: its model at its fitted values less the term it fitted, as fractions of each site's nominal
 rise, carried over to the design's probes (where the files of the design's scheme and ambient measure that site;
-elsewhere none), and with ``reference`` (the re-tuned model alone, the model's own error) each candidate must be
-separated from it too: a design that tells the candidates apart but not from the model's form settles nothing.
+elsewhere none), and with ``reference`` (the re-tuned model alone, the model's own error) each candidate the
+term's standard refuses (``against``) must be separated from it too: for such a candidate only that test can
+settle it, and a design that tells the candidates apart but not from the model's form settles nothing. (Asked of
+every candidate, with the term carried over, the slow FEM closed loop's proposed design changed and left the 5 V
+regulator ambiguous with the 3.3 V one.)
 The form fraction in s is then what the carried term does not predict.
 """
 
@@ -105,10 +108,11 @@ def predicted_readings(fwd, scheme: str, amb: float, ps: float, dur: float, valu
     return t, y, sites
 
 
-def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference=None) -> dict | None:
+def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference=None, against=()) -> dict | None:
     """The design that best separates ``leading`` (a list of (name, fitted values[, the fit's term coefficients,
-    ``Fit.disc``]) of two or more candidates) from each other and from ``reference`` (the same form: the re-tuned
-    model alone; None: not asked), see the module docstring; None with fewer than two candidates. Returns the
+    ``Fit.disc``]) of two or more candidates) from each other, and those named in ``against`` from ``reference``
+    (the same form: the re-tuned model alone; None: not asked), see the module docstring; None with fewer than two
+    candidates. Returns the
     design (scheme, ambient_C, power_scale,
     duration_s, probes, added_probe), ``separation_sigmas`` (z of the worst-separated pair), its
     ``separation_rms_K`` and largest difference ``separation_K``,
@@ -118,7 +122,10 @@ def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference
     if len(leading) < 2:
         return None
     names = [x[0] for x in leading]
-    leading = leading + ([reference] if reference is not None else [])
+    against = [n for n in against if n in names] if reference is not None else []
+    leading = leading + ([reference] if against else [])
+    pairs = [(a, b) for a, b in itertools.combinations(range(len(leading)), 2)
+             if b < len(names) or leading[a][0] in against]
     cache, scored = {}, []
     for d in designs(fwd):
         key = (d["scheme"], d["ambient_C"], d["power_scale"], d["duration_s"])
@@ -131,7 +138,7 @@ def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference
         frac = float(form_fraction.get(d["scheme"], max(form_fraction.values(), default=0.0)))
         s = np.sqrt(noise_K**2 + (frac * np.mean(ys, axis=0)) ** 2)
         worst = None
-        for a, b in itertools.combinations(range(len(ys)), 2):
+        for a, b in pairs:
             diff = np.abs(ys[a] - ys[b])
             z = float(np.sqrt(np.mean(diff**2) / np.mean(s**2)))
             k = np.unravel_index(int(np.argmax(diff)), diff.shape)  # where the pair differs most, for the words
@@ -148,7 +155,7 @@ def next_experiment(fwd, leading, noise_K: float, form_fraction: dict, reference
     out = {**d, "probes": list(d["probes"]), "separation_K": sep, "separation_rms_K": sep_rms, "separation_sigmas": z,
            "pair": list(pair),
            "site": site, "time_s": t_at, "settles": z >= SETTLE_SIGMAS, "candidates": names,
-           "reference": reference[0] if reference is not None else None,
+           "reference": reference[0] if against else None, "against_reference": against,
            "sigma_includes": "noise and the stated form error of the rise (each model's term carried over)"}
     out["in_words"] = _words(out, noise_K)
     return out

@@ -189,8 +189,10 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
         step = next((st for st in reversed(sel.steps) if st["verdict"] == "ambiguous"), None)
         fits = [f for f in (step["ranking"] if step else ()) if f.effects and f.effects[-1] in amb_set]
         base = step["base"] if step else sel.none_fit  # the re-tuned model: the model's own error, to be told apart
+        against = [f.effects[-1] for f in fits if sel.disc is not None  # from candidates the term's standard refuses
+                   and not explains_term(f, base, noise, (f,), sel.plain.heldout_rms_K)]
         nxt = next_experiment_of(sel.fwd, leading or [(f.effects[-1], f.values, f.disc) for f in fits], noise,
-                                 fscale.fraction, ("the re-tuned model", base.values, base.disc))
+                                 fscale.fraction, ("the re-tuned model", base.values, base.disc), against)
         if nxt is not None:
             say(nxt["in_words"])
     if symptoms:
