@@ -10,6 +10,7 @@ memory). The machine is shared: give the load beside the figures (printed).
 
     python benchmarks/bench_user_unit.py                        # drone-fc, compare at its defaults
     python benchmarks/bench_user_unit.py --board openuav        # another shared board
+    python benchmarks/bench_user_unit.py --board proves-fc-v4c  # the 151-footprint one (issue 59's target)
     python benchmarks/bench_user_unit.py -- --seeds 1           # extra arguments for both compare runs
     python benchmarks/bench_user_unit.py --write                # and record docs/benchmarks/tables/user_unit.txt
 """
@@ -33,7 +34,9 @@ from bench_study import _tree_memory_mb  # noqa: E402
 BOARDS = Path(__file__).resolve().parents[1] / "examples" / "boards"
 #: the import of each shared board as a user gives it: (extra files, site)
 IMPORTS = {"drone-fc": (["--heights", "drone-fc_heights.csv"], "U2=imu"),
-           "openuav": (["--heights", "openuav_heights.csv", "--electrical", "openuav_electrical.toml"], "U3=imu")}
+           "openuav": (["--heights", "openuav_heights.csv", "--electrical", "openuav_electrical.toml"], "U3=imu"),
+           # issue 59's "shared 150-footprint board" (151 footprints, 88 x 94.5 mm; no heights file: the defaults)
+           "proves-fc-v4c": ([], "U7=imu")}
 TARGET_RATIO = 2.0
 
 

@@ -24,7 +24,7 @@ combinations such as ``M/dt + theta*K`` are plain operations on ``.data``.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -458,11 +458,23 @@ def assemble(problem: ThermalProblem, *, lumped_mass: bool = False, mass: bool =
     return _with_boundary(problem, pattern, K_data, H_data, M_data, F_q, lumped_mass, merge_linear)
 
 
+def volume_part(asm: Assembly) -> Assembly | None:
+    """``asm``'s volume parts alone (conduction, heat capacity, volume load; ``H_data`` and ``F_bc`` None, no boundary
+    conditions), as ``like`` of :func:`assemble` for problems of the same unit under other surroundings, without
+    keeping ``asm``'s boundary matrix (an nnz-sized array: 40 MB on the reference unit's default mesh) alive. None
+    when ``asm``'s conduction is merged with its linear laws (``merge_linear``: no volume part of its own)."""
+    if asm.H_data is asm.K_data or len(asm.H_data) != len(asm.K_data):
+        return None
+    return replace(asm, H_data=None, F_bc=None, linear=[], nonlinear=[], fluxes=[], dirichlet=[])
+
+
 def _same_volume(like, problem: ThermalProblem, mass: bool, lumped_mass: bool, merge_linear: bool) -> bool:
     """True when ``like`` (an Assembly or None) has this problem's volume parts: the same grid, conductivity,
     heat capacity (when ``mass``) and heat sources, its conduction not merged with a boundary's."""
-    if like is None or merge_linear or like.H_data is like.K_data or len(like.H_data) != len(like.K_data):
+    if like is None or merge_linear:
         return False
+    if like.H_data is not None and (like.H_data is like.K_data or len(like.H_data) != len(like.K_data)):
+        return False   # merged: its K_data holds a boundary's laws too
     a, g = like.problem, problem.grid
     if mass and (like.M_data is None or like.lumped_mass != lumped_mass):
         return False

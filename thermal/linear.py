@@ -107,6 +107,16 @@ def _bsr_to_csr(ml):
     return ml
 
 
+def single(A) -> sp.csr_matrix:
+    """``A`` as a single-precision CSR matrix: a CSR matrix's values converted, its pattern's arrays shared (not
+    copied: ``astype`` copies them, 20 MB on the reference unit's default mesh, kept with the hierarchy)."""
+    if sp.isspmatrix_csr(A) or isinstance(A, sp.csr_array):
+        if A.dtype == np.float32:
+            return A
+        return sp.csr_matrix((A.data.astype(np.float32), A.indices, A.indptr), shape=A.shape)
+    return A.astype(np.float32).tocsr()
+
+
 def amg_preconditioner(A) -> spla.LinearOperator:
     """One smoothed-aggregation V-cycle (pyamg) as an SPD preconditioner for CG.
 
@@ -129,7 +139,7 @@ def amg_preconditioner(A) -> spla.LinearOperator:
     def build(dtype):
         return pyamg.smoothed_aggregation_solver(A.astype(dtype), max_coarse=AMG_MAX_COARSE, **AMG_OPTIONS)
 
-    ml = _bsr_to_csr(_levels_on_csr(A.astype(np.float32), AMG_OPTIONS))
+    ml = _bsr_to_csr(_levels_on_csr(single(A), AMG_OPTIONS))
     vcycle = _private_vcycle(ml)
     if vcycle is None or len(ml.levels) < 2:  # small problem (one level: a dense solve) or another pyamg
         return build(np.float64).aspreconditioner(cycle="V")
@@ -158,7 +168,7 @@ def amg_like(A, pc) -> spla.LinearOperator | None:
     ml = getattr(pc, "hierarchy", None)
     if ml is None or len(ml.levels) < 2 or ml.levels[0].A.shape != A.shape:
         return None
-    levels, Al = [], A.tocsr() if A.dtype == np.float32 else A.astype(np.float32).tocsr()
+    levels, Al = [], single(A)
     for lvl in ml.levels:
         new = MultilevelSolver.Level()
         new.A = Al

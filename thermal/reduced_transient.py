@@ -298,6 +298,7 @@ def m_orthonormal(cols, M) -> np.ndarray:
     """An M-orthonormal basis V (V^T M V = I) of the span of ``cols`` (near-dependent columns dropped)."""
     X = np.column_stack([c / (np.linalg.norm(c) or 1.0) for c in cols])
     U, s, _ = np.linalg.svd(X, full_matrices=False)
+    del X   # (n, k): not kept beside U's products
     U = U[:, s > 1e-10 * s[0]]
     R = sla.cholesky(U.T @ (M @ U))          # U^T M U = R^T R
     return sla.solve_triangular(R, U.T, trans="T").T   # U R^-1
@@ -313,7 +314,13 @@ class _Conduction:
         self.shape = S.shape
 
     def __matmul__(self, x):
-        return self.S @ x - (self.D * x if x.ndim == 1 else self.D[:, None] * x)
+        out = self.S @ x
+        if x.ndim == 1:
+            out -= self.D * x
+        else:   # a column at a time: no second (n, r) temporary beside the product (the same values)
+            for j in range(x.shape[1]):
+                out[:, j] -= self.D * x[:, j]
+        return out
 
 
 class ProjectedModel:
@@ -487,6 +494,7 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
         if ok or rnd == max_rounds + 1:
             break
         cols += fields
+        V = red = sol = PV = None   # this round's basis and model: not kept beside the next round's
     reason = "" if ok else (f"estimated site error {max_err:.3g} K (tolerance {tol_K:g} K), t95 error "
                             f"{100 * rel95:.2g} % (tolerance {100 * t95_rel:g} %) after {rnd} round(s)")
     check = ReducedCheck(bool(ok), reason, V.shape[1], rnd, lin.solves, lin.its, tuple(float(t) for t in tk), err,

@@ -207,9 +207,13 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
     nonlinear = bool(asm.nonlinear)
     free = ~D.mask
     amb = problem.ambient_C
-    base = D.eliminate(L.data)
+    # the Newton matrices' values in one array, for every step: L's own when no node is fixed (its diagonal put back
+    # after each solve, for the residuals), else the eliminated copy. A copy a step kept three nnz-sized arrays at
+    # once (the preconditioner's matrix, the last step's, the new one): 121 MB on the reference unit's default mesh
+    data = D.eliminate(L.data)
+    diag0 = data[D.free_diag].copy() if nonlinear else None
     r, N, J = residual(T)
-    A = asm.pattern.csr(base)
+    A = asm.pattern.csr(data)
     exchanges = [bc.law for bc in asm.nonlinear if isinstance(bc.law, CavityExchange)]
     lin_its = 0
     it = 0
@@ -217,20 +221,13 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
     last_change = math.inf
     for it in range(1, max_iter + 1):
         if nonlinear:
-            data = base.copy()
-            data[D.free_diag] += J[free]
-            A = asm.pattern.csr(data)
-        # the exchange's coupling itself, not its diagonal slope (cavity_radiation's docstring)
-        op = with_exchanges(A, exchanges, T, D.mask) if exchanges else A
-        pc = A if exchanges else None
-        dT = None
-        if nonlinear and eta > lin.rtol:   # inexact Newton: the step solved no tighter than it is worth
-            try:
-                dT, its, _ = lin.solve(op, -r, rtol=eta, pc_matrix=pc)
-            except ConvergenceError:      # a stale preconditioner: the full path below rebuilds it
-                dT = None
-        if dT is None:
-            dT, its, _ = lin.solve(op, -r, pc_matrix=pc)
+            data[D.free_diag] = diag0 + J[free]
+            A = asm.pattern.csr(data)   # a new matrix object a step (the solver tells matrices apart by identity)
+        try:
+            dT, its = _newton_step(lin, A, exchanges, T, D.mask, r, eta if nonlinear else None)
+        finally:
+            if nonlinear and data is L.data:
+                data[D.free_diag] = diag0   # L's values again
         lin_its += its
         if not nonlinear:
             T += dT
@@ -259,6 +256,22 @@ def _newton(problem, asm, D, L, lin, residual, T, tol, max_iter):
     raise ConvergenceError(f"solve_steady: Newton did not converge in {max_iter} iterations "
                            f"(last max|ΔT| = {change:.3g} K, residual norm {np.linalg.norm(r):.3g} W); "
                            f"raise max_iter or check the boundary laws")
+
+
+def _newton_step(lin, A, exchanges, T, fixed, r, eta):
+    """(dT, CG iterations) of one Newton step with the matrix ``A``: CG to the forcing ``eta`` first (inexact
+    Newton; None: no forcing), to the solver's own tolerance when that is tighter or the loose solve fails."""
+    # the exchange's coupling itself, not its diagonal slope (cavity_radiation's docstring)
+    op = with_exchanges(A, exchanges, T, fixed) if exchanges else A
+    pc = A if exchanges else None
+    if eta is not None and eta > lin.rtol:   # inexact Newton: the step solved no tighter than it is worth
+        try:
+            dT, its, _ = lin.solve(op, -r, rtol=eta, pc_matrix=pc)
+            return dT, its
+        except ConvergenceError:      # a stale preconditioner: the full path below rebuilds it
+            pass
+    dT, its, _ = lin.solve(op, -r, pc_matrix=pc)
+    return dT, its
 
 
 def remaining_error(change: float, last_change: float) -> float:

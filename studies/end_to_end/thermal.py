@@ -32,7 +32,7 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
     (:func:`imutherm.thermal.assembly.assemble` ``like=``).
     """
     from imutherm.imu.sensor_model import SITES
-    from imutherm.thermal.assembly import assemble
+    from imutherm.thermal.assembly import assemble, volume_part
     from imutherm.thermal.reduced_steady import reduced_steady
 
     geo = res.geometry
@@ -43,6 +43,8 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
     probes = {s: geo.sites[s] for s in SITES}
     chamber = np.asarray(sorted(float(c) for c in chamber_C))
     rise = np.empty((chamber.size, 6))
+    # the scheme's conduction, capacity and load without its boundary matrix (not kept beside the oven's own)
+    like, assembly = (None if assembly is None else volume_part(assembly)), None
     for k, Tc in enumerate(chamber):
         if Tc == lay.ambient_C and lay.mounting.temperature_C == lay.ambient_C:
             st = res.steady
@@ -51,7 +53,7 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
             continue
         lay_c = replace(lay, ambient_C=Tc, mounting=replace(lay.mounting, temperature_C=Tc))
         problem = build_problem(replace(geo, layout=lay_c), res.grid, res.options)
-        asm = assemble(problem, like=assembly)
+        asm = assemble(problem, like=like)
         known = np.asarray(res.steady.T_C) - lay.ambient_C
         st, how = None, {"chamber_C": float(Tc), "model": "full"}
         if model == "reduced":
@@ -67,6 +69,7 @@ def self_heating_table(res, chamber_C, *, model: str = "full", solves: list | No
         if solves is not None:
             solves.append(how)
         rise[k] = np.asarray(st.probe_C) - Tc
+        st = asm = problem = None   # not kept beside the next temperature's
     return chamber, rise
 
 
