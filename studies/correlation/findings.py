@@ -40,7 +40,9 @@ off and where (scheme, site, phase; :func:`form_off`). Likewise a form knob (the
 fit that still leaves more than twice the stated form error (:func:`form_visibly_off`, the discrepancy term's
 cap): such a knob takes up what it can of a form error it cannot match (issue 58's FEM campaign, seed 61: cavity
 emissivity "findings" where a regulator's power was hidden), so it is a symptom (bound 'form') with how far the
-model is off and where.
+model is off and where. And any knob whose move explains no more than the re-tuned model still leaves (both in the
+stated form error's unit, :func:`beyond_left`) is a symptom (bound 'left'): a form error at least that large is in
+the data, and one of that size could have made the move.
 """
 
 from __future__ import annotations
@@ -185,6 +187,9 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
         if not (evidence and math.isfinite(share) and share >= GAP_SHARE and not h1 >= h0
                 and beyond_form(fwd, fixed.values, free.values, full, noise, band_K)):
             continue
+        if not beyond_left(fwd, fixed.values, free.values, full, noise, band_K):
+            sym.append(symptom(fwd, free, name, nom, float(dC), "left", band_K))
+            continue
         k = knob_of(fwd, name)
 
         def cost(x, name=name):
@@ -217,6 +222,23 @@ def beyond_form(fwd, held: dict, free: dict, full: dict, noise: float, band_K: f
     return not form_error.explained_in_form_units(fwd, scale, held, free, full, noise) < 1.0
 
 
+def beyond_left(fwd, held: dict, free: dict, full: dict, noise: float, band_K: float) -> bool:
+    """Whether what a knob explains (``held``: it at its nominal value, the others re-fitted, against ``free``) is
+    more than the misfit ``free`` still leaves, the noise removed, both in the stated form error's unit
+    (:func:`~imutherm.studies.correlation.form_error.explained_in_form_units`,
+    :func:`~imutherm.studies.correlation.form_error.left_in_form_units`). What the re-tuned model leaves is a form
+    error the data hold for certain (the knobs took what they could of the rest); a form error of that size can
+    move a knob as far as it explains that much, so a move explaining no more is no finding, whatever the stated
+    form error (issue 58, FEM seed 63, nothing hidden, a grid 2x finer at 10 %: the mount re-tuned to 0.53x explains
+    0.25 K, 0.36 K is left). ``band_K`` NaN (no stated form error): True."""
+    from imutherm.studies.correlation import form_error
+    if not math.isfinite(band_K):
+        return True
+    scale = form_error.form_scale(r.scheme for r in fwd.runs)
+    return (form_error.explained_in_form_units(fwd, scale, held, free, full, noise)
+            > form_error.left_in_form_units(fwd, scale, free, full, noise))
+
+
 def form_visibly_off(free, noise: float, band: float) -> bool:
     """Whether the re-tuned physics ``free`` leaves a residual (its RMS [K], the noise ``noise`` [K] removed in
     quadrature) above :data:`~imutherm.studies.correlation.form_error.FORM_SIGMAS` times ``band`` [K], the model's
@@ -241,9 +263,10 @@ def knob_of(fwd, name: str):
 @dataclass(frozen=True)
 class Symptom:
     """A re-tuned knob that moved while the model's form speaks: a symptom of the model's form, not a finding.
-    ``bound``: 'lower' / 'upper' (it ended at that bound of its source's range while the data pull it there) or
+    ``bound``: 'lower' / 'upper' (it ended at that bound of its source's range while the data pull it there),
     'form' (a form knob moved in a fit whose residual is above twice the stated form error,
-    :func:`form_visibly_off`; ``form_band_K`` that stated error at the readings [K]). ``form_off``: how far the
+    :func:`form_visibly_off`; ``form_band_K`` that stated error at the readings [K]) or 'left' (its move explains
+    no more than the re-tuned model still leaves, :func:`beyond_left`). ``form_off``: how far the
     re-tuned physics is off and where ({'rms_K', 'fraction_of_rise', 'where': [{'scheme', 'site', 'phase',
     'rms_K', 'mean_K'}], largest first})."""
 
@@ -262,6 +285,10 @@ class Symptom:
         where = ", ".join(f"{w['scheme']} {w['site']} {w['phase']} ({w['mean_K']:+.2f} K)" for w in fo["where"][:3])
         off = (f"the re-tuned model is off by {fo['rms_K']:.2f} K RMS ({100 * fo['fraction_of_rise']:.1f} % of the "
                f"rise), most at {where}")
+        if self.bound == "left":
+            return (f"{self.parameter} re-tuned to {self.value:.3g}{u} (nominal {self.nominal:.3g}) is not a finding: it "
+                    f"explains no more of the readings than the re-tuned model still leaves ({off}): a form error at "
+                    f"least that large is in the data and could have moved it")
         if self.bound == "form":
             return (f"{self.parameter} re-tuned to {self.value:.3g}{u} (nominal {self.nominal:.3g}) is not a finding: "
                     f"{off}, above twice the model's stated form error ({self.form_band_K:.2f} K): the model's form is "
@@ -304,9 +331,10 @@ def form_off(fwd, values: dict) -> dict:
 
 
 def symptom(fwd, free, name: str, nominal: float, dC: float, why: str = "bound", band: float = math.nan) -> Symptom:
-    """The :class:`Symptom` of knob ``name`` of ``free``: at a bound (``why`` 'bound') or moved in a fit whose
-    form is visibly off (``why`` 'form', ``band`` the stated form error [K])."""
+    """The :class:`Symptom` of knob ``name`` of ``free``: at a bound (``why`` 'bound'), moved in a fit whose
+    form is visibly off (``why`` 'form', ``band`` the stated form error [K]) or explaining no more than the fit
+    leaves (``why`` 'left')."""
     k = knob_of(fwd, name)
     v = float(free.values[name])
-    bound = "form" if why == "form" else ("lower" if abs(v - k.lo) <= abs(v - k.hi) else "upper")
+    bound = why if why in ("form", "left") else ("lower" if abs(v - k.lo) <= abs(v - k.hi) else "upper")
     return Symptom(name, _unit(name), v, bound, nominal, dC, form_off(fwd, free.values), band)

@@ -152,3 +152,20 @@ def explained_in_form_units(fwd, scale: FormScale, held: dict, free: dict, mask:
     if not num:
         return math.nan
     return math.sqrt(max(float(np.mean(np.concatenate(num))), 0.0))
+
+
+def left_in_form_units(fwd, scale: FormScale, values: dict, mask: dict, noise_K: float) -> float:
+    """What the model at ``values`` still leaves at the readings of ``mask``, the noise removed, in the unit of
+    :func:`explained_in_form_units` [-]: sqrt(max(mean((r² - noise²) / w), 0)), w = noise² + (FORM_SIGMAS f_g y)².
+    A form error at least this large is in the data (the re-tune took what it could of the rest)."""
+    num = []
+    for i, m in mask.items():
+        if m is None or not m.any():
+            continue
+        run = fwd.runs[i]
+        y = fwd.rise(i, values)
+        w = noise_K**2 + (FORM_SIGMAS * scale.of(run.scheme) * y) ** 2
+        num.append((((y - run.rise_K) ** 2 - noise_K**2) / w)[m])
+    if not num:
+        return math.nan
+    return math.sqrt(max(float(np.mean(np.concatenate(num))), 0.0))
