@@ -253,7 +253,7 @@ def _end_to_end(args, schemes, config) -> int:
     extra = {"effects": effects} if effects else {}
     res = run_study(layout, schemes, config=config, options=options, jobs=args.jobs,
                     progress=not args.no_progress, mesh_size_mm=args.mesh_size, min_cells=args.min_cells,
-                    use_cache=not args.no_cache, **args.time_kwargs, **extra)
+                    use_cache=not args.no_cache, while_imu=_report_imports, **args.time_kwargs, **extra)
     from imutherm.reports.study_report import write_study_report
 
     unc = _uncertainty(args, res.layout, schemes, options, study=res)
@@ -291,6 +291,17 @@ def _end_to_end(args, schemes, config) -> int:
     print(f"wrote {args.out}/report.pdf summary.json curves_*.csv residuals_*.csv attitude_*.csv steady_*.vtu "
           + ("uncertainty.json " if unc is not None else "") + f"({res.wall_s:.0f} s)")
     return 0
+
+
+def _report_imports() -> None:
+    """Import what the report and the scheme files use (matplotlib and the report, the layout drawings, meshio):
+    ~0.5 CPU-s, called while the workers run the IMU cases (:func:`run_study`'s ``while_imu``) instead of after them,
+    when the report is drawn alone (issue 59). Not before the workers start: it would be in their memory too."""
+    import meshio  # noqa: F401  (the VTU files)
+
+    import imutherm.reports.board_plot  # noqa: F401
+    import imutherm.reports.layout_plot  # noqa: F401
+    import imutherm.reports.study_report  # noqa: F401
 
 
 def _uncertainty(args, layout, schemes, options, study=None):

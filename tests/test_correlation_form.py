@@ -229,3 +229,33 @@ def test_the_single_forms_of_the_form_campaign():
     assert opts.cavity_emissivity == pytest.approx(inv.cavity_emissivity * rec["cavity_emissivity"])
     with pytest.raises(InputError, match="unknown form 'grid2'"):
         form_options("grid2", inv, geo, np.random.default_rng(5))
+
+
+def test_what_a_knob_explains_is_judged_in_the_unit_the_form_error_is_stated_in():
+    """The stated form error is a fraction f of each site's rise: a misfit of 0.3 K held at nominal, where a free knob
+    leaves none, is 1.44 times twice that error on grease readings rising 5 K (the root of 0.3² / (0.05² + (2 f 5)²)
+    averaged with air's zero) and 0.38 times it on air readings rising 20 K, though pooled in kelvins both are the same 0.21 K, under
+    twice the pooled error (0.41 K). Analytic answers; the rule refuses the air case and passes the grease one."""
+    import math
+    from types import SimpleNamespace
+    from imutherm.studies.correlation.findings import beyond_form
+    f = form_error.form_scale(["air", "grease"]).of("air")
+    rise = {"air": 20.0, "grease": 5.0}
+    n, noise = 10, 0.05
+
+    def fake(where):
+        runs = [SimpleNamespace(scheme=g, rise_K=np.full((n, 1), rise[g])) for g in ("air", "grease")]
+        # values {"k": x}: the model misses by x where the knob acts (scheme ``where``), nowhere else
+        return SimpleNamespace(runs=runs, rise=lambda i, v: runs[i].rise_K + (v["k"] if runs[i].scheme == where else 0))
+    mask = {0: np.ones((n, 1), bool), 1: np.ones((n, 1), bool)}
+    for where, want in (("grease", math.sqrt(0.5 * 0.09 / (noise**2 + (2 * f * 5.0) ** 2))),
+                        ("air", math.sqrt(0.5 * 0.09 / (noise**2 + (2 * f * 20.0) ** 2)))):
+        fwd = fake(where)
+        got = form_error.explained_in_form_units(fwd, form_error.form_scale(["air", "grease"]), {"k": 0.3},
+                                                 {"k": 0.0}, mask, noise)
+        assert got == pytest.approx(want, rel=1e-9)
+        band = form_error.band_K(fwd, form_error.form_scale(["air", "grease"]), {"k": 0.0}, mask)
+        assert math.sqrt(0.5 * 0.09) < form_error.FORM_SIGMAS * band  # pooled, both under twice the stated error
+        assert beyond_form(fwd, {"k": 0.3}, {"k": 0.0}, mask, noise, band) == (where == "grease")
+    assert want == pytest.approx(0.38, abs=0.01) and math.sqrt(0.5 * 0.09 / (noise**2 + (2 * f * 5.0) ** 2)) > 1.4
+    assert beyond_form(fake("air"), {"k": 0.3}, {"k": 0.0}, mask, noise, float("nan"))  # no stated error: no test

@@ -19,8 +19,9 @@ and the named effects re-fitted) against the model with it free, fitted without 
   ``ci95`` is the profile interval;
 - **evidence**: ΔAICc >= :data:`~imutherm.studies.correlation.MARGIN_NONE` for the free knob, and it explains
   at least :data:`~imutherm.studies.correlation.EXPLAIN_MIN_NOISE` noise sigmas of RMS;
-- **beyond the model's form**: the RMS it explains is at least ``FORM_SIGMAS`` (2) times the model's stated form
-  error at the readings (:func:`imutherm.studies.correlation.form_error.band_K`), the level within which
+- **beyond the model's form**: the misfit it explains is at least ``FORM_SIGMAS`` (2) times the model's stated form
+  error, reading by reading in the unit that error is stated in (a fraction of each site's rise, noise in
+  quadrature; :func:`beyond_form`), the level within which
   :func:`~imutherm.studies.correlation.form_error.named_through_form` leaves a residue to the model's form. Issue 58's
   campaign (toy, seed 59): with the profile interval, ``k_board_W_mK`` moved by a 2-5 % form error was named a
   finding on 2 of 3 null cases at each level;
@@ -153,7 +154,6 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
     from imutherm.studies.correlation.profile import CHI2_95, profile_interval, residual_floor_K2
     from imutherm.studies.correlation.verdict import EXPLAIN_MIN_NOISE, MARGIN_NONE
     from imutherm.studies.correlation.written_model import heldout_rms
-    from imutherm.studies.correlation.form_error import FORM_SIGMAS
 
     out, sym = [], []
     h_nom = heldout_rms(fwd, fwd.nominal, test)
@@ -183,7 +183,7 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
             sym.append(symptom(fwd, free, name, nom, float(dC), "form", band_K))
             continue
         if not (evidence and math.isfinite(share) and share >= GAP_SHARE and not h1 >= h0
-                and not expl < FORM_SIGMAS * (band_K if math.isfinite(band_K) else 0.0)):
+                and beyond_form(fwd, fixed.values, free.values, full, noise, band_K)):
             continue
         k = knob_of(fwd, name)
 
@@ -198,6 +198,23 @@ def explain_knobs(fwd, free, full: dict, folds, ratio: float, noise: float, test
                            outside, False, float(dC), float(expl), float(h0), float(h1),
                            float(min(share, 1.0)), prof["open"], math.sqrt(sigma2)))
     return tuple(sorted(out, key=lambda f: -f.gap_share)), tuple(sym)
+
+
+def beyond_form(fwd, held: dict, free: dict, full: dict, noise: float, band_K: float) -> bool:
+    """Whether what a knob explains (the model ``held`` at its nominal value, the others re-fitted, against ``free``)
+    is beyond what the model's stated form error could make: at least
+    :data:`~imutherm.studies.correlation.form_error.FORM_SIGMAS` times that error, **reading by reading in the unit it
+    is stated in** (a fraction of each site's rise in each scheme, the noise in quadrature;
+    :func:`~imutherm.studies.correlation.form_error.explained_in_form_units` >= 1). A form error of a given size can
+    move a knob only as far as the misfit it takes; stated as a fraction of the rise, it is small where the rise is
+    small, and the RMS pooled in kelvins lent the air's large allowance to the grease readings, where a mount
+    conductance does most of its work (issue 58, FEM seed 63: a mount at 0.43x explained 2.4x the stated error in
+    grease, 1.7x it pooled, and was no finding on any form). ``band_K`` NaN (no stated form error): True."""
+    from imutherm.studies.correlation import form_error
+    if not math.isfinite(band_K):
+        return True
+    scale = form_error.form_scale(r.scheme for r in fwd.runs)
+    return not form_error.explained_in_form_units(fwd, scale, held, free, full, noise) < 1.0
 
 
 def form_visibly_off(free, noise: float, band: float) -> bool:

@@ -18,6 +18,7 @@ from imutherm.studies.correlation import form_error
 from imutherm.unit.model import ModelOptions
 from imutherm.studies.correlation.findings import explain_knobs
 from imutherm.studies.correlation.in_place import named_in_place
+from imutherm.studies.correlation.file_test import settled_by_file
 from imutherm.studies.correlation.plausibility import check_plausible
 from imutherm.workers import thread_limit
 from imutherm.studies.correlation.written_model import choose as choose_written
@@ -187,8 +188,11 @@ def correlate(runs, layout: LayoutSpec | str | None = None, *, holdout: str | No
     if amb_set and not found:
         step = next((st for st in reversed(sel.steps) if st["verdict"] == "ambiguous"), None)
         fits = [f for f in (step["ranking"] if step else ()) if f.effects and f.effects[-1] in amb_set]
-        nxt = next_experiment_of(sel.fwd, leading or [(f.effects[-1], f.values) for f in fits], noise,
-                                 fscale.fraction)
+        base = step["base"] if step else sel.none_fit  # the re-tuned model: the model's own error, to be told apart
+        against = [f.effects[-1] for f in fits if sel.disc is not None  # from candidates the term's standard refuses
+                   and not explains_term(f, base, noise, (f,), sel.plain.heldout_rms_K)]
+        nxt = next_experiment_of(sel.fwd, leading or [(f.effects[-1], f.values, f.disc) for f in fits], noise,
+                                 fscale.fraction, ("the re-tuned model", base.values, base.disc), against)
         if nxt is not None:
             say(nxt["in_words"])
     if symptoms:
@@ -397,7 +401,14 @@ def _decide(sel: _Selection, noise: float, say) -> tuple:
         if keep:
             steps, chosen = truncate_selection(steps, chosen, keep, "not_in_library",
                                                "does not explain the model's error where it acts", say)
-    if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen, pg):
+    settled = (settled_by_file(sel.fwd, disc, chosen[0], none_fit, steps[0]["ranking"], sel.full, sel.ratio, noise)
+               if disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen, pg) else None)
+    if settled:  # refused by the term's standard, but it predicts a file it was not fitted to (file_test.py)
+        say(settled["words"])
+        steps, chosen = (truncate_selection(steps, chosen, 1, "none", "is not settled by a file", say)
+                         if len(chosen) > 1 else (steps, chosen))
+        steps[0] = dict(steps[0], reason=f"{steps[0]['reason']}; {settled['words']}")
+    elif disc is not None and chosen and not explains_term(chosen[-1], none_fit, noise, chosen, pg):
         f = chosen[-1]
         unexplained = (f"no candidate explains the model's error: the best, {f.name}, leaves a discrepancy of "
                        f"{f.disc_rms_K:.2f} K of the re-tuned model's {none_fit.disc_rms_K:.2f} K (more than "

@@ -28,7 +28,7 @@ def _imu_jobs(pool, config: StudyConfig, seeds, bare, args):
 
 def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: StudyConfig = StudyConfig(),
               options: ModelOptions | None = None, jobs: int | None = None, progress: bool = False,
-              use_cache: bool = True, **thermal_kwargs) -> StudyResult:
+              use_cache: bool = True, while_imu=None, **thermal_kwargs) -> StudyResult:
     """The end-to-end study of every scheme (module docstring).
 
     Parameters
@@ -47,6 +47,9 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
         options, mesh, time and estimate settings, oven temperatures, code; not the IMU side) and keep the
         computed ones there; a hit prints ``<scheme>: thermal: cached (key ...)`` (whatever ``progress``) and
         solves nothing. ``$IMUTHERM_CACHE=off`` turns it off too
+    while_imu : callable of no arguments or None: with ``jobs`` > 1, called in this process once every scheme's
+        thermal case is in, while the workers run the IMU cases (this process only waits for them then): the
+        command imports its report's modules there, off the serial end of the run (issue 59)
     **thermal_kwargs : passed to :func:`imutherm.studies.thermal.thermal_study.run_scheme` (mesh_size_mm, min_cells,
         transient time settings); the transient is always run. ``estimate_mesh_error=True``: each scheme's
         steady answer also gets its discretisation error (:func:`~imutherm.studies.thermal.thermal_study.mesh_error`,
@@ -61,6 +64,8 @@ def run_study(layout=None, schemes=("air", "grease", "potted"), *, config: Study
     try:
         pending, thermal = _thermal_then_imu(pool, jobs, layout, schemes, options, config, seeds, progress,
                                              thermal_kwargs, use_cache)
+        if pool is not None and while_imu is not None:
+            while_imu()
         out = {}
         for sch in schemes:
             cases = [c if isinstance(c, dict) else c.result() for c in pending[sch]]
