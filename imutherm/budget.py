@@ -150,10 +150,12 @@ def thermal_cost(what: str, shape, *, steps: int = 0, saved: int = 1, geometry_o
 #: peak resident memory of a mesh-error estimate per node of its refined mesh [bytes] (the refined problem's
 #: conduction and linear laws in one data array, assembled in slabs of node planes, its pattern; the prolongation
 #: applied as three 1-D interpolations; no AMG hierarchy of its own: :func:`imutherm.thermal.refinement.refined_steady`).
-#: Measured ~0.69 kB (1.13 GB peak of the process at 1.65e6 refined nodes, the reference unit's grease scheme, the
-#: coarse solve's memory included; 0.76 kB before the prolongation matrix and the pattern's mask went, 1.9 kB before
-#: the refined assembly's memory was cut); rounded up
-BYTES_PER_REFINED_UNKNOWN = 1000
+#: Measured ~0.36 kB above BASE_BYTES (the worker's refined-solve stage of ``benchmarks/bench_thermal_case_memory.py``,
+#: the coarse scheme's solve and the process included: 671 MiB at 1.59e6 refined nodes, the reference unit's grease
+#: scheme, 649-665 MiB for air at 1.51e6; 2026-12-08, after issue 59's matrix-free refined solve; 0.69 kB before it,
+#: 1.9 kB before the refined assembly's memory was cut); rounded up. ``compare``'s side-by-side estimate with it
+#: (:func:`imutherm.studies.cost.check_schemes_side_by_side`) is 1.73e9 bytes against 1.53e9 measured (1462 MiB).
+BYTES_PER_REFINED_UNKNOWN = 500
 
 
 def refined_cost(what: str, shape, ratio: int = 2) -> Cost:

@@ -260,7 +260,7 @@ OPTIONS = {
     "compare_jobs_memory_limit": (["compare", "--jobs", "9", "--max-memory", "1G", "--no-mesh-error"],
                                   ["IMU side", "8 worker", "--max-memory"]),
     "compare_mesh_error_memory": (["compare", "--max-memory", "1G"], ["mesh-error estimate", "--no-mesh-error"]),
-    "compare_schemes_side_by_side_memory": (["compare", "--thermal-only", "--max-memory", "2G"],
+    "compare_schemes_side_by_side_memory": (["compare", "--thermal-only", "--max-memory", "1.5G"],
                                             ["2 schemes solved side by side", "--jobs 1", "--no-mesh-error"]),
     "compare_jobs_0": (["compare", "--jobs", "0"], "--jobs"),
     "compare_steady_only_t_end": (["compare", "--steady-only", "--t-end", "600", "--full-length"],

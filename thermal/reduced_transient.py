@@ -205,6 +205,11 @@ class _Solver:
         return _Shifted(self.A, self.M, s, out=self._buffer if self._same_pattern else None,
                         same=self._same_pattern)
 
+    def release(self):
+        """Free the shifted operators' value buffer (:meth:`shifted` makes it again when next asked; each call fills
+        it whole): not kept while the basis is orthonormalised and projected (the transient's peak)."""
+        self._buffer = None
+
     def solve(self, Op, b, rtol, guess=None, recycle=False):
         """x with |b - Op x| <= rtol |b| (CG); the stopping test is relative to |b| as from zero, so a start changes
         the cost, not the accuracy. The start: with ``recycle``, :meth:`warm_start` (the Galerkin solution on the
@@ -457,6 +462,7 @@ def reduced_power_on(problem, asm, steady, probes: dict, t_end: float, *, settle
     F_norm = float(np.linalg.norm(asm.F_q)) or 1.0
     for rnd in range(1, max_rounds + 2):
         t1 = time.perf_counter()
+        lin.release()   # an nnz-sized array (40 MB on the reference unit) not kept through the basis and projection
         V = m_orthonormal(cols, M)
         red = ProjectedModel(asm, V, amb, L)
         sol = _integrate(red, t_end, scale)
