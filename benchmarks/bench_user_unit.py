@@ -37,9 +37,6 @@ IMPORTS = {"drone-fc": (["--heights", "drone-fc_heights.csv"], "U2=imu"),
            "openuav": (["--heights", "openuav_heights.csv", "--electrical", "openuav_electrical.toml"], "U3=imu"),
            # issue 59's "shared 150-footprint board" (151 footprints, 88 x 94.5 mm; no heights file: the defaults)
            "proves-fc-v4c": ([], "U7=imu")}
-#: the schemes an imported board's ``compare`` runs where the import made no grease scheme (no part within 2 mm of
-#: the base: ``imutherm compare`` at its default ``--schemes air,grease,potted`` refuses the layout)
-SCHEMES = {"proves-fc-v4c": "air,potted"}
 TARGET_RATIO = 2.0
 
 
@@ -91,8 +88,8 @@ def main() -> int:
         for i in range(args.pairs):
             order = ("reference", "imported") if i % 2 == 0 else ("imported", "reference")
             for which in order:
-                target = [] if which == "reference" else [str(layout)] + (
-                    ["--schemes", SCHEMES[args.board]] if args.board in SCHEMES else [])
+                # an imported board runs the schemes its import made (compare's default: the layout's own)
+                target = [] if which == "reference" else [str(layout)]
                 out = folder / f"out_{which}_{i}"
                 r = run_measured([sys.executable, "-m", "imutherm.cli", "compare", *target, "--no-progress",
                                   *args.extra, "--out", str(out)], folder)

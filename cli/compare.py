@@ -47,7 +47,9 @@ from imutherm.studies.compare import compare_schemes, write_comparison
 def add_args(parser) -> None:
     """The options of ``imutherm compare``."""
     add_layout_arguments(parser, scheme=False)
-    parser.add_argument("--schemes", default="air,grease,potted", help="comma-separated schemes (default all three)")
+    parser.add_argument("--schemes", default=None,
+                        help="comma-separated schemes (default: every scheme the layout has; the reference unit's "
+                             "air,grease,potted)")
     add_time_arguments(parser, t_end=2400.0, settle_stop=True)
     parser.add_argument("--full", action="store_true",
                         help="power-on transients on the full adaptive FEM and the oven self-heating by the full "
@@ -116,8 +118,7 @@ def run(args) -> int:
         raise InputError("--full chooses how the transients are computed: not with --steady-only")
     if not args.steady_only:
         args.time_kwargs["transient_model"] = "full" if args.full else "reduced"
-    schemes = tuple(s.strip() for s in args.schemes.split(",") if s.strip())
-    if not schemes:
+    if args.schemes is not None and not [s for s in args.schemes.split(",") if s.strip()]:
         raise InputError(f"--schemes {args.schemes!r}: give at least one scheme, e.g. air,grease,potted")
     if args.seeds < 1:
         raise InputError(f"--seeds: {args.seeds} is invalid; valid: an integer >= 1")
@@ -136,9 +137,7 @@ def run(args) -> int:
         # a bad sample or draw count is refused before any solve
         design((UncertainInput("x", "-", 0.0, 1.0, False, "-"),), args.uncertainty_samples, 0)
         imu_draw_rows(args.uncertainty_imu_draws, args.uncertainty_samples, 1)
-    unknown = [s for s in schemes if s not in layout.schemes]
-    if unknown:
-        raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
+    schemes = chosen_schemes(args.schemes, layout)
     steps = transient_steps(args.time_kwargs) if args.time_kwargs else 0
     solve_bytes, refined_bytes = [], []
     for s in schemes:  # every scheme's mesh and memory estimated before the first is solved
@@ -205,6 +204,18 @@ def run(args) -> int:
     print(f"wrote {args.out}/report.pdf compare.json probes_*.csv map_*.npz layout.png"
           + (" uncertainty.json uncertainty.pdf" if unc is not None else ""))
     return 0
+
+
+def chosen_schemes(option: str | None, layout) -> tuple:
+    """The schemes ``--schemes`` names, or (None) every scheme of the layout: an imported board has only the
+    schemes its importer could make (no grease scheme without a chip to bond to the wall)."""
+    if option is None:
+        return tuple(layout.schemes)
+    schemes = tuple(s.strip() for s in option.split(",") if s.strip())
+    unknown = [s for s in schemes if s not in layout.schemes]
+    if unknown:
+        raise InputError(f"{layout.path}: unknown scheme(s) {unknown}; valid: {', '.join(layout.schemes)}")
+    return schemes
 
 
 def _left_out(schemes: dict, key: str) -> list:

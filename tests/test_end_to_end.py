@@ -142,6 +142,24 @@ def test_bad_input_is_refused_before_work(tmp_path, capsys, args, message):
     assert not (tmp_path / "o").exists()
 
 
+def test_default_schemes_are_the_layouts_own():
+    """An imported board without a grease scheme runs at compare's defaults (every scheme it has), while a
+    scheme it lacks, named, is refused with the valid ones."""
+    from dataclasses import replace
+
+    from imutherm.cli.compare import chosen_schemes
+    from imutherm import InputError
+    from imutherm.geometry.layout import load_layout
+
+    ref = load_layout()
+    assert chosen_schemes(None, ref) == ("air", "grease", "potted")
+    board = replace(ref, schemes={k: v for k, v in ref.schemes.items() if k != "grease"})
+    assert chosen_schemes(None, board) == ("air", "potted")
+    assert chosen_schemes(" potted, air ", board) == ("potted", "air")
+    with pytest.raises(InputError, match=r"unknown scheme\(s\) \['grease'\]; valid: air, potted"):
+        chosen_schemes("air,grease", board)
+
+
 def test_imu_case_is_deterministic_and_uses_common_random_numbers():
     from imutherm.studies.end_to_end import StudyConfig, imu_case
 
